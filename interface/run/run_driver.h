@@ -1,0 +1,53 @@
+#pragma once
+// The run contract shared by every solver executable: command line, scenario loading,
+// the time loop, output decimation, timing, exit codes and the summary of a failed run.
+// A solver supplies a Simulation; RunProgram does the rest.
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "interface/run/run_output.h"
+#include "interface/scenario/scenario_file.h"
+
+namespace cosim::interface {
+
+struct CommandLine {
+  std::string scenario;           // path of the scenario file
+  std::string out;                // output folder; empty: runs/<scenario name>
+  std::vector<std::string> sets;  // --set FIELD.PATH=VALUE, in order
+};
+
+// Parses `SCENARIO [--out DIR] [--set PATH=VALUE]...`; throws InputError.
+CommandLine ParseCommandLine(const std::vector<std::string>& arguments);
+std::string Usage(const std::string& program);
+
+// The time span of a scenario, validated: start_time < end_time, step > 0.
+struct TimeSpan {
+  double start = 0.0;
+  double end = 0.0;
+  double step = 0.0;
+  long long steps = 0;  // the last step is shortened to end exactly at `end`
+  double TimeAt(long long k) const;
+};
+TimeSpan ValidateTimeSpan(const ScenarioFile& file);
+
+class Simulation {
+ public:
+  virtual ~Simulation() = default;
+  virtual std::vector<std::string> ProbeNames() const = 0;
+  // Current probe values, in ProbeNames() order.
+  virtual void Probe(std::vector<double>* values) const = 0;
+  // Advances the state from t to t + h. Throws NumericalError (exit 3) or PeerError (exit 4)
+  // leaving the last accepted state in place.
+  virtual void Step(double t, double h) = 0;
+  // Statistics and the settings used (defaults filled in).
+  virtual void FillSummary(run::RunSummary* summary) const = 0;
+};
+
+using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&)>;
+
+// main() of a solver executable. Returns the process exit code.
+int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory);
+
+}  // namespace cosim::interface

@@ -1,0 +1,97 @@
+#include "interface/scenario/checks.h"
+
+#include <cctype>
+#include <charconv>
+#include <cmath>
+
+namespace cosim::interface {
+
+std::string FormatNumber(double value) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
+}
+
+void Checks::Require(const std::string& path, bool has, const std::string& what) const {
+  if (!has) Fail(path, "missing; expected " + what);
+}
+
+double Checks::Positive(const std::string& path, bool has, double value, const std::string& unit) const {
+  Require(path, has, "a positive value in " + unit);
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    Fail(path, "must be positive (" + unit + "), got " + FormatNumber(value));
+  }
+  return value;
+}
+
+double Checks::NonNegative(const std::string& path, double value, const std::string& unit) const {
+  if (!(value >= 0.0) || !std::isfinite(value)) {
+    Fail(path, "must be >= 0 (" + unit + "), got " + FormatNumber(value));
+  }
+  return value;
+}
+
+double Checks::InRange(const std::string& path, bool has, double value, double lo, double hi, bool lo_open,
+                       bool hi_open) const {
+  const std::string range = std::string(lo_open ? "(" : "[") + FormatNumber(lo) + ", " + FormatNumber(hi) +
+                            (hi_open ? ")" : "]");
+  Require(path, has, "a value in " + range);
+  const bool above = lo_open ? value > lo : value >= lo;
+  const bool below = hi_open ? value < hi : value <= hi;
+  if (!(above && below)) Fail(path, "must be in " + range + ", got " + FormatNumber(value));
+  return value;
+}
+
+Eigen::Vector3d Checks::Vector3(const std::string& path, const google::protobuf::RepeatedField<double>& values,
+                                const std::optional<Eigen::Vector3d>& fallback) const {
+  if (values.empty() && fallback) return *fallback;
+  if (values.size() != 3) {
+    Fail(path, "expected 3 components [x, y, z], got " + std::to_string(values.size()));
+  }
+  Eigen::Vector3d v(values.Get(0), values.Get(1), values.Get(2));
+  if (!v.allFinite()) Fail(path, "components must be finite numbers");
+  return v;
+}
+
+Eigen::Vector3d Checks::Direction(const std::string& path, const google::protobuf::RepeatedField<double>& values) const {
+  const Eigen::Vector3d v = Vector3(path, values, std::nullopt);
+  const double norm = v.norm();
+  if (!(norm > 1e-12)) {
+    Fail(path, "must be a non-zero direction, got [" + FormatNumber(v.x()) + ", " + FormatNumber(v.y()) + ", " +
+                   FormatNumber(v.z()) + "]");
+  }
+  return v / norm;
+}
+
+std::string Checks::Name(const std::string& path, bool has, const std::string& value) const {
+  Require(path, has, "a name of letters, digits, '_', '.' or '-'");
+  if (value.empty()) Fail(path, "must not be empty");
+  for (char c : value) {
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '.' && c != '-') {
+      Fail(path, "'" + value + "' contains '" + std::string(1, c) + "'; use letters, digits, '_', '.' or '-'");
+    }
+  }
+  return value;
+}
+
+void NameTable::Add(const std::string& path, const std::string& name) {
+  if (index_.count(name) != 0) {
+    checks_.Fail(path, kind_ + " name '" + name + "' is already used by " + where_[name] + "; names must be unique");
+  }
+  const int next = static_cast<int>(index_.size());
+  index_[name] = next;
+  where_[name] = path;
+}
+
+int NameTable::Find(const std::string& path, const std::string& name) const {
+  auto it = index_.find(name);
+  if (it == index_.end()) {
+    std::string known;
+    for (const auto& [n, i] : index_) known += (known.empty() ? "" : ", ") + n;
+    checks_.Fail(path, "no " + kind_ + " named '" + name + "'" +
+                           (known.empty() ? " (the scenario defines none)" : "; known: " + known));
+  }
+  return it->second;
+}
+
+}  // namespace cosim::interface

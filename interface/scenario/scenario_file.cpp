@@ -1,0 +1,339 @@
+#include "interface/scenario/scenario_file.h"
+
+#include <google/protobuf/io/tokenizer.h>
+#include <google/protobuf/text_format.h>
+
+#include <cctype>
+#include <fstream>
+#include <sstream>
+
+#include "interface/run/errors.h"
+
+namespace cosim::interface {
+
+namespace pb = google::protobuf;
+
+namespace {
+
+// Collects the first parse error with its (1-based) line and column.
+class FirstErrorCollector : public pb::io::ErrorCollector {
+ public:
+  void AddError(int line, pb::io::ColumnNumber column, const std::string& message) override {
+    if (!has_error_) {
+      has_error_ = true;
+      line_ = line;
+      column_ = column;
+      message_ = message;
+    }
+  }
+  void AddWarning(int, pb::io::ColumnNumber, const std::string&) override {}
+
+  bool has_error() const { return has_error_; }
+  // "file:line:col: message" (line and column are 0-based in protobuf).
+  std::string Format(const std::string& file) const {
+    std::ostringstream out;
+    if (line_ >= 0) {
+      out << file << ":" << line_ + 1 << ":" << column_ + 1 << ": " << message_;
+    } else {
+      out << file << ": " << message_;
+    }
+    return out.str();
+  }
+
+ private:
+  bool has_error_ = false;
+  int line_ = -1;
+  int column_ = -1;
+  std::string message_;
+};
+
+std::string KnownFields(const pb::Descriptor* descriptor) {
+  std::string names;
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    if (i > 0) names += ", ";
+    names += descriptor->field(i)->name();
+  }
+  return names;
+}
+
+bool IsDecimal(const std::string& s) {
+  if (s.empty()) return false;
+  for (char c : s) {
+    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
+  }
+  return true;
+}
+
+// Resolves the key of a repeated field to an index: a decimal index, or the element whose
+// `name` field equals the key. Returns -1 when no element matches.
+int ResolveIndex(const pb::Message& parent, const pb::FieldDescriptor* field, const std::string& key) {
+  const pb::Reflection* reflection = parent.GetReflection();
+  const int size = reflection->FieldSize(parent, field);
+  if (IsDecimal(key)) {
+    const long index = std::stol(key);
+    return index < size ? static_cast<int>(index) : -1;
+  }
+  if (field->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) return -1;
+  const pb::FieldDescriptor* name_field = field->message_type()->FindFieldByName("name");
+  if (name_field == nullptr || name_field->type() != pb::FieldDescriptor::TYPE_STRING) return -1;
+  for (int i = 0; i < size; ++i) {
+    const pb::Message& element = reflection->GetRepeatedMessage(parent, field, i);
+    if (element.GetReflection()->GetString(element, name_field) == key) return i;
+  }
+  return -1;
+}
+
+}  // namespace
+
+std::vector<PathSegment> ParseFieldPath(const std::string& path, const std::string& context) {
+  std::vector<PathSegment> segments;
+  size_t pos = 0;
+  auto bad = [&](const std::string& why) -> InputError {
+    return InputError(context + ": malformed field path '" + path + "': " + why +
+                      " (expected e.g. numerics.step or model.contact_nodes[0].mass)");
+  };
+  while (pos <= path.size()) {
+    PathSegment segment;
+    const size_t end = path.find_first_of(".[", pos);
+    segment.field = path.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
+    if (segment.field.empty()) throw bad("empty field name at character " + std::to_string(pos + 1));
+    for (char c : segment.field) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') {
+        throw bad("invalid character '" + std::string(1, c) + "' in field name '" + segment.field + "'");
+      }
+    }
+    pos = end;
+    if (pos != std::string::npos && path[pos] == '[') {
+      const size_t close = path.find(']', pos);
+      if (close == std::string::npos) throw bad("'[' without ']'");
+      segment.key = path.substr(pos + 1, close - pos - 1);
+      if (segment.key.empty()) throw bad("empty index '[]'");
+      segment.has_key = true;
+      pos = close + 1;
+    }
+    segments.push_back(segment);
+    if (pos == std::string::npos || pos == path.size()) break;
+    if (path[pos] != '.') throw bad("expected '.' after ']'");
+    ++pos;
+  }
+  return segments;
+}
+
+ScenarioFile::ScenarioFile() : tree_(std::make_unique<pb::TextFormat::ParseInfoTree>()) {}
+ScenarioFile::ScenarioFile(ScenarioFile&&) noexcept = default;
+ScenarioFile& ScenarioFile::operator=(ScenarioFile&&) noexcept = default;
+ScenarioFile::~ScenarioFile() = default;
+
+ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::string>& overrides) {
+  std::ifstream in(path);
+  if (!in) {
+    throw InputError(path + ": cannot read the scenario file (does it exist and is it readable?)");
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  return Parse(text.str(), path, overrides);
+}
+
+ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
+                                 const std::vector<std::string>& overrides) {
+  ScenarioFile file;
+  file.path_ = display_name;
+  FirstErrorCollector errors;
+  pb::TextFormat::Parser parser;
+  parser.RecordErrorsTo(&errors);
+  parser.WriteLocationsTo(file.tree_.get());
+  if (!parser.ParseFromString(text, &file.proto_) || errors.has_error()) {
+    throw InputError(errors.Format(display_name) +
+                     " (scenario files are protobuf text format; schema: proto/scenario.proto)");
+  }
+  for (const std::string& argument : overrides) file.ApplyOverride(argument);
+  file.overrides_ = overrides;
+  return file;
+}
+
+void ScenarioFile::ApplyOverride(const std::string& argument) {
+  const std::string context = "--set " + argument;
+  const size_t eq = argument.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw InputError(context + ": expected FIELD.PATH=VALUE, e.g. --set numerics.step=0.001");
+  }
+  const std::string path = argument.substr(0, eq);
+  std::string value = argument.substr(eq + 1);
+  const std::vector<PathSegment> segments = ParseFieldPath(path, context);
+
+  pb::Message* message = &proto_;
+  std::string normalised;
+  for (size_t s = 0; s < segments.size(); ++s) {
+    const PathSegment& segment = segments[s];
+    const pb::Descriptor* descriptor = message->GetDescriptor();
+    const pb::FieldDescriptor* field = descriptor->FindFieldByName(segment.field);
+    if (field == nullptr) {
+      throw InputError(context + ": " + descriptor->name() + " has no field '" + segment.field +
+                       "'; its fields are: " + KnownFields(descriptor));
+    }
+    const pb::Reflection* reflection = message->GetReflection();
+    if (!normalised.empty()) normalised += ".";
+    normalised += segment.field;
+    const bool last = s + 1 == segments.size();
+    int index = -1;
+    if (segment.has_key) {
+      if (!field->is_repeated()) {
+        throw InputError(context + ": '" + segment.field + "' is not a repeated field; drop the [" +
+                         segment.key + "]");
+      }
+      index = ResolveIndex(*message, field, segment.key);
+      if (index < 0) {
+        throw InputError(context + ": '" + segment.field + "' has " +
+                         std::to_string(reflection->FieldSize(*message, field)) +
+                         " elements and none matches [" + segment.key +
+                         "] (give a 0-based index or the element's name)");
+      }
+      normalised += "[" + std::to_string(index) + "]";
+    } else if (field->is_repeated() && !last) {
+      throw InputError(context + ": '" + segment.field + "' is repeated; say which element, e.g. " +
+                       segment.field + "[0]");
+    }
+
+    if (!last) {
+      if (field->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+        throw InputError(context + ": '" + segment.field + "' is a value, it has no sub-fields");
+      }
+      message = index >= 0 ? reflection->MutableRepeatedMessage(message, field, index)
+                           : reflection->MutableMessage(message, field);
+      continue;
+    }
+
+    // The last segment: parse "name: VALUE" as text format into a scratch copy of the parent
+    // with the field cleared, then move the value over. This gives --set exactly the syntax
+    // of the scenario file (enums by name, lists as [a, b, c], messages as { ... }).
+    if (field->type() == pb::FieldDescriptor::TYPE_STRING && (value.empty() || value[0] != '"')) {
+      value = "\"" + value + "\"";
+    }
+    std::unique_ptr<pb::Message> scratch(message->New());
+    FirstErrorCollector errors;
+    pb::TextFormat::Parser parser;
+    parser.RecordErrorsTo(&errors);
+    const std::string snippet = field->name() + ": " + value;
+    if (!parser.ParseFromString(snippet, scratch.get()) || errors.has_error()) {
+      throw InputError(context + ": value '" + argument.substr(eq + 1) + "' does not fit field '" +
+                       field->name() + "' (" + std::string(field->type_name()) + "): " +
+                       errors.Format("value"));
+    }
+    const pb::Reflection* scratch_reflection = scratch->GetReflection();
+    if (index >= 0) {
+      if (scratch_reflection->FieldSize(*scratch, field) != 1) {
+        throw InputError(context + ": an element of '" + field->name() + "' takes one value");
+      }
+      // Copy the single parsed element into place.
+      switch (field->cpp_type()) {
+        case pb::FieldDescriptor::CPPTYPE_MESSAGE:
+          reflection->MutableRepeatedMessage(message, field, index)
+              ->CopyFrom(scratch_reflection->GetRepeatedMessage(*scratch, field, 0));
+          break;
+        case pb::FieldDescriptor::CPPTYPE_DOUBLE:
+          reflection->SetRepeatedDouble(message, field, index,
+                                        scratch_reflection->GetRepeatedDouble(*scratch, field, 0));
+          break;
+        case pb::FieldDescriptor::CPPTYPE_INT32:
+          reflection->SetRepeatedInt32(message, field, index,
+                                       scratch_reflection->GetRepeatedInt32(*scratch, field, 0));
+          break;
+        case pb::FieldDescriptor::CPPTYPE_STRING:
+          reflection->SetRepeatedString(message, field, index,
+                                        scratch_reflection->GetRepeatedString(*scratch, field, 0));
+          break;
+        default:
+          throw InputError(context + ": setting one element of '" + field->name() +
+                           "' is not supported; set the whole list");
+      }
+    } else {
+      reflection->ClearField(message, field);
+      // Swap the freshly parsed field in (MergeFrom of the scratch adds only what it holds).
+      message->MergeFrom(*scratch);
+    }
+  }
+  overridden_.emplace_back(normalised, argument);
+}
+
+std::string ScenarioFile::Where(const std::string& field_path) const {
+  for (auto it = overridden_.rbegin(); it != overridden_.rend(); ++it) {
+    const std::string& set_path = it->first;
+    if (field_path == set_path || (field_path.rfind(set_path, 0) == 0 &&
+                                   (field_path[set_path.size()] == '.' || field_path[set_path.size()] == '['))) {
+      return "--set " + it->second;
+    }
+  }
+  std::vector<PathSegment> segments;
+  try {
+    segments = ParseFieldPath(field_path, path_);
+  } catch (const InputError&) {
+    return path_;
+  }
+  std::string best = path_;
+  auto format = [this](const pb::TextFormat::ParseLocation& location) {
+    return path_ + ":" + std::to_string(location.line + 1) + ":" + std::to_string(location.column + 1);
+  };
+  const pb::Descriptor* descriptor = proto_.GetDescriptor();
+  const pb::TextFormat::ParseInfoTree* tree = tree_.get();
+  for (size_t s = 0; s < segments.size() && tree != nullptr && descriptor != nullptr; ++s) {
+    const pb::FieldDescriptor* field = descriptor->FindFieldByName(segments[s].field);
+    if (field == nullptr) break;
+    int index = -1;
+    if (field->is_repeated()) {
+      index = segments[s].has_key && IsDecimal(segments[s].key) ? std::stoi(segments[s].key) : 0;
+    }
+    const pb::TextFormat::ParseLocation location = tree->GetLocation(field, index);
+    if (location.line < 0) {
+      // A missing element of a repeated scalar list: point at the list's first value.
+      if (index > 0) {
+        const pb::TextFormat::ParseLocation first = tree->GetLocation(field, 0);
+        if (first.line >= 0) best = format(first);
+      }
+      break;
+    }
+    best = format(location);
+    if (field->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) break;
+    tree = tree->GetTreeForNested(field, index);
+    descriptor = field->message_type();
+  }
+  return best;
+}
+
+void ScenarioFile::Fail(const std::string& field_path, const std::string& message) const {
+  throw InputError(Where(field_path) + ": " + field_path + ": " + message);
+}
+
+void MaterializeDefaults(pb::Message* message) {
+  const pb::Descriptor* descriptor = message->GetDescriptor();
+  const pb::Reflection* reflection = message->GetReflection();
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    const pb::FieldDescriptor* field = descriptor->field(i);
+    if (field->is_repeated() || field->containing_oneof() != nullptr) continue;
+    if (field->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+      MaterializeDefaults(reflection->MutableMessage(message, field));
+      continue;
+    }
+    if (reflection->HasField(*message, field) || !field->has_default_value()) continue;
+    switch (field->cpp_type()) {
+      case pb::FieldDescriptor::CPPTYPE_DOUBLE:
+        reflection->SetDouble(message, field, field->default_value_double());
+        break;
+      case pb::FieldDescriptor::CPPTYPE_INT32:
+        reflection->SetInt32(message, field, field->default_value_int32());
+        break;
+      case pb::FieldDescriptor::CPPTYPE_BOOL:
+        reflection->SetBool(message, field, field->default_value_bool());
+        break;
+      case pb::FieldDescriptor::CPPTYPE_ENUM:
+        reflection->SetEnum(message, field, field->default_value_enum());
+        break;
+      case pb::FieldDescriptor::CPPTYPE_STRING:
+        reflection->SetString(message, field, field->default_value_string());
+        break;
+      default:
+        break;
+    }
+  }
+}
+
+}  // namespace cosim::interface

@@ -1,0 +1,68 @@
+#pragma once
+// A scenario file as loaded for a run: the parsed message, where each field came from
+// (file:line:col, or the `--set` argument that overrode it), and the error helpers that
+// name that place.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <google/protobuf/text_format.h>
+
+#include "scenario.pb.h"
+
+namespace cosim::interface {
+
+class ScenarioFile {
+ public:
+  // Reads `path` (protobuf text format, schema proto/scenario.proto), then applies each
+  // override "FIELD.PATH=VALUE" in order. Throws InputError naming file:line:col for syntax
+  // errors and unknown fields, and the override for a bad `--set`.
+  static ScenarioFile Load(const std::string& path, const std::vector<std::string>& overrides);
+  // The same from text in memory (tests); `display_name` stands in for the file name.
+  static ScenarioFile Parse(const std::string& text, const std::string& display_name,
+                            const std::vector<std::string>& overrides);
+
+  ScenarioFile(ScenarioFile&&) noexcept;
+  ScenarioFile& operator=(ScenarioFile&&) noexcept;
+  ~ScenarioFile();
+
+  const scenario::Scenario& proto() const { return proto_; }
+  const std::string& path() const { return path_; }
+  const std::vector<std::string>& overrides() const { return overrides_; }
+
+  // Where the field at `field_path` was given: "--set ARG" if an override set it or an
+  // enclosing field, else "file:line:col" of the field, or of its nearest enclosing field
+  // that is present in the file, or the file name alone.
+  std::string Where(const std::string& field_path) const;
+
+  // Throws InputError "<where>: <field_path>: <message>".
+  [[noreturn]] void Fail(const std::string& field_path, const std::string& message) const;
+
+ private:
+  ScenarioFile();
+  void ApplyOverride(const std::string& argument);
+
+  scenario::Scenario proto_;
+  std::string path_;
+  std::vector<std::string> overrides_;
+  std::unique_ptr<google::protobuf::TextFormat::ParseInfoTree> tree_;
+  // Normalised paths (indices, not names) set by overrides, with their argument.
+  std::vector<std::pair<std::string, std::string>> overridden_;
+};
+
+// One step of a field path: a field name and, on repeated fields, an index or element name.
+struct PathSegment {
+  std::string field;
+  std::string key;  // empty, a decimal index, or the `name` of a repeated element
+  bool has_key = false;
+};
+
+// Splits "a.b[2].c[name]" into segments; throws InputError naming `context` if malformed.
+std::vector<PathSegment> ParseFieldPath(const std::string& path, const std::string& context);
+
+// Sets every unset optional scalar that has a declared default to that default, creating
+// the sub-messages of `message` that hold defaults, so that a summary shows every setting
+// actually used. Oneof members are left alone.
+void MaterializeDefaults(google::protobuf::Message* message);
+
+}  // namespace cosim::interface

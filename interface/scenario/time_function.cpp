@@ -1,0 +1,94 @@
+#include "interface/scenario/time_function.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace cosim::interface {
+
+TimeFunction TimeFunction::Constant(double value) {
+  TimeFunction f;
+  f.constant_ = value;
+  return f;
+}
+
+TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, const scenario::TimeFunction& proto) {
+  TimeFunction f;
+  switch (proto.kind_case()) {
+    case scenario::TimeFunction::kConstant:
+      if (!std::isfinite(proto.constant())) checks.Fail(path + ".constant", "must be finite");
+      f.constant_ = proto.constant();
+      break;
+    case scenario::TimeFunction::kCosineRamp: {
+      const auto& r = proto.cosine_ramp();
+      f.kind_ = Kind::kCosineRamp;
+      checks.Require(path + ".cosine_ramp.final_value", r.has_final_value(), "the value reached after the ramp");
+      f.final_value_ = r.final_value();
+      f.ramp_time_ = checks.Positive(path + ".cosine_ramp.ramp_time", r.has_ramp_time(), r.ramp_time(), "s");
+      f.start_time_ = r.start_time();
+      break;
+    }
+    case scenario::TimeFunction::kTable: {
+      const auto& table = proto.table();
+      f.kind_ = Kind::kTable;
+      if (table.time_size() < 1) checks.Fail(path + ".table.time", "needs at least one time");
+      if (table.time_size() != table.value_size()) {
+        checks.Fail(path + ".table.value", "has " + std::to_string(table.value_size()) + " values for " +
+                                               std::to_string(table.time_size()) + " times; they must match");
+      }
+      for (int i = 1; i < table.time_size(); ++i) {
+        if (!(table.time(i) > table.time(i - 1))) {
+          checks.Fail(path + ".table.time[" + std::to_string(i) + "]",
+                      "times must increase strictly, got " + FormatNumber(table.time(i)) + " after " +
+                          FormatNumber(table.time(i - 1)));
+        }
+      }
+      f.time_.assign(table.time().begin(), table.time().end());
+      f.value_.assign(table.value().begin(), table.value().end());
+      break;
+    }
+    case scenario::TimeFunction::KIND_NOT_SET:
+      checks.Fail(path, "empty function; give constant, cosine_ramp { ... } or table { ... }");
+  }
+  return f;
+}
+
+double TimeFunction::Value(double t) const {
+  switch (kind_) {
+    case Kind::kConstant: return constant_;
+    case Kind::kCosineRamp: {
+      // Eq. (37) of the CGα paper: ½ (1 − cos(π τ / T)) Ω for 0 <= τ < T.
+      const double tau = t - start_time_;
+      if (tau <= 0.0) return 0.0;
+      if (tau >= ramp_time_) return final_value_;
+      return 0.5 * (1.0 - std::cos(std::numbers::pi * tau / ramp_time_)) * final_value_;
+    }
+    case Kind::kTable: {
+      if (t <= time_.front()) return value_.front();
+      if (t >= time_.back()) return value_.back();
+      const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin());
+      const double s = (t - time_[i - 1]) / (time_[i] - time_[i - 1]);
+      return value_[i - 1] + s * (value_[i] - value_[i - 1]);
+    }
+  }
+  return 0.0;
+}
+
+double TimeFunction::Derivative(double t) const {
+  switch (kind_) {
+    case Kind::kConstant: return 0.0;
+    case Kind::kCosineRamp: {
+      const double tau = t - start_time_;
+      if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
+      return 0.5 * std::numbers::pi / ramp_time_ * std::sin(std::numbers::pi * tau / ramp_time_) * final_value_;
+    }
+    case Kind::kTable: {
+      if (t < time_.front() || t >= time_.back() || time_.size() < 2) return 0.0;
+      const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin());
+      return (value_[i] - value_[i - 1]) / (time_[i] - time_[i - 1]);
+    }
+  }
+  return 0.0;
+}
+
+}  // namespace cosim::interface

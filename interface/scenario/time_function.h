@@ -1,0 +1,31 @@
+#pragma once
+// f(t) and df/dt of a scenario TimeFunction (constant, cosine ramp of Eq. (37) of the CGα
+// paper, or a piecewise-linear table), validated when built.
+#include <vector>
+
+#include "scenario.pb.h"
+#include "interface/scenario/checks.h"
+
+namespace cosim::interface {
+
+class TimeFunction {
+ public:
+  TimeFunction() = default;  // f = 0
+  static TimeFunction Constant(double value);
+  // Throws InputError at `path` for an empty function, a non-positive ramp time, or a table
+  // whose times do not increase or whose columns differ in length.
+  static TimeFunction Build(const Checks& checks, const std::string& path, const scenario::TimeFunction& proto);
+
+  double Value(double t) const;
+  double Derivative(double t) const;
+  bool IsZero() const { return kind_ == Kind::kConstant && constant_ == 0.0; }
+
+ private:
+  enum class Kind { kConstant, kCosineRamp, kTable };
+  Kind kind_ = Kind::kConstant;
+  double constant_ = 0.0;
+  double final_value_ = 0.0, ramp_time_ = 1.0, start_time_ = 0.0;
+  std::vector<double> time_, value_;
+};
+
+}  // namespace cosim::interface

@@ -1,0 +1,145 @@
+#include "nonsmooth_solver/lcp/lcp_solver.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+extern "C" {
+#include "LCP_Solvers.h"
+#include "LinearComplementarityProblem.h"
+#include "NonSmoothDrivers.h"
+#include "NumericsMatrix.h"
+#include "SolverOptions.h"
+#include "lcp_cst.h"
+}
+
+namespace cosim::nonsmooth {
+
+const char* LcpAlgorithmName(LcpAlgorithm algorithm) {
+  switch (algorithm) {
+    case LcpAlgorithm::kLemke: return "LEMKE";
+    case LcpAlgorithm::kPgs: return "PGS";
+    case LcpAlgorithm::kEnumerative: return "ENUMERATIVE";
+    case LcpAlgorithm::kNewtonFischerBurmeister: return "NEWTON_FB";
+  }
+  return "?";
+}
+
+namespace {
+
+int SiconosSolverId(LcpAlgorithm algorithm) {
+  switch (algorithm) {
+    case LcpAlgorithm::kLemke: return SICONOS_LCP_LEMKE;
+    case LcpAlgorithm::kPgs: return SICONOS_LCP_PGS;
+    case LcpAlgorithm::kEnumerative: return SICONOS_LCP_ENUM;
+    case LcpAlgorithm::kNewtonFischerBurmeister: return SICONOS_LCP_NEWTON_FB_FBLSA;
+  }
+  return SICONOS_LCP_LEMKE;
+}
+
+}  // namespace
+
+double ComplementarityError(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                            const Eigen::Ref<const Eigen::VectorXd>& z) {
+  double error = 0.0;
+  const Eigen::Index n = q.size();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double wi = M.row(i).dot(z) + q(i);
+    const double zi = z(i);
+    error = std::max({error, -zi, -wi, std::abs(std::min(zi, wi))});
+  }
+  if (!std::isfinite(error)) return INFINITY;
+  return error / (1.0 + q.lpNorm<Eigen::Infinity>());
+}
+
+LcpSolver::LcpSolver(const LcpOptions& options) : options_(options) {}
+LcpSolver::~LcpSolver() = default;
+
+LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                           Eigen::Ref<Eigen::VectorXd> z) {
+  const Eigen::Index n = q.size();
+  if (n == 0) return LcpResult{true, false, true, 0, 0, 0.0, ""};
+  // q >= 0: z = 0 gives w = q >= 0, complementary. Exact, and the driver would do the same.
+  if (q.minCoeff() >= 0.0) {
+    z.setZero();
+    return LcpResult{true, false, true, 0, 0, 0.0, ""};
+  }
+  LcpResult result = Attempt(options_.algorithm, M, q, z);
+  if (!result.solved && options_.has_fallback && options_.fallback != options_.algorithm) {
+    const std::string first = result.message;
+    result = Attempt(options_.fallback, M, q, z);
+    if (result.solved) {
+      result.used_fallback = true;
+    } else {
+      result.message = first + "; fallback: " + result.message;
+    }
+  }
+  return result;
+}
+
+LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eigen::MatrixXd>& M,
+                             const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z) {
+  LcpResult result;
+  const int n = static_cast<int>(q.size());
+  if (algorithm == LcpAlgorithm::kEnumerative && n > kMaxEnumerativeSize) {
+    result.message = std::string("ENUMERATIVE refused: n = ") + std::to_string(n) + " > " +
+                     std::to_string(kMaxEnumerativeSize) + " (2^n cases)";
+    return result;
+  }
+  if (!M.allFinite() || !q.allFinite()) {
+    result.message = "LCP data not finite";
+    return result;
+  }
+  // Siconos takes ownership of M's storage and q (freed by freeLinearComplementarityProblem).
+  NumericsMatrix* matrix = NM_create(NM_DENSE, n, n);
+  std::memcpy(matrix->matrix0, M.data(), sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n));
+  LinearComplementarityProblem* lcp = newLCP();
+  lcp->size = n;
+  lcp->M = matrix;
+  lcp->q = static_cast<double*>(std::malloc(sizeof(double) * static_cast<size_t>(n)));
+  std::memcpy(lcp->q, q.data(), sizeof(double) * static_cast<size_t>(n));
+  // The enumerative solver caches work arrays sized by the first problem in its options:
+  // a fresh options object per attempt keeps that safe for every algorithm.
+  SolverOptions* so = solver_options_create(SiconosSolverId(algorithm));
+  so->iparam[SICONOS_IPARAM_MAX_ITER] = options_.max_iterations;
+  so->dparam[SICONOS_DPARAM_TOL] = options_.tolerance;
+  w_.resize(n);
+  z.setZero();
+  result.siconos_info = linearComplementarity_driver(lcp, z.data(), w_.data(), so);
+  result.iterations = so->iparam[SICONOS_IPARAM_ITER_DONE];
+  solver_options_delete(so);
+  std::free(so);
+  freeLinearComplementarityProblem(lcp);
+
+  // Our own check, whatever the driver said.
+  result.error = ComplementarityError(M, q, z);
+  // The tolerance applies to the complementarity error; a few ulps of slack on top of it.
+  const double accepted = std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon());
+  result.solved = result.error <= accepted;
+  if (!result.solved) {
+    result.message = std::string(LcpAlgorithmName(algorithm)) + " (n = " + std::to_string(n) +
+                     ", Siconos info " + std::to_string(result.siconos_info) + ", " +
+                     std::to_string(result.iterations) + " iterations): complementarity error " +
+                     std::to_string(result.error) + " > tolerance " + std::to_string(options_.tolerance);
+  }
+  return result;
+}
+
+bool ReadSiconosLcpFile(const std::string& path, Eigen::MatrixXd* M, Eigen::VectorXd* q) {
+  LinearComplementarityProblem* lcp = newLCP();
+  if (linearComplementarity_newFromFilename(lcp, path.c_str()) != 0 || lcp->M == nullptr) {
+    freeLinearComplementarityProblem(lcp);
+    return false;
+  }
+  const int n = lcp->size;
+  M->resize(n, n);
+  q->resize(n);
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) (*M)(i, j) = NM_get_value(lcp->M, i, j);
+    (*q)(j) = lcp->q[j];
+  }
+  freeLinearComplementarityProblem(lcp);
+  return true;
+}
+
+}  // namespace cosim::nonsmooth

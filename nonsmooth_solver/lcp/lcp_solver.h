@@ -1,0 +1,69 @@
+#pragma once
+// Linear complementarity problems  w = M z + q,  0 <= z ⟂ w >= 0  solved through Siconos
+// Numerics' LCP driver. This is the only place that includes Siconos headers (they define
+// generic macros). Every solution is checked here, independently of what Siconos reports:
+// a lexicographic Lemke run can end on a secondary ray and still report success.
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+
+namespace cosim::nonsmooth {
+
+enum class LcpAlgorithm { kLemke, kPgs, kEnumerative, kNewtonFischerBurmeister };
+const char* LcpAlgorithmName(LcpAlgorithm algorithm);
+
+struct LcpOptions {
+  LcpAlgorithm algorithm = LcpAlgorithm::kLemke;
+  // Accepted complementarity error (see ComplementarityError), relative to 1 + |q|∞.
+  double tolerance = 1e-10;
+  int max_iterations = 10000;
+  bool has_fallback = false;
+  LcpAlgorithm fallback = LcpAlgorithm::kLemke;
+};
+
+// The largest enumerative problem attempted: 2^n cases.
+inline constexpr int kMaxEnumerativeSize = 12;
+
+struct LcpResult {
+  bool solved = false;         // passed the complementarity check
+  bool used_fallback = false;  // the primary algorithm failed, the fallback succeeded
+  bool trivial = false;        // q >= 0, z = 0 without calling Siconos
+  int siconos_info = 0;        // driver return code of the last attempt (0 = success)
+  int iterations = 0;          // of the last attempt
+  double error = 0.0;          // complementarity error of the returned z
+  std::string message;         // why it failed
+};
+
+// max_i max(−z_i, −w_i, |min(z_i, w_i)|) / (1 + |q|∞), with w = M z + q recomputed: zero
+// exactly at a solution, and of the size of the violation otherwise.
+double ComplementarityError(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                            const Eigen::Ref<const Eigen::VectorXd>& z);
+
+class LcpSolver {
+ public:
+  explicit LcpSolver(const LcpOptions& options);
+  ~LcpSolver();
+  LcpSolver(const LcpSolver&) = delete;
+  LcpSolver& operator=(const LcpSolver&) = delete;
+
+  const LcpOptions& options() const { return options_; }
+
+  // Solves for z (size n, overwritten) given M (n×n) and q (n). On failure z holds the
+  // last attempt and result.solved is false.
+  LcpResult Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                  Eigen::Ref<Eigen::VectorXd> z);
+
+ private:
+  LcpResult Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eigen::MatrixXd>& M,
+                    const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z);
+
+  LcpOptions options_;
+  Eigen::VectorXd w_;  // scratch for Siconos' w output
+};
+
+// Reads an LCP in Siconos Numerics' test-data format (numerics/src/LCP/test/data/*.dat)
+// with Siconos' own reader; any storage is converted to dense. Returns false if unreadable.
+bool ReadSiconosLcpFile(const std::string& path, Eigen::MatrixXd* M, Eigen::VectorXd* q);
+
+}  // namespace cosim::nonsmooth

@@ -1,0 +1,234 @@
+#include "nonsmooth_solver/model/contact_model.h"
+
+#include <Eigen/Geometry>
+
+#include <set>
+
+#include "interface/scenario/checks.h"
+
+namespace cosim::nonsmooth {
+
+using interface::Checks;
+using interface::FormatNumber;
+using interface::NameTable;
+namespace sc = cosim::scenario;
+
+Eigen::Vector3d Obstacle::NormalAt(double t) const {
+  if (!moving || rotation_angle.IsZero()) return normal;
+  return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * normal;
+}
+
+double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x) const {
+  if (!moving) return 0.0;
+  // g = n·(x − p): dg/dt = n·ẋ − n·ṗ + ṅ·(x − p), with ṅ = ω × n and ω = θ̇ a.
+  const Eigen::Vector3d n = NormalAt(t);
+  const Eigen::Vector3d n_dot = rotation_angle.Derivative(t) * rotation_axis.cross(n);
+  return -n.dot(velocity) + n_dot.dot(x - PointAt(t));
+}
+
+namespace {
+
+std::string At(const std::string& list, int i) { return list + "[" + std::to_string(i) + "]"; }
+
+LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpSettings::Solver solver) {
+  switch (solver) {
+    case sc::LcpSettings::LEMKE: return LcpAlgorithm::kLemke;
+    case sc::LcpSettings::PGS: return LcpAlgorithm::kPgs;
+    case sc::LcpSettings::ENUMERATIVE: return LcpAlgorithm::kEnumerative;
+    case sc::LcpSettings::NEWTON_FB: return LcpAlgorithm::kNewtonFischerBurmeister;
+    default:
+      checks.Fail(path, "expected one of LEMKE, PGS, ENUMERATIVE, NEWTON_FB");
+  }
+}
+
+void BuildObstacles(const Checks& checks, const sc::Model& model, ContactModel* out, NameTable* names) {
+  for (int i = 0; i < model.obstacles_size(); ++i) {
+    const sc::Obstacle& o = model.obstacles(i);
+    const std::string path = At("model.obstacles", i);
+    Obstacle obstacle;
+    obstacle.name = checks.Name(path + ".name", o.has_name(), o.name());
+    names->Add(path + ".name", obstacle.name);
+    obstacle.point = checks.Vector3(path + ".point", o.point(), std::nullopt);
+    obstacle.normal = checks.Direction(path + ".normal", o.normal());
+    if (o.has_prescribed()) {
+      const auto& m = o.prescribed();
+      obstacle.moving = true;
+      obstacle.velocity = checks.Vector3(path + ".prescribed.velocity", m.velocity(), Eigen::Vector3d::Zero());
+      if (m.has_rotation_angle()) {
+        obstacle.rotation_axis = checks.Direction(path + ".prescribed.rotation_axis", m.rotation_axis());
+        obstacle.rotation_angle =
+            TimeFunction::Build(checks, path + ".prescribed.rotation_angle", m.rotation_angle());
+      }
+    } else if (o.has_attached_to_body()) {
+      checks.Fail(path + ".attached_to_body",
+                  "an obstacle attached to body '" + o.attached_to_body() +
+                      "' moves with the smooth model, which only a coupled run provides; a standalone contact "
+                      "run needs a fixed or prescribed obstacle");
+    }
+    out->obstacles.push_back(obstacle);
+  }
+}
+
+void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& obstacle_names, ContactModel* out,
+                NameTable* names) {
+  for (int i = 0; i < model.contact_nodes_size(); ++i) {
+    const sc::ContactNode& n = model.contact_nodes(i);
+    const std::string path = At("model.contact_nodes", i);
+    ContactNode node;
+    node.name = checks.Name(path + ".name", n.has_name(), n.name());
+    names->Add(path + ".name", node.name);
+    node.mass = checks.Positive(path + ".mass", n.has_mass(), n.mass(), "kg");
+    node.position = checks.Vector3(path + ".position", n.position(), std::nullopt);
+    node.velocity = checks.Vector3(path + ".velocity", n.velocity(), Eigen::Vector3d::Zero());
+    node.constant_force =
+        checks.Vector3(path + ".force", n.force(), Eigen::Vector3d::Zero()) + node.mass * out->gravity;
+    if (n.force_function_size() != 0) {
+      if (n.force_function_size() != 3) {
+        checks.Fail(path + ".force_function", "expected 3 functions (x, y, z), got " +
+                                                  std::to_string(n.force_function_size()));
+      }
+      for (int c = 0; c < 3; ++c) {
+        node.force_function[static_cast<size_t>(c)] =
+            TimeFunction::Build(checks, At(path + ".force_function", c), n.force_function(c));
+      }
+      node.has_time_force = true;
+    }
+    if (n.has_anchor()) {
+      const auto& a = n.anchor();
+      node.anchor = checks.Vector3(path + ".anchor.point", a.point(), std::nullopt);
+      checks.Require(path + ".anchor.stiffness", a.has_stiffness(), "a stiffness in N/m");
+      node.stiffness = checks.NonNegative(path + ".anchor.stiffness", a.stiffness(), "N/m");
+      node.damping = checks.NonNegative(path + ".anchor.damping", a.damping(), "N s/m");
+    }
+    std::set<int> seen;
+    for (int j = 0; j < n.contacts_size(); ++j) {
+      const sc::ContactNode::Contact& c = n.contacts(j);
+      const std::string cpath = At(path + ".contacts", j);
+      Contact contact;
+      contact.node = i;
+      checks.Require(cpath + ".obstacle", c.has_obstacle(), "the name of an obstacle");
+      contact.obstacle = obstacle_names.Find(cpath + ".obstacle", c.obstacle());
+      if (!seen.insert(contact.obstacle).second) {
+        checks.Fail(cpath + ".obstacle", "node '" + node.name + "' already has a contact with obstacle '" +
+                                             c.obstacle() + "'");
+      }
+      contact.restitution = checks.InRange(cpath + ".restitution", c.has_restitution(), c.restitution(), 0.0, 1.0);
+      contact.friction = checks.NonNegative(cpath + ".friction", c.friction(), "Coulomb coefficient");
+      if (contact.friction > 0.0) {
+        checks.Fail(cpath + ".friction",
+                    "Coulomb friction (μ = " + FormatNumber(contact.friction) +
+                        ") is not available in this build yet; only frictionless contact (μ = 0) is");
+      }
+      contact.name = node.name + "/" + c.obstacle();
+      out->contacts.push_back(contact);
+    }
+    out->nodes.push_back(node);
+  }
+}
+
+int ComponentOf(const Checks& checks, const std::string& path, const sc::Probe& p, bool vector) {
+  if (!vector) {
+    if (p.has_component() && p.component() != sc::Probe::COMPONENT_UNSPECIFIED) {
+      checks.Fail(path + ".component", "this quantity is a scalar; leave component out");
+    }
+    return 0;
+  }
+  switch (p.component()) {
+    case sc::Probe::X: return 0;
+    case sc::Probe::Y: return 1;
+    case sc::Probe::Z: return 2;
+    case sc::Probe::NORM: return 3;
+    default: checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
+  }
+}
+
+void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names,
+                 const ContactModel& model, ContactModel* out) {
+  std::map<std::string, int> contact_index;
+  for (size_t c = 0; c < model.contacts.size(); ++c) contact_index[model.contacts[c].name] = static_cast<int>(c);
+  NameTable probe_names(checks, "probe");
+  for (int i = 0; i < output.probes_size(); ++i) {
+    const sc::Probe& p = output.probes(i);
+    const std::string path = At("output.probes", i);
+    Probe probe;
+    probe.name = checks.Name(path + ".name", p.has_name(), p.name());
+    if (probe.name == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
+    probe_names.Add(path + ".name", probe.name);
+    const std::string entity = p.entity();
+    auto node_entity = [&]() { return node_names.Find(path + ".entity", entity); };
+    auto contact_entity = [&]() {
+      auto it = contact_index.find(entity);
+      if (it == contact_index.end()) {
+        std::string known;
+        for (const auto& [name, c] : contact_index) known += (known.empty() ? "" : ", ") + name;
+        checks.Fail(path + ".entity", "no contact named '" + entity + "' (contacts are named node/obstacle" +
+                                          (known.empty() ? "; the scenario has none)" : "; known: " + known + ")"));
+      }
+      return it->second;
+    };
+    switch (p.quantity()) {
+      case sc::Probe::POSITION:
+      case sc::Probe::VELOCITY:
+        probe.kind = p.quantity() == sc::Probe::POSITION ? ProbeKind::kPosition : ProbeKind::kVelocity;
+        probe.index = node_entity();
+        probe.component = ComponentOf(checks, path, p, true);
+        break;
+      case sc::Probe::GAP:
+      case sc::Probe::IMPULSE:
+        probe.kind = p.quantity() == sc::Probe::GAP ? ProbeKind::kGap : ProbeKind::kImpulse;
+        probe.index = contact_entity();
+        probe.component = ComponentOf(checks, path, p, false);
+        break;
+      case sc::Probe::KINETIC_ENERGY:
+      case sc::Probe::POTENTIAL_ENERGY:
+      case sc::Probe::TOTAL_ENERGY:
+        probe.kind = p.quantity() == sc::Probe::KINETIC_ENERGY     ? ProbeKind::kKineticEnergy
+                     : p.quantity() == sc::Probe::POTENTIAL_ENERGY ? ProbeKind::kPotentialEnergy
+                                                                   : ProbeKind::kTotalEnergy;
+        probe.index = entity.empty() ? -1 : node_entity();
+        probe.component = ComponentOf(checks, path, p, false);
+        break;
+      default:
+        checks.Fail(path + ".quantity",
+                    "a contact process records POSITION, VELOCITY, GAP, IMPULSE, KINETIC_ENERGY, POTENTIAL_ENERGY "
+                    "or TOTAL_ENERGY, got " +
+                        sc::Probe::Quantity_Name(p.quantity()));
+    }
+    out->probes.push_back(probe);
+  }
+}
+
+}  // namespace
+
+ContactModel BuildContactModel(const interface::ScenarioFile& file) {
+  const Checks checks(file);
+  const sc::Scenario& s = file.proto();
+  ContactModel model;
+  model.gravity = checks.Vector3("model.gravity", s.model().gravity(), Eigen::Vector3d::Zero());
+
+  const sc::NonsmoothSettings& ns = s.numerics().nonsmooth();
+  model.theta = checks.InRange("numerics.nonsmooth.theta", true, ns.theta(), 0.0, 1.0, /*lo_open=*/true);
+  const sc::LcpSettings& lcp = ns.lcp();
+  model.lcp.algorithm = ToAlgorithm(checks, "numerics.nonsmooth.lcp.solver", lcp.solver());
+  model.lcp.tolerance = checks.Positive("numerics.nonsmooth.lcp.tolerance", true, lcp.tolerance(), "dimensionless");
+  if (lcp.max_iterations() < 1) {
+    checks.Fail("numerics.nonsmooth.lcp.max_iterations", "must be >= 1, got " + std::to_string(lcp.max_iterations()));
+  }
+  model.lcp.max_iterations = lcp.max_iterations();
+  if (lcp.fallback() != sc::LcpSettings::SOLVER_UNSPECIFIED) {
+    model.lcp.has_fallback = true;
+    model.lcp.fallback = ToAlgorithm(checks, "numerics.nonsmooth.lcp.fallback", lcp.fallback());
+  }
+
+  NameTable obstacle_names(checks, "obstacle");
+  NameTable node_names(checks, "contact node");
+  BuildObstacles(checks, s.model(), &model, &obstacle_names);
+  if (s.model().contact_nodes_size() == 0) {
+    checks.Fail("model.contact_nodes", "a contact process needs at least one contact node");
+  }
+  BuildNodes(checks, s.model(), obstacle_names, &model, &node_names);
+  BuildProbes(checks, s.output(), node_names, model, &model);
+  return model;
+}
+
+}  // namespace cosim::nonsmooth

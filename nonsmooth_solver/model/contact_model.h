@@ -1,0 +1,83 @@
+#pragma once
+// The contact process's model: point masses ("contact nodes") and the planes they may touch,
+// built and validated from a scenario. Immutable once built; the integrator's changing state
+// lives in its workspace (see integrator/moreau_jean.h).
+#include <Eigen/Core>
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "nonsmooth_solver/lcp/lcp_solver.h"
+#include "interface/scenario/scenario_file.h"
+#include "interface/scenario/time_function.h"
+
+namespace cosim::nonsmooth {
+
+using interface::TimeFunction;
+
+struct ContactNode {
+  std::string name;
+  double mass = 1.0;                                  // [kg]
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // initial [m]
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  // initial [m/s]
+  Eigen::Vector3d constant_force = Eigen::Vector3d::Zero();  // [N], gravity included
+  std::array<TimeFunction, 3> force_function;                 // [N], time-prescribed
+  bool has_time_force = false;
+  // Linear spring-damper to an anchor point (zero rest length).
+  Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
+  double stiffness = 0.0;  // [N/m]
+  double damping = 0.0;    // [N s/m]
+};
+
+// The plane {x : n(t)·(x − p(t)) >= 0}: a reference point moving with constant velocity and
+// a normal rotating about a fixed axis by a prescribed angle.
+struct Obstacle {
+  std::string name;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();   // p(0)
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // n(0), unit
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitZ();  // unit
+  TimeFunction rotation_angle;                               // [rad]
+  bool moving = false;
+
+  Eigen::Vector3d PointAt(double t) const { return point + t * velocity; }
+  Eigen::Vector3d NormalAt(double t) const;
+  // Signed distance of x from the plane at time t.
+  double Gap(double t, const Eigen::Vector3d& x) const { return NormalAt(t).dot(x - PointAt(t)); }
+  // Part of the gap rate that comes from the plane's motion: dg/dt = n·ẋ + GapRateBias(t, x).
+  double GapRateBias(double t, const Eigen::Vector3d& x) const;
+};
+
+struct Contact {
+  std::string name;  // "node/obstacle"
+  int node = 0;
+  int obstacle = 0;
+  double restitution = 0.0;  // Newton's e in [0, 1]
+  double friction = 0.0;     // Coulomb μ >= 0
+};
+
+enum class ProbeKind { kPosition, kVelocity, kGap, kImpulse, kKineticEnergy, kPotentialEnergy, kTotalEnergy };
+
+struct Probe {
+  std::string name;
+  ProbeKind kind = ProbeKind::kPosition;
+  int index = -1;      // node or contact; -1 = the whole process
+  int component = 0;   // 0, 1, 2 = x, y, z; 3 = norm
+};
+
+struct ContactModel {
+  std::vector<ContactNode> nodes;
+  std::vector<Obstacle> obstacles;
+  std::vector<Contact> contacts;
+  std::vector<Probe> probes;
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
+  // θ of the Moreau–Jean scheme, Eq. (3a)-(3b) of the rotor-sailing paper; (0, 1].
+  double theta = 0.5;
+  LcpOptions lcp;
+};
+
+// Builds and validates the contact model of a scenario. Throws InputError naming the field.
+ContactModel BuildContactModel(const interface::ScenarioFile& file);
+
+}  // namespace cosim::nonsmooth

@@ -1,0 +1,70 @@
+#include "nonsmooth_solver/simulation/contact_simulation.h"
+
+namespace cosim::nonsmooth {
+
+ContactSimulation::ContactSimulation(const interface::ScenarioFile& file)
+    : model_(std::make_unique<const ContactModel>(BuildContactModel(file))) {
+  numerics_.CopyFrom(file.proto().numerics());
+  numerics_.clear_smooth();
+  interface::MaterializeDefaults(&numerics_);
+  numerics_.clear_smooth();
+  integrator_ = std::make_unique<MoreauJean>(*model_, numerics_.start_time());
+}
+
+std::vector<std::string> ContactSimulation::ProbeNames() const {
+  std::vector<std::string> names;
+  for (const auto& p : model_->probes) names.push_back(p.name);
+  return names;
+}
+
+void ContactSimulation::Probe(std::vector<double>* values) const {
+  const MoreauJean& mj = *integrator_;
+  for (size_t i = 0; i < model_->probes.size(); ++i) {
+    const nonsmooth::Probe& p = model_->probes[i];
+    double value = 0.0;
+    switch (p.kind) {
+      case ProbeKind::kPosition:
+      case ProbeKind::kVelocity: {
+        const Eigen::VectorXd& x = p.kind == ProbeKind::kPosition ? mj.positions() : mj.velocities();
+        const Eigen::Vector3d node = x.segment<3>(3 * p.index);
+        value = p.component == 3 ? node.norm() : node(p.component);
+        break;
+      }
+      case ProbeKind::kGap: value = mj.Gap(p.index); break;
+      case ProbeKind::kImpulse: value = mj.impulses()(p.index); break;
+      case ProbeKind::kKineticEnergy: value = mj.KineticEnergy(p.index); break;
+      case ProbeKind::kPotentialEnergy: value = mj.PotentialEnergy(p.index); break;
+      case ProbeKind::kTotalEnergy: value = mj.KineticEnergy(p.index) + mj.PotentialEnergy(p.index); break;
+    }
+    (*values)[i] = value;
+  }
+}
+
+void ContactSimulation::Step(double t, double h) {
+  integrator_->Step(t, h);
+  // Penetration is the constraint violation of a unilateral contact.
+  for (size_t c = 0; c < model_->contacts.size(); ++c) {
+    max_penetration_ = std::max(max_penetration_, -integrator_->Gap(static_cast<int>(c)));
+  }
+}
+
+void ContactSimulation::FillSummary(run::RunSummary* summary) const {
+  const MoreauJeanStats& s = integrator_->stats();
+  summary->mutable_numerics()->CopyFrom(numerics_);
+  summary->set_max_constraint_violation(max_penetration_);
+  auto* lcp = summary->mutable_lcp_iterations();
+  lcp->set_total(s.lcp_iterations);
+  lcp->set_mean_per_step(summary->steps() > 0 ? static_cast<double>(s.lcp_iterations) /
+                                                    static_cast<double>(summary->steps())
+                                              : 0.0);
+  auto& counters = *summary->mutable_counters();
+  counters["lcp_solves"] = static_cast<double>(s.lcp_solves);
+  counters["lcp_fallbacks"] = static_cast<double>(s.lcp_fallbacks);
+  counters["contact_activations"] = static_cast<double>(s.activations);
+  counters["contact_nodes"] = static_cast<double>(model_->nodes.size());
+  counters["contacts"] = static_cast<double>(model_->contacts.size());
+}
+
+void ValidateScenario(const interface::ScenarioFile& file) { BuildContactModel(file); }
+
+}  // namespace cosim::nonsmooth

@@ -1,0 +1,34 @@
+#pragma once
+// A standalone contact process run: the contact model, its Moreau–Jean integrator and the
+// probes, behind the run contract's Simulation interface.
+#include <memory>
+
+#include "nonsmooth_solver/integrator/moreau_jean.h"
+#include "nonsmooth_solver/model/contact_model.h"
+#include "interface/run/run_driver.h"
+
+namespace cosim::nonsmooth {
+
+class ContactSimulation : public interface::Simulation {
+ public:
+  explicit ContactSimulation(const interface::ScenarioFile& file);
+
+  std::vector<std::string> ProbeNames() const override;
+  void Probe(std::vector<double>* values) const override;
+  void Step(double t, double h) override;
+  void FillSummary(run::RunSummary* summary) const override;
+
+  const ContactModel& model() const { return *model_; }
+  const MoreauJean& integrator() const { return *integrator_; }
+
+ private:
+  std::unique_ptr<const ContactModel> model_;  // stable address for the integrator
+  std::unique_ptr<MoreauJean> integrator_;
+  scenario::Numerics numerics_;  // as used, defaults filled in
+  double max_penetration_ = 0.0;
+};
+
+// Builds and checks everything a standalone contact run needs (used before any step).
+void ValidateScenario(const interface::ScenarioFile& file);
+
+}  // namespace cosim::nonsmooth

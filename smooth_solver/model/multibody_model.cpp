@@ -1,0 +1,136 @@
+#include "smooth_solver/model/multibody_model.h"
+
+#include <Eigen/Eigenvalues>
+
+#include "interface/scenario/checks.h"
+
+namespace cosim::smooth {
+
+using interface::Checks;
+using interface::FormatNumber;
+using interface::NameTable;
+namespace sc = cosim::scenario;
+
+namespace {
+
+std::string At(const std::string& list, int i) { return list + "[" + std::to_string(i) + "]"; }
+
+Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const google::protobuf::RepeatedField<double>& v) {
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  if (v.size() == 3) {
+    J.diagonal() << v.Get(0), v.Get(1), v.Get(2);
+  } else if (v.size() == 6) {
+    J << v.Get(0), v.Get(3), v.Get(4),  //
+        v.Get(3), v.Get(1), v.Get(5),   //
+        v.Get(4), v.Get(5), v.Get(2);
+  } else {
+    checks.Fail(path, "expected [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] in kg m^2, got " +
+                          std::to_string(v.size()) + " values");
+  }
+  const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(J).eigenvalues().minCoeff();
+  if (!(smallest > 0.0)) {
+    checks.Fail(path, "must be positive definite; its smallest principal moment is " + FormatNumber(smallest) +
+                          " kg m^2");
+  }
+  return J;
+}
+
+}  // namespace
+
+MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
+  const Checks checks(file);
+  const sc::Model& m = file.proto().model();
+  MultibodyModel model;
+  model.gravity = checks.Vector3("model.gravity", m.gravity(), Eigen::Vector3d::Zero());
+
+  NameTable body_names(checks, "body");
+  for (int i = 0; i < m.bodies_size(); ++i) {
+    const sc::RigidBody& b = m.bodies(i);
+    const std::string path = At("model.bodies", i);
+    RigidBody body;
+    body.name = checks.Name(path + ".name", b.has_name(), b.name());
+    if (body.name == "ground") checks.Fail(path + ".name", "'ground' is the fixed frame; choose another name");
+    body_names.Add(path + ".name", body.name);
+    body.mass = checks.Positive(path + ".mass", b.has_mass(), b.mass(), "kg");
+    body.inertia = Inertia(checks, path + ".inertia", b.inertia());
+    body.position = checks.Vector3(path + ".position", b.position(), Eigen::Vector3d::Zero());
+    const Eigen::Vector3d rv = checks.Vector3(path + ".rotation", b.rotation(), Eigen::Vector3d::Zero());
+    body.orientation = rv.norm() > 0.0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv.normalized()))
+                                       : Eigen::Quaterniond::Identity();
+    body.velocity = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
+    body.angular_velocity = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
+    model.bodies.push_back(body);
+  }
+  auto find_body = [&](const std::string& path, bool has, const std::string& name) {
+    checks.Require(path, has, "a body name or \"ground\"");
+    return name == "ground" ? -1 : body_names.Find(path, name);
+  };
+
+  NameTable joint_names(checks, "joint");
+  for (int i = 0; i < m.joints_size(); ++i) {
+    const sc::Joint& j = m.joints(i);
+    const std::string path = At("model.joints", i);
+    Joint joint;
+    joint.name = checks.Name(path + ".name", j.has_name(), j.name());
+    joint_names.Add(path + ".name", joint.name);
+    switch (j.type()) {
+      case sc::Joint::REVOLUTE: joint.type = JointType::kRevolute; break;
+      case sc::Joint::PRISMATIC: joint.type = JointType::kPrismatic; break;
+      case sc::Joint::SPHERICAL: joint.type = JointType::kSpherical; break;
+      case sc::Joint::UNIVERSAL: joint.type = JointType::kUniversal; break;
+      case sc::Joint::FIXED: joint.type = JointType::kFixed; break;
+      default: checks.Fail(path + ".type", "expected REVOLUTE, PRISMATIC, SPHERICAL, UNIVERSAL or FIXED");
+    }
+    joint.body1 = find_body(path + ".body1", j.has_body1(), j.body1());
+    joint.body2 = find_body(path + ".body2", j.has_body2(), j.body2());
+    if (joint.body1 == joint.body2) {
+      checks.Fail(path + ".body2", "joins '" + j.body2() + "' to itself; a joint needs two different bodies");
+    }
+    joint.point = checks.Vector3(path + ".point", j.point(), std::nullopt);
+    const bool needs_axis = joint.type == JointType::kRevolute || joint.type == JointType::kPrismatic ||
+                            joint.type == JointType::kUniversal;
+    if (needs_axis) joint.axis = checks.Direction(path + ".axis", j.axis());
+    if (joint.type == JointType::kUniversal) {
+      joint.axis2 = checks.Direction(path + ".axis2", j.axis2());
+      if (std::abs(joint.axis.dot(joint.axis2)) > 1.0 - 1e-9) {
+        checks.Fail(path + ".axis2", "is parallel to axis; a universal joint needs two distinct axes");
+      }
+    }
+    if (j.has_drive()) {
+      const sc::Drive& d = j.drive();
+      const bool rotational = joint.type == JointType::kRevolute;
+      const bool translational = joint.type == JointType::kPrismatic;
+      if (!rotational && !translational) {
+        checks.Fail(path + ".drive", "only revolute and prismatic joints have a coordinate to drive");
+      }
+      const bool angle = d.quantity() == sc::Drive::ANGLE || d.quantity() == sc::Drive::ANGULAR_SPEED;
+      const bool length = d.quantity() == sc::Drive::DISPLACEMENT || d.quantity() == sc::Drive::SPEED;
+      if (!angle && !length) {
+        checks.Fail(path + ".drive.quantity", "expected ANGLE, ANGULAR_SPEED, DISPLACEMENT or SPEED");
+      }
+      if (rotational && !angle) {
+        checks.Fail(path + ".drive.quantity", "a revolute joint's coordinate is an angle [rad]; " +
+                                                  sc::Drive::Quantity_Name(d.quantity()) +
+                                                  " is a length unit; use ANGLE or ANGULAR_SPEED");
+      }
+      if (translational && !length) {
+        checks.Fail(path + ".drive.quantity", "a prismatic joint's coordinate is a length [m]; " +
+                                                  sc::Drive::Quantity_Name(d.quantity()) +
+                                                  " is an angle unit; use DISPLACEMENT or SPEED");
+      }
+      checks.Require(path + ".drive.function", d.has_function(), "a time function");
+      joint.driven = true;
+      joint.drive_is_rate = d.quantity() == sc::Drive::ANGULAR_SPEED || d.quantity() == sc::Drive::SPEED;
+      joint.drive = interface::TimeFunction::Build(checks, path + ".drive.function", d.function());
+    }
+    joint.locked = j.locked();
+    if (j.has_release_time()) {
+      if (!j.locked()) checks.Fail(path + ".release_time", "given for a joint that is not locked");
+      joint.release_time = j.release_time();
+    }
+    model.joints.push_back(joint);
+  }
+  return model;
+}
+
+}  // namespace cosim::smooth

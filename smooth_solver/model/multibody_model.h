@@ -1,0 +1,52 @@
+#pragma once
+// The smooth solver's model: rigid bodies, joints and force elements, built and validated
+// from a scenario. Immutable once built. The integrators (CGα, IDA) arrive with issue 4 and
+// elastic bodies with issue 5; this is the validated description they will integrate.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <string>
+#include <vector>
+
+#include "interface/scenario/scenario_file.h"
+#include "interface/scenario/time_function.h"
+
+namespace cosim::smooth {
+
+struct RigidBody {
+  std::string name;
+  double mass = 0.0;                                   // [kg]
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();   // about the centre of mass, body frame
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // centre of mass
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+};
+
+enum class JointType { kRevolute, kPrismatic, kSpherical, kUniversal, kFixed };
+
+struct Joint {
+  std::string name;
+  JointType type = JointType::kRevolute;
+  int body1 = -1;  // -1 = ground
+  int body2 = -1;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d axis2 = Eigen::Vector3d::UnitX();
+  bool driven = false;
+  bool drive_is_rate = false;  // speed or angular speed rather than displacement or angle
+  interface::TimeFunction drive;
+  bool locked = false;
+  double release_time = 0.0;
+};
+
+struct MultibodyModel {
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
+  std::vector<RigidBody> bodies;
+  std::vector<Joint> joints;
+};
+
+// Throws InputError naming the field for every inconsistency it finds.
+MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file);
+
+}  // namespace cosim::smooth

@@ -1,0 +1,202 @@
+// End-to-end: `cosim_launch` (what `scripts/cosim run` calls) on shipped scenarios and on
+// broken ones. Every run writes summary.json and history.csv; bad input exits 2 before any
+// computation with a message naming the place, the value and what is expected.
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "run_summary.pb.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code = -1;
+  std::string output;
+};
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("cosim_test_" + std::to_string(getpid())) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+Result Launch(const std::string& arguments) {
+  const fs::path log = TempDir("log") / "out.txt";
+  const std::string command = std::string(COSIM_BIN_DIR) + "/cosim_launch " + arguments + " > " + log.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  return Result{WIFEXITED(status) ? WEXITSTATUS(status) : -1, Slurp(log)};
+}
+
+cosim::run::RunSummary ReadSummary(const fs::path& folder) {
+  cosim::run::RunSummary summary;
+  const auto status = google::protobuf::util::JsonStringToMessage(Slurp(folder / "summary.json"), &summary);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  return summary;
+}
+
+const std::string kScenarios = std::string(COSIM_SOURCE_DIR) + "/scenarios";
+
+TEST(RunContract, EveryShippedScenarioRunsAndWritesTheContractFiles) {
+  // Each scenario in scenarios/ must finish with exit 0 and write a summary whose step count
+  // and end time match its numerics, and a history with one row per output step at 17 digits.
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(kScenarios)) {
+    if (entry.path().extension() != ".pbtxt") continue;
+    ++count;
+    const fs::path out = TempDir(entry.path().stem().string());
+    const Result r = Launch(entry.path().string() + " --out " + out.string());
+    ASSERT_EQ(r.code, 0) << entry.path() << "\n" << r.output;
+    const cosim::run::RunSummary s = ReadSummary(out);
+    EXPECT_EQ(s.status(), "ok");
+    EXPECT_EQ(s.exit_code(), 0);
+    EXPECT_GT(s.steps(), 0);
+    EXPECT_GT(s.wall_time(), 0.0);
+    EXPECT_TRUE(s.has_numerics() && s.numerics().has_step());
+    std::ifstream history(out / "history.csv");
+    std::string header, line, last;
+    std::getline(history, header);
+    EXPECT_EQ(header.rfind("time,", 0), 0u) << header;
+    long rows = 0;
+    while (std::getline(history, line)) {
+      ++rows;
+      last = line;
+    }
+    EXPECT_GE(rows, 2);
+    EXPECT_DOUBLE_EQ(std::stod(last.substr(0, last.find(','))), s.simulated_time());
+    EXPECT_TRUE(fs::exists(out / "log.txt"));
+  }
+  EXPECT_GE(count, 1);
+}
+
+TEST(RunContract, BouncingBallSummaryAndOverrides) {
+  // 10 s at h = 0.005 is exactly 2000 steps; --set changes the step and is recorded.
+  const fs::path out = TempDir("ball_set");
+  const Result r = Launch(kScenarios + "/bouncing_ball.pbtxt --out " + out.string() + " --set numerics.step=0.01");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.steps(), 1000);
+  EXPECT_DOUBLE_EQ(s.simulated_time(), 10.0);
+  ASSERT_EQ(s.overrides_size(), 1);
+  EXPECT_EQ(s.overrides(0), "numerics.step=0.01");
+  EXPECT_DOUBLE_EQ(s.numerics().nonsmooth().theta(), 0.5);  // defaults are written out
+  EXPECT_EQ(s.scenario(), "bouncing_ball");
+  // The history's values are written with 17 significant digits.
+  std::ifstream history(out / "history.csv");
+  std::string line;
+  std::getline(history, line);
+  std::getline(history, line);
+  std::getline(history, line);
+  EXPECT_GE(line.size(), 40u) << line;
+}
+
+// A broken scenario: a base that runs, with one change applied by text replacement.
+struct BadInput {
+  std::string name;
+  std::string from, to;           // replacement in the bouncing ball scenario ("" = none)
+  std::string extra_arguments;    // after the scenario and --out
+  std::vector<std::string> expect;  // substrings of the error message
+};
+
+class BadInputTest : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(BadInputTest, ExitsTwoNamingThePlace) {
+  const BadInput& c = GetParam();
+  const fs::path dir = TempDir("bad_" + c.name);
+  std::string text = Slurp(kScenarios + "/bouncing_ball.pbtxt");
+  if (!c.from.empty()) {
+    const size_t at = text.find(c.from);
+    ASSERT_NE(at, std::string::npos) << "test setup: '" << c.from << "' not in the scenario";
+    text.replace(at, c.from.size(), c.to);
+  }
+  const fs::path file = dir / "broken.pbtxt";
+  std::ofstream(file) << text;
+  const Result r = Launch(file.string() + " --out " + (dir / "out").string() + " " + c.extra_arguments);
+  EXPECT_EQ(r.code, 2) << r.output;
+  for (const std::string& s : c.expect) EXPECT_NE(r.output.find(s), std::string::npos) << "expected '" << s << "' in:\n" << r.output;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Scenarios, BadInputTest,
+    ::testing::Values(
+        BadInput{"syntax", "mass: 1", "mass: = 1", "", {"broken.pbtxt:17:", "Expected"}},
+        BadInput{"unknown_field", "mass: 1", "masss: 1", "", {"broken.pbtxt:17:5", "masss"}},
+        BadInput{"zero_mass", "mass: 1", "mass: 0", "",
+                 {"broken.pbtxt:17:5", "model.contact_nodes[0].mass", "must be positive (kg), got 0"}},
+        BadInput{"negative_step", "step: 0.005", "step: -0.005", "",
+                 {"numerics.step", "must be positive (s), got -0.005"}},
+        BadInput{"end_before_start", "end_time: 10", "end_time: 10 start_time: 20", "",
+                 {"numerics.end_time", "must be after start_time = 20 s, got 10"}},
+        BadInput{"restitution", "restitution: 0.9", "restitution: 1.3", "",
+                 {"broken.pbtxt:19:", "restitution", "must be in [0, 1], got 1.3"}},
+        BadInput{"zero_normal", "normal: [0, 0, 1]", "normal: [0, 0, 0]", "",
+                 {"model.obstacles[0].normal", "non-zero direction"}},
+        BadInput{"missing_obstacle", "obstacle: \"ground\"", "obstacle: \"floor\"", "",
+                 {"model.contact_nodes[0].contacts[0].obstacle", "no obstacle named 'floor'; known: ground"}},
+        BadInput{"theta", "theta: 0.5", "theta: 1.5", "", {"numerics.nonsmooth.theta", "must be in (0, 1], got 1.5"}},
+        BadInput{"unknown_probe_entity", "entity: \"ball\" component: Z }", "entity: \"bal\" component: Z }", "",
+                 {"output.probes[0].entity", "no contact node named 'bal'"}},
+        BadInput{"duplicate_probe", "name: \"vz\"", "name: \"z\"", "", {"output.probes[1].name", "already used"}},
+        BadInput{"unwritable_out", "", "", "--out /proc/cosim_cannot_write",
+                 {"/proc/cosim_cannot_write", "cannot create the output folder"}},
+        BadInput{"bad_set", "", "", "--set numerics.stepp=1", {"--set numerics.stepp=1", "has no field 'stepp'"}},
+        BadInput{"set_value", "", "", "--set model.contact_nodes[ball].mass=-2",
+                 {"--set model.contact_nodes[ball].mass=-2", "must be positive (kg), got -2"}},
+        BadInput{"unknown_option", "", "", "--fast", {"unknown option '--fast'"}},
+        BadInput{"missing_body", "contact_nodes {",
+                 "bodies { name: \"arm\" mass: 1 inertia: [1, 1, 1] }\n  joints { name: \"j\" type: REVOLUTE "
+                 "body1: \"ground\" body2: \"hub\" point: [0, 0, 0] axis: [0, 0, 1] }\n  contact_nodes {",
+                 "", {"model.joints[0].body2", "no body named 'hub'"}},
+        BadInput{"friction_not_yet", "restitution: 0.9", "restitution: 0.9 friction: -1", "",
+                 {"friction", "must be >= 0"}}),
+    [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
+
+TEST(RunContract, BadInputStillWritesAFailedSummary) {
+  // A run that fails on its input leaves summary.json with status "failed", exit code 2 and
+  // the reason, so a study records the failure as a data point.
+  const fs::path out = TempDir("failed_summary");
+  const Result r = Launch(kScenarios + "/bouncing_ball.pbtxt --out " + out.string() + " --set numerics.step=0");
+  ASSERT_EQ(r.code, 2) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.status(), "failed");
+  EXPECT_EQ(s.exit_code(), 2);
+  EXPECT_NE(s.reason().find("numerics.step"), std::string::npos) << s.reason();
+  EXPECT_TRUE(fs::exists(out / "history.csv"));
+}
+
+TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
+  // In the wedge the two contact normals are not orthogonal, so one projected Gauss–Seidel
+  // sweep cannot solve the size-2 LCP when the node reaches both planes (about t = 0.4 s):
+  // with PGS capped at one iteration and a 1e-14 tolerance the run stops with exit 3, and
+  // history.csv keeps every row before it.
+  const fs::path out = TempDir("numerical_failure");
+  const Result r = Launch(kScenarios + "/wedge.pbtxt --out " + out.string() +
+                       " --set numerics.nonsmooth.lcp.solver=PGS --set numerics.nonsmooth.lcp.max_iterations=1"
+                       " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set output.every=1");
+  ASSERT_EQ(r.code, 3) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.status(), "failed");
+  EXPECT_NE(s.reason().find("LCP"), std::string::npos) << s.reason();
+  EXPECT_GT(s.steps(), 50);
+  std::ifstream history(out / "history.csv");
+  long rows = -1;
+  std::string line;
+  while (std::getline(history, line)) ++rows;
+  EXPECT_EQ(rows, s.steps() + 1);  // the initial row plus one per accepted step
+}
+
+}  // namespace

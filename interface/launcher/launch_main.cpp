@@ -17,8 +17,9 @@ int main(int argc, char** argv) {
     std::cout << interface::Usage("cosim run");
     return 0;
   }
+  interface::CommandLine cli;
   try {
-    const interface::CommandLine cli = interface::ParseCommandLine(arguments);
+    cli = interface::ParseCommandLine(arguments);
     const auto file = interface::ScenarioFile::Load(cli.scenario, cli.sets);
     interface::ValidateTimeSpan(file);
     const auto plan = interface::PlanProcesses(file, arguments);
@@ -26,6 +27,7 @@ int main(int argc, char** argv) {
     return interface::RunProcesses(bin_dir, plan);
   } catch (const Error& e) {
     std::cerr << "cosim run: error: " << e.what() << "\n";
+    if (e.code() == ExitCode::kBadInput) interface::WriteInputFailureSummary("cosim run", cli, e.what());
     return static_cast<int>(e.code());
   }
 }

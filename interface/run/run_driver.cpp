@@ -86,6 +86,19 @@ double Seconds(std::chrono::steady_clock::duration d) { return std::chrono::dura
 
 }  // namespace
 
+void WriteInputFailureSummary(const std::string& program, const CommandLine& cli, const std::string& reason) {
+  if (cli.out.empty()) return;
+  try {
+    RunOutput failed(cli.out, {});
+    failed.summary().set_program(program);
+    failed.summary().set_scenario_file(cli.scenario);
+    for (const auto& s : cli.sets) failed.summary().add_overrides(s);
+    failed.Finish(ExitCode::kBadInput, reason);
+  } catch (const Error&) {
+    // The folder itself is the problem; the caller has reported the error.
+  }
+}
+
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory) {
   const auto wall_start = std::chrono::steady_clock::now();
   std::vector<std::string> arguments(argv + 1, argv + argc);
@@ -115,17 +128,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
                                          simulation->ProbeNames());
   } catch (const InputError& e) {
     std::cerr << program << ": error: " << e.what() << "\n";
-    if (!cli.out.empty()) {
-      try {
-        RunOutput failed(cli.out, {});
-        failed.summary().set_program(program);
-        failed.summary().set_scenario_file(cli.scenario);
-        for (const auto& s : cli.sets) failed.summary().add_overrides(s);
-        failed.Finish(ExitCode::kBadInput, e.what());
-      } catch (const Error&) {
-        // The folder itself is the problem; the message above says so.
-      }
-    }
+    WriteInputFailureSummary(program, cli, e.what());
     return static_cast<int>(ExitCode::kBadInput);
   }
 

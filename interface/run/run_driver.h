@@ -47,6 +47,12 @@ class Simulation {
 
 using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&)>;
 
+// For a run that ends on bad input before its first step: if the command line named an
+// output folder, writes summary.json (status failed, exit code 2, the reason) and an empty
+// history.csv there, so that a study records the failure. Best effort: a folder that cannot
+// be written is itself the error already reported.
+void WriteInputFailureSummary(const std::string& program, const CommandLine& cli, const std::string& reason);
+
 // main() of a solver executable. Returns the process exit code.
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory);
 

@@ -188,7 +188,7 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
                          " elements and none matches [" + segment.key +
                          "] (give a 0-based index or the element's name)");
       }
-      normalised += "[" + std::to_string(index) + "]";
+      normalised.append("[").append(std::to_string(index)).append("]");  // (not a + chain: GCC 12 -Wrestrict false positive)
     } else if (field->is_repeated() && !last) {
       throw InputError(context + ": '" + segment.field + "' is repeated; say which element, e.g. " +
                        segment.field + "[0]");

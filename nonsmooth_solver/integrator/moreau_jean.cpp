@@ -84,7 +84,7 @@ void MoreauJean::Step(double t, double h) {
     const Obstacle& ob = model_.obstacles[static_cast<size_t>(ct.obstacle)];
     const Eigen::Vector3d x = q_.segment<3>(3 * ct.node);
     const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x);
-    if (ob.Gap(t, x) + 0.5 * h * u0 <= 0.0) active_.push_back(static_cast<int>(c));
+    if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) active_.push_back(static_cast<int>(c));
   }
   impulse_.setZero();
   stats_.last_step_active = static_cast<int>(active_.size());

@@ -11,8 +11,9 @@
 //   u = Hᵀ v + b(t, q)  (b: the plane's own motion)
 //   0 <= u_{k+1} + e u_k ⟂ r >= 0,  u_{k+1} = W r + u_free  Eq. (2), (5), W = Hᵀ M̂⁻¹ H
 //   q_{k+1} = q_k + h(θ v_{k+1} + (1−θ) v_k)               Eq. (3b)
-// A contact enters the LCP when its predicted gap g_k + (h/2) u_k is <= 0 (the index set of
-// the NSCD method, as in Siconos' MoreauJeanOSI with γ = 1/2).
+// A contact enters the LCP when its predicted gap g_k + (h/2) u_k is at most the model's
+// activation_gap (the index set of the NSCD method, as in Siconos' MoreauJeanOSI with
+// γ = 1/2; the small positive threshold keeps resting contacts active through round-off).
 #include <Eigen/Core>
 
 #include "nonsmooth_solver/model/contact_model.h"

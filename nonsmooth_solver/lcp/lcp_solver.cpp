@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstdio>
 #include <cstring>
 
 extern "C" {
@@ -126,8 +127,18 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
 }
 
 bool ReadSiconosLcpFile(const std::string& path, Eigen::MatrixXd* M, Eigen::VectorXd* q) {
+  // Siconos' reader exit()s on a missing file and returns 1 on success: check first, then
+  // judge by what it filled in.
+  if (std::FILE* f = std::fopen(path.c_str(), "r")) {
+    std::fclose(f);
+  } else {
+    return false;
+  }
   LinearComplementarityProblem* lcp = newLCP();
-  if (linearComplementarity_newFromFilename(lcp, path.c_str()) != 0 || lcp->M == nullptr) {
+  lcp->M = nullptr;
+  lcp->q = nullptr;
+  linearComplementarity_newFromFilename(lcp, path.c_str());
+  if (lcp->M == nullptr || lcp->q == nullptr || lcp->size <= 0 || lcp->M->size0 != lcp->size) {
     freeLinearComplementarityProblem(lcp);
     return false;
   }

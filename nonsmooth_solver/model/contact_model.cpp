@@ -208,6 +208,7 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file) {
 
   const sc::NonsmoothSettings& ns = s.numerics().nonsmooth();
   model.theta = checks.InRange("numerics.nonsmooth.theta", true, ns.theta(), 0.0, 1.0, /*lo_open=*/true);
+  model.activation_gap = checks.NonNegative("numerics.nonsmooth.activation_gap", ns.activation_gap(), "m");
   const sc::LcpSettings& lcp = ns.lcp();
   model.lcp.algorithm = ToAlgorithm(checks, "numerics.nonsmooth.lcp.solver", lcp.solver());
   model.lcp.tolerance = checks.Positive("numerics.nonsmooth.lcp.tolerance", true, lcp.tolerance(), "dimensionless");

@@ -74,6 +74,8 @@ struct ContactModel {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   // θ of the Moreau–Jean scheme, Eq. (3a)-(3b) of the rotor-sailing paper; (0, 1].
   double theta = 0.5;
+  // Predicted gap [m] at or below which a contact enters the LCP.
+  double activation_gap = 1e-10;
   LcpOptions lcp;
 };
 

@@ -107,17 +107,22 @@ TEST(RunContract, BouncingBallSummaryAndOverrides) {
 // A broken scenario: a base that runs, with one change applied by text replacement.
 struct BadInput {
   std::string name;
+  std::string base;               // scenario file the change is applied to
   std::string from, to;           // replacement in the bouncing ball scenario ("" = none)
   std::string extra_arguments;    // after the scenario and --out
   std::vector<std::string> expect;  // substrings of the error message
 };
+void PrintTo(const BadInput& c, std::ostream* os) { *os << c.name; }
+
+const std::string kBall = kScenarios + "/bouncing_ball.pbtxt";
+const std::string kPendulum = std::string(COSIM_SOURCE_DIR) + "/tests/data/rigid_pendulum.pbtxt";
 
 class BadInputTest : public ::testing::TestWithParam<BadInput> {};
 
 TEST_P(BadInputTest, ExitsTwoNamingThePlace) {
   const BadInput& c = GetParam();
   const fs::path dir = TempDir("bad_" + c.name);
-  std::string text = Slurp(kScenarios + "/bouncing_ball.pbtxt");
+  std::string text = Slurp(c.base);
   if (!c.from.empty()) {
     const size_t at = text.find(c.from);
     ASSERT_NE(at, std::string::npos) << "test setup: '" << c.from << "' not in the scenario";
@@ -133,35 +138,36 @@ TEST_P(BadInputTest, ExitsTwoNamingThePlace) {
 INSTANTIATE_TEST_SUITE_P(
     Scenarios, BadInputTest,
     ::testing::Values(
-        BadInput{"syntax", "mass: 1", "mass: = 1", "", {"broken.pbtxt:17:", "Expected"}},
-        BadInput{"unknown_field", "mass: 1", "masss: 1", "", {"broken.pbtxt:17:5", "masss"}},
-        BadInput{"zero_mass", "mass: 1", "mass: 0", "",
+        BadInput{"syntax", kBall, "mass: 1", "mass: = 1", "", {"broken.pbtxt:17:", "Expected"}},
+        BadInput{"unknown_field", kBall, "mass: 1", "masss: 1", "", {"broken.pbtxt:17:", "no field named \"masss\""}},
+        BadInput{"zero_mass", kBall, "mass: 1", "mass: 0", "",
                  {"broken.pbtxt:17:5", "model.contact_nodes[0].mass", "must be positive (kg), got 0"}},
-        BadInput{"negative_step", "step: 0.005", "step: -0.005", "",
+        BadInput{"negative_step", kBall, "step: 0.005", "step: -0.005", "",
                  {"numerics.step", "must be positive (s), got -0.005"}},
-        BadInput{"end_before_start", "end_time: 10", "end_time: 10 start_time: 20", "",
+        BadInput{"end_before_start", kBall, "end_time: 10", "end_time: 10 start_time: 20", "",
                  {"numerics.end_time", "must be after start_time = 20 s, got 10"}},
-        BadInput{"restitution", "restitution: 0.9", "restitution: 1.3", "",
+        BadInput{"restitution", kBall, "restitution: 0.9", "restitution: 1.3", "",
                  {"broken.pbtxt:19:", "restitution", "must be in [0, 1], got 1.3"}},
-        BadInput{"zero_normal", "normal: [0, 0, 1]", "normal: [0, 0, 0]", "",
+        BadInput{"zero_normal", kBall, "normal: [0, 0, 1]", "normal: [0, 0, 0]", "",
                  {"model.obstacles[0].normal", "non-zero direction"}},
-        BadInput{"missing_obstacle", "obstacle: \"ground\"", "obstacle: \"floor\"", "",
+        BadInput{"missing_obstacle", kBall, "obstacle: \"ground\"", "obstacle: \"floor\"", "",
                  {"model.contact_nodes[0].contacts[0].obstacle", "no obstacle named 'floor'; known: ground"}},
-        BadInput{"theta", "theta: 0.5", "theta: 1.5", "", {"numerics.nonsmooth.theta", "must be in (0, 1], got 1.5"}},
-        BadInput{"unknown_probe_entity", "entity: \"ball\" component: Z }", "entity: \"bal\" component: Z }", "",
+        BadInput{"theta", kBall, "theta: 0.5", "theta: 1.5", "", {"numerics.nonsmooth.theta", "must be in (0, 1], got 1.5"}},
+        BadInput{"unknown_probe_entity", kBall, "entity: \"ball\" component: Z }", "entity: \"bal\" component: Z }", "",
                  {"output.probes[0].entity", "no contact node named 'bal'"}},
-        BadInput{"duplicate_probe", "name: \"vz\"", "name: \"z\"", "", {"output.probes[1].name", "already used"}},
-        BadInput{"unwritable_out", "", "", "--out /proc/cosim_cannot_write",
+        BadInput{"duplicate_probe", kBall, "name: \"vz\"", "name: \"z\"", "", {"output.probes[1].name", "already used"}},
+        BadInput{"unwritable_out", kBall, "", "", "--out /proc/cosim_cannot_write",
                  {"/proc/cosim_cannot_write", "cannot create the output folder"}},
-        BadInput{"bad_set", "", "", "--set numerics.stepp=1", {"--set numerics.stepp=1", "has no field 'stepp'"}},
-        BadInput{"set_value", "", "", "--set model.contact_nodes[ball].mass=-2",
+        BadInput{"bad_set", kBall, "", "", "--set numerics.stepp=1", {"--set numerics.stepp=1", "has no field 'stepp'"}},
+        BadInput{"set_value", kBall, "", "", "--set model.contact_nodes[ball].mass=-2",
                  {"--set model.contact_nodes[ball].mass=-2", "must be positive (kg), got -2"}},
-        BadInput{"unknown_option", "", "", "--fast", {"unknown option '--fast'"}},
-        BadInput{"missing_body", "contact_nodes {",
-                 "bodies { name: \"arm\" mass: 1 inertia: [1, 1, 1] }\n  joints { name: \"j\" type: REVOLUTE "
-                 "body1: \"ground\" body2: \"hub\" point: [0, 0, 0] axis: [0, 0, 1] }\n  contact_nodes {",
-                 "", {"model.joints[0].body2", "no body named 'hub'"}},
-        BadInput{"friction_not_yet", "restitution: 0.9", "restitution: 0.9 friction: -1", "",
+        BadInput{"unknown_option", kBall, "", "", "--fast", {"unknown option '--fast'"}},
+        BadInput{"missing_body", kPendulum, "body2: \"arm\"", "body2: \"hub\"", "",
+                 {"broken.pbtxt:11:5", "model.joints[0].body2", "no body named 'hub'; known: arm"}},
+        BadInput{"drive_units", kPendulum, "axis: [0, 1, 0]",
+                 "axis: [0, 1, 0]\n    drive { quantity: SPEED function { constant: 1 } }", "",
+                 {"model.joints[0].drive.quantity", "a revolute joint's coordinate is an angle [rad]; SPEED"}},
+        BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
                  {"friction", "must be >= 0"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
 

@@ -93,7 +93,8 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
   }
   // Siconos takes ownership of M's storage and q (freed by freeLinearComplementarityProblem).
   NumericsMatrix* matrix = NM_create(NM_DENSE, n, n);
-  std::memcpy(matrix->matrix0, M.data(), sizeof(double) * static_cast<size_t>(n) * static_cast<size_t>(n));
+  // Column-major copy that respects M's outer stride (M is often a corner of a larger workspace).
+  Eigen::Map<Eigen::MatrixXd>(matrix->matrix0, n, n) = M;
   LinearComplementarityProblem* lcp = newLCP();
   lcp->size = n;
   lcp->M = matrix;

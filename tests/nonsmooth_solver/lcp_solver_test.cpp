@@ -27,6 +27,21 @@ TEST(LcpSolver, SolvesAContactPairExactly) {
   EXPECT_NEAR((z - expected).norm(), 0.0, 1e-14);
 }
 
+TEST(LcpSolver, SolvesACornerOfALargerWorkspace) {
+  // The integrator passes the top-left n×n corner of a workspace sized for every contact:
+  // the matrix's columns are then not contiguous, and the solve must see the corner, not the
+  // first n² numbers of the workspace. Diagonal M: z = −q/diag where q < 0, else 0.
+  Eigen::MatrixXd workspace = Eigen::MatrixXd::Constant(4, 4, 7.0);
+  workspace.topLeftCorner(2, 2) << 2, 0, 0, 4;
+  Eigen::VectorXd q(2), z(2);
+  q << -1, -2;
+  LcpSolver solver({});
+  const LcpResult r = solver.Solve(workspace.topLeftCorner(2, 2), q, z);
+  ASSERT_TRUE(r.solved) << r.message;
+  EXPECT_NEAR(z(0), 0.5, 1e-15);
+  EXPECT_NEAR(z(1), 0.5, 1e-15);
+}
+
 TEST(LcpSolver, NonNegativeQGivesZeroWithoutASolve) {
   // z = 0, w = q >= 0 is complementary: the trivial case needs no pivoting.
   Eigen::MatrixXd M = Eigen::MatrixXd::Identity(3, 3);

@@ -28,8 +28,17 @@ std::string Slurp(const fs::path& path) {
   return s.str();
 }
 
+fs::path TestRoot() { return fs::temp_directory_path() / ("cosim_test_" + std::to_string(getpid())); }
+
+// Removes this process's scratch folders when the tests end.
+class ScratchCleanup : public ::testing::Environment {
+ public:
+  void TearDown() override { fs::remove_all(TestRoot()); }
+};
+const auto* const kCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
 fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("cosim_test_" + std::to_string(getpid())) / name;
+  const fs::path dir = TestRoot() / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -167,9 +176,38 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"drive_units", kPendulum, "axis: [0, 1, 0]",
                  "axis: [0, 1, 0]\n    drive { quantity: SPEED function { constant: 1 } }", "",
                  {"model.joints[0].drive.quantity", "a revolute joint's coordinate is an angle [rad]; SPEED"}},
+        BadInput{"unknown_solver", kBall, "solver: LEMKE", "solver: FAST", "",
+                 {"broken.pbtxt:", "Unknown enumeration value of \"FAST\""}},
         BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
                  {"friction", "must be >= 0"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
+
+TEST(RunContract, ScriptPassesExitCodesOn) {
+  // `scripts/cosim run` is what users type: it must hand the launcher's exit code back
+  // unchanged (0 for a good run, 2 for bad input), using the build under test.
+  const fs::path out = TempDir("script");
+  const std::string prefix = "COSIM_SKIP_BUILD=1 COSIM_BUILD_DIR=" + std::string(COSIM_BIN_DIR) + "/.. " +
+                             std::string(COSIM_SOURCE_DIR) + "/scripts/cosim run ";
+  auto code_of = [](const std::string& command) {
+    const int status = std::system((command + " > /dev/null 2>&1").c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  EXPECT_EQ(code_of(prefix + kBall + " --out " + (out / "ok").string() + " --set numerics.end_time=0.1"), 0);
+  EXPECT_EQ(code_of(prefix + kBall + " --out " + (out / "bad").string() + " --set numerics.step=-1"), 2);
+  EXPECT_TRUE(fs::exists(out / "ok" / "summary.json"));
+}
+
+TEST(RunContract, ContactSolverLinksSiconosBuiltFromSource) {
+  // The project links Siconos Numerics built from Debian's source package into the cache,
+  // never a Debian binary package's copy (which may also be installed, e.g. by python3-siconos).
+  const fs::path log = TempDir("ldd") / "ldd.txt";
+  ASSERT_EQ(std::system(("ldd " + std::string(COSIM_BIN_DIR) + "/nonsmooth_solver > " + log.string()).c_str()), 0);
+  const std::string text = Slurp(log);
+  const size_t at = text.find("libsiconos_numerics");
+  ASSERT_NE(at, std::string::npos) << text;
+  const std::string line = text.substr(at, text.find('\n', at) - at);
+  EXPECT_NE(line.find(SICONOS_NUMERICS_ROOT), std::string::npos) << line;
+}
 
 TEST(RunContract, BadInputStillWritesAFailedSummary) {
   // A run that fails on its input leaves summary.json with status "failed", exit code 2 and

@@ -74,6 +74,15 @@ std::string Checks::Name(const std::string& path, bool has, const std::string& v
   return value;
 }
 
+std::string ElementPath(const std::string& list, int index) {
+  return list + "[" + std::to_string(index) + "]";
+}
+
+std::string NameTable::Declare(const std::string& path, bool has, const std::string& name) {
+  Add(path, checks_.Name(path, has, name));
+  return name;
+}
+
 void NameTable::Add(const std::string& path, const std::string& name) {
   if (index_.count(name) != 0) {
     checks_.Fail(path, kind_ + " name '" + name + "' is already used by " + where_[name] + "; names must be unique");

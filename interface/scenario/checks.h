@@ -16,6 +16,10 @@ namespace cosim::interface {
 // Shortest text that reads back to the same double.
 std::string FormatNumber(double value);
 
+// The field path of element `index` of a repeated field: ElementPath("model.bodies", 2) is
+// "model.bodies[2]".
+std::string ElementPath(const std::string& list, int index);
+
 class Checks {
  public:
   explicit Checks(const ScenarioFile& file) : file_(file) {}
@@ -47,6 +51,8 @@ class NameTable {
  public:
   NameTable(const Checks& checks, std::string kind) : checks_(checks), kind_(std::move(kind)) {}
   void Add(const std::string& path, const std::string& name);
+  // Checks the name field at `path` (Checks::Name), adds it, and returns it.
+  std::string Declare(const std::string& path, bool has, const std::string& name);
   bool Contains(const std::string& name) const { return index_.count(name) != 0; }
   // Index of `name`, or InputError at `path` listing the known names.
   int Find(const std::string& path, const std::string& name) const;

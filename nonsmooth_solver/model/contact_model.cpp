@@ -9,6 +9,7 @@
 namespace cosim::nonsmooth {
 
 using interface::Checks;
+using interface::ElementPath;
 using interface::FormatNumber;
 using interface::NameTable;
 namespace sc = cosim::scenario;
@@ -28,8 +29,6 @@ double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x) const {
 
 namespace {
 
-std::string At(const std::string& list, int i) { return list + "[" + std::to_string(i) + "]"; }
-
 LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpSettings::Solver solver) {
   switch (solver) {
     case sc::LcpSettings::LEMKE: return LcpAlgorithm::kLemke;
@@ -44,10 +43,9 @@ LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpS
 void BuildObstacles(const Checks& checks, const sc::Model& model, ContactModel* out, NameTable* names) {
   for (int i = 0; i < model.obstacles_size(); ++i) {
     const sc::Obstacle& o = model.obstacles(i);
-    const std::string path = At("model.obstacles", i);
+    const std::string path = ElementPath("model.obstacles", i);
     Obstacle obstacle;
-    obstacle.name = checks.Name(path + ".name", o.has_name(), o.name());
-    names->Add(path + ".name", obstacle.name);
+    obstacle.name = names->Declare(path + ".name", o.has_name(), o.name());
     obstacle.point = checks.Vector3(path + ".point", o.point(), std::nullopt);
     obstacle.normal = checks.Direction(path + ".normal", o.normal());
     if (o.has_prescribed()) {
@@ -73,10 +71,9 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
                 NameTable* names) {
   for (int i = 0; i < model.contact_nodes_size(); ++i) {
     const sc::ContactNode& n = model.contact_nodes(i);
-    const std::string path = At("model.contact_nodes", i);
+    const std::string path = ElementPath("model.contact_nodes", i);
     ContactNode node;
-    node.name = checks.Name(path + ".name", n.has_name(), n.name());
-    names->Add(path + ".name", node.name);
+    node.name = names->Declare(path + ".name", n.has_name(), n.name());
     node.mass = checks.Positive(path + ".mass", n.has_mass(), n.mass(), "kg");
     node.position = checks.Vector3(path + ".position", n.position(), std::nullopt);
     node.velocity = checks.Vector3(path + ".velocity", n.velocity(), Eigen::Vector3d::Zero());
@@ -89,7 +86,7 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
       }
       for (int c = 0; c < 3; ++c) {
         node.force_function[static_cast<size_t>(c)] =
-            TimeFunction::Build(checks, At(path + ".force_function", c), n.force_function(c));
+            TimeFunction::Build(checks, ElementPath(path + ".force_function", c), n.force_function(c));
       }
       node.has_time_force = true;
     }
@@ -103,7 +100,7 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
     std::set<int> seen;
     for (int j = 0; j < n.contacts_size(); ++j) {
       const sc::ContactNode::Contact& c = n.contacts(j);
-      const std::string cpath = At(path + ".contacts", j);
+      const std::string cpath = ElementPath(path + ".contacts", j);
       Contact contact;
       contact.node = i;
       checks.Require(cpath + ".obstacle", c.has_obstacle(), "the name of an obstacle");
@@ -149,11 +146,10 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
   NameTable probe_names(checks, "probe");
   for (int i = 0; i < output.probes_size(); ++i) {
     const sc::Probe& p = output.probes(i);
-    const std::string path = At("output.probes", i);
+    const std::string path = ElementPath("output.probes", i);
     Probe probe;
-    probe.name = checks.Name(path + ".name", p.has_name(), p.name());
-    if (probe.name == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
-    probe_names.Add(path + ".name", probe.name);
+    if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
+    probe.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
     const std::string entity = p.entity();
     auto node_entity = [&]() { return node_names.Find(path + ".entity", entity); };
     auto contact_entity = [&]() {

@@ -7,13 +7,12 @@
 namespace cosim::smooth {
 
 using interface::Checks;
+using interface::ElementPath;
 using interface::FormatNumber;
 using interface::NameTable;
 namespace sc = cosim::scenario;
 
 namespace {
-
-std::string At(const std::string& list, int i) { return list + "[" + std::to_string(i) + "]"; }
 
 Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const google::protobuf::RepeatedField<double>& v) {
   Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
@@ -46,11 +45,10 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
   NameTable body_names(checks, "body");
   for (int i = 0; i < m.bodies_size(); ++i) {
     const sc::RigidBody& b = m.bodies(i);
-    const std::string path = At("model.bodies", i);
+    const std::string path = ElementPath("model.bodies", i);
     RigidBody body;
-    body.name = checks.Name(path + ".name", b.has_name(), b.name());
-    if (body.name == "ground") checks.Fail(path + ".name", "'ground' is the fixed frame; choose another name");
-    body_names.Add(path + ".name", body.name);
+    if (b.name() == "ground") checks.Fail(path + ".name", "'ground' is the fixed frame; choose another name");
+    body.name = body_names.Declare(path + ".name", b.has_name(), b.name());
     body.mass = checks.Positive(path + ".mass", b.has_mass(), b.mass(), "kg");
     body.inertia = Inertia(checks, path + ".inertia", b.inertia());
     body.position = checks.Vector3(path + ".position", b.position(), Eigen::Vector3d::Zero());
@@ -69,10 +67,9 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
   NameTable joint_names(checks, "joint");
   for (int i = 0; i < m.joints_size(); ++i) {
     const sc::Joint& j = m.joints(i);
-    const std::string path = At("model.joints", i);
+    const std::string path = ElementPath("model.joints", i);
     Joint joint;
-    joint.name = checks.Name(path + ".name", j.has_name(), j.name());
-    joint_names.Add(path + ".name", joint.name);
+    joint.name = joint_names.Declare(path + ".name", j.has_name(), j.name());
     switch (j.type()) {
       case sc::Joint::REVOLUTE: joint.type = JointType::kRevolute; break;
       case sc::Joint::PRISMATIC: joint.type = JointType::kPrismatic; break;

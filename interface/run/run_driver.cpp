@@ -65,8 +65,8 @@ TimeSpan ValidateTimeSpan(const ScenarioFile& file) {
   }
   span.step = checks.Positive("numerics.step", n.has_step(), n.step(), "s");
   const double count = (span.end - span.start) / span.step;
-  if (count > 1e10) {
-    checks.Fail("numerics.step", "gives " + FormatNumber(count) + " steps; more than 1e10 is not a sensible run");
+  if (count > 2e9) {
+    checks.Fail("numerics.step", "gives " + FormatNumber(count) + " steps; more than 2e9 is not a sensible run");
   }
   // A last step shorter than 1e-9 of a step is merged away (round-off of end/step).
   span.steps = static_cast<long long>(std::ceil(count - 1e-9));
@@ -179,10 +179,16 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     reason = "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) +
              " s: unexpected error: " + e.what();
   }
-  summary.set_steps(accepted);
+  summary.set_steps(static_cast<int>(accepted));
   summary.set_simulated_time(span.TimeAt(accepted));
   summary.set_step_wall_time(Seconds(step_time));
   simulation->FillSummary(&summary);
+  // Iteration statistics a solver does not report were not performed: write them as zeros
+  // so every summary has the same fields.
+  for (run::IterationStats* stats : {summary.mutable_newton_iterations(), summary.mutable_coupling_iterations(),
+                                     summary.mutable_lcp_iterations()}) {
+    if (!stats->has_total()) IterationCounter().Fill(stats);
+  }
   summary.set_wall_time(Seconds(std::chrono::steady_clock::now() - wall_start));
   if (code != ExitCode::kOk) {
     output->Log(program + ": error: " + reason);

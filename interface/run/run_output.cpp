@@ -2,7 +2,9 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <limits>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -11,9 +13,9 @@
 namespace cosim::interface {
 
 void IterationCounter::Fill(run::IterationStats* stats) const {
-  stats->set_total(total_);
+  stats->set_total(static_cast<double>(total_));
   stats->set_mean_per_step(steps_ > 0 ? static_cast<double>(total_) / static_cast<double>(steps_) : 0.0);
-  stats->set_max_per_step(max_);
+  stats->set_max_per_step(static_cast<int>(std::min<long long>(max_, std::numeric_limits<int>::max())));
 }
 
 RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& probe_names)

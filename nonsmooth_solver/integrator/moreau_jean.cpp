@@ -1,5 +1,7 @@
 #include "nonsmooth_solver/integrator/moreau_jean.h"
 
+#include <algorithm>
+
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 
@@ -116,6 +118,7 @@ void MoreauJean::Step(double t, double h) {
     ++stats_.lcp_solves;
     stats_.lcp_iterations += result.iterations;
     stats_.last_step_lcp_iterations = result.iterations;
+    stats_.max_step_lcp_iterations = std::max(stats_.max_step_lcp_iterations, result.iterations);
     if (result.used_fallback) ++stats_.lcp_fallbacks;
     if (!result.solved) {
       std::string names;

@@ -25,6 +25,7 @@ struct MoreauJeanStats {
   long long lcp_iterations = 0;   // summed Siconos iterations
   long long lcp_fallbacks = 0;
   long long activations = 0;      // contacts entering the index set
+  int max_step_lcp_iterations = 0;
   int last_step_lcp_iterations = 0;
   int last_step_active = 0;
 };

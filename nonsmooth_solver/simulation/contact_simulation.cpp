@@ -53,10 +53,11 @@ void ContactSimulation::FillSummary(run::RunSummary* summary) const {
   summary->mutable_numerics()->CopyFrom(numerics_);
   summary->set_max_constraint_violation(max_penetration_);
   auto* lcp = summary->mutable_lcp_iterations();
-  lcp->set_total(s.lcp_iterations);
+  lcp->set_total(static_cast<double>(s.lcp_iterations));
   lcp->set_mean_per_step(summary->steps() > 0 ? static_cast<double>(s.lcp_iterations) /
                                                     static_cast<double>(summary->steps())
                                               : 0.0);
+  lcp->set_max_per_step(s.max_step_lcp_iterations);
   auto& counters = *summary->mutable_counters();
   counters["lcp_solves"] = static_cast<double>(s.lcp_solves);
   counters["lcp_fallbacks"] = static_cast<double>(s.lcp_fallbacks);

@@ -342,3 +342,37 @@ TEST(MoreauJean, IndependentNodesOnlyTheTouchingOneFeelsAnImpulse) {
 
 }  // namespace
 }  // namespace cosim::nonsmooth
+
+namespace cosim::nonsmooth {
+namespace {
+
+TEST(MoreauJean, NodeIsCarriedByARisingPlane) {
+  // A floor rising at V = 0.5 m/s under a node at rest on it (e = 0). The plane's motion
+  // enters the gap rate as −n·V, so the first step's LCP lifts the node to exactly V (impulse
+  // m (V + g h)); afterwards it rides along with impulse m g h per step. The velocity-level
+  // scheme does not correct positions: the θ = 1/2 update leaves the node V h / 2 behind the
+  // plane after the first step, and that gap stays constant.
+  const std::string text = R"(
+    model {
+      gravity: [0, 0, -9.81]
+      obstacles { name: "lift" point: [0, 0, 0] normal: [0, 0, 1] prescribed { velocity: [0, 0, 0.5] } }
+      contact_nodes { name: "n" mass: 2 position: [0, 0, 0] contacts { obstacle: "lift" restitution: 0 } }
+    }
+    numerics { end_time: 1 step: 0.01 }
+  )";
+  const ContactModel model = BuildContactModel(interface::ScenarioFile::Parse(text, "lift", {}));
+  MoreauJean mj(model, 0.0);
+  const double h = 0.01, V = 0.5, m = 2.0;
+  mj.Step(0.0, h);
+  EXPECT_NEAR(mj.velocities()(2), V, 1e-14);
+  EXPECT_NEAR(mj.impulses()(0), m * (V + kG * h), 1e-13);
+  for (int k = 1; k < 100; ++k) {
+    mj.Step(static_cast<double>(k) * h, h);
+    ASSERT_NEAR(mj.velocities()(2), V, 1e-13) << "step " << k;
+    ASSERT_NEAR(mj.impulses()(0), m * kG * h, 1e-12) << "step " << k;
+    ASSERT_NEAR(mj.Gap(0), -V * h / 2.0, 1e-13) << "step " << k;
+  }
+}
+
+}  // namespace
+}  // namespace cosim::nonsmooth

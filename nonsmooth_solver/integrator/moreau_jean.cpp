@@ -79,14 +79,18 @@ void MoreauJean::Step(double t, double h) {
         m_hat;
   }
 
-  // Index set: contacts whose predicted gap closes within the step.
+  // Index set: contacts whose predicted gap closes within the step. u_k (the local velocity
+  // at the start of the step) is kept for Newton's law.
   active_.clear();
   for (size_t c = 0; c < model_.contacts.size(); ++c) {
     const Contact& ct = model_.contacts[c];
     const Obstacle& ob = model_.obstacles[static_cast<size_t>(ct.obstacle)];
     const Eigen::Vector3d x = q_.segment<3>(3 * ct.node);
     const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x);
-    if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) active_.push_back(static_cast<int>(c));
+    if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) {
+      q_lcp_(static_cast<Eigen::Index>(active_.size())) = ct.restitution * u0;
+      active_.push_back(static_cast<int>(c));
+    }
   }
   impulse_.setZero();
   stats_.last_step_active = static_cast<int>(active_.size());
@@ -94,22 +98,21 @@ void MoreauJean::Step(double t, double h) {
 
   const Eigen::Index na = static_cast<Eigen::Index>(active_.size());
   if (na > 0) {
-    // Delassus operator W = Hᵀ M̂⁻¹ H (Eq. (5)): contacts couple only through a shared node.
+    // Normals at t + h and the LCP's q = Hᵀ v_free + b + e u_k (Newton's law on
+    // w = u_{k+1} + e u_k, Eq. (2)); the plane's motion b evaluated at t + h.
     for (Eigen::Index a = 0; a < na; ++a) {
       const Contact& ca = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(a)])];
       const Obstacle& ob = model_.obstacles[static_cast<size_t>(ca.obstacle)];
-      const Eigen::Vector3d x = q_.segment<3>(3 * ca.node);
-      const Eigen::Vector3d x1 = x + h * v_.segment<3>(3 * ca.node);
-      const Eigen::Vector3d n1 = ob.NormalAt(t1);
-      normals_.col(a) = n1;
-      const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ca.node)) + ob.GapRateBias(t, x);
-      // Newton's law on the LCP's w = u_{k+1} + e u_k (Eq. (2)).
-      q_lcp_(a) = n1.dot(v_free_.segment<3>(3 * ca.node)) + ob.GapRateBias(t1, x1) + ca.restitution * u0;
+      const Eigen::Vector3d x1 = q_.segment<3>(3 * ca.node) + h * v_.segment<3>(3 * ca.node);
+      normals_.col(a) = ob.NormalAt(t1);
+      q_lcp_(a) += normals_.col(a).dot(v_free_.segment<3>(3 * ca.node)) + ob.GapRateBias(t1, x1);
+    }
+    // Delassus operator W = Hᵀ M̂⁻¹ H (Eq. (5)): contacts couple only through a shared node.
+    for (Eigen::Index a = 0; a < na; ++a) {
+      const int node_a = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(a)])].node;
       for (Eigen::Index b = 0; b < na; ++b) {
-        const Contact& cb = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(b)])];
-        W_(a, b) = ca.node == cb.node ? n1.dot(model_.obstacles[static_cast<size_t>(cb.obstacle)].NormalAt(t1)) /
-                                            mass_hat_(ca.node)
-                                      : 0.0;
+        const int node_b = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(b)])].node;
+        W_(a, b) = node_a == node_b ? normals_.col(a).dot(normals_.col(b)) / mass_hat_(node_a) : 0.0;
       }
     }
     auto W = W_.topLeftCorner(na, na);

@@ -5,9 +5,8 @@ namespace cosim::nonsmooth {
 ContactSimulation::ContactSimulation(const interface::ScenarioFile& file)
     : model_(std::make_unique<const ContactModel>(BuildContactModel(file))) {
   numerics_.CopyFrom(file.proto().numerics());
-  numerics_.clear_smooth();
   interface::MaterializeDefaults(&numerics_);
-  numerics_.clear_smooth();
+  numerics_.clear_smooth();  // settings of the other solver are not used here
   integrator_ = std::make_unique<MoreauJean>(*model_, numerics_.start_time());
 }
 
@@ -65,7 +64,5 @@ void ContactSimulation::FillSummary(run::RunSummary* summary) const {
   counters["contact_nodes"] = static_cast<double>(model_->nodes.size());
   counters["contacts"] = static_cast<double>(model_->contacts.size());
 }
-
-void ValidateScenario(const interface::ScenarioFile& file) { BuildContactModel(file); }
 
 }  // namespace cosim::nonsmooth

@@ -28,7 +28,4 @@ class ContactSimulation : public interface::Simulation {
   double max_penetration_ = 0.0;
 };
 
-// Builds and checks everything a standalone contact run needs (used before any step).
-void ValidateScenario(const interface::ScenarioFile& file);
-
 }  // namespace cosim::nonsmooth

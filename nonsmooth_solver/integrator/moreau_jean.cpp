@@ -1,11 +1,19 @@
 #include "nonsmooth_solver/integrator/moreau_jean.h"
 
 #include <algorithm>
+#include <cmath>
+#include <numbers>
 
 #include "interface/run/errors.h"
-#include "interface/scenario/checks.h"
+#include "nonsmooth_solver/lcp/friction_contact_solver.h"
 
 namespace cosim::nonsmooth {
+
+namespace {
+
+size_t Idx(int i) { return static_cast<size_t>(i); }
+
+}  // namespace
 
 MoreauJean::MoreauJean(const ContactModel& model, double start_time)
     : model_(model), lcp_(model.lcp), time_(start_time) {
@@ -14,29 +22,82 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
   q_.resize(3 * n);
   v_.resize(3 * n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    q_.segment<3>(3 * i) = model.nodes[static_cast<size_t>(i)].position;
-    v_.segment<3>(3 * i) = model.nodes[static_cast<size_t>(i)].velocity;
+    q_.segment<3>(3 * i) = model.nodes[Idx(static_cast<int>(i))].position;
+    v_.segment<3>(3 * i) = model.nodes[Idx(static_cast<int>(i))].velocity;
   }
   impulse_ = Eigen::VectorXd::Zero(nc);
+  friction_impulse_ = Eigen::MatrixXd::Zero(3, nc);
   external_ = Eigen::VectorXd::Zero(3 * n);
-  v_free_.resize(3 * n);
-  mass_hat_.resize(n);
-  active_.reserve(static_cast<size_t>(nc));
-  W_.resize(nc, nc);
-  q_lcp_.resize(nc);
-  z_.resize(nc);
-  normals_.resize(3, nc);
+
+  // Per group: masses, stiffness and damping matrices, constant spring forces.
+  const bool fc3d = model.friction_model == FrictionModel::kSiconosFc3d;
+  int total_columns = 0, total_lambdas = 0;
+  work_.resize(model.groups.size());
+  for (size_t g = 0; g < model.groups.size(); ++g) {
+    const NodeGroup& group = model.groups[g];
+    GroupWork& w = work_[g];
+    w.dofs = 3 * static_cast<int>(group.nodes.size());
+    w.mass.resize(w.dofs);
+    w.K = Eigen::MatrixXd::Zero(w.dofs, w.dofs);
+    w.C = Eigen::MatrixXd::Zero(w.dofs, w.dofs);
+    w.f_rest = Eigen::VectorXd::Zero(w.dofs);
+    for (size_t s = 0; s < group.nodes.size(); ++s) {
+      const ContactNode& node = model.nodes[Idx(group.nodes[s])];
+      const Eigen::Index o = 3 * static_cast<Eigen::Index>(s);
+      w.mass.segment<3>(o).setConstant(node.mass);
+      // Anchor spring: f = −k (x − a) − c ẋ.
+      w.K.block<3, 3>(o, o).diagonal().array() += node.stiffness;
+      w.C.block<3, 3>(o, o).diagonal().array() += node.damping;
+      w.f_rest.segment<3>(o) += node.stiffness * node.anchor;
+    }
+    for (const NodeSpring& spring : model.springs) {
+      if (model.node_group[Idx(spring.node1)] != static_cast<int>(g)) continue;
+      // f₁ = −k (x₁ − x₂ − r₀) − c (ẋ₁ − ẋ₂), f₂ = −f₁.
+      const Eigen::Index a = 3 * model.node_slot[Idx(spring.node1)];
+      const Eigen::Index b = 3 * model.node_slot[Idx(spring.node2)];
+      for (auto [M, value] : {std::pair{&w.K, spring.stiffness}, std::pair{&w.C, spring.damping}}) {
+        M->block<3, 3>(a, a).diagonal().array() += value;
+        M->block<3, 3>(b, b).diagonal().array() += value;
+        M->block<3, 3>(a, b).diagonal().array() -= value;
+        M->block<3, 3>(b, a).diagonal().array() -= value;
+      }
+      w.f_rest.segment<3>(a) += spring.stiffness * spring.rest_offset;
+      w.f_rest.segment<3>(b) -= spring.stiffness * spring.rest_offset;
+    }
+    int columns = 0;
+    for (int c : group.contacts) {
+      const bool friction = model.contacts[Idx(c)].friction > 0.0;
+      columns += fc3d ? 3 : 1 + (friction ? model.friction_facets : 0);
+      total_lambdas += (!fc3d && friction) ? 1 : 0;
+    }
+    total_columns += columns;
+    w.m_hat_matrix.resize(w.dofs, w.dofs);
+    w.m_hat = Eigen::LLT<Eigen::MatrixXd>(w.dofs);
+    for (Eigen::VectorXd* v : {&w.q, &w.v, &w.fe0, &w.fe1, &w.rhs, &w.v_free}) v->resize(w.dofs);
+    w.G = Eigen::MatrixXd::Zero(w.dofs, std::max(columns, 1));
+    w.Y.resize(w.dofs, std::max(columns, 1));
+    w.active.reserve(group.contacts.size());
+    all_groups_.push_back(static_cast<int>(g));
+  }
+  const int size = std::max(total_columns + total_lambdas, 1);
+  A_.resize(size, size);
+  b_.resize(size);
+  z_.resize(size);
+  mu_.resize(std::max<Eigen::Index>(nc, 1));
+  active_.reserve(Idx(static_cast<int>(nc)));
+  first_active_.resize(model.groups.size());
+  one_group_.resize(1);
 }
 
 double MoreauJean::Gap(int contact) const {
-  const Contact& c = model_.contacts[static_cast<size_t>(contact)];
-  return model_.obstacles[static_cast<size_t>(c.obstacle)].Gap(time_, q_.segment<3>(3 * c.node));
+  const Contact& c = model_.contacts[Idx(contact)];
+  return model_.obstacles[Idx(c.obstacle)].Gap(time_, q_.segment<3>(3 * c.node));
 }
 
 double MoreauJean::KineticEnergy(int node) const {
   double e = 0.0;
   for (size_t i = 0; i < model_.nodes.size(); ++i) {
-    if (node >= 0 && static_cast<size_t>(node) != i) continue;
+    if (node >= 0 && Idx(node) != i) continue;
     e += 0.5 * model_.nodes[i].mass * v_.segment<3>(3 * static_cast<Eigen::Index>(i)).squaredNorm();
   }
   return e;
@@ -45,102 +106,252 @@ double MoreauJean::KineticEnergy(int node) const {
 double MoreauJean::PotentialEnergy(int node) const {
   double e = 0.0;
   for (size_t i = 0; i < model_.nodes.size(); ++i) {
-    if (node >= 0 && static_cast<size_t>(node) != i) continue;
+    if (node >= 0 && Idx(node) != i) continue;
     const ContactNode& nd = model_.nodes[i];
     const Eigen::Vector3d x = q_.segment<3>(3 * static_cast<Eigen::Index>(i));
     e += -nd.mass * model_.gravity.dot(x) + 0.5 * nd.stiffness * (x - nd.anchor).squaredNorm();
   }
+  if (node < 0) {
+    for (const NodeSpring& s : model_.springs) {
+      const Eigen::Vector3d stretch = q_.segment<3>(3 * s.node1) - q_.segment<3>(3 * s.node2) - s.rest_offset;
+      e += 0.5 * s.stiffness * stretch.squaredNorm();
+    }
+  }
   return e;
+}
+
+Eigen::Vector3d MoreauJean::FacetDirection(const Obstacle& ob, double t, int j) const {
+  const Eigen::Vector3d n = ob.NormalAt(t), t1 = ob.TangentAt(t);
+  const double angle = 2.0 * std::numbers::pi * j / model_.friction_facets;
+  return std::cos(angle) * t1 + std::sin(angle) * n.cross(t1);
+}
+
+void MoreauJean::FreeVelocity(int group_index, double t, double h) {
+  const double theta = model_.theta;
+  GroupWork& w = work_[Idx(group_index)];
+  const NodeGroup& group = model_.groups[Idx(group_index)];
+  for (size_t s = 0; s < group.nodes.size(); ++s) {
+    const int i = group.nodes[s];
+    const ContactNode& nd = model_.nodes[Idx(i)];
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(s);
+    w.q.segment<3>(o) = q_.segment<3>(3 * i);
+    w.v.segment<3>(o) = v_.segment<3>(3 * i);
+    w.fe0.segment<3>(o) = nd.constant_force + external_.segment<3>(3 * i);
+    w.fe1.segment<3>(o) = w.fe0.segment<3>(o);
+    if (nd.has_time_force) {
+      for (int c = 0; c < 3; ++c) {
+        w.fe0(o + c) += nd.force_function[Idx(c)].Value(t);
+        w.fe1(o + c) += nd.force_function[Idx(c)].Value(t + h);
+      }
+    }
+  }
+  if (w.factored_h != h) {
+    // M̂ = M + hθC + h²θ²K, factored once per step size.
+    w.m_hat_matrix = h * theta * w.C + h * h * theta * theta * w.K;
+    w.m_hat_matrix.diagonal() += w.mass;
+    w.m_hat.compute(w.m_hat_matrix);
+    if (w.m_hat.info() != Eigen::Success) throw NumericalError("iteration matrix M + hθC + h²θ²K not positive definite");
+    w.factored_h = h;
+  }
+  // Eq. (3a) without reactions: M̂ v_free = M v + hθ(fe1 + f_r − K(q + h(1−θ)v)) + h(1−θ) f(q, v, t).
+  // (v_free serves as scratch for q + h(1−θ)v: no allocation.)
+  w.rhs = w.mass.cwiseProduct(w.v) + h * theta * (w.fe1 + w.f_rest) + h * (1.0 - theta) * (w.fe0 + w.f_rest);
+  w.v_free = w.q + h * (1.0 - theta) * w.v;
+  w.rhs.noalias() -= (h * theta) * (w.K * w.v_free);
+  w.rhs.noalias() -= (h * (1.0 - theta)) * (w.K * w.q);
+  w.rhs.noalias() -= (h * (1.0 - theta)) * (w.C * w.v);
+  w.v_free = w.rhs;
+  w.m_hat.solveInPlace(w.v_free);
+}
+
+void MoreauJean::BuildColumns(int group, double t1) {
+  GroupWork& w = work_[Idx(group)];
+  const bool fc3d = model_.friction_model == FrictionModel::kSiconosFc3d;
+  int column = 0;
+  // One column of G: the direction on the node's three rows, zero elsewhere.
+  auto set = [&w](int col, Eigen::Index row, const Eigen::Vector3d& direction) {
+    w.G.col(col).setZero();
+    w.G.col(col).segment<3>(row) = direction;
+  };
+  for (size_t k = Idx(first_active_[Idx(group)]); k < active_.size() && active_[k].group == group; ++k) {
+    ActiveContact& a = active_[k];
+    const Contact& ct = model_.contacts[Idx(a.contact)];
+    const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
+    const Eigen::Index o = 3 * model_.node_slot[Idx(ct.node)];
+    a.normal_column = column;
+    set(column++, o, ob.NormalAt(t1));
+    if (fc3d) {
+      a.tangent_columns = 2;
+      set(column++, o, ob.TangentAt(t1));
+      set(column++, o, ob.NormalAt(t1).cross(ob.TangentAt(t1)));
+    } else if (ct.friction > 0.0) {
+      a.tangent_columns = model_.friction_facets;
+      for (int j = 0; j < model_.friction_facets; ++j) set(column++, o, FacetDirection(ob, t1, j));
+    } else {
+      a.tangent_columns = 0;
+    }
+  }
+  w.columns = column;
+  // Y = M̂⁻¹ G.
+  w.Y.leftCols(column) = w.G.leftCols(column);
+  auto Y = w.Y.leftCols(column);
+  w.m_hat.solveInPlace(Y);
+}
+
+void MoreauJean::SolveContacts(const std::vector<int>& groups, double t1, double h) {
+  const bool fc3d = model_.friction_model == FrictionModel::kSiconosFc3d;
+  // Layout: every group's impulse columns first, then the sliding multipliers λ.
+  int columns = 0;
+  int contacts = 0;
+  for (int g : groups) {
+    work_[Idx(g)].column_offset = columns;
+    columns += work_[Idx(g)].columns;
+    for (size_t k = Idx(first_active_[Idx(g)]); k < active_.size() && active_[k].group == g; ++k) ++contacts;
+  }
+  int size = columns;
+  for (int g : groups) {
+    for (size_t k = Idx(first_active_[Idx(g)]); k < active_.size() && active_[k].group == g; ++k) {
+      active_[k].lambda_row = (!fc3d && active_[k].tangent_columns > 0) ? size++ : -1;
+    }
+  }
+  auto A = A_.topLeftCorner(size, size);
+  auto b = b_.head(size);
+  auto z = z_.head(size);
+  A.setZero();
+  b.setZero();
+  int fc_index = 0;
+  for (int g : groups) {
+    GroupWork& w = work_[Idx(g)];
+    const int off = w.column_offset;
+    // Delassus block W = Gᵀ M̂⁻¹ G of the group (Eq. (5)); zero between groups.
+    A.block(off, off, w.columns, w.columns).noalias() = w.G.leftCols(w.columns).transpose() * w.Y.leftCols(w.columns);
+    for (size_t k = Idx(first_active_[Idx(g)]); k < active_.size() && active_[k].group == g; ++k) {
+      const ActiveContact& a = active_[k];
+      const Contact& ct = model_.contacts[Idx(a.contact)];
+      const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
+      const Eigen::Vector3d x1 = q_.segment<3>(3 * ct.node) + h * v_.segment<3>(3 * ct.node);
+      const Eigen::Vector3d plane_velocity = ob.VelocityAt(t1, x1);
+      const Eigen::Index o = 3 * model_.node_slot[Idx(ct.node)];
+      const Eigen::Vector3d v_free = w.v_free.segment<3>(o);
+      // Normal row: w = u_{k+1} + e u_k, relative to the plane (Eq. (2)).
+      const int n_col = off + a.normal_column;
+      b(n_col) = w.G.col(a.normal_column).segment<3>(o).dot(v_free - plane_velocity) + ct.restitution * a.u0;
+      // Tangent rows: sliding velocity relative to the plane along each direction.
+      for (int j = 1; j <= a.tangent_columns; ++j) {
+        b(n_col + j) = w.G.col(a.normal_column + j).segment<3>(o).dot(v_free - plane_velocity);
+        if (a.lambda_row >= 0) {
+          A(n_col + j, a.lambda_row) = 1.0;
+          A(a.lambda_row, n_col + j) = -1.0;
+        }
+      }
+      if (a.lambda_row >= 0) A(a.lambda_row, n_col) = ct.friction;
+      if (fc3d) mu_(fc_index++) = ct.friction;
+    }
+  }
+
+  auto active_names = [&]() {
+    std::string names;
+    for (int g : groups) {
+      for (size_t k = Idx(first_active_[Idx(g)]); k < active_.size() && active_[k].group == g; ++k) {
+        names += (names.empty() ? "" : ", ") + model_.contacts[Idx(active_[k].contact)].name;
+      }
+    }
+    return names;
+  };
+  int iterations = 0;
+  if (fc3d) {
+    const FrictionContactResult r =
+        SolveFrictionContact(A, b, mu_.head(contacts), model_.lcp.tolerance, model_.lcp.max_iterations, z);
+    iterations = r.iterations;
+    if (!r.solved) {
+      throw NumericalError("friction-contact problem of " + std::to_string(contacts) + " contact(s) [" +
+                           active_names() + "] failed: " + r.message);
+    }
+  } else {
+    const LcpResult r = lcp_.Solve(A, b, z);
+    iterations = r.iterations;
+    if (r.used_fallback) ++stats_.lcp_fallbacks;
+    if (!r.solved) {
+      throw NumericalError("LCP of " + std::to_string(contacts) + " active contact(s) [" + active_names() +
+                           "] failed: " + r.message);
+    }
+  }
+  ++stats_.lcp_solves;
+  stats_.lcp_iterations += iterations;
+  stats_.last_step_lcp_iterations += iterations;
+
+  // v_{k+1} = v_free + M̂⁻¹ G z (Eq. (4)); record the impulses.
+  for (int g : groups) {
+    GroupWork& w = work_[Idx(g)];
+    w.v_free.noalias() += w.Y.leftCols(w.columns) * z.segment(w.column_offset, w.columns);
+    for (size_t k = Idx(first_active_[Idx(g)]); k < active_.size() && active_[k].group == g; ++k) {
+      const ActiveContact& a = active_[k];
+      const Eigen::Index o = 3 * model_.node_slot[Idx(model_.contacts[Idx(a.contact)].node)];
+      impulse_(a.contact) = z(w.column_offset + a.normal_column);
+      Eigen::Vector3d tangential = Eigen::Vector3d::Zero();
+      for (int j = 1; j <= a.tangent_columns; ++j) {
+        tangential += w.G.col(a.normal_column + j).segment<3>(o) * z(w.column_offset + a.normal_column + j);
+      }
+      friction_impulse_.col(a.contact) = tangential;
+    }
+  }
 }
 
 void MoreauJean::Step(double t, double h) {
   const double theta = model_.theta;
   const double t1 = t + h;
-  // Free velocities, node by node (Eq. (3a) without reactions).
-  for (size_t i = 0; i < model_.nodes.size(); ++i) {
-    const ContactNode& nd = model_.nodes[i];
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(i);
-    const auto q = q_.segment<3>(o);
-    const auto v = v_.segment<3>(o);
-    Eigen::Vector3d fe0 = nd.constant_force + external_.segment<3>(o);
-    Eigen::Vector3d fe1 = fe0;
-    if (nd.has_time_force) {
-      for (int c = 0; c < 3; ++c) {
-        fe0(c) += nd.force_function[static_cast<size_t>(c)].Value(t);
-        fe1(c) += nd.force_function[static_cast<size_t>(c)].Value(t1);
-      }
-    }
-    const Eigen::Vector3d f0 = fe0 - nd.stiffness * (q - nd.anchor) - nd.damping * v;
-    const double m_hat = nd.mass + h * theta * nd.damping + h * h * theta * theta * nd.stiffness;
-    mass_hat_(static_cast<Eigen::Index>(i)) = m_hat;
-    v_free_.segment<3>(o) =
-        (nd.mass * v + h * theta * (fe1 - nd.stiffness * (q - nd.anchor + h * (1.0 - theta) * v)) +
-         h * (1.0 - theta) * f0) /
-        m_hat;
-  }
+  for (size_t g = 0; g < work_.size(); ++g) FreeVelocity(static_cast<int>(g), t, h);
 
-  // Index set: contacts whose predicted gap closes within the step. u_k (the local velocity
-  // at the start of the step) is kept for Newton's law.
+  // Index set, group by group: contacts whose predicted gap closes within the step. u_k
+  // (the normal velocity relative to the plane at the start of the step) is kept for
+  // Newton's law.
   active_.clear();
-  for (size_t c = 0; c < model_.contacts.size(); ++c) {
-    const Contact& ct = model_.contacts[c];
-    const Obstacle& ob = model_.obstacles[static_cast<size_t>(ct.obstacle)];
-    const Eigen::Vector3d x = q_.segment<3>(3 * ct.node);
-    const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x);
-    if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) {
-      q_lcp_(static_cast<Eigen::Index>(active_.size())) = ct.restitution * u0;
-      active_.push_back(static_cast<int>(c));
-    }
-  }
   impulse_.setZero();
-  stats_.last_step_active = static_cast<int>(active_.size());
+  friction_impulse_.setZero();
   stats_.last_step_lcp_iterations = 0;
+  for (size_t g = 0; g < model_.groups.size(); ++g) {
+    first_active_[g] = static_cast<int>(active_.size());
+    work_[g].active.clear();
+    for (int c : model_.groups[g].contacts) {
+      const Contact& ct = model_.contacts[Idx(c)];
+      const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
+      const Eigen::Vector3d x = q_.segment<3>(3 * ct.node);
+      const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x);
+      if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) {
+        active_.push_back(ActiveContact{c, static_cast<int>(g), 0, 0, -1, u0});
+        work_[g].active.push_back(c);
+      }
+    }
+    work_[g].columns = 0;
+    if (!work_[g].active.empty()) BuildColumns(static_cast<int>(g), t1);
+  }
+  stats_.last_step_active = static_cast<int>(active_.size());
+  stats_.activations += static_cast<long long>(active_.size());
 
-  const Eigen::Index na = static_cast<Eigen::Index>(active_.size());
-  if (na > 0) {
-    // Normals at t + h and the LCP's q = Hᵀ v_free + b + e u_k (Newton's law on
-    // w = u_{k+1} + e u_k, Eq. (2)); the plane's motion b evaluated at t + h.
-    for (Eigen::Index a = 0; a < na; ++a) {
-      const Contact& ca = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(a)])];
-      const Obstacle& ob = model_.obstacles[static_cast<size_t>(ca.obstacle)];
-      const Eigen::Vector3d x1 = q_.segment<3>(3 * ca.node) + h * v_.segment<3>(3 * ca.node);
-      normals_.col(a) = ob.NormalAt(t1);
-      q_lcp_(a) += normals_.col(a).dot(v_free_.segment<3>(3 * ca.node)) + ob.GapRateBias(t1, x1);
-    }
-    // Delassus operator W = Hᵀ M̂⁻¹ H (Eq. (5)): contacts couple only through a shared node.
-    for (Eigen::Index a = 0; a < na; ++a) {
-      const int node_a = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(a)])].node;
-      for (Eigen::Index b = 0; b < na; ++b) {
-        const int node_b = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(b)])].node;
-        W_(a, b) = node_a == node_b ? normals_.col(a).dot(normals_.col(b)) / mass_hat_(node_a) : 0.0;
+  if (!active_.empty()) {
+    if (model_.split_independent_lcps) {
+      for (size_t g = 0; g < model_.groups.size(); ++g) {
+        if (work_[g].active.empty()) continue;
+        one_group_[0] = static_cast<int>(g);
+        SolveContacts(one_group_, t1, h);
       }
-    }
-    auto W = W_.topLeftCorner(na, na);
-    auto z = z_.head(na);
-    const LcpResult result = lcp_.Solve(W, q_lcp_.head(na), z);
-    ++stats_.lcp_solves;
-    stats_.lcp_iterations += result.iterations;
-    stats_.last_step_lcp_iterations = result.iterations;
-    stats_.max_step_lcp_iterations = std::max(stats_.max_step_lcp_iterations, result.iterations);
-    if (result.used_fallback) ++stats_.lcp_fallbacks;
-    if (!result.solved) {
-      std::string names;
-      for (Eigen::Index a = 0; a < na; ++a) {
-        names += (a ? ", " : "") + model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(a)])].name;
-      }
-      throw NumericalError("LCP of " + std::to_string(na) + " active contact(s) [" + names +
-                           "] failed: " + result.message);
-    }
-    stats_.activations += na;
-    for (Eigen::Index a = 0; a < na; ++a) {
-      const Contact& ca = model_.contacts[static_cast<size_t>(active_[static_cast<size_t>(a)])];
-      v_free_.segment<3>(3 * ca.node) += normals_.col(a) * (z(a) / mass_hat_(ca.node));
-      impulse_(active_[static_cast<size_t>(a)]) = z(a);
+    } else {
+      SolveContacts(all_groups_, t1, h);
     }
   }
-  // v_free_ now holds v_{k+1}.
-  q_ += h * (theta * v_free_ + (1.0 - theta) * v_);
-  v_.swap(v_free_);
+  stats_.max_step_lcp_iterations = std::max(stats_.max_step_lcp_iterations, stats_.last_step_lcp_iterations);
+
+  // Eq. (3b), and scatter back to model order.
+  for (size_t g = 0; g < model_.groups.size(); ++g) {
+    const GroupWork& w = work_[g];
+    const std::vector<int>& nodes = model_.groups[g].nodes;
+    for (size_t s = 0; s < nodes.size(); ++s) {
+      const Eigen::Index o = 3 * static_cast<Eigen::Index>(s);
+      const int i = nodes[s];
+      q_.segment<3>(3 * i) += h * (theta * w.v_free.segment<3>(o) + (1.0 - theta) * v_.segment<3>(3 * i));
+      v_.segment<3>(3 * i) = w.v_free.segment<3>(o);
+    }
+  }
   time_ = t1;
 }
 

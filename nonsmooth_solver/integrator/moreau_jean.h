@@ -1,20 +1,33 @@
 #pragma once
 // Moreau–Jean θ-method for point masses against planes: the nonsmooth contact dynamics
-// (NSCD) timestepping of Eqs. (1)-(5) of the rotor-sailing paper, frictionless, with Newton's
-// impact law. One LCP per step over every active contact of every node, solved through
-// Siconos Numerics (lcp/lcp_solver.h).
+// (NSCD) timestepping of Eqs. (1)-(5) of the rotor-sailing paper, with Newton's impact law
+// and, optionally, Coulomb friction.
 //
-// Per node, with the linear spring-damper (k, c) of the model taken implicitly:
-//   M̂ = m + hθc + h²θ²k                                  (iteration "mass")
-//   M̂ v_free = m v_k + hθ(fe_{k+1} − k(q_k − a + h(1−θ) v_k)) + h(1−θ) f_k
-//   v_{k+1} = v_free + M̂⁻¹ H r                            Eq. (4)
-//   u = Hᵀ v + b(t, q)  (b: the plane's own motion)
-//   0 <= u_{k+1} + e u_k ⟂ r >= 0,  u_{k+1} = W r + u_free  Eq. (2), (5), W = Hᵀ M̂⁻¹ H
-//   q_{k+1} = q_k + h(θ v_{k+1} + (1−θ) v_k)               Eq. (3b)
-// A contact enters the LCP when its predicted gap g_k + (h/2) u_k is at most the model's
-// activation_gap (the index set of the NSCD method, as in Siconos' MoreauJeanOSI with
-// γ = 1/2; the small positive threshold keeps resting contacts active through round-off).
+// With the linear forces of the model (anchor springs, node springs: f = f_e + f_r − K q − C v)
+// taken implicitly, per step from t to t + h:
+//   M̂ = M + hθC + h²θ²K                                        (iteration matrix)
+//   M̂ v_free = M v_k + hθ(f_e,k+1 + f_r − K(q_k + h(1−θ) v_k)) + h(1−θ) f_k
+//   v_{k+1} = v_free + M̂⁻¹ G z                                  Eq. (4)
+//   q_{k+1} = q_k + h(θ v_{k+1} + (1−θ) v_k)                     Eq. (3b)
+// G holds, per active contact, its normal n and (with friction) the tangent directions; z
+// the impulses. Frictionless: 0 <= u_{k+1} + e u_k ⟂ r >= 0 with u_{k+1} = W r + u_free,
+// W = Gᵀ M̂⁻¹ G (Eqs. (2), (5)). With the polyhedral friction cone (Stewart & Trinkle) each
+// frictional contact adds tangent impulses β_j >= 0 along d_j and a sliding-speed multiplier
+// λ:  0 <= d_jᵀ v_{k+1} + λ ⟂ β_j >= 0,  0 <= μ r − Σ β_j ⟂ λ >= 0. With Siconos' fc3d the
+// exact cone is used instead.
+// A contact is active when its predicted gap g_k + (h/2) u_k is at most the model's
+// activation_gap (the index set of the NSCD method, as in Siconos' MoreauJeanOSI with γ = 1/2;
+// the small positive threshold keeps resting contacts active through round-off).
+//
+// Nodes linked by springs form groups (ContactModel::groups); M̂ is block diagonal over
+// groups, so each group's M̂ is factored apart (once per step size), and contacts of
+// different groups do not interact: with split_independent_lcps each group's contacts make
+// an LCP of their own, which has the same solution as the one block-diagonal LCP.
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/Core>
+
+#include <vector>
 
 #include "nonsmooth_solver/model/contact_model.h"
 
@@ -22,9 +35,9 @@ namespace cosim::nonsmooth {
 
 struct MoreauJeanStats {
   long long lcp_solves = 0;
-  long long lcp_iterations = 0;   // summed Siconos iterations
+  long long lcp_iterations = 0;  // summed solver iterations (LCP or fc3d)
   long long lcp_fallbacks = 0;
-  long long activations = 0;      // contacts entering the index set
+  long long activations = 0;     // contacts in an index set, summed over steps
   int max_step_lcp_iterations = 0;
   int last_step_lcp_iterations = 0;
   int last_step_active = 0;
@@ -35,35 +48,71 @@ class MoreauJean {
   // Starts from the model's initial positions and velocities at time `start_time`.
   MoreauJean(const ContactModel& model, double start_time);
 
-  // Advances q, v from t to t + h. Throws NumericalError (state unchanged) if the LCP fails
-  // its complementarity check and no fallback rescues it.
+  // Advances q, v from t to t + h. Throws NumericalError (state unchanged) if a contact
+  // problem fails its check and no fallback rescues it.
   void Step(double t, double h);
 
   // An external force per node [N], held constant over the next steps (the coupling peer's
   // reaction). Size 3 × nodes.
   void SetExternalForces(const Eigen::Ref<const Eigen::VectorXd>& forces) { external_ = forces; }
 
-  const Eigen::VectorXd& positions() const { return q_; }   // 3 per node
+  const Eigen::VectorXd& positions() const { return q_; }   // 3 per node, model order
   const Eigen::VectorXd& velocities() const { return v_; }  // 3 per node
-  // Impulse [N s] of each contact in the last step (0 if it was not active).
+  // Normal impulse [N s] of each contact in the last step (0 if it was not active).
   const Eigen::VectorXd& impulses() const { return impulse_; }
+  // Tangential (friction) impulse vector [N s] of each contact in the last step: 3 × contacts.
+  const Eigen::MatrixXd& friction_impulses() const { return friction_impulse_; }
   double time() const { return time_; }
   double Gap(int contact) const;
   double KineticEnergy(int node) const;    // node < 0: all nodes
-  double PotentialEnergy(int node) const;  // gravity and springs
+  double PotentialEnergy(int node) const;  // gravity and springs; node < 0: all (node springs included)
   const MoreauJeanStats& stats() const { return stats_; }
 
  private:
+  // Constant matrices and scratch of one node group, sized once.
+  struct GroupWork {
+    int dofs = 0;
+    Eigen::VectorXd mass;        // per dof
+    Eigen::MatrixXd K, C;        // dofs × dofs
+    Eigen::VectorXd f_rest;      // constant part of the spring forces
+    Eigen::LLT<Eigen::MatrixXd> m_hat;
+    Eigen::MatrixXd m_hat_matrix;
+    double factored_h = -1.0;
+    Eigen::VectorXd q, v, fe0, fe1, rhs, v_free;
+    Eigen::MatrixXd G, Y;        // dofs × (max columns)
+    std::vector<int> active;     // active contacts of this group, this step
+    int columns = 0;             // impulse columns this step
+    int column_offset = 0;       // first column in the assembled problem
+  };
+  // Where one active contact's unknowns sit in the assembled problem.
+  struct ActiveContact {
+    int contact = 0;
+    int group = 0;
+    int normal_column = 0;   // column within its group
+    int tangent_columns = 0;  // polyhedral facets (0 without friction)
+    int lambda_row = -1;      // sliding multiplier row (polyhedral friction), in the problem
+    double u0 = 0.0;          // normal velocity at the start of the step
+  };
+
+  void FreeVelocity(int group, double t, double h);
+  // Builds G (and Y = M̂⁻¹ G) for the group's active contacts.
+  void BuildColumns(int group, double t1);
+  // Assembles and solves the contact problem of `groups`, then updates their v_free.
+  void SolveContacts(const std::vector<int>& groups, double t1, double h);
+  Eigen::Vector3d FacetDirection(const Obstacle& ob, double t, int j) const;
+
   const ContactModel& model_;
   LcpSolver lcp_;
   double time_ = 0.0;
   Eigen::VectorXd q_, v_, impulse_, external_;
-  // Workspace, sized once (the LCP matrices to the largest possible active set).
-  Eigen::VectorXd v_free_, mass_hat_;
-  std::vector<int> active_;
-  Eigen::MatrixXd W_;
-  Eigen::VectorXd q_lcp_, z_;
-  Eigen::MatrixXd normals_;  // 3 × contacts, n at t + h
+  Eigen::MatrixXd friction_impulse_;
+  std::vector<GroupWork> work_;
+  std::vector<ActiveContact> active_;  // all groups, this step
+  std::vector<int> first_active_;      // per group: index into active_
+  // Assembled problem, sized for every contact with friction.
+  Eigen::MatrixXd A_;
+  Eigen::VectorXd b_, z_, mu_;
+  std::vector<int> all_groups_, one_group_;
   MoreauJeanStats stats_;
 };
 

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 
+#include <map>
 #include <set>
 
 #include "interface/scenario/checks.h"
@@ -19,12 +20,21 @@ Eigen::Vector3d Obstacle::NormalAt(double t) const {
   return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * normal;
 }
 
+Eigen::Vector3d Obstacle::TangentAt(double t) const {
+  if (!moving || rotation_angle.IsZero()) return tangent;
+  return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * tangent;
+}
+
+Eigen::Vector3d Obstacle::VelocityAt(double t, const Eigen::Vector3d& x) const {
+  if (!moving) return Eigen::Vector3d::Zero();
+  return velocity + rotation_angle.Derivative(t) * rotation_axis.cross(x - PointAt(t));
+}
+
 double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x) const {
+  // g = n·(x − p): dg/dt = n·ẋ − n·ṗ + ṅ·(x − p), with ṅ = ω × n and ω = θ̇ a, and
+  // (ω × n)·r = −n·(ω × r): the bias is −n·(velocity of the plane's point at x).
   if (!moving) return 0.0;
-  // g = n·(x − p): dg/dt = n·ẋ − n·ṗ + ṅ·(x − p), with ṅ = ω × n and ω = θ̇ a.
-  const Eigen::Vector3d n = NormalAt(t);
-  const Eigen::Vector3d n_dot = rotation_angle.Derivative(t) * rotation_axis.cross(n);
-  return -n.dot(velocity) + n_dot.dot(x - PointAt(t));
+  return -NormalAt(t).dot(VelocityAt(t, x));
 }
 
 namespace {
@@ -48,6 +58,11 @@ void BuildObstacles(const Checks& checks, const sc::Model& model, ContactModel* 
     obstacle.name = names->Declare(path + ".name", o.has_name(), o.name());
     obstacle.point = checks.Vector3(path + ".point", o.point(), std::nullopt);
     obstacle.normal = checks.Direction(path + ".normal", o.normal());
+    // A tangent: the global axis least aligned with n, projected onto the plane.
+    Eigen::Index least = 0;
+    obstacle.normal.cwiseAbs().minCoeff(&least);
+    const Eigen::Vector3d axis = Eigen::Vector3d::Unit(least);
+    obstacle.tangent = (axis - axis.dot(obstacle.normal) * obstacle.normal).normalized();
     if (o.has_prescribed()) {
       const auto& m = o.prescribed();
       obstacle.moving = true;
@@ -111,11 +126,6 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
       }
       contact.restitution = checks.InRange(cpath + ".restitution", c.has_restitution(), c.restitution(), 0.0, 1.0);
       contact.friction = checks.NonNegative(cpath + ".friction", c.friction(), "Coulomb coefficient");
-      if (contact.friction > 0.0) {
-        checks.Fail(cpath + ".friction",
-                    "Coulomb friction (μ = " + FormatNumber(contact.friction) +
-                        ") is not available in this build yet; only frictionless contact (μ = 0) is");
-      }
       contact.name = node.name + "/" + c.obstacle();
       out->contacts.push_back(contact);
     }
@@ -194,6 +204,55 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
   }
 }
 
+void BuildSprings(const Checks& checks, const sc::Model& model, const NameTable& node_names, ContactModel* out) {
+  NameTable spring_names(checks, "node spring");
+  for (int i = 0; i < model.node_springs_size(); ++i) {
+    const sc::NodeSpring& s = model.node_springs(i);
+    const std::string path = ElementPath("model.node_springs", i);
+    NodeSpring spring;
+    spring.name = spring_names.Declare(path + ".name", s.has_name(), s.name());
+    checks.Require(path + ".node1", s.has_node1(), "the name of a contact node");
+    checks.Require(path + ".node2", s.has_node2(), "the name of a contact node");
+    spring.node1 = node_names.Find(path + ".node1", s.node1());
+    spring.node2 = node_names.Find(path + ".node2", s.node2());
+    if (spring.node1 == spring.node2) checks.Fail(path + ".node2", "links node '" + s.node2() + "' to itself");
+    checks.Require(path + ".stiffness", s.has_stiffness(), "a stiffness in N/m");
+    spring.stiffness = checks.NonNegative(path + ".stiffness", s.stiffness(), "N/m");
+    spring.damping = checks.NonNegative(path + ".damping", s.damping(), "N s/m");
+    const Eigen::Vector3d initial = out->nodes[static_cast<size_t>(spring.node1)].position -
+                                    out->nodes[static_cast<size_t>(spring.node2)].position;
+    spring.rest_offset = checks.Vector3(path + ".rest_offset", s.rest_offset(), initial);
+    out->springs.push_back(spring);
+  }
+}
+
+// Connected components of the node-spring graph, each with its nodes' contacts.
+void BuildGroups(ContactModel* model) {
+  const int n = static_cast<int>(model->nodes.size());
+  std::vector<int> parent(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) parent[static_cast<size_t>(i)] = i;
+  auto root = [&](int i) {
+    while (parent[static_cast<size_t>(i)] != i) i = parent[static_cast<size_t>(i)];
+    return i;
+  };
+  for (const NodeSpring& s : model->springs) parent[static_cast<size_t>(root(s.node1))] = root(s.node2);
+  std::map<int, int> group_of_root;
+  model->node_group.assign(static_cast<size_t>(n), 0);
+  model->node_slot.assign(static_cast<size_t>(n), 0);
+  for (int i = 0; i < n; ++i) {
+    auto [it, inserted] = group_of_root.emplace(root(i), static_cast<int>(model->groups.size()));
+    if (inserted) model->groups.emplace_back();
+    NodeGroup& g = model->groups[static_cast<size_t>(it->second)];
+    model->node_group[static_cast<size_t>(i)] = it->second;
+    model->node_slot[static_cast<size_t>(i)] = static_cast<int>(g.nodes.size());
+    g.nodes.push_back(i);
+  }
+  for (size_t c = 0; c < model->contacts.size(); ++c) {
+    model->groups[static_cast<size_t>(model->node_group[static_cast<size_t>(model->contacts[c].node)])]
+        .contacts.push_back(static_cast<int>(c));
+  }
+}
+
 }  // namespace
 
 ContactModel BuildContactModel(const interface::ScenarioFile& file) {
@@ -205,6 +264,18 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file) {
   const sc::NonsmoothSettings& ns = s.numerics().nonsmooth();
   model.theta = checks.InRange("numerics.nonsmooth.theta", true, ns.theta(), 0.0, 1.0, /*lo_open=*/true);
   model.activation_gap = checks.NonNegative("numerics.nonsmooth.activation_gap", ns.activation_gap(), "m");
+  model.split_independent_lcps = ns.split_independent_lcps();
+  switch (ns.friction_model()) {
+    case sc::NonsmoothSettings::POLYHEDRAL_LCP: model.friction_model = FrictionModel::kPolyhedralLcp; break;
+    case sc::NonsmoothSettings::SICONOS_FC3D: model.friction_model = FrictionModel::kSiconosFc3d; break;
+    default: checks.Fail("numerics.nonsmooth.friction_model", "expected POLYHEDRAL_LCP or SICONOS_FC3D");
+  }
+  if (ns.friction_facets() < 3 || ns.friction_facets() > 64) {
+    checks.Fail("numerics.nonsmooth.friction_facets",
+                "must be in [3, 64] (directions of the polyhedral friction cone), got " +
+                    std::to_string(ns.friction_facets()));
+  }
+  model.friction_facets = ns.friction_facets();
   const sc::LcpSettings& lcp = ns.lcp();
   model.lcp.algorithm = ToAlgorithm(checks, "numerics.nonsmooth.lcp.solver", lcp.solver());
   model.lcp.tolerance = checks.Positive("numerics.nonsmooth.lcp.tolerance", true, lcp.tolerance(), "dimensionless");
@@ -224,6 +295,8 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file) {
     checks.Fail("model.contact_nodes", "a contact process needs at least one contact node");
   }
   BuildNodes(checks, s.model(), obstacle_names, &model, &node_names);
+  BuildSprings(checks, s.model(), node_names, &model);
+  BuildGroups(&model);
   BuildProbes(checks, s.output(), node_names, model, &model);
   return model;
 }

@@ -36,6 +36,7 @@ struct Obstacle {
   std::string name;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();   // p(0)
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // n(0), unit
+  Eigen::Vector3d tangent = Eigen::Vector3d::UnitX(); // t(0), unit, ⟂ n(0): friction facets start here
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitZ();  // unit
   TimeFunction rotation_angle;                               // [rad]
@@ -43,11 +44,33 @@ struct Obstacle {
 
   Eigen::Vector3d PointAt(double t) const { return point + t * velocity; }
   Eigen::Vector3d NormalAt(double t) const;
+  Eigen::Vector3d TangentAt(double t) const;
+  // Velocity of the plane's material point at x: V + ω × (x − p(t)).
+  Eigen::Vector3d VelocityAt(double t, const Eigen::Vector3d& x) const;
   // Signed distance of x from the plane at time t.
   double Gap(double t, const Eigen::Vector3d& x) const { return NormalAt(t).dot(x - PointAt(t)); }
   // Part of the gap rate that comes from the plane's motion: dg/dt = n·ẋ + GapRateBias(t, x).
   double GapRateBias(double t, const Eigen::Vector3d& x) const;
 };
+
+// Linear spring-damper between two nodes: f₁ = −k (x₁ − x₂ − r₀) − c (ẋ₁ − ẋ₂), f₂ = −f₁.
+struct NodeSpring {
+  std::string name;
+  int node1 = 0;
+  int node2 = 0;
+  double stiffness = 0.0;  // [N/m]
+  double damping = 0.0;    // [N s/m]
+  Eigen::Vector3d rest_offset = Eigen::Vector3d::Zero();
+};
+
+// Nodes linked (directly or not) by node springs: their dynamics couple, so their contacts
+// interact in the LCP. A node without springs is a group of its own.
+struct NodeGroup {
+  std::vector<int> nodes;     // model node indices
+  std::vector<int> contacts;  // model contact indices of these nodes
+};
+
+enum class FrictionModel { kPolyhedralLcp, kSiconosFc3d };
 
 struct Contact {
   std::string name;  // "node/obstacle"
@@ -70,12 +93,20 @@ struct ContactModel {
   std::vector<ContactNode> nodes;
   std::vector<Obstacle> obstacles;
   std::vector<Contact> contacts;
+  std::vector<NodeSpring> springs;
+  std::vector<NodeGroup> groups;
+  std::vector<int> node_group;  // group of each node
+  std::vector<int> node_slot;   // position of each node within its group
   std::vector<Probe> probes;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   // θ of the Moreau–Jean scheme, Eq. (3a)-(3b) of the rotor-sailing paper; (0, 1].
   double theta = 0.5;
   // Predicted gap [m] at or below which a contact enters the LCP.
   double activation_gap = 1e-10;
+  // Solve the contacts of each NodeGroup in an LCP of its own (the same solution as one LCP).
+  bool split_independent_lcps = true;
+  FrictionModel friction_model = FrictionModel::kPolyhedralLcp;
+  int friction_facets = 8;  // tangent directions of the polyhedral cone, >= 3
   LcpOptions lcp;
 };
 

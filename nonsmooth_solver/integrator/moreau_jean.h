@@ -46,7 +46,9 @@ struct MoreauJeanStats {
 class MoreauJean {
  public:
   // Starts from the model's initial positions and velocities at time `start_time`.
+  // The model must outlive the integrator (it is referenced, not copied).
   MoreauJean(const ContactModel& model, double start_time);
+  MoreauJean(ContactModel&&, double) = delete;
 
   // Advances q, v from t to t + h. Throws NumericalError (state unchanged) if a contact
   // problem fails its check and no fallback rescues it.

@@ -225,12 +225,14 @@ TEST(RunContract, BadInputStillWritesAFailedSummary) {
 TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   // In the wedge the two contact normals are not orthogonal, so one projected Gauss–Seidel
   // sweep cannot solve the size-2 LCP when the node reaches both planes (about t = 0.4 s):
-  // with PGS capped at one iteration and a 1e-14 tolerance the run stops with exit 3, and
+  // with PGS capped at one iteration, a 1e-14 tolerance and no fallback the run stops with
+  // exit 3, and
   // history.csv keeps every row before it.
   const fs::path out = TempDir("numerical_failure");
   const Result r = Launch(kScenarios + "/wedge.pbtxt --out " + out.string() +
                        " --set numerics.nonsmooth.lcp.solver=PGS --set numerics.nonsmooth.lcp.max_iterations=1"
-                       " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set output.every=1");
+                       " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set numerics.nonsmooth.lcp.fallback=SOLVER_UNSPECIFIED"
+                       " --set output.every=1");
   ASSERT_EQ(r.code, 3) << r.output;
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(s.status(), "failed");

@@ -64,6 +64,9 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
       w.f_rest.segment<3>(a) += spring.stiffness * spring.rest_offset;
       w.f_rest.segment<3>(b) -= spring.stiffness * spring.rest_offset;
     }
+    w.has_linear_forces = !w.K.isZero(0.0) || !w.C.isZero(0.0);
+    w.diagonal = w.K.isDiagonal(0.0) && w.C.isDiagonal(0.0);
+    w.m_hat_diagonal.resize(w.dofs);
     int columns = 0;
     for (int c : group.contacts) {
       const bool friction = model.contacts[Idx(c)].friction > 0.0;
@@ -146,22 +149,34 @@ void MoreauJean::FreeVelocity(int group_index, double t, double h) {
     }
   }
   if (w.factored_h != h) {
-    // M̂ = M + hθC + h²θ²K, factored once per step size.
+    // M̂ = M + hθC + h²θ²K, factored once per step size (a division when it is diagonal).
     w.m_hat_matrix = h * theta * w.C + h * h * theta * theta * w.K;
     w.m_hat_matrix.diagonal() += w.mass;
-    w.m_hat.compute(w.m_hat_matrix);
-    if (w.m_hat.info() != Eigen::Success) throw NumericalError("iteration matrix M + hθC + h²θ²K not positive definite");
+    w.m_hat_diagonal = w.m_hat_matrix.diagonal();
+    if (!w.diagonal) {
+      w.m_hat.compute(w.m_hat_matrix);
+      if (w.m_hat.info() != Eigen::Success) {
+        throw NumericalError("iteration matrix M + hθC + h²θ²K is not positive definite");
+      }
+    }
     w.factored_h = h;
   }
   // Eq. (3a) without reactions: M̂ v_free = M v + hθ(fe1 + f_r − K(q + h(1−θ)v)) + h(1−θ) f(q, v, t).
-  // (v_free serves as scratch for q + h(1−θ)v: no allocation.)
-  w.rhs = w.mass.cwiseProduct(w.v) + h * theta * (w.fe1 + w.f_rest) + h * (1.0 - theta) * (w.fe0 + w.f_rest);
-  w.v_free = w.q + h * (1.0 - theta) * w.v;
-  w.rhs.noalias() -= (h * theta) * (w.K * w.v_free);
-  w.rhs.noalias() -= (h * (1.0 - theta)) * (w.K * w.q);
-  w.rhs.noalias() -= (h * (1.0 - theta)) * (w.C * w.v);
-  w.v_free = w.rhs;
-  w.m_hat.solveInPlace(w.v_free);
+  w.rhs = w.mass.cwiseProduct(w.v) + (h * theta) * w.fe1 + (h * (1.0 - theta)) * w.fe0;
+  if (w.has_linear_forces) {
+    // (v_free serves as scratch for q + h(1−θ)v: no allocation.)
+    w.rhs += h * w.f_rest;
+    w.v_free = w.q + h * (1.0 - theta) * w.v;
+    w.rhs.noalias() -= (h * theta) * (w.K * w.v_free);
+    w.rhs.noalias() -= (h * (1.0 - theta)) * (w.K * w.q);
+    w.rhs.noalias() -= (h * (1.0 - theta)) * (w.C * w.v);
+  }
+  if (w.diagonal) {
+    w.v_free = w.rhs.cwiseQuotient(w.m_hat_diagonal);
+  } else {
+    w.v_free = w.rhs;
+    w.m_hat.solveInPlace(w.v_free);
+  }
 }
 
 void MoreauJean::BuildColumns(int group, double t1) {
@@ -193,9 +208,13 @@ void MoreauJean::BuildColumns(int group, double t1) {
   }
   w.columns = column;
   // Y = M̂⁻¹ G.
-  w.Y.leftCols(column) = w.G.leftCols(column);
-  auto Y = w.Y.leftCols(column);
-  w.m_hat.solveInPlace(Y);
+  if (w.diagonal) {
+    w.Y.leftCols(column) = w.m_hat_diagonal.cwiseInverse().asDiagonal() * w.G.leftCols(column);
+  } else {
+    w.Y.leftCols(column) = w.G.leftCols(column);
+    auto Y = w.Y.leftCols(column);
+    w.m_hat.solveInPlace(Y);
+  }
 }
 
 void MoreauJean::SolveContacts(const std::vector<int>& groups, double t1, double h) {

@@ -77,8 +77,11 @@ class MoreauJean {
     Eigen::VectorXd mass;        // per dof
     Eigen::MatrixXd K, C;        // dofs × dofs
     Eigen::VectorXd f_rest;      // constant part of the spring forces
+    bool has_linear_forces = false;  // K or C non-zero
+    bool diagonal = true;            // M̂ diagonal (no node springs): solve by division
     Eigen::LLT<Eigen::MatrixXd> m_hat;
     Eigen::MatrixXd m_hat_matrix;
+    Eigen::VectorXd m_hat_diagonal;
     double factored_h = -1.0;
     Eigen::VectorXd q, v, fe0, fe1, rhs, v_free;
     Eigen::MatrixXd G, Y;        // dofs × (max columns)

@@ -66,15 +66,18 @@ LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eig
     return LcpResult{true, false, true, 0, 0, 0.0, ""};
   }
   LcpResult result = Attempt(options_.algorithm, M, q, z);
-  if (!result.solved && options_.has_fallback && options_.fallback != options_.algorithm) {
-    const std::string first = result.message;
-    result = Attempt(options_.fallback, M, q, z);
+  std::string messages = result.message;
+  for (LcpAlgorithm fallback : options_.fallbacks) {
+    if (result.solved) break;
+    if (fallback == options_.algorithm) continue;
+    result = Attempt(fallback, M, q, z);
     if (result.solved) {
       result.used_fallback = true;
     } else {
-      result.message = first + "; fallback: " + result.message;
+      messages += "; fallback " + result.message;
     }
   }
+  if (!result.solved) result.message = messages;
   return result;
 }
 

@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace cosim::nonsmooth {
 
@@ -18,8 +19,8 @@ struct LcpOptions {
   // Accepted complementarity error (see ComplementarityError), relative to 1 + |q|∞.
   double tolerance = 1e-10;
   int max_iterations = 10000;
-  bool has_fallback = false;
-  LcpAlgorithm fallback = LcpAlgorithm::kLemke;
+  // Tried in order when `algorithm` fails the check.
+  std::vector<LcpAlgorithm> fallbacks;
 };
 
 // The largest enumerative problem attempted: 2^n cases.
@@ -27,7 +28,7 @@ inline constexpr int kMaxEnumerativeSize = 12;
 
 struct LcpResult {
   bool solved = false;         // passed the complementarity check
-  bool used_fallback = false;  // the primary algorithm failed, the fallback succeeded
+  bool used_fallback = false;  // the primary algorithm failed, a fallback succeeded
   bool trivial = false;        // q >= 0, z = 0 without calling Siconos
   int siconos_info = 0;        // driver return code of the last attempt (0 = success)
   int iterations = 0;          // of the last attempt

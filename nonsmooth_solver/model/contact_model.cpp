@@ -46,7 +46,8 @@ LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpS
     case sc::LcpSettings::ENUMERATIVE: return LcpAlgorithm::kEnumerative;
     case sc::LcpSettings::NEWTON_FB: return LcpAlgorithm::kNewtonFischerBurmeister;
     default:
-      checks.Fail(path, "expected one of LEMKE, PGS, ENUMERATIVE, NEWTON_FB");
+      checks.Fail(path, "expected one of LEMKE, PGS, ENUMERATIVE, NEWTON_FB" +
+                            std::string(path.find("fallback") != std::string::npos ? " (or NONE alone)" : ""));
   }
 }
 
@@ -283,9 +284,13 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file) {
     checks.Fail("numerics.nonsmooth.lcp.max_iterations", "must be >= 1, got " + std::to_string(lcp.max_iterations()));
   }
   model.lcp.max_iterations = lcp.max_iterations();
-  if (lcp.fallback() != sc::LcpSettings::SOLVER_UNSPECIFIED) {
-    model.lcp.has_fallback = true;
-    model.lcp.fallback = ToAlgorithm(checks, "numerics.nonsmooth.lcp.fallback", lcp.fallback());
+  if (lcp.fallback_size() == 0) {
+    model.lcp.fallbacks = {LcpAlgorithm::kEnumerative, LcpAlgorithm::kNewtonFischerBurmeister};
+  } else if (!(lcp.fallback_size() == 1 && lcp.fallback(0) == sc::LcpSettings::NONE)) {
+    for (int i = 0; i < lcp.fallback_size(); ++i) {
+      model.lcp.fallbacks.push_back(
+          ToAlgorithm(checks, ElementPath("numerics.nonsmooth.lcp.fallback", i), lcp.fallback(i)));
+    }
   }
 
   NameTable obstacle_names(checks, "obstacle");

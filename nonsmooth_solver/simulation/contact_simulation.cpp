@@ -7,6 +7,14 @@ ContactSimulation::ContactSimulation(const interface::ScenarioFile& file)
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_smooth();  // settings of the other solver are not used here
+  // The fallback list actually used (the schema's default is an empty list).
+  auto* lcp = numerics_.mutable_nonsmooth()->mutable_lcp();
+  if (lcp->fallback_size() == 0) {
+    for (LcpAlgorithm a : model_->lcp.fallbacks) {
+      lcp->add_fallback(a == LcpAlgorithm::kEnumerative ? scenario::LcpSettings::ENUMERATIVE
+                                                         : scenario::LcpSettings::NEWTON_FB);
+    }
+  }
   integrator_ = std::make_unique<MoreauJean>(*model_, numerics_.start_time());
 }
 

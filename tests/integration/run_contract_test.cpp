@@ -231,7 +231,7 @@ TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   const fs::path out = TempDir("numerical_failure");
   const Result r = Launch(kScenarios + "/wedge.pbtxt --out " + out.string() +
                        " --set numerics.nonsmooth.lcp.solver=PGS --set numerics.nonsmooth.lcp.max_iterations=1"
-                       " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set numerics.nonsmooth.lcp.fallback=SOLVER_UNSPECIFIED"
+                       " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set numerics.nonsmooth.lcp.fallback=[NONE]"
                        " --set output.every=1");
   ASSERT_EQ(r.code, 3) << r.output;
   const cosim::run::RunSummary s = ReadSummary(out);

@@ -96,8 +96,7 @@ TEST(LcpSolver, EnumerativeRefusesLargeProblemsAndFallbackRescues) {
     EXPECT_FALSE(r.solved);
     EXPECT_NE(r.message.find("ENUMERATIVE refused"), std::string::npos);
   }
-  options.has_fallback = true;
-  options.fallback = LcpAlgorithm::kLemke;
+  options.fallbacks = {LcpAlgorithm::kLemke};
   LcpSolver solver(options);
   const LcpResult r = solver.Solve(M, q, z);
   EXPECT_TRUE(r.solved && r.used_fallback) << r.message;

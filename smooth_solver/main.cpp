@@ -1,19 +1,10 @@
-// smooth_solver: the rigid/elastic multibody solver. This build validates the multibody
-// part of a scenario (bodies, joints, drives); the CGα and IDA integrators arrive with issue 4,
-// so a run that needs them ends with exit code 2 and a message that says so.
-#include <iostream>
-
-#include "interface/run/errors.h"
+// smooth_solver: the rigid multibody solver (CGα). Standalone, it runs a scene of rigid
+// bodies and joints under the run contract (see interface/run/run_driver.h).
 #include "interface/run/run_driver.h"
-#include "smooth_solver/model/multibody_model.h"
+#include "smooth_solver/simulation/multibody_simulation.h"
 
 int main(int argc, char** argv) {
-  using namespace cosim;
-  return interface::RunProgram("smooth_solver", argc, argv,
-                               [](const interface::ScenarioFile& file) -> std::unique_ptr<interface::Simulation> {
-                                 smooth::BuildMultibodyModel(file);
-                                 throw InputError(file.path() +
-                                                  ": the scenario is valid, but this build of smooth_solver cannot "
-                                                  "integrate rigid or elastic bodies yet (CGα arrives with issue 4)");
-                               });
+  return cosim::interface::RunProgram("smooth_solver", argc, argv, [](const cosim::interface::ScenarioFile& file) {
+    return std::make_unique<cosim::smooth::MultibodySimulation>(file);
+  });
 }

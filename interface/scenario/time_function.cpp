@@ -91,4 +91,41 @@ double TimeFunction::Derivative(double t) const {
   return 0.0;
 }
 
+double TimeFunction::SecondDerivative(double t) const {
+  if (kind_ != Kind::kCosineRamp) return 0.0;
+  const double tau = t - start_time_;
+  if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
+  const double w = std::numbers::pi / ramp_time_;
+  return 0.5 * w * w * std::cos(w * tau) * final_value_;
+}
+
+double TimeFunction::Integral(double t) const {
+  switch (kind_) {
+    case Kind::kConstant: return constant_ * t;
+    case Kind::kCosineRamp: {
+      // ∫ ½(1 − cos(π τ/T)) F dτ = ½ F (τ − (T/π) sin(π τ/T)) over the ramp, then F per second.
+      const double tau = std::min(std::max(t - start_time_, 0.0), ramp_time_);
+      double value = 0.5 * final_value_ * (tau - ramp_time_ / std::numbers::pi * std::sin(std::numbers::pi * tau / ramp_time_));
+      if (t - start_time_ > ramp_time_) value += final_value_ * (t - start_time_ - ramp_time_);
+      return value;
+    }
+    case Kind::kTable: {
+      // Trapezoids between the table's times, constant values outside it.
+      double value = 0.0, previous_t = 0.0;
+      auto add = [&](double to) {
+        if (to <= previous_t) return;
+        value += 0.5 * (Value(previous_t) + Value(to)) * (to - previous_t);
+        previous_t = to;
+      };
+      for (double knot : time_) {
+        if (knot >= t) break;
+        add(knot);
+      }
+      add(t);
+      return value;
+    }
+  }
+  return 0.0;
+}
+
 }  // namespace cosim::interface

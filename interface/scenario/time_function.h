@@ -18,6 +18,8 @@ class TimeFunction {
 
   double Value(double t) const;
   double Derivative(double t) const;
+  double SecondDerivative(double t) const;  // 0 for tables (piecewise linear)
+  double Integral(double t) const;          // ∫_0^t f dτ
   bool IsZero() const { return kind_ == Kind::kConstant && constant_ == 0.0; }
 
  private:

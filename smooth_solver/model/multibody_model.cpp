@@ -26,10 +26,17 @@ Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const goo
     checks.Fail(path, "expected [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] in kg m^2, got " +
                           std::to_string(v.size()) + " values");
   }
-  const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(J).eigenvalues().minCoeff();
-  if (!(smallest > 0.0)) {
-    checks.Fail(path, "must be positive definite; its smallest principal moment is " + FormatNumber(smallest) +
-                          " kg m^2");
+  const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(J).eigenvalues();
+  if (!(moments.minCoeff() > 0.0)) {
+    checks.Fail(path, "must be positive definite; its smallest principal moment is " +
+                          FormatNumber(moments.minCoeff()) + " kg m^2");
+  }
+  // A real body's principal moments obey I1 + I2 >= I3 (its mass distribution's second
+  // moments are non-negative); the natural-coordinate mass matrix needs them positive.
+  if (!(moments(0) + moments(1) > moments(2))) {
+    checks.Fail(path, "principal moments " + FormatNumber(moments(0)) + ", " + FormatNumber(moments(1)) + ", " +
+                          FormatNumber(moments(2)) +
+                          " kg m^2 break the triangle inequality I1 + I2 > I3 that every real body obeys");
   }
   return J;
 }
@@ -83,7 +90,13 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     if (joint.body1 == joint.body2) {
       checks.Fail(path + ".body2", "joins '" + j.body2() + "' to itself; a joint needs two different bodies");
     }
-    joint.point = checks.Vector3(path + ".point", j.point(), std::nullopt);
+    if (j.point1_size() > 0 || j.point2_size() > 0) {
+      joint.body_points = true;
+      joint.point1 = checks.Vector3(path + ".point1", j.point1(), std::nullopt);
+      joint.point2 = checks.Vector3(path + ".point2", j.point2(), std::nullopt);
+    } else {
+      joint.point = checks.Vector3(path + ".point", j.point(), std::nullopt);
+    }
     const bool needs_axis = joint.type == JointType::kRevolute || joint.type == JointType::kPrismatic ||
                             joint.type == JointType::kUniversal;
     if (needs_axis) joint.axis = checks.Direction(path + ".axis", j.axis());
@@ -126,6 +139,16 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       joint.release_time = j.release_time();
     }
     model.joints.push_back(joint);
+  }
+  const auto& hold = m.initial_conditions().hold_joints();
+  for (int i = 0; i < hold.size(); ++i) {
+    const std::string path = ElementPath("model.initial_conditions.hold_joints", i);
+    const int j = joint_names.Find(path, hold.Get(i));
+    const JointType type = model.joints[static_cast<size_t>(j)].type;
+    if (type != JointType::kRevolute && type != JointType::kPrismatic) {
+      checks.Fail(path, "joint '" + hold.Get(i) + "' has no single coordinate to hold; only revolute and prismatic do");
+    }
+    model.hold_joints.push_back(j);
   }
   return model;
 }

@@ -30,7 +30,10 @@ struct Joint {
   JointType type = JointType::kRevolute;
   int body1 = -1;  // -1 = ground
   int body2 = -1;
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // global, initial configuration
+  bool body_points = false;                         // point1/point2 given in body frames
+  Eigen::Vector3d point1 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d point2 = Eigen::Vector3d::Zero();
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d axis2 = Eigen::Vector3d::UnitX();
   bool driven = false;
@@ -44,6 +47,7 @@ struct MultibodyModel {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   std::vector<RigidBody> bodies;
   std::vector<Joint> joints;
+  std::vector<int> hold_joints;  // joints whose coordinate and speed the initial state keeps
 };
 
 // Throws InputError naming the field for every inconsistency it finds.

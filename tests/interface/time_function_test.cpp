@@ -26,7 +26,13 @@ TEST(TimeFunction, CosineRampMatchesEquation37AndItsDerivative) {
   for (double t : {0.3, 1.0, 1.7}) {
     const double fd = (ramp.Value(t + 1e-6) - ramp.Value(t - 1e-6)) / 2e-6;
     EXPECT_NEAR(ramp.Derivative(t), fd, 1e-6 * 40.0);
+    const double fd2 = (ramp.Derivative(t + 1e-6) - ramp.Derivative(t - 1e-6)) / 2e-6;
+    EXPECT_NEAR(ramp.SecondDerivative(t), fd2, 1e-5 * 40.0);
+    const double fi = (ramp.Integral(t + 1e-6) - ramp.Integral(t - 1e-6)) / 2e-6;
+    EXPECT_NEAR(fi, ramp.Value(t), 1e-6 * 40.0);
   }
+  // After the ramp: ½ F T of ramp, then F per second.
+  EXPECT_NEAR(ramp.Integral(3.0), 0.5 * 40.0 * 2.0 + 40.0, 1e-12);
 }
 
 TEST(TimeFunction, TableInterpolatesLinearlyAndRejectsDecreasingTimes) {
@@ -40,6 +46,8 @@ TEST(TimeFunction, TableInterpolatesLinearlyAndRejectsDecreasingTimes) {
   EXPECT_DOUBLE_EQ(table.Value(2.0), 0.0);
   EXPECT_DOUBLE_EQ(table.Derivative(2.0), -2.0);
   EXPECT_DOUBLE_EQ(table.Value(9.0), -2.0);
+  // ∫0^2: triangle to (1, 2) gives 1, then from (1, 2) to (2, 0) gives 1.
+  EXPECT_DOUBLE_EQ(table.Integral(2.0), 2.0);
   proto.mutable_table()->set_time(2, 0.5);
   EXPECT_THROW(TimeFunction::Build(checks, "x", proto), InputError);
 }

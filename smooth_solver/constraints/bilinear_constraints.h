@@ -1,0 +1,117 @@
+#pragma once
+// Holonomic constraints in natural (fully Cartesian) coordinates.
+//
+// Each rigid body b has 12 coordinates q = [x, u, v, w]: its centre of mass x and the
+// three unit vectors of its body frame (design.md, "Smooth solver coordinates"). A material
+// point s (body frame) is x + s_x u + s_y v + s_z w and a material direction a is
+// a_x u + a_y v + a_z w: both LINEAR in q. Every constraint the solver uses is then a
+// weighted sum of dot products of two such linear vectors,
+//     φ(q, t) = Σ_j w_j(t) A_j(q)·B_j(q) + c(t),
+// so that Φ_q, the Hessians (constant), Φ_t and Φ_tt follow exactly and cheaply.
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+#include "interface/scenario/time_function.h"
+
+namespace cosim::smooth {
+
+inline constexpr int kCoordinatesPerBody = 12;
+
+// A 3-vector linear in q: Σ_k coefficient_k q[offset_k .. offset_k + 2] + constant.
+struct LinearVector {
+  struct Term {
+    int offset = 0;  // first of the three coordinates
+    double coefficient = 1.0;
+  };
+  std::vector<Term> terms;
+  Eigen::Vector3d constant = Eigen::Vector3d::Zero();
+
+  Eigen::Vector3d Value(const Eigen::Ref<const Eigen::VectorXd>& q) const;
+  // d/dt of Value along q̇ (the constant part does not move).
+  Eigen::Vector3d Rate(const Eigen::Ref<const Eigen::VectorXd>& qdot) const;
+
+  // Material point `s` (body frame) of body `body` (-1: ground, a constant point `s`).
+  static LinearVector Point(int body, const Eigen::Vector3d& s);
+  // Material direction `a` (body frame) of body `body` (-1: ground, the constant `a`).
+  static LinearVector Direction(int body, const Eigen::Vector3d& a);
+  // A fixed global vector.
+  static LinearVector Constant(const Eigen::Vector3d& c);
+  LinearVector operator-(const LinearVector& other) const;
+};
+
+// Weight of a term or the constant as a function of time: 1, sin θ(t), cos θ(t) or θ(t)
+// for a drive angle (or displacement) θ(t).
+struct DriveWeight {
+  enum class Kind { kOne, kSin, kCos, kValue };
+  Kind kind = Kind::kOne;
+  double scale = 1.0;
+  int drive = -1;  // index into ConstraintSet::drives; -1 for kOne
+};
+
+struct ScalarConstraint {
+  struct Term {
+    LinearVector a, b;
+    DriveWeight weight;
+  };
+  std::string name;  // e.g. "hinge.revolute_axis_1" or "arm.unit_u"
+  std::vector<Term> terms;
+  double constant = 0.0;        // c, constant part
+  DriveWeight constant_weight;  // c(t) = constant × weight(t)
+};
+
+// A prescribed joint coordinate θ(t) (angle or displacement), with its derivatives.
+struct Drive {
+  interface::TimeFunction function;
+  bool is_rate = false;  // the function gives θ̇ (speed drives): θ = ∫ f
+  double Value(double t) const { return is_rate ? function.Integral(t) : function.Value(t); }
+  double Rate(double t) const { return is_rate ? function.Value(t) : function.Derivative(t); }
+  double Acceleration(double t) const { return is_rate ? function.Derivative(t) : function.SecondDerivative(t); }
+};
+
+// Triplet sink for sparse assembly: (row, column, value) added into a matrix whose pattern
+// was fixed beforehand.
+class SparseSink {
+ public:
+  virtual ~SparseSink() = default;
+  virtual void Add(int row, int column, double value) = 0;
+};
+
+class ConstraintSet {
+ public:
+  std::vector<ScalarConstraint> constraints;
+  std::vector<Drive> drives;
+
+  int size() const { return static_cast<int>(constraints.size()); }
+
+  // Φ(q, t) into `phi` (size m).
+  void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi) const;
+  // Φ_q into `sink` at (row_offset + i, column), scaled by `scale`.
+  void Jacobian(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink, int row_offset,
+                double scale) const;
+  // The same transposed: (column, row_offset + i).
+  void JacobianTranspose(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink, int column_offset,
+                         double scale) const;
+  // Φ_qᵀ λ into `out` (size n, accumulated).
+  void AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                                 const Eigen::Ref<const Eigen::VectorXd>& lambda, Eigen::Ref<Eigen::VectorXd> out) const;
+  // Φ_q v into `out` (size m).
+  void JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t, const Eigen::Ref<const Eigen::VectorXd>& v,
+                     Eigen::Ref<Eigen::VectorXd> out) const;
+  // scale · Σ_i λ_i ∂²φ_i/∂q² into `sink` (constant Hessians of the bilinear terms).
+  void HessianTimesLambda(double t, const Eigen::Ref<const Eigen::VectorXd>& lambda, SparseSink* sink,
+                          double scale) const;
+  // Every (row, column) HessianTimesLambda may touch, for the sparsity pattern.
+  void HessianPattern(SparseSink* sink) const;
+  // The acceleration right-hand side: Φ_q q̈ = −ξ, ξ = (Φ_q q̇)_q q̇ + 2 Φ_qt q̇ + Φ_tt.
+  void AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qdot,
+                        double t, Eigen::Ref<Eigen::VectorXd> xi) const;
+  // Φ_t (size m): the velocity constraint is Φ_q q̇ + Φ_t = 0.
+  void TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi_t) const;
+
+ private:
+  double Weight(const DriveWeight& w, double t, int derivative) const;
+};
+
+}  // namespace cosim::smooth

@@ -1,0 +1,136 @@
+#include "smooth_solver/integrator/cgalpha.h"
+
+#include <cmath>
+
+#include "interface/run/errors.h"
+#include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+
+namespace cosim::smooth {
+
+namespace {
+
+// Sparsity pattern of [A, Φ_qᵀ; Φ_q, 0] where A holds M and the constraint Hessians.
+Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
+  const int n = system.coordinates, m = system.constraints.size();
+  PatternSink pattern;
+  pattern.AddMatrix(system.mass, 0, 0);
+  system.constraints.HessianPattern(&pattern);
+  system.constraints.Jacobian(system.q0, 0.0, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(system.q0, 0.0, &pattern, n, 1.0);
+  for (int i = 0; i < n + m; ++i) pattern.Add(i, i, 0.0);  // keep the diagonal structurally present
+  return pattern.Build(n + m, n + m);
+}
+
+}  // namespace
+
+void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state) {
+  const int n = system.coordinates, m = system.constraints.size();
+  Eigen::SparseMatrix<double> A = SaddlePattern(system);
+  MatrixSink sink(&A);
+  sink.AddMatrix(system.mass, 1.0, 0, 0);
+  system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
+  Eigen::VectorXd rhs(n + m);
+  rhs.head(n) = system.constant_force;
+  system.constraints.AccelerationBias(state->q, state->qdot, t, rhs.tail(m));
+  rhs.tail(m) *= -1.0;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
+  lu.compute(A);
+  if (lu.info() != Eigen::Success) {
+    throw InputError(
+        "model: the constrained mass matrix [M, Φ_qᵀ; Φ_q, 0] is singular at the initial state: the joints are "
+        "redundant (an overconstrained loop: e.g. a planar four-bar of four revolute joints in 3D; use a spherical "
+        "and a universal joint for two of them) or a body's motion is not constrained nor given inertia");
+  }
+  const Eigen::VectorXd x = lu.solve(rhs);
+  state->qddot = x.head(n);
+  state->lambda = x.tail(m);
+}
+
+CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
+    : system_(system), settings_(settings), state_(initial) {
+  const double r = settings.rho_inf;
+  alpha_m_ = (2.0 * r - 1.0) / (r + 1.0);
+  alpha_f_ = r / (r + 1.0);
+  gamma_ = 0.5 + alpha_f_ - alpha_m_;
+  beta_ = 0.25 * (gamma_ + 0.5) * (gamma_ + 0.5);
+  a_ = state_.qddot;  // a_0 = q̈_0
+  const int n = system.coordinates, m = system.constraints.size();
+  next_ = state_;
+  a_next_.resize(n);
+  residual_.resize(n + m);
+  delta_.resize(n + m);
+  phi_.resize(m);
+  S_ = SaddlePattern(system);
+  lu_.analyzePattern(S_);  // once: the pattern never changes
+}
+
+double CgAlpha::ConstraintViolation(double t) const {
+  Eigen::VectorXd phi(system_.constraints.size());
+  system_.constraints.Evaluate(state_.q, t, phi);
+  return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
+}
+
+void CgAlpha::AssembleIteration(double t1, double h) {
+  const int n = system_.coordinates;
+  const double bh2 = beta_ * h * h;
+  // Bottasso scaling: dynamic rows × βh², multiplier columns ÷ βh² (Eqs. (34)-(36)).
+  for (int k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
+  MatrixSink sink(&S_);
+  sink.AddMatrix(system_.mass, (1.0 - alpha_m_) / (1.0 - alpha_f_), 0, 0);  // βh² β' M
+  system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);      // βh² Σ λ_i ∂²φ_i/∂q²
+  system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
+  system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
+}
+
+int CgAlpha::Step(double t, double h) {
+  const int n = system_.coordinates, m = system_.constraints.size();
+  const double t1 = t + h;
+  const double bh2 = beta_ * h * h;
+  const double beta_prime = (1.0 - alpha_m_) / ((1.0 - alpha_f_) * bh2);
+  const double gamma_prime = gamma_ / (beta_ * h);
+  // Predictor: q̈_{n+1} = q̈_n, λ_{n+1} = λ_n; a, q, q̇ from Eqs. (3) and (5).
+  next_.qddot = state_.qddot;
+  next_.lambda = state_.lambda;
+  a_next_ = (state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
+  next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - beta_) * a_ + beta_ * a_next_);
+  next_.qdot = state_.qdot + h * ((1.0 - gamma_) * a_ + gamma_ * a_next_);
+
+  for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
+    // Residual, scaled: [βh² (M q̈ − f + Φ_qᵀ λ); Φ].
+    auto r_q = residual_.head(n);
+    r_q.noalias() = system_.mass * next_.qddot;
+    r_q -= system_.constant_force;
+    system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
+    r_q *= bh2;
+    system_.constraints.Evaluate(next_.q, t1, residual_.tail(m));
+    AssembleIteration(t1, h);
+    lu_.factorize(S_);
+    if (lu_.info() != Eigen::Success) {
+      throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
+                           " s (redundant constraints or a singular configuration)");
+    }
+    delta_ = lu_.solve(-residual_);
+    const auto dq = delta_.head(n);
+    next_.q += dq;
+    next_.qdot += gamma_prime * dq;
+    next_.qddot += beta_prime * dq;
+    next_.lambda += delta_.tail(m) / bh2;
+    system_.constraints.Evaluate(next_.q, t1, phi_);
+    const double dq_norm = dq.lpNorm<Eigen::Infinity>();
+    const double phi_norm = m > 0 ? phi_.lpNorm<Eigen::Infinity>() : 0.0;
+    if (!std::isfinite(dq_norm)) break;
+    if (dq_norm <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) &&
+        phi_norm <= settings_.tolerance) {
+      // Accept: a_{n+1} from Eq. (3).
+      a_ = ((1.0 - alpha_f_) * next_.qddot + alpha_f_ * state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
+      std::swap(state_, next_);
+      return iteration;
+    }
+  }
+  throw NumericalError("CGα: Newton did not converge in " + std::to_string(settings_.max_iterations) +
+                       " iterations at t = " + std::to_string(t1) + " s (tolerance " +
+                       std::to_string(settings_.tolerance) + "); reduce the step or raise the iteration limit");
+}
+
+}  // namespace cosim::smooth

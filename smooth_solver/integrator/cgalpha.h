@@ -1,0 +1,73 @@
+#pragma once
+// Constrained generalised-α (CGα) for the index-3 DAE  M q̈ + Φ_qᵀ λ = f,  Φ(q, t) = 0
+// [CGα paper, Section 2; Arnold & Brüls 2007].
+//
+//   (1 − αm) a_{n+1} + αm a_n = (1 − αf) q̈_{n+1} + αf q̈_n                     Eq. (3)
+//   q_{n+1} = q_n + h q̇_n + h² (½ − β) a_n + h² β a_{n+1}                     Eq. (5)
+//   q̇_{n+1} = q̇_n + h (1 − γ) a_n + h γ a_{n+1}
+//   M q̈_{n+1} + Φ_qᵀ λ_{n+1} = f_{n+1},   Φ(q_{n+1}, t_{n+1}) = 0            Eqs. (1)-(2)
+//
+// solved by Newton–Raphson on (q_{n+1}, λ_{n+1}) with the exact tangent
+//   [β' M + K_t, Φ_qᵀ; Φ_q, 0],  β' = (1 − αm)/((1 − αf) β h²),  K_t = ∂(Φ_qᵀλ)/∂q,
+// and Bottasso's scaling (Eqs. (34)-(36)): the dynamic rows are multiplied by βh² and the
+// multiplier unknowns divided by it, which makes the matrix O(1) as h → 0.
+//
+// Coefficients from ρ∞ ∈ [0, 1] (Chung & Hulbert, as used by Arnold & Brüls):
+//   αm = (2ρ∞ − 1)/(ρ∞ + 1), αf = ρ∞/(ρ∞ + 1), γ = ½ + αf − αm, β = ¼ (γ + ½)².
+// (The CGα paper's Eq. (4) prints αm and αf the other way round; with its own γ = ½ − αm + αf
+// that would give γ < ½ for ρ∞ < 1, an unstable scheme, so the names there are swapped.)
+#include <Eigen/Core>
+#include <Eigen/SparseLU>
+
+#include "smooth_solver/model/multibody_system.h"
+
+namespace cosim::smooth {
+
+struct CgAlphaSettings {
+  double rho_inf = 0.9;            // ρ∞ ∈ [0, 1]; 1 = no numerical dissipation
+  double tolerance = 1e-6;         // on |Δq|∞ (relative to 1 + |q|∞) and |Φ|∞
+  int max_iterations = 20;
+};
+
+struct DaeState {
+  Eigen::VectorXd q, qdot, qddot, lambda;
+};
+
+class CgAlpha {
+ public:
+  // `initial` must be consistent (positions, velocities, accelerations, multipliers).
+  CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial);
+
+  // Advances from t to t + h. Returns the Newton iterations used; throws NumericalError if
+  // Newton does not converge (state unchanged).
+  int Step(double t, double h);
+
+  const DaeState& state() const { return state_; }
+  double alpha_m() const { return alpha_m_; }
+  double alpha_f() const { return alpha_f_; }
+  double beta() const { return beta_; }
+  double gamma() const { return gamma_; }
+  // |Φ|∞ at the current state.
+  double ConstraintViolation(double t) const;
+
+ private:
+  void AssembleIteration(double t1, double h);
+
+  const MultibodySystem& system_;
+  CgAlphaSettings settings_;
+  double alpha_m_ = 0, alpha_f_ = 0, beta_ = 0, gamma_ = 0;
+  DaeState state_;
+  Eigen::VectorXd a_;  // acceleration-like variable a_n
+  // Newton workspace.
+  DaeState next_;
+  Eigen::VectorXd a_next_, residual_, delta_, phi_;
+  Eigen::SparseMatrix<double> S_;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu_;
+};
+
+// Consistent accelerations and multipliers at (q, q̇, t): [M Φ_qᵀ; Φ_q 0][q̈; λ] = [f; −ξ].
+// Throws InputError if the matrix is singular (redundant constraints or a free body with a
+// singular mass matrix).
+void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state);
+
+}  // namespace cosim::smooth

@@ -1,0 +1,149 @@
+#include "smooth_solver/integrator/initial_conditions.h"
+
+#include <kinsol/kinsol.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
+#include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+
+namespace cosim::smooth {
+
+namespace {
+
+// Dense sink for the KKT Jacobian (column-major SUNDenseMatrix).
+class DenseSink : public SparseSink {
+ public:
+  explicit DenseSink(SUNMatrix J) : J_(J) {}
+  void Add(int row, int column, double value) override { SM_ELEMENT_D(J_, row, column) += value; }
+
+ private:
+  SUNMatrix J_;
+};
+
+struct ClosureProblem {
+  const MultibodySystem* system;
+  double t0;
+  int n, mc, mh;
+};
+
+Eigen::Map<Eigen::VectorXd> View(N_Vector v) {
+  return Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(v), N_VGetLength(v));
+}
+
+// F(q, μ) = [q − q₀ + Φ_qᵀ μ_c + H_qᵀ μ_h; Φ(q); H(q)]: the KKT conditions of
+// min ½|q − q₀|² subject to the constraints and the holds.
+int Residual(N_Vector y, N_Vector f, void* data) {
+  const auto* p = static_cast<const ClosureProblem*>(data);
+  const auto Y = View(y);
+  auto F = View(f);
+  const Eigen::VectorXd q = Y.head(p->n);
+  F.head(p->n) = q - p->system->q0;
+  p->system->constraints.AddJacobianTransposeTimes(q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
+  p->system->holds.AddJacobianTransposeTimes(q, p->t0, Y.tail(p->mh), F.head(p->n));
+  p->system->constraints.Evaluate(q, p->t0, F.segment(p->n, p->mc));
+  p->system->holds.Evaluate(q, p->t0, F.tail(p->mh));
+  return F.allFinite() ? 0 : 1;
+}
+
+int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) {
+  const auto* p = static_cast<const ClosureProblem*>(data);
+  const auto Y = View(y);
+  const Eigen::VectorXd q = Y.head(p->n);
+  SUNMatZero(J);
+  DenseSink sink(J);
+  for (int i = 0; i < p->n; ++i) sink.Add(i, i, 1.0);
+  p->system->constraints.HessianTimesLambda(p->t0, Y.segment(p->n, p->mc), &sink, 1.0);
+  p->system->holds.HessianTimesLambda(p->t0, Y.tail(p->mh), &sink, 1.0);
+  p->system->constraints.Jacobian(q, p->t0, &sink, p->n, 1.0);
+  p->system->constraints.JacobianTranspose(q, p->t0, &sink, p->n, 1.0);
+  p->system->holds.Jacobian(q, p->t0, &sink, p->n + p->mc, 1.0);
+  p->system->holds.JacobianTranspose(q, p->t0, &sink, p->n + p->mc, 1.0);
+  return 0;
+}
+
+}  // namespace
+
+DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report) {
+  const int n = system.coordinates, mc = system.constraints.size(), mh = system.holds.size();
+  const int N = n + mc + mh;
+  ClosureProblem problem{&system, t0, n, mc, mh};
+
+  SUNContext ctx = nullptr;
+  SUNContext_Create(nullptr, &ctx);
+  N_Vector y = N_VNew_Serial(N, ctx);
+  N_Vector scale = N_VNew_Serial(N, ctx);
+  SUNMatrix J = SUNDenseMatrix(N, N, ctx);
+  SUNLinearSolver LS = SUNLinSol_Dense(y, J, ctx);
+  void* kin = KINCreate(ctx);
+  View(y).setZero();
+  View(y).head(n) = system.q0;
+  N_VConst(1.0, scale);
+  KINInit(kin, Residual, y);
+  KINSetUserData(kin, &problem);
+  KINSetLinearSolver(kin, LS, J);
+  KINSetJacFn(kin, Jacobian);
+  KINSetFuncNormTol(kin, 1e-13);
+  KINSetScaledStepTol(kin, 1e-15);
+  KINSetMaxSetupCalls(kin, 1);  // exact Newton: a fresh Jacobian every iteration
+  KINSetNumMaxIters(kin, 200);
+  const int flag = KINSol(kin, y, KIN_LINESEARCH, scale, scale);
+  long iterations = 0;
+  KINGetNumNonlinSolvIters(kin, &iterations);
+  double fnorm = 0.0;
+  KINGetFuncNorm(kin, &fnorm);
+  DaeState state;
+  state.q = View(y).head(n);
+  KINFree(&kin);
+  SUNLinSolFree(LS);
+  SUNMatDestroy(J);
+  N_VDestroy(y);
+  N_VDestroy(scale);
+  SUNContext_Free(&ctx);
+  if (flag < 0 || !(fnorm < 1e-8)) {
+    throw InputError("model: the kinematic loops cannot be closed from the given poses (KINSOL flag " +
+                     std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
+                     " after " + std::to_string(iterations) +
+                     " iterations); check the joints' body-frame points and the bodies' initial poses");
+  }
+  if (report != nullptr) {
+    report->kinsol_iterations = iterations;
+    report->position_change = (state.q - system.q0).lpNorm<Eigen::Infinity>();
+  }
+
+  // Velocities: min ½|q̇ − q̇₀|² s.t. Φ_q q̇ = −Φ_t, H_q q̇ = H_q q̇₀ (held joint speeds kept).
+  {
+    PatternSink pattern;
+    for (int i = 0; i < n; ++i) pattern.Add(i, i, 0.0);
+    system.constraints.Jacobian(state.q, t0, &pattern, n, 1.0);
+    system.constraints.JacobianTranspose(state.q, t0, &pattern, n, 1.0);
+    system.holds.Jacobian(state.q, t0, &pattern, n + mc, 1.0);
+    system.holds.JacobianTranspose(state.q, t0, &pattern, n + mc, 1.0);
+    for (int i = n; i < N; ++i) pattern.Add(i, i, 0.0);
+    Eigen::SparseMatrix<double> A = pattern.Build(N, N);
+    MatrixSink sink(&A);
+    for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
+    system.constraints.Jacobian(state.q, t0, &sink, n, 1.0);
+    system.constraints.JacobianTranspose(state.q, t0, &sink, n, 1.0);
+    system.holds.Jacobian(state.q, t0, &sink, n + mc, 1.0);
+    system.holds.JacobianTranspose(state.q, t0, &sink, n + mc, 1.0);
+    Eigen::VectorXd rhs(N);
+    rhs.head(n) = system.qdot0;
+    system.constraints.TimeDerivative(state.q, t0, rhs.segment(n, mc));
+    rhs.segment(n, mc) *= -1.0;
+    system.holds.JacobianTimes(state.q, t0, system.qdot0, rhs.tail(mh));
+    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
+    if (lu.info() != Eigen::Success) {
+      throw InputError("model: the velocity constraints are singular at the initial state (redundant joints)");
+    }
+    state.qdot = lu.solve(rhs).head(n);
+    if (report != nullptr) report->velocity_change = (state.qdot - system.qdot0).lpNorm<Eigen::Infinity>();
+  }
+  ConsistentAccelerations(system, t0, &state);
+  return state;
+}
+
+}  // namespace cosim::smooth

@@ -1,0 +1,22 @@
+#pragma once
+// A consistent initial state from the user's guess:
+//  1. positions: the smallest change of q that closes every loop and keeps the held joint
+//     coordinates, min ½|q − q₀|² s.t. Φ(q, t₀) = 0, hold(q) = 0, solved as its KKT system
+//     with SUNDIALS KINSOL (Newton with line search, exact dense Jacobian);
+//  2. velocities: the smallest change of q̇ with Φ_q q̇ + Φ_t = 0 and the held joints' speeds
+//     as given;
+//  3. accelerations and multipliers from [M Φ_qᵀ; Φ_q 0][q̈; λ] = [f; −ξ].
+#include "smooth_solver/integrator/cgalpha.h"
+
+namespace cosim::smooth {
+
+struct InitialConditionReport {
+  long kinsol_iterations = 0;
+  double position_change = 0.0;  // |q − q₀|∞
+  double velocity_change = 0.0;  // |q̇ − q̇₀|∞
+};
+
+// Throws InputError (exit 2) when the loops cannot be closed from the guess.
+DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report);
+
+}  // namespace cosim::smooth

@@ -1,0 +1,52 @@
+#pragma once
+// A sparse matrix whose sparsity pattern is fixed once (every entry any assembly may touch),
+// then re-filled in place for each Newton iteration: no insertion, no reallocation, and the
+// sparse LU's symbolic analysis (analyzePattern) is done once and reused.
+#include <Eigen/SparseCore>
+
+#include <vector>
+
+#include "smooth_solver/constraints/bilinear_constraints.h"
+
+namespace cosim::smooth {
+
+// Collects the pattern: Add records (row, column) whatever the value.
+class PatternSink : public SparseSink {
+ public:
+  void Add(int row, int column, double) override { entries_.emplace_back(row, column, 0.0); }
+  void AddMatrix(const Eigen::SparseMatrix<double>& m, int row_offset, int column_offset) {
+    for (int k = 0; k < m.outerSize(); ++k) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(m, k); it; ++it) {
+        Add(row_offset + static_cast<int>(it.row()), column_offset + static_cast<int>(it.col()), 0.0);
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> Build(int rows, int columns) const {
+    Eigen::SparseMatrix<double> m(rows, columns);
+    m.setFromTriplets(entries_.begin(), entries_.end());
+    m.makeCompressed();
+    return m;
+  }
+
+ private:
+  std::vector<Eigen::Triplet<double>> entries_;
+};
+
+// Adds into existing entries of a compressed matrix (coeffRef finds them by binary search).
+class MatrixSink : public SparseSink {
+ public:
+  explicit MatrixSink(Eigen::SparseMatrix<double>* m) : m_(m) {}
+  void Add(int row, int column, double value) override { m_->coeffRef(row, column) += value; }
+  void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, int row_offset, int column_offset) {
+    for (int k = 0; k < a.outerSize(); ++k) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
+        Add(row_offset + static_cast<int>(it.row()), column_offset + static_cast<int>(it.col()), scale * it.value());
+      }
+    }
+  }
+
+ private:
+  Eigen::SparseMatrix<double>* m_;
+};
+
+}  // namespace cosim::smooth

@@ -1,0 +1,205 @@
+#include "smooth_solver/model/multibody_system.h"
+
+#include <cmath>
+
+namespace cosim::smooth {
+
+namespace {
+
+// Rotation and position of a body in the initial configuration (ground: identity, origin).
+struct Frame {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+};
+
+Frame FrameOf(const MultibodyModel& model, int body) {
+  Frame f;
+  if (body >= 0) {
+    f.R = model.bodies[static_cast<size_t>(body)].orientation.toRotationMatrix();
+    f.x = model.bodies[static_cast<size_t>(body)].position;
+  }
+  return f;
+}
+
+// A material direction of `body` that points along the global `a` in the initial configuration.
+LinearVector DirectionOf(int body, const Frame& f, const Eigen::Vector3d& a) {
+  return LinearVector::Direction(body, body < 0 ? a : Eigen::Vector3d(f.R.transpose() * a));
+}
+
+// Unit vector perpendicular to a.
+Eigen::Vector3d Perpendicular(const Eigen::Vector3d& a) {
+  Eigen::Index least = 0;
+  a.cwiseAbs().minCoeff(&least);
+  const Eigen::Vector3d e = Eigen::Vector3d::Unit(least);
+  return (e - e.dot(a) * a).normalized();
+}
+
+void AddDot(ScalarConstraint* c, const LinearVector& a, const LinearVector& b, DriveWeight w = {}) {
+  c->terms.push_back({a, b, w});
+}
+
+}  // namespace
+
+double MultibodySystem::JointCoordinate(int joint, const Eigen::VectorXd& q) const {
+  const JointMeasure& m = joints[static_cast<size_t>(joint)];
+  if (!m.rotational) return m.separation.Value(q).dot(m.axis1.Value(q));
+  const Eigen::Vector3d b2 = m.b2.Value(q);
+  return std::atan2(b2.dot(m.c1.Value(q)), b2.dot(m.b1.Value(q)));
+}
+
+double MultibodySystem::JointRate(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  const JointMeasure& m = joints[static_cast<size_t>(joint)];
+  if (!m.rotational) {
+    return m.separation.Rate(qdot).dot(m.axis1.Value(q)) + m.separation.Value(q).dot(m.axis1.Rate(qdot));
+  }
+  // θ = atan2(y, x): θ̇ = (x ẏ − y ẋ)/(x² + y²).
+  const Eigen::Vector3d b2 = m.b2.Value(q), b2d = m.b2.Rate(qdot);
+  const Eigen::Vector3d b1 = m.b1.Value(q), b1d = m.b1.Rate(qdot), c1 = m.c1.Value(q), c1d = m.c1.Rate(qdot);
+  const double x = b2.dot(b1), y = b2.dot(c1);
+  const double xd = b2d.dot(b1) + b2.dot(b1d), yd = b2d.dot(c1) + b2.dot(c1d);
+  return (x * yd - y * xd) / (x * x + y * y);
+}
+
+MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
+  MultibodySystem sys;
+  const int nb = static_cast<int>(model.bodies.size());
+  const int n = kCoordinatesPerBody * nb;
+  sys.coordinates = n;
+  sys.q0.resize(n);
+  sys.qdot0.resize(n);
+  sys.constant_force = Eigen::VectorXd::Zero(n);
+  std::vector<Eigen::Triplet<double>> mass;
+  for (int b = 0; b < nb; ++b) {
+    const RigidBody& body = model.bodies[static_cast<size_t>(b)];
+    const int o = kCoordinatesPerBody * b;
+    const Eigen::Matrix3d R = body.orientation.toRotationMatrix();
+    sys.q0.segment<3>(o) = body.position;
+    sys.qdot0.segment<3>(o) = body.velocity;
+    for (int k = 0; k < 3; ++k) {
+      sys.q0.segment<3>(o + 3 + 3 * k) = R.col(k);
+      sys.qdot0.segment<3>(o + 3 + 3 * k) = body.angular_velocity.cross(Eigen::Vector3d(R.col(k)));
+    }
+    // Kinetic energy ½ m ẋ² + ½ Σ_ij J̄_ij u̇_i·u̇_j, J̄ = ½ tr(I) E − I.
+    const Eigen::Matrix3d J = 0.5 * body.inertia.trace() * Eigen::Matrix3d::Identity() - body.inertia;
+    for (int k = 0; k < 3; ++k) {
+      mass.emplace_back(o + k, o + k, body.mass);
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+          if (J(i, j) != 0.0) mass.emplace_back(o + 3 + 3 * i + k, o + 3 + 3 * j + k, J(i, j));
+        }
+      }
+    }
+    sys.constant_force.segment<3>(o) = body.mass * model.gravity;
+    // Rigidity: the body axes stay orthonormal (6 constraints per body).
+    const LinearVector u = LinearVector::Direction(b, Eigen::Vector3d::UnitX());
+    const LinearVector v = LinearVector::Direction(b, Eigen::Vector3d::UnitY());
+    const LinearVector w = LinearVector::Direction(b, Eigen::Vector3d::UnitZ());
+    const std::pair<const LinearVector*, const LinearVector*> pairs[6] = {{&u, &u}, {&v, &v}, {&w, &w},
+                                                                         {&u, &v}, {&u, &w}, {&v, &w}};
+    const char* names[6] = {"u.u", "v.v", "w.w", "u.v", "u.w", "v.w"};
+    for (int k = 0; k < 6; ++k) {
+      ScalarConstraint c;
+      c.name = body.name + ".rigid_" + names[k];
+      AddDot(&c, *pairs[k].first, *pairs[k].second);
+      c.constant = k < 3 ? -1.0 : 0.0;
+      sys.constraints.constraints.push_back(c);
+    }
+  }
+  sys.mass.resize(n, n);
+  sys.mass.setFromTriplets(mass.begin(), mass.end());
+
+  for (size_t ji = 0; ji < model.joints.size(); ++ji) {
+    const Joint& j = model.joints[ji];
+    const Frame f1 = FrameOf(model, j.body1), f2 = FrameOf(model, j.body2);
+    ConstraintSet& cs = sys.constraints;
+    JointMeasure measure;
+    measure.first_row = cs.size();
+    auto add = [&](const std::string& what, const LinearVector& a, const LinearVector& b, double constant = 0.0) {
+      ScalarConstraint c;
+      c.name = j.name + "." + what;
+      AddDot(&c, a, b);
+      c.constant = constant;
+      cs.constraints.push_back(c);
+    };
+    // Joint points on each body (body frame), or from the global point in the given poses.
+    const Eigen::Vector3d s1 = j.body_points ? j.point1 : Eigen::Vector3d(f1.R.transpose() * (j.point - f1.x));
+    const Eigen::Vector3d s2 = j.body_points ? j.point2 : Eigen::Vector3d(f2.R.transpose() * (j.point - f2.x));
+    const LinearVector p1 = j.body1 < 0 ? LinearVector::Constant(s1) : LinearVector::Point(j.body1, s1);
+    const LinearVector p2 = j.body2 < 0 ? LinearVector::Constant(s2) : LinearVector::Point(j.body2, s2);
+    const Eigen::Vector3d a = j.axis, b = Perpendicular(a), c = a.cross(b);
+    const LinearVector a1 = DirectionOf(j.body1, f1, a), b1 = DirectionOf(j.body1, f1, b),
+                       c1 = DirectionOf(j.body1, f1, c);
+    const LinearVector a2 = DirectionOf(j.body2, f2, a), b2 = DirectionOf(j.body2, f2, b);
+    const bool point_rows = j.type != JointType::kPrismatic;
+    if (point_rows) {
+      // Coincidence of the joint's points: λ of these rows is the force body1 exerts on body2
+      // (with the sign convention Φ = p1 − p2).
+      const char* axes[3] = {"x", "y", "z"};
+      for (int k = 0; k < 3; ++k) add(std::string("point_") + axes[k], p1 - p2, LinearVector::Constant(Eigen::Vector3d::Unit(k)));
+    }
+    measure.has_point_rows = point_rows;
+    switch (j.type) {
+      case JointType::kRevolute:
+        add("axis_b", a2, b1);
+        add("axis_c", a2, c1);
+        break;
+      case JointType::kUniversal: {
+        const LinearVector axis2 = DirectionOf(j.body2, f2, j.axis2);
+        add("cross", a1, axis2, -a.dot(j.axis2));
+        break;
+      }
+      case JointType::kFixed:
+        add("axis_b", a2, b1);
+        add("axis_c", a2, c1);
+        add("twist", b2, c1);
+        break;
+      case JointType::kPrismatic:
+        add("axis_b", a2, b1);
+        add("axis_c", a2, c1);
+        add("twist", b2, c1);
+        add("slide_b", p2 - p1, b1);
+        add("slide_c", p2 - p1, c1);
+        break;
+      case JointType::kSpherical:
+        break;
+    }
+    measure.rotational = j.type != JointType::kPrismatic;
+    measure.b1 = b1;
+    measure.c1 = c1;
+    measure.b2 = b2;
+    measure.separation = p2 - p1;
+    measure.axis1 = a1;
+    if (j.driven) {
+      // Revolute: sin θd (b2·b1) − cos θd (b2·c1) = sin(θd − θ) = 0. Prismatic: (p2 − p1)·a1 − θd = 0.
+      const int d = static_cast<int>(cs.drives.size());
+      cs.drives.push_back(Drive{j.drive, j.drive_is_rate});
+      ScalarConstraint drive;
+      drive.name = j.name + ".drive";
+      if (j.type == JointType::kRevolute) {
+        AddDot(&drive, b2, b1, DriveWeight{DriveWeight::Kind::kSin, 1.0, d});
+        AddDot(&drive, b2, c1, DriveWeight{DriveWeight::Kind::kCos, -1.0, d});
+      } else {
+        AddDot(&drive, p2 - p1, a1);
+        drive.constant = -1.0;
+        drive.constant_weight = DriveWeight{DriveWeight::Kind::kValue, 1.0, d};
+      }
+      cs.constraints.push_back(drive);
+    }
+    sys.joints.push_back(measure);
+  }
+  for (int h : model.hold_joints) {
+    const JointMeasure& m = sys.joints[static_cast<size_t>(h)];
+    ScalarConstraint c;
+    c.name = model.joints[static_cast<size_t>(h)].name + ".hold";
+    if (m.rotational) {
+      AddDot(&c, m.b2, m.c1);  // sin θ = 0 at the given pose
+    } else {
+      AddDot(&c, m.separation, m.axis1);
+      c.constant = -(m.separation.Value(sys.q0).dot(m.axis1.Value(sys.q0)));
+    }
+    sys.holds.constraints.push_back(c);
+  }
+  return sys;
+}
+
+}  // namespace cosim::smooth

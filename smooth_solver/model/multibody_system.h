@@ -1,0 +1,53 @@
+#pragma once
+// The equations of motion of a MultibodyModel in natural coordinates:
+//   M q̈ + Φ_qᵀ λ = f(q, q̇, t),   Φ(q, t) = 0,
+// with a constant mass matrix M (so CGα needs no inertia Jacobians). Each body's 12
+// coordinates are [x, u, v, w]; its kinetic energy ½ m ẋ² + ½ Σ_ij J̄_ij u̇_i·u̇_j uses the
+// second moments J̄ = ½ tr(I) E − I of its inertia tensor I about the centre of mass.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <string>
+#include <vector>
+
+#include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/model/multibody_model.h"
+
+namespace cosim::smooth {
+
+// What a probe needs to measure a joint: its coordinate and its reaction.
+struct JointMeasure {
+  int first_row = 0;       // first constraint row of the joint (its point coincidence rows
+                           // come first when it has them)
+  bool has_point_rows = false;
+  // Revolute: angle of b2 from b1 towards c1 about the axis. Prismatic: (p2 − p1)·a1.
+  LinearVector b1, c1, b2;
+  LinearVector separation, axis1;
+  bool rotational = true;
+};
+
+struct MultibodySystem {
+  int coordinates = 0;
+  Eigen::SparseMatrix<double> mass;  // constant
+  Eigen::VectorXd constant_force;    // gravity
+  ConstraintSet constraints;         // rigid-body normalisation, joints, drives
+  // The constraints that hold the `hold_joints` coordinates at their initial value (used
+  // while making the initial state consistent).
+  ConstraintSet holds;
+  std::vector<JointMeasure> joints;  // one per model joint
+  Eigen::VectorXd q0, qdot0;         // the user's initial guess
+
+  // Joint coordinate [rad or m] and its rate.
+  double JointCoordinate(int joint, const Eigen::VectorXd& q) const;
+  double JointRate(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+  // Position of body b's centre of mass, its axes (columns u, v, w).
+  static Eigen::Vector3d Position(int body, const Eigen::VectorXd& q) {
+    return q.segment<3>(kCoordinatesPerBody * body);
+  }
+  double KineticEnergy(const Eigen::VectorXd& qdot) const { return 0.5 * qdot.dot(mass * qdot); }
+  double PotentialEnergy(const Eigen::VectorXd& q) const { return -constant_force.dot(q); }
+};
+
+MultibodySystem BuildMultibodySystem(const MultibodyModel& model);
+
+}  // namespace cosim::smooth

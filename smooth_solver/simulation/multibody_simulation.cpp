@@ -1,0 +1,216 @@
+#include "smooth_solver/simulation/multibody_simulation.h"
+
+#include <cmath>
+#include <numbers>
+
+#include "interface/scenario/checks.h"
+
+namespace cosim::smooth {
+
+using interface::Checks;
+using interface::ElementPath;
+namespace sc = cosim::scenario;
+
+namespace {
+
+int Component(const Checks& checks, const std::string& path, const sc::Probe& p, bool vector) {
+  if (!vector) {
+    if (p.component() != sc::Probe::COMPONENT_UNSPECIFIED) {
+      checks.Fail(path + ".component", "this quantity is a scalar; leave component out");
+    }
+    return 0;
+  }
+  switch (p.component()) {
+    case sc::Probe::X: return 0;
+    case sc::Probe::Y: return 1;
+    case sc::Probe::Z: return 2;
+    case sc::Probe::NORM: return 3;
+    default: checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
+  }
+}
+
+double Pick(const Eigen::Vector3d& v, int component) { return component == 3 ? v.norm() : v(component); }
+
+}  // namespace
+
+MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : model_(BuildMultibodyModel(file)) {
+  const Checks checks(file);
+  if (model_.bodies.empty()) checks.Fail("model.bodies", "the smooth solver needs at least one rigid body");
+  if (file.proto().model().elastic_bodies_size() > 0) {
+    checks.Fail("model.elastic_bodies", "elastic bodies are not available in this build yet (issue 5)");
+  }
+  if (file.proto().model().forces_size() > 0) {
+    checks.Fail("model.forces", "force elements are not available in the smooth solver yet; gravity is");
+  }
+  numerics_.CopyFrom(file.proto().numerics());
+  interface::MaterializeDefaults(&numerics_);
+  numerics_.clear_nonsmooth();
+  const sc::SmoothSettings& s = numerics_.smooth();
+  if (s.integrator() != sc::SmoothSettings::CGALPHA) {
+    checks.Fail("numerics.smooth.integrator", "only CGALPHA is available in this build (the IDA reference is to come)");
+  }
+  CgAlphaSettings settings;
+  settings.rho_inf = checks.InRange("numerics.smooth.rho_inf", true, s.rho_inf(), 0.0, 1.0);
+  settings.tolerance = checks.Positive("numerics.smooth.newton_tolerance", true, s.newton_tolerance(), "dimensionless");
+  if (s.newton_max_iterations() < 1) {
+    checks.Fail("numerics.smooth.newton_max_iterations", "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
+  }
+  settings.max_iterations = s.newton_max_iterations();
+
+  // Probes.
+  std::map<std::string, int> body_index, joint_index;
+  for (size_t b = 0; b < model_.bodies.size(); ++b) body_index[model_.bodies[b].name] = static_cast<int>(b);
+  for (size_t j = 0; j < model_.joints.size(); ++j) joint_index[model_.joints[j].name] = static_cast<int>(j);
+  interface::NameTable probe_names(checks, "probe");
+  const sc::Output& output = file.proto().output();
+  for (int i = 0; i < output.probes_size(); ++i) {
+    const sc::Probe& p = output.probes(i);
+    const std::string path = ElementPath("output.probes", i);
+    if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
+    ProbeSpec spec;
+    spec.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
+    auto find = [&](const std::map<std::string, int>& table, const char* kind) {
+      auto it = table.find(p.entity());
+      if (it == table.end()) {
+        std::string known;
+        for (const auto& [name, index] : table) known += (known.empty() ? "" : ", ") + name;
+        checks.Fail(path + ".entity", std::string("no ") + kind + " named '" + p.entity() + "'" +
+                                          (known.empty() ? "" : "; known: " + known));
+      }
+      return it->second;
+    };
+    switch (p.quantity()) {
+      case sc::Probe::POSITION: spec.kind = Kind::kPosition; break;
+      case sc::Probe::VELOCITY: spec.kind = Kind::kVelocity; break;
+      case sc::Probe::ACCELERATION: spec.kind = Kind::kAcceleration; break;
+      case sc::Probe::ANGULAR_VELOCITY: spec.kind = Kind::kAngularVelocity; break;
+      case sc::Probe::JOINT_COORDINATE: spec.kind = Kind::kJointCoordinate; break;
+      case sc::Probe::JOINT_SPEED: spec.kind = Kind::kJointSpeed; break;
+      case sc::Probe::REACTION_FORCE: spec.kind = Kind::kReactionForce; break;
+      case sc::Probe::KINETIC_ENERGY: spec.kind = Kind::kKinetic; break;
+      case sc::Probe::POTENTIAL_ENERGY: spec.kind = Kind::kPotential; break;
+      case sc::Probe::TOTAL_ENERGY: spec.kind = Kind::kTotal; break;
+      case sc::Probe::CONSTRAINT_VIOLATION: spec.kind = Kind::kViolation; break;
+      default:
+        checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
+                                        "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, "
+                                        "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY or CONSTRAINT_VIOLATION, got " +
+                                            sc::Probe::Quantity_Name(p.quantity()));
+    }
+    switch (spec.kind) {
+      case Kind::kPosition:
+      case Kind::kVelocity:
+      case Kind::kAcceleration:
+      case Kind::kAngularVelocity:
+        spec.index = find(body_index, "body");
+        spec.component = Component(checks, path, p, true);
+        break;
+      case Kind::kJointCoordinate:
+      case Kind::kJointSpeed: {
+        spec.index = find(joint_index, "joint");
+        const JointType type = model_.joints[static_cast<size_t>(spec.index)].type;
+        if (type != JointType::kRevolute && type != JointType::kPrismatic) {
+          checks.Fail(path + ".entity", "joint '" + p.entity() + "' has no single coordinate (revolute or prismatic only)");
+        }
+        spec.component = Component(checks, path, p, false);
+        break;
+      }
+      case Kind::kReactionForce:
+        spec.index = find(joint_index, "joint");
+        if (model_.joints[static_cast<size_t>(spec.index)].type == JointType::kPrismatic) {
+          checks.Fail(path + ".entity", "the reaction of a prismatic joint is not available yet");
+        }
+        spec.component = Component(checks, path, p, true);
+        break;
+      case Kind::kKinetic:
+      case Kind::kPotential:
+      case Kind::kTotal:
+      case Kind::kViolation:
+        if (!p.entity().empty()) checks.Fail(path + ".entity", "this quantity is for the whole system; leave entity out");
+        spec.component = Component(checks, path, p, false);
+        break;
+    }
+    probes_.push_back(spec);
+  }
+
+  system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_));
+  time_ = numerics_.start_time();
+  const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
+  integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
+  angle_offset_.assign(model_.joints.size(), 0.0);
+  last_angle_.assign(model_.joints.size(), 0.0);
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    if (system_->joints[j].rotational) last_angle_[j] = system_->JointCoordinate(static_cast<int>(j), initial.q);
+  }
+  max_violation_ = integrator_->ConstraintViolation(time_);
+}
+
+std::vector<std::string> MultibodySimulation::ProbeNames() const {
+  std::vector<std::string> names;
+  for (const auto& p : probes_) names.push_back(p.name);
+  return names;
+}
+
+void MultibodySimulation::Probe(std::vector<double>* values) const {
+  const DaeState& s = integrator_->state();
+  for (size_t i = 0; i < probes_.size(); ++i) {
+    const ProbeSpec& p = probes_[i];
+    const int o = kCoordinatesPerBody * std::max(p.index, 0);
+    double value = 0.0;
+    switch (p.kind) {
+      case Kind::kPosition: value = Pick(s.q.segment<3>(o), p.component); break;
+      case Kind::kVelocity: value = Pick(s.qdot.segment<3>(o), p.component); break;
+      case Kind::kAcceleration: value = Pick(s.qddot.segment<3>(o), p.component); break;
+      case Kind::kAngularVelocity: {
+        // ω = ½ Σ_k e_k × ė_k for the orthonormal body axes e_k.
+        Eigen::Vector3d w = Eigen::Vector3d::Zero();
+        for (int k = 0; k < 3; ++k) w += 0.5 * s.q.segment<3>(o + 3 + 3 * k).cross(s.qdot.segment<3>(o + 3 + 3 * k));
+        value = Pick(w, p.component);
+        break;
+      }
+      case Kind::kJointCoordinate:
+        value = system_->JointCoordinate(p.index, s.q);
+        if (system_->joints[static_cast<size_t>(p.index)].rotational) value += angle_offset_[static_cast<size_t>(p.index)];
+        break;
+      case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
+      case Kind::kReactionForce:
+        value = Pick(s.lambda.segment<3>(system_->joints[static_cast<size_t>(p.index)].first_row), p.component);
+        break;
+      case Kind::kKinetic: value = system_->KineticEnergy(s.qdot); break;
+      case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;
+      case Kind::kTotal: value = system_->KineticEnergy(s.qdot) + system_->PotentialEnergy(s.q); break;
+      case Kind::kViolation: value = integrator_->ConstraintViolation(time_); break;
+    }
+    (*values)[i] = value;
+  }
+}
+
+void MultibodySimulation::Step(double t, double h) {
+  newton_.Add(integrator_->Step(t, h));
+  time_ = t + h;
+  max_violation_ = std::max(max_violation_, integrator_->ConstraintViolation(time_));
+  // Unwrap revolute angles (a step never turns a joint by π).
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    if (!system_->joints[j].rotational) continue;
+    const double angle = system_->JointCoordinate(static_cast<int>(j), integrator_->state().q);
+    const double jump = angle - last_angle_[j];
+    if (jump > std::numbers::pi) angle_offset_[j] -= 2.0 * std::numbers::pi;
+    if (jump < -std::numbers::pi) angle_offset_[j] += 2.0 * std::numbers::pi;
+    last_angle_[j] = angle;
+  }
+}
+
+void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
+  summary->mutable_numerics()->CopyFrom(numerics_);
+  newton_.Fill(summary->mutable_newton_iterations());
+  summary->set_max_constraint_violation(max_violation_);
+  auto& counters = *summary->mutable_counters();
+  counters["bodies"] = static_cast<double>(model_.bodies.size());
+  counters["coordinates"] = static_cast<double>(system_->coordinates);
+  counters["constraints"] = static_cast<double>(system_->constraints.size());
+  counters["initial_kinsol_iterations"] = static_cast<double>(initial_report_.kinsol_iterations);
+  counters["initial_position_change"] = initial_report_.position_change;
+  counters["initial_velocity_change"] = initial_report_.velocity_change;
+}
+
+}  // namespace cosim::smooth

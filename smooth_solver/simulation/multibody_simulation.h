@@ -1,0 +1,47 @@
+#pragma once
+// A standalone smooth-solver run: model, natural-coordinate system, consistent initial
+// state, CGα, and the probes, behind the run contract's Simulation interface.
+#include <memory>
+
+#include "interface/run/run_driver.h"
+#include "smooth_solver/integrator/cgalpha.h"
+#include "smooth_solver/integrator/initial_conditions.h"
+
+namespace cosim::smooth {
+
+class MultibodySimulation : public interface::Simulation {
+ public:
+  explicit MultibodySimulation(const interface::ScenarioFile& file);
+
+  std::vector<std::string> ProbeNames() const override;
+  void Probe(std::vector<double>* values) const override;
+  void Step(double t, double h) override;
+  void FillSummary(run::RunSummary* summary) const override;
+
+  const MultibodySystem& system() const { return *system_; }
+  const CgAlpha& integrator() const { return *integrator_; }
+
+ private:
+  enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
+                    kReactionForce, kKinetic, kPotential, kTotal, kViolation };
+  struct ProbeSpec {
+    std::string name;
+    Kind kind = Kind::kPosition;
+    int index = -1;
+    int component = 0;  // 0-2 x, y, z; 3 norm
+  };
+
+  MultibodyModel model_;
+  std::unique_ptr<const MultibodySystem> system_;
+  std::unique_ptr<CgAlpha> integrator_;
+  std::vector<ProbeSpec> probes_;
+  scenario::Numerics numerics_;
+  InitialConditionReport initial_report_;
+  interface::IterationCounter newton_;
+  double time_ = 0.0;
+  double max_violation_ = 0.0;
+  // Revolute angles unwrapped across ±π: turns added to atan2 per joint.
+  std::vector<double> angle_offset_, last_angle_;
+};
+
+}  // namespace cosim::smooth

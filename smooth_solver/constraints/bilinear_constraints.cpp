@@ -206,6 +206,28 @@ void ConstraintSet::AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q,
   }
 }
 
+void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                               const Eigen::Ref<const Eigen::VectorXd>& v, double t, SparseSink* sink,
+                                               int row_offset) const {
+  // Φ_q v = Σ w (A_q v · B + A · B_q v):  ∂/∂q = w ((B_q v)ᵀ A_q + (A_q v)ᵀ B_q);
+  // Φ_t = Σ ẇ A·B:  ∂/∂q = ẇ (Bᵀ A_q + Aᵀ B_q).
+  for (size_t i = 0; i < constraints.size(); ++i) {
+    const int row = row_offset + static_cast<int>(i);
+    for (const auto& term : constraints[i].terms) {
+      const double w = Weight(term.weight, t, 0), w_dot = Weight(term.weight, t, 1);
+      const Eigen::Vector3d a = term.a.Value(q), b = term.b.Value(q);
+      const Eigen::Vector3d a_rate = term.a.Rate(v), b_rate = term.b.Rate(v);
+      const Eigen::Vector3d along_a = w * b_rate + w_dot * b, along_b = w * a_rate + w_dot * a;
+      for (const auto& ta : term.a.terms) {
+        for (int k = 0; k < 3; ++k) sink->Add(row, ta.offset + k, ta.coefficient * along_a(k));
+      }
+      for (const auto& tb : term.b.terms) {
+        for (int k = 0; k < 3; ++k) sink->Add(row, tb.offset + k, tb.coefficient * along_b(k));
+      }
+    }
+  }
+}
+
 void ConstraintSet::TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                    Eigen::Ref<Eigen::VectorXd> phi_t) const {
   for (size_t i = 0; i < constraints.size(); ++i) {

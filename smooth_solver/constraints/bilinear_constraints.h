@@ -107,6 +107,10 @@ class ConstraintSet {
   // The acceleration right-hand side: Φ_q q̈ = −ξ, ξ = (Φ_q q̇)_q q̇ + 2 Φ_qt q̇ + Φ_tt.
   void AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qdot,
                         double t, Eigen::Ref<Eigen::VectorXd> xi) const;
+  // ∂(Φ_q v + Φ_t)/∂q into `sink` at (row_offset + i, column): the derivative of the velocity
+  // constraint with respect to the positions (index-2 formulations).
+  void VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
+                                  double t, SparseSink* sink, int row_offset) const;
   // Φ_t (size m): the velocity constraint is Φ_q q̇ + Φ_t = 0.
   void TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi_t) const;
 

@@ -19,7 +19,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseLU>
 
-#include "smooth_solver/model/multibody_system.h"
+#include "smooth_solver/integrator/smooth_integrator.h"
 
 namespace cosim::smooth {
 
@@ -29,26 +29,22 @@ struct CgAlphaSettings {
   int max_iterations = 20;
 };
 
-struct DaeState {
-  Eigen::VectorXd q, qdot, qddot, lambda;
-};
-
-class CgAlpha {
+class CgAlpha : public SmoothIntegrator {
  public:
   // `initial` must be consistent (positions, velocities, accelerations, multipliers).
   CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial);
 
   // Advances from t to t + h. Returns the Newton iterations used; throws NumericalError if
   // Newton does not converge (state unchanged).
-  int Step(double t, double h);
+  int Step(double t, double h) override;
 
-  const DaeState& state() const { return state_; }
+  const DaeState& state() const override { return state_; }
   double alpha_m() const { return alpha_m_; }
   double alpha_f() const { return alpha_f_; }
   double beta() const { return beta_; }
   double gamma() const { return gamma_; }
   // |Φ|∞ at the current state.
-  double ConstraintViolation(double t) const;
+  double ConstraintViolation(double t) const override;
 
  private:
   void AssembleIteration(double t1, double h);

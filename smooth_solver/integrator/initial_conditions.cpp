@@ -8,21 +8,12 @@
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
+#include "smooth_solver/linear_algebra/dense_sink.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 
 namespace cosim::smooth {
 
 namespace {
-
-// Dense sink for the KKT Jacobian (column-major SUNDenseMatrix).
-class DenseSink : public SparseSink {
- public:
-  explicit DenseSink(SUNMatrix J) : J_(J) {}
-  void Add(int row, int column, double value) override { SM_ELEMENT_D(J_, row, column) += value; }
-
- private:
-  SUNMatrix J_;
-};
 
 struct ClosureProblem {
   const MultibodySystem* system;
@@ -54,7 +45,7 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
   const auto Y = View(y);
   const Eigen::VectorXd q = Y.head(p->n);
   SUNMatZero(J);
-  DenseSink sink(J);
+  SunDenseSink sink(J);
   for (int i = 0; i < p->n; ++i) sink.Add(i, i, 1.0);
   p->system->constraints.HessianTimesLambda(p->t0, Y.segment(p->n, p->mc), &sink, 1.0);
   p->system->holds.HessianTimesLambda(p->t0, Y.tail(p->mh), &sink, 1.0);

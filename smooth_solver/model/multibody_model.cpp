@@ -138,6 +138,10 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       if (!j.locked()) checks.Fail(path + ".release_time", "given for a joint that is not locked");
       joint.release_time = j.release_time();
     }
+    if (joint.locked) {
+      checks.Fail(path + ".locked", "locked (and released) joints are not available in this build yet; lock a "
+                                    "joint with a drive of constant value instead");
+    }
     model.joints.push_back(joint);
   }
   const auto& hold = m.initial_conditions().hold_joints();

@@ -46,9 +46,15 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();
   const sc::SmoothSettings& s = numerics_.smooth();
-  if (s.integrator() != sc::SmoothSettings::CGALPHA) {
-    checks.Fail("numerics.smooth.integrator", "only CGALPHA is available in this build (the IDA reference is to come)");
+  if (s.integrator() != sc::SmoothSettings::CGALPHA && s.integrator() != sc::SmoothSettings::IDA) {
+    checks.Fail("numerics.smooth.integrator", "expected CGALPHA or IDA");
   }
+  ida_ = s.integrator() == sc::SmoothSettings::IDA;
+  IdaSettings ida;
+  ida.relative_tolerance =
+      checks.Positive("numerics.smooth.ida_relative_tolerance", true, s.ida_relative_tolerance(), "dimensionless");
+  ida.absolute_tolerance =
+      checks.Positive("numerics.smooth.ida_absolute_tolerance", true, s.ida_absolute_tolerance(), "m or m/s");
   CgAlphaSettings settings;
   settings.rho_inf = checks.InRange("numerics.smooth.rho_inf", true, s.rho_inf(), 0.0, 1.0);
   settings.tolerance = checks.Positive("numerics.smooth.newton_tolerance", true, s.newton_tolerance(), "dimensionless");
@@ -136,7 +142,11 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
   system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_));
   time_ = numerics_.start_time();
   const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
-  integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
+  if (ida_) {
+    integrator_ = std::make_unique<IdaReference>(*system_, ida, initial, time_);
+  } else {
+    integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
+  }
   angle_offset_.assign(model_.joints.size(), 0.0);
   last_angle_.assign(model_.joints.size(), 0.0);
   for (size_t j = 0; j < model_.joints.size(); ++j) {
@@ -186,7 +196,12 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
 }
 
 void MultibodySimulation::Step(double t, double h) {
-  newton_.Add(integrator_->Step(t, h));
+  const int iterations = integrator_->Step(t, h);
+  if (ida_) {
+    ida_steps_ += iterations;  // IDA's internal steps
+  } else {
+    newton_.Add(iterations);
+  }
   time_ = t + h;
   max_violation_ = std::max(max_violation_, integrator_->ConstraintViolation(time_));
   // Unwrap revolute angles (a step never turns a joint by π).
@@ -211,6 +226,7 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   counters["initial_kinsol_iterations"] = static_cast<double>(initial_report_.kinsol_iterations);
   counters["initial_position_change"] = initial_report_.position_change;
   counters["initial_velocity_change"] = initial_report_.velocity_change;
+  if (ida_) counters["ida_internal_steps"] = static_cast<double>(ida_steps_);
 }
 
 }  // namespace cosim::smooth

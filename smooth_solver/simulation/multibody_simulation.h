@@ -5,6 +5,7 @@
 
 #include "interface/run/run_driver.h"
 #include "smooth_solver/integrator/cgalpha.h"
+#include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 
 namespace cosim::smooth {
@@ -19,7 +20,7 @@ class MultibodySimulation : public interface::Simulation {
   void FillSummary(run::RunSummary* summary) const override;
 
   const MultibodySystem& system() const { return *system_; }
-  const CgAlpha& integrator() const { return *integrator_; }
+  const SmoothIntegrator& integrator() const { return *integrator_; }
 
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
@@ -33,7 +34,9 @@ class MultibodySimulation : public interface::Simulation {
 
   MultibodyModel model_;
   std::unique_ptr<const MultibodySystem> system_;
-  std::unique_ptr<CgAlpha> integrator_;
+  std::unique_ptr<SmoothIntegrator> integrator_;
+  bool ida_ = false;
+  long ida_steps_ = 0;
   std::vector<ProbeSpec> probes_;
   scenario::Numerics numerics_;
   InitialConditionReport initial_report_;

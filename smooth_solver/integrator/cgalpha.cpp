@@ -62,7 +62,7 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
   delta_.resize(n + m);
   phi_.resize(m);
   S_ = SaddlePattern(system);
-  lu_.analyzePattern(S_);  // once: the pattern never changes
+  lu_.Analyze(S_);  // once: the pattern never changes
 }
 
 double CgAlpha::ConstraintViolation(double t) const {
@@ -105,12 +105,12 @@ int CgAlpha::Step(double t, double h) {
     r_q *= bh2;
     system_.constraints.Evaluate(next_.q, t1, residual_.tail(m));
     AssembleIteration(t1, h);
-    lu_.factorize(S_);
-    if (lu_.info() != Eigen::Success) {
+    if (!lu_.Factorize(S_)) {
       throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                            " s (redundant constraints or a singular configuration)");
     }
-    delta_ = lu_.solve(-residual_);
+    delta_ = -residual_;
+    lu_.SolveInPlace(delta_);
     const auto dq = delta_.head(n);
     next_.q += dq;
     next_.qdot += gamma_prime * dq;

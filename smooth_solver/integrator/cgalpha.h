@@ -20,6 +20,7 @@
 #include <Eigen/SparseLU>
 
 #include "smooth_solver/integrator/smooth_integrator.h"
+#include "smooth_solver/linear_algebra/klu_solver.h"
 
 namespace cosim::smooth {
 
@@ -58,7 +59,7 @@ class CgAlpha : public SmoothIntegrator {
   DaeState next_;
   Eigen::VectorXd a_next_, residual_, delta_, phi_;
   Eigen::SparseMatrix<double> S_;
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu_;
+  KluSolver lu_;
 };
 
 // Consistent accelerations and multipliers at (q, q̇, t): [M Φ_qᵀ; Φ_q 0][q̈; λ] = [f; −ξ].

@@ -15,6 +15,7 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   PatternSink pattern;
   pattern.AddMatrix(system.mass, 0, 0);
   system.constraints.HessianPattern(&pattern);
+  system.ForcePattern(&pattern);
   system.constraints.Jacobian(system.q0, 0.0, &pattern, n, 1.0);
   system.constraints.JacobianTranspose(system.q0, 0.0, &pattern, n, 1.0);
   for (int i = 0; i < n + m; ++i) pattern.Add(i, i, 0.0);  // keep the diagonal structurally present
@@ -31,7 +32,7 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
   Eigen::VectorXd rhs(n + m);
-  rhs.head(n) = system.constant_force;
+  system.Force(state->q, state->qdot, t, rhs.head(n));
   system.constraints.AccelerationBias(state->q, state->qdot, t, rhs.tail(m));
   rhs.tail(m) *= -1.0;
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
@@ -59,6 +60,7 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
   next_ = state_;
   a_next_.resize(n);
   residual_.resize(n + m);
+  force_.resize(n);
   delta_.resize(n + m);
   phi_.resize(m);
   S_ = SaddlePattern(system);
@@ -79,6 +81,8 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   MatrixSink sink(&S_);
   sink.AddMatrix(system_.mass, (1.0 - alpha_m_) / (1.0 - alpha_f_), 0, 0);  // βh² β' M
   system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);      // βh² Σ λ_i ∂²φ_i/∂q²
+  // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
+  system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * gamma_ / (beta_ * h), &sink);
   system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
 }
@@ -99,8 +103,9 @@ int CgAlpha::Step(double t, double h) {
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     // Residual, scaled: [βh² (M q̈ − f + Φ_qᵀ λ); Φ].
     auto r_q = residual_.head(n);
+    system_.Force(next_.q, next_.qdot, t1, force_);
     r_q.noalias() = system_.mass * next_.qddot;
-    r_q -= system_.constant_force;
+    r_q -= force_;
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     system_.constraints.Evaluate(next_.q, t1, residual_.tail(m));

@@ -8,7 +8,8 @@
 //   M q̈_{n+1} + Φ_qᵀ λ_{n+1} = f_{n+1},   Φ(q_{n+1}, t_{n+1}) = 0            Eqs. (1)-(2)
 //
 // solved by Newton–Raphson on (q_{n+1}, λ_{n+1}) with the exact tangent
-//   [β' M + K_t, Φ_qᵀ; Φ_q, 0],  β' = (1 − αm)/((1 − αf) β h²),  K_t = ∂(Φ_qᵀλ)/∂q,
+//   [β' M + γ' C + K_t, Φ_qᵀ; Φ_q, 0],  β' = (1 − αm)/((1 − αf) β h²),  γ' = γ/(βh),
+//   K_t = ∂(Φ_qᵀλ)/∂q − ∂f/∂q,  C = −∂f/∂q̇,
 // and Bottasso's scaling (Eqs. (34)-(36)): the dynamic rows are multiplied by βh² and the
 // multiplier unknowns divided by it, which makes the matrix O(1) as h → 0.
 //
@@ -57,7 +58,7 @@ class CgAlpha : public SmoothIntegrator {
   Eigen::VectorXd a_;  // acceleration-like variable a_n
   // Newton workspace.
   DaeState next_;
-  Eigen::VectorXd a_next_, residual_, delta_, phi_;
+  Eigen::VectorXd a_next_, residual_, delta_, phi_, force_;
   Eigen::SparseMatrix<double> S_;
   KluSolver lu_;
 };

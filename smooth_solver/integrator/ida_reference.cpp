@@ -28,7 +28,7 @@ struct IdaReference::Impl {
   SUNMatrix J = nullptr;
   SUNLinearSolver LS = nullptr;
   void* ida = nullptr;
-  Eigen::VectorXd scratch;
+  Eigen::VectorXd scratch, force;
 
   // F(t, y, ẏ), y = [q, v, Λ, Μ], ẏ = [q̇, v̇, λ, μ].
   static int Residual(realtype t, N_Vector yv, N_Vector ypv, N_Vector rv, void* data) {
@@ -41,7 +41,8 @@ struct IdaReference::Impl {
     r.head(n) = yp.head(n) - v;
     p->system->constraints.AddJacobianTransposeTimes(q, t, mu, r.head(n));
     // M v̇ − f + Φ_qᵀ λ
-    r.segment(n, n) = p->system->mass * yp.segment(n, n) - p->system->constant_force;
+    p->system->Force(q, v, t, p->force);
+    r.segment(n, n) = p->system->mass * yp.segment(n, n) - p->force;
     p->system->constraints.AddJacobianTransposeTimes(q, t, lambda, r.segment(n, n));
     // Φ_q v + Φ_t
     p->system->constraints.JacobianTimes(q, t, v, r.segment(2 * n, m));
@@ -80,6 +81,18 @@ struct IdaReference::Impl {
       int row_;
     } shifted(&sink, n);
     cs.HessianTimesLambda(t, lambda, &shifted, 1.0);
+    // −∂f/∂q in the q columns, −∂f/∂v in the v columns.
+    p->system->AddForceTangent(q, v, t, 1.0, 0.0, &shifted);
+    class BothShift : public SparseSink {
+     public:
+      BothShift(SparseSink* inner, int shift) : inner_(inner), shift_(shift) {}
+      void Add(int r, int c, double value) override { inner_->Add(r + shift_, c + shift_, value); }
+
+     private:
+      SparseSink* inner_;
+      int shift_;
+    } v_block(&sink, n);
+    p->system->AddForceTangent(q, v, t, 0.0, 1.0, &v_block);
     MatrixSinkAdd(p->system->mass, cj, n, n, &sink);
     cs.JacobianTranspose(q, t, &shifted, 2 * n, cj);
     // Velocity constraint rows: ∂(Φ_q v + Φ_t)/∂q and Φ_q (v columns).
@@ -117,6 +130,7 @@ IdaReference::IdaReference(const MultibodySystem& system, const IdaSettings& set
   p.m = system.constraints.size();
   const int N = 2 * p.n + 2 * p.m;
   p.scratch.resize(p.m);
+  p.force.resize(p.n);
   SUNContext_Create(nullptr, &p.ctx);
   p.y = N_VNew_Serial(N, p.ctx);
   p.yp = N_VNew_Serial(N, p.ctx);

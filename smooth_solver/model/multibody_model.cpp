@@ -144,6 +144,79 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     }
     model.joints.push_back(joint);
   }
+  NameTable force_names(checks, "force element");
+  for (int i = 0; i < m.forces_size(); ++i) {
+    const sc::ForceElement& fe = m.forces(i);
+    const std::string path = ElementPath("model.forces", i);
+    ForceSpec spec;
+    spec.name = force_names.Declare(path + ".name", fe.has_name(), fe.name());
+    switch (fe.kind_case()) {
+      case sc::ForceElement::kLoad: {
+        const auto& l = fe.load();
+        spec.kind = ForceSpec::Kind::kLoad;
+        checks.Require(path + ".load.body", l.has_body(), "the name of a body");
+        if (l.body() == "ground") checks.Fail(path + ".load.body", "a load on the ground does nothing; name a body");
+        spec.body1 = body_names.Find(path + ".load.body", l.body());
+        spec.point1 = checks.Vector3(path + ".load.point", l.point(), Eigen::Vector3d::Zero());
+        for (const auto* list : {&l.force(), &l.torque()}) {
+          const bool is_force = list == &l.force();
+          const std::string lpath = path + (is_force ? ".load.force" : ".load.torque");
+          if (list->empty()) continue;
+          if (list->size() != 3) {
+            checks.Fail(lpath, "expected 3 functions (x, y, z components), got " + std::to_string(list->size()));
+          }
+          for (int c = 0; c < 3; ++c) {
+            (is_force ? spec.force : spec.torque)[static_cast<size_t>(c)] =
+                interface::TimeFunction::Build(checks, ElementPath(lpath, c), list->Get(c));
+          }
+          if (!is_force) spec.has_torque = true;
+        }
+        if (l.force().empty() && l.torque().empty()) checks.Fail(path + ".load", "gives neither force nor torque");
+        break;
+      }
+      case sc::ForceElement::kSpring: {
+        const auto& sp = fe.spring();
+        spec.kind = ForceSpec::Kind::kSpring;
+        spec.body1 = find_body(path + ".spring.body1", sp.has_body1(), sp.body1());
+        spec.body2 = find_body(path + ".spring.body2", sp.has_body2(), sp.body2());
+        spec.point1 = checks.Vector3(path + ".spring.point1", sp.point1(), Eigen::Vector3d::Zero());
+        spec.point2 = checks.Vector3(path + ".spring.point2", sp.point2(), Eigen::Vector3d::Zero());
+        checks.Require(path + ".spring.stiffness", sp.has_stiffness(), "a stiffness in N/m");
+        spec.stiffness = checks.NonNegative(path + ".spring.stiffness", sp.stiffness(), "N/m");
+        spec.damping = checks.NonNegative(path + ".spring.damping", sp.damping(), "N s/m");
+        if (sp.has_rest_length()) {
+          spec.rest = checks.NonNegative(path + ".spring.rest_length", sp.rest_length(), "m");
+          spec.has_rest = true;
+        }
+        break;
+      }
+      case sc::ForceElement::kJointSpring: {
+        const auto& js = fe.joint_spring();
+        spec.kind = ForceSpec::Kind::kJointSpring;
+        checks.Require(path + ".joint_spring.joint", js.has_joint(), "the name of a revolute or prismatic joint");
+        spec.joint = joint_names.Find(path + ".joint_spring.joint", js.joint());
+        const JointType type = model.joints[static_cast<size_t>(spec.joint)].type;
+        if (type != JointType::kRevolute && type != JointType::kPrismatic) {
+          checks.Fail(path + ".joint_spring.joint", "joint '" + js.joint() +
+                                                        "' has no single coordinate; only revolute and prismatic do");
+        }
+        const std::string unit = type == JointType::kRevolute ? "N m/rad" : "N/m";
+        checks.Require(path + ".joint_spring.stiffness", js.has_stiffness(), "a stiffness in " + unit);
+        spec.stiffness = checks.NonNegative(path + ".joint_spring.stiffness", js.stiffness(), unit);
+        spec.damping = checks.NonNegative(path + ".joint_spring.damping", js.damping(),
+                                          type == JointType::kRevolute ? "N m s/rad" : "N s/m");
+        spec.rest = js.rest_value();
+        break;
+      }
+      case sc::ForceElement::kContinuousContact:
+      case sc::ForceElement::kJointStop:
+        checks.Fail(path, "continuous contact and joint stops arrive with the co-simulation (issue 6)");
+      case sc::ForceElement::KIND_NOT_SET:
+        checks.Fail(path, "empty force element; give load { ... }, spring { ... } or joint_spring { ... }");
+    }
+    model.forces.push_back(spec);
+  }
+
   const auto& hold = m.initial_conditions().hold_joints();
   for (int i = 0; i < hold.size(); ++i) {
     const std::string path = ElementPath("model.initial_conditions.hold_joints", i);

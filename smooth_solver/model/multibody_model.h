@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -43,11 +44,26 @@ struct Joint {
   double release_time = 0.0;
 };
 
+// A force element as given in the scenario (model.forces).
+struct ForceSpec {
+  enum class Kind { kLoad, kSpring, kJointSpring };
+  Kind kind = Kind::kLoad;
+  std::string name;
+  int body1 = -1, body2 = -1;  // load: body1; spring: both (−1 = ground)
+  Eigen::Vector3d point1 = Eigen::Vector3d::Zero(), point2 = Eigen::Vector3d::Zero();
+  int joint = -1;                // joint spring
+  double stiffness = 0.0, damping = 0.0, rest = 0.0;
+  bool has_rest = false;
+  std::array<interface::TimeFunction, 3> force, torque;
+  bool has_torque = false;
+};
+
 struct MultibodyModel {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   std::vector<RigidBody> bodies;
   std::vector<Joint> joints;
   std::vector<int> hold_joints;  // joints whose coordinate and speed the initial state keeps
+  std::vector<ForceSpec> forces;
 };
 
 // Throws InputError naming the field for every inconsistency it finds.

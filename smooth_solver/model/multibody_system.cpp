@@ -60,6 +60,27 @@ double MultibodySystem::JointRate(int joint, const Eigen::VectorXd& q, const Eig
   return (x * yd - y * xd) / (x * x + y * y);
 }
 
+void MultibodySystem::Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                            Eigen::Ref<Eigen::VectorXd> f) const {
+  f = constant_force;
+  for (const auto& element : forces) element->AddForce(q, qdot, t, f);
+}
+
+void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                                      double stiffness_scale, double damping_scale, SparseSink* sink) const {
+  for (const auto& element : forces) element->AddTangent(q, qdot, t, stiffness_scale, damping_scale, sink);
+}
+
+void MultibodySystem::ForcePattern(SparseSink* sink) const {
+  for (const auto& element : forces) element->Pattern(sink);
+}
+
+double MultibodySystem::PotentialEnergy(const Eigen::VectorXd& q) const {
+  double e = -constant_force.dot(q);  // gravity
+  for (const auto& element : forces) e += element->PotentialEnergy(q);
+  return e;
+}
+
 MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
   MultibodySystem sys;
   const int nb = static_cast<int>(model.bodies.size());
@@ -186,6 +207,31 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
       cs.constraints.push_back(drive);
     }
     sys.joints.push_back(measure);
+  }
+  for (const ForceSpec& f : model.forces) {
+    switch (f.kind) {
+      case ForceSpec::Kind::kLoad:
+        sys.forces.push_back(std::make_unique<AppliedLoad>(f.body1, f.point1, f.force, f.torque, f.has_torque));
+        break;
+      case ForceSpec::Kind::kSpring: {
+        const LinearVector p1 = LinearVector::Point(f.body1, f.point1), p2 = LinearVector::Point(f.body2, f.point2);
+        const double rest = f.has_rest ? f.rest : (p2 - p1).Value(sys.q0).norm();
+        sys.forces.push_back(std::make_unique<PointSpring>(p1, p2, f.stiffness, f.damping, rest));
+        break;
+      }
+      case ForceSpec::Kind::kJointSpring: {
+        const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
+        if (m.rotational) {
+          sys.forces.push_back(std::make_unique<CoordinateSpring>(m.b1, m.c1, m.b2, f.stiffness, f.damping, f.rest));
+        } else {
+          // The prismatic coordinate is measured from the given pose.
+          const double s0 = m.separation.Value(sys.q0).dot(m.axis1.Value(sys.q0));
+          sys.forces.push_back(
+              std::make_unique<CoordinateSpring>(m.separation, m.axis1, f.stiffness, f.damping, s0 + f.rest));
+        }
+        break;
+      }
+    }
   }
   for (int h : model.hold_joints) {
     const JointMeasure& m = sys.joints[static_cast<size_t>(h)];

@@ -7,10 +7,12 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/forces/force_elements.h"
 #include "smooth_solver/model/multibody_model.h"
 
 namespace cosim::smooth {
@@ -36,6 +38,14 @@ struct MultibodySystem {
   ConstraintSet holds;
   std::vector<JointMeasure> joints;  // one per model joint
   Eigen::VectorXd q0, qdot0;         // the user's initial guess
+  std::vector<std::unique_ptr<ForceElement>> forces;
+
+  // Total generalised force f(q, q̇, t): gravity plus every force element.
+  void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, Eigen::Ref<Eigen::VectorXd> f) const;
+  // sink += stiffness_scale · (−∂f/∂q) + damping_scale · (−∂f/∂q̇).
+  void AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                       double damping_scale, SparseSink* sink) const;
+  void ForcePattern(SparseSink* sink) const;
 
   // Joint coordinate [rad or m] and its rate.
   double JointCoordinate(int joint, const Eigen::VectorXd& q) const;
@@ -45,7 +55,7 @@ struct MultibodySystem {
     return q.segment<3>(kCoordinatesPerBody * body);
   }
   double KineticEnergy(const Eigen::VectorXd& qdot) const { return 0.5 * qdot.dot(mass * qdot); }
-  double PotentialEnergy(const Eigen::VectorXd& q) const { return -constant_force.dot(q); }
+  double PotentialEnergy(const Eigen::VectorXd& q) const;
 };
 
 MultibodySystem BuildMultibodySystem(const MultibodyModel& model);

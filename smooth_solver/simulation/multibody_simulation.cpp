@@ -39,9 +39,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
   if (file.proto().model().elastic_bodies_size() > 0) {
     checks.Fail("model.elastic_bodies", "elastic bodies are not available in this build yet (issue 5)");
   }
-  if (file.proto().model().forces_size() > 0) {
-    checks.Fail("model.forces", "force elements are not available in the smooth solver yet; gravity is");
-  }
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();

@@ -1,0 +1,102 @@
+#pragma once
+// Force elements of the smooth model in natural coordinates: applied loads, translational
+// spring-dampers between body points, and spring-dampers on joint coordinates. Each gives
+// its generalised force f(q, q̇, t) and the exact tangents K = −∂f/∂q, C = −∂f/∂q̇ that
+// CGα's Newton matrix and IDA's Jacobian need (checked against finite differences in
+// tests/smooth_solver/force_elements_test.cpp).
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "smooth_solver/constraints/bilinear_constraints.h"
+
+namespace cosim::smooth {
+
+class ForceElement {
+ public:
+  virtual ~ForceElement() = default;
+  // f += generalised force at (q, q̇, t).
+  virtual void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                        Eigen::Ref<Eigen::VectorXd> f) const = 0;
+  // sink += stiffness_scale · K + damping_scale · C (entries in q-space).
+  virtual void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                          double damping_scale, SparseSink* sink) const = 0;
+  // Every (row, column) AddTangent may touch.
+  virtual void Pattern(SparseSink* sink) const = 0;
+  virtual double PotentialEnergy(const Eigen::VectorXd&) const { return 0.0; }
+};
+
+// A force F(t) at a body point s and a torque T(t) on the body, both global. In natural
+// coordinates the force's virtual work gives f_x = F, f_{u_k} = s_k F; the torque is carried
+// by f_{u_k} = ½ T × u_k (a pure couple: Σ_k u_k × ½ T × u_k = T for orthonormal axes).
+class AppliedLoad : public ForceElement {
+ public:
+  AppliedLoad(int body, const Eigen::Vector3d& point, std::array<interface::TimeFunction, 3> force,
+              std::array<interface::TimeFunction, 3> torque, bool has_torque);
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                  double damping_scale, SparseSink* sink) const override;
+  void Pattern(SparseSink* sink) const override;
+
+ private:
+  Eigen::Vector3d Value(const std::array<interface::TimeFunction, 3>& f, double t) const;
+  int offset_;
+  Eigen::Vector3d point_;
+  std::array<interface::TimeFunction, 3> force_, torque_;
+  bool has_torque_;
+};
+
+// A spring-damper along the line between two points: F = (k (L − L0) + c L̇) d̂ pulls p2
+// towards p1 (d = p2 − p1, L = |d|), and pushes p1 the other way.
+class PointSpring : public ForceElement {
+ public:
+  PointSpring(LinearVector p1, LinearVector p2, double stiffness, double damping, double rest_length);
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                  double damping_scale, SparseSink* sink) const override;
+  void Pattern(SparseSink* sink) const override;
+  double PotentialEnergy(const Eigen::VectorXd& q) const override;
+
+ private:
+  LinearVector d_;  // p2 − p1
+  double k_, c_, rest_;
+};
+
+// A spring-damper on a joint coordinate θ(q): f = −(k (θ − θ0) + c θ̇) ∇θ. Revolute:
+// θ = atan2(b2·c1, b2·b1) (valid within ±π of the initial pose); prismatic: θ = (p2 − p1)·a1.
+class CoordinateSpring : public ForceElement {
+ public:
+  // Revolute form.
+  CoordinateSpring(LinearVector b1, LinearVector c1, LinearVector b2, double stiffness, double damping, double rest);
+  // Prismatic form.
+  CoordinateSpring(LinearVector separation, LinearVector axis, double stiffness, double damping, double rest);
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                  double damping_scale, SparseSink* sink) const override;
+  void Pattern(SparseSink* sink) const override;
+  double PotentialEnergy(const Eigen::VectorXd& q) const override;
+
+  // θ, its gradient and Hessian over the element's local coordinates.
+  struct Local {
+    double value = 0.0;
+    Eigen::VectorXd gradient;
+    Eigen::MatrixXd hessian;
+  };
+  Local Evaluate(const Eigen::VectorXd& q) const;
+  const std::vector<int>& coordinates() const { return coordinates_; }
+
+ private:
+  void Collect();
+  bool revolute_;
+  LinearVector a_, b_, c_;  // revolute: b1, c1, b2; prismatic: separation, axis, unused
+  double k_, damping_, rest_;
+  std::vector<int> coordinates_;  // global index of each local coordinate
+};
+
+}  // namespace cosim::smooth

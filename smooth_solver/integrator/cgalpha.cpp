@@ -93,6 +93,17 @@ int CgAlpha::Step(double t, double h) {
   const double bh2 = beta_ * h * h;
   const double beta_prime = (1.0 - alpha_m_) / ((1.0 - alpha_f_) * bh2);
   const double gamma_prime = gamma_ / (beta_ * h);
+  if (!started_) {
+    // a_0 = q̈(t_0 + Δα h), Δα = αm − αf < 0, from the accelerations consistent with a
+    // Taylor-shifted state (accurate to O(h²), which is what second order needs).
+    const double delta = (alpha_m_ - alpha_f_) * h;
+    DaeState shifted = state_;
+    shifted.q = state_.q + delta * state_.qdot + 0.5 * delta * delta * state_.qddot;
+    shifted.qdot = state_.qdot + delta * state_.qddot;
+    ConsistentAccelerations(system_, t + delta, &shifted);
+    a_ = shifted.qddot;
+    started_ = true;
+  }
   // Predictor: q̈_{n+1} = q̈_n, λ_{n+1} = λ_n; a, q, q̇ from Eqs. (3) and (5).
   next_.qddot = state_.qddot;
   next_.lambda = state_.lambda;

@@ -81,6 +81,30 @@ double MultibodySystem::PotentialEnergy(const Eigen::VectorXd& q) const {
   return e;
 }
 
+Eigen::Vector3d MultibodySystem::JointReactionForce(int joint, const Eigen::VectorXd& lambda) const {
+  const JointMeasure& m = joints[static_cast<size_t>(joint)];
+  // Φ = p1 − p2: the generalised constraint force −Φ_qᵀλ on body2's position is +λ.
+  return m.has_point_rows ? Eigen::Vector3d(lambda.segment<3>(m.first_row)) : Eigen::Vector3d::Zero();
+}
+
+Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                                                     double t) const {
+  const JointMeasure& m = joints[static_cast<size_t>(joint)];
+  Eigen::VectorXd selected = Eigen::VectorXd::Zero(lambda.size());
+  const int first = m.first_row + (m.has_point_rows ? 3 : 0);
+  selected.segment(first, m.first_row + m.row_count - first) = lambda.segment(first, m.first_row + m.row_count - first);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(coordinates);
+  constraints.AddJacobianTransposeTimes(q, t, selected, g);  // Φ_qᵀ λ; the force is −g
+  // A generalised force g_k on the axis e_k of a body is the couple Σ_k e_k × g_k.
+  const int body = m.body2 >= 0 ? m.body2 : m.body1;
+  const int o = kCoordinatesPerBody * body;
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    moment -= Eigen::Vector3d(q.segment<3>(o + 3 + 3 * k)).cross(Eigen::Vector3d(g.segment<3>(o + 3 + 3 * k)));
+  }
+  return m.body2 >= 0 ? moment : Eigen::Vector3d(-moment);
+}
+
 MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
   MultibodySystem sys;
   const int nb = static_cast<int>(model.bodies.size());
@@ -206,6 +230,9 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
       }
       cs.constraints.push_back(drive);
     }
+    measure.row_count = cs.size() - measure.first_row;
+    measure.body1 = j.body1;
+    measure.body2 = j.body2;
     sys.joints.push_back(measure);
   }
   for (const ForceSpec& f : model.forces) {

@@ -22,6 +22,8 @@ struct JointMeasure {
   int first_row = 0;       // first constraint row of the joint (its point coincidence rows
                            // come first when it has them)
   bool has_point_rows = false;
+  int row_count = 0;       // rows of the joint, its drive included
+  int body1 = -1, body2 = -1;
   // Revolute: angle of b2 from b1 towards c1 about the axis. Prismatic: (p2 − p1)·a1.
   LinearVector b1, c1, b2;
   LinearVector separation, axis1;
@@ -50,6 +52,12 @@ struct MultibodySystem {
   // Joint coordinate [rad or m] and its rate.
   double JointCoordinate(int joint, const Eigen::VectorXd& q) const;
   double JointRate(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+  // Force [N] and moment [N m] that body1 exerts on body2 through the joint (from the
+  // multipliers): the force from the point-coincidence rows, the moment (a pure couple, the
+  // same about any point) from the orientation and drive rows.
+  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& lambda) const;
+  Eigen::Vector3d JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                                      double t) const;
   // Position of body b's centre of mass, its axes (columns u, v, w).
   static Eigen::Vector3d Position(int body, const Eigen::VectorXd& q) {
     return q.segment<3>(kCoordinatesPerBody * body);

@@ -90,13 +90,14 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
       case sc::Probe::JOINT_COORDINATE: spec.kind = Kind::kJointCoordinate; break;
       case sc::Probe::JOINT_SPEED: spec.kind = Kind::kJointSpeed; break;
       case sc::Probe::REACTION_FORCE: spec.kind = Kind::kReactionForce; break;
+      case sc::Probe::REACTION_MOMENT: spec.kind = Kind::kReactionMoment; break;
       case sc::Probe::KINETIC_ENERGY: spec.kind = Kind::kKinetic; break;
       case sc::Probe::POTENTIAL_ENERGY: spec.kind = Kind::kPotential; break;
       case sc::Probe::TOTAL_ENERGY: spec.kind = Kind::kTotal; break;
       case sc::Probe::CONSTRAINT_VIOLATION: spec.kind = Kind::kViolation; break;
       default:
         checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
-                                        "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, "
+                                        "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
                                         "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY or CONSTRAINT_VIOLATION, got " +
                                             sc::Probe::Quantity_Name(p.quantity()));
     }
@@ -121,8 +122,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
       case Kind::kReactionForce:
         spec.index = find(joint_index, "joint");
         if (model_.joints[static_cast<size_t>(spec.index)].type == JointType::kPrismatic) {
-          checks.Fail(path + ".entity", "the reaction of a prismatic joint is not available yet");
+          checks.Fail(path + ".entity", "the reaction force of a prismatic joint is not available yet (its moment is)");
         }
+        spec.component = Component(checks, path, p, true);
+        break;
+      case Kind::kReactionMoment:
+        spec.index = find(joint_index, "joint");
         spec.component = Component(checks, path, p, true);
         break;
       case Kind::kKinetic:
@@ -180,8 +185,9 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         if (system_->joints[static_cast<size_t>(p.index)].rotational) value += angle_offset_[static_cast<size_t>(p.index)];
         break;
       case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
-      case Kind::kReactionForce:
-        value = Pick(s.lambda.segment<3>(system_->joints[static_cast<size_t>(p.index)].first_row), p.component);
+      case Kind::kReactionForce: value = Pick(system_->JointReactionForce(p.index, s.lambda), p.component); break;
+      case Kind::kReactionMoment:
+        value = Pick(system_->JointReactionMoment(p.index, s.q, s.lambda, time_), p.component);
         break;
       case Kind::kKinetic: value = system_->KineticEnergy(s.qdot); break;
       case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;

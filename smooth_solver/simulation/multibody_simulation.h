@@ -24,7 +24,7 @@ class MultibodySimulation : public interface::Simulation {
 
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
-                    kReactionForce, kKinetic, kPotential, kTotal, kViolation };
+                    kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;

@@ -178,6 +178,10 @@ INSTANTIATE_TEST_SUITE_P(
                  {"model.joints[0].drive.quantity", "a revolute joint's coordinate is an angle [rad]; SPEED"}},
         BadInput{"unknown_solver", kBall, "solver: LEMKE", "solver: FAST", "",
                  {"broken.pbtxt:", "Unknown enumeration value of \"FAST\""}},
+        BadInput{"rho_inf", kPendulum, "step: 0.001 }", "step: 0.001 smooth { rho_inf: 1.5 } }", "",
+                 {"numerics.smooth.rho_inf", "must be in [0, 1], got 1.5"}},
+        BadInput{"inertia_not_physical", kPendulum, "inertia: [0.001, 0.08, 0.08]", "inertia: [0.001, 0.08, 0.2]", "",
+                 {"model.bodies[0].inertia", "triangle inequality"}},
         BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
                  {"friction", "must be >= 0"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });

@@ -111,13 +111,13 @@ int main() {
   const DaeState reference = Run(ScenarioFile::Load(kFourBar, ida_set(1e-12)), 2.0, 0.01).state;
   std::vector<std::pair<double, double>> cg, ida;
   std::printf("%-24s %12s %12s\n", "run", "error", "wall [s]");
-  for (double h : {4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4}) {
+  for (double h : {4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4, 6.25e-5, 3.125e-5, 1.5625e-5}) {
     const Timed r = Run(ScenarioFile::Load(kFourBar, {"numerics.smooth.newton_tolerance=1e-11"}), 2.0, h);
     const double e = (r.state.q - reference.q).lpNorm<Eigen::Infinity>();
     cg.emplace_back(e, r.seconds);
     std::printf("CGα h = %-16.2e %12.3e %12.4f\n", h, e, r.seconds);
   }
-  for (double tol : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10}) {
+  for (double tol : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11}) {
     // Output every 0.01 s: IDA steps on its own between outputs.
     const Timed r = Run(ScenarioFile::Load(kFourBar, ida_set(tol)), 2.0, 0.01);
     const double e = (r.state.q - reference.q).lpNorm<Eigen::Infinity>();

@@ -1,5 +1,6 @@
 #include "smooth_solver/constraints/bilinear_constraints.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace cosim::smooth {
@@ -84,6 +85,10 @@ double ConstraintSet::Weight(const DriveWeight& w, double t, int derivative) con
 void ConstraintSet::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                              Eigen::Ref<Eigen::VectorXd> phi) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) {
+      phi(static_cast<Eigen::Index>(i)) = 0.0;
+      continue;
+    }
     const ScalarConstraint& c = constraints[i];
     double value = c.constant * Weight(c.constant_weight, t, 0);
     for (const auto& term : c.terms) value += Weight(term.weight, t, 0) * term.a.Value(q).dot(term.b.Value(q));
@@ -111,6 +116,7 @@ void ForEachJacobianEntry(const ScalarConstraint::Term& term, double w, const Ei
 void ConstraintSet::Jacobian(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink, int row_offset,
                              double scale) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) continue;
     const int row = row_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
       ForEachJacobianEntry(term, scale * Weight(term.weight, t, 0), q,
@@ -122,6 +128,7 @@ void ConstraintSet::Jacobian(const Eigen::Ref<const Eigen::VectorXd>& q, double 
 void ConstraintSet::JacobianTranspose(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink,
                                       int column_offset, double scale) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) continue;
     const int column = column_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
       ForEachJacobianEntry(term, scale * Weight(term.weight, t, 0), q,
@@ -134,6 +141,7 @@ void ConstraintSet::AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::Vect
                                               const Eigen::Ref<const Eigen::VectorXd>& lambda,
                                               Eigen::Ref<Eigen::VectorXd> out) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) continue;
     const double l = lambda(static_cast<Eigen::Index>(i));
     for (const auto& term : constraints[i].terms) {
       ForEachJacobianEntry(term, l * Weight(term.weight, t, 0), q, [&](int column, double value) { out(column) += value; });
@@ -144,6 +152,10 @@ void ConstraintSet::AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::Vect
 void ConstraintSet::JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                   const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) {
+      out(static_cast<Eigen::Index>(i)) = 0.0;
+      continue;
+    }
     double value = 0.0;
     for (const auto& term : constraints[i].terms) {
       // d/dε [A(q + εv)·B(q + εv)] = A_q v · B + A · B_q v.
@@ -156,6 +168,7 @@ void ConstraintSet::JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, do
 void ConstraintSet::HessianTimesLambda(double t, const Eigen::Ref<const Eigen::VectorXd>& lambda, SparseSink* sink,
                                        double scale) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) continue;
     const double l = scale * lambda(static_cast<Eigen::Index>(i));
     if (l == 0.0) continue;
     for (const auto& term : constraints[i].terms) {
@@ -172,6 +185,28 @@ void ConstraintSet::HessianTimesLambda(double t, const Eigen::Ref<const Eigen::V
       }
     }
   }
+}
+
+void ConstraintSet::AddReleasedDiagonal(double t, SparseSink* sink, int offset) const {
+  for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) sink->Add(offset + static_cast<int>(i), offset + static_cast<int>(i), 1.0);
+  }
+}
+
+double ConstraintSet::NextRelease(double t0, double t1) const {
+  double next = std::numeric_limits<double>::infinity();
+  for (const auto& c : constraints) {
+    if (c.release_time > t0 && c.release_time <= t1) next = std::min(next, c.release_time);
+  }
+  return next;
+}
+
+double ConstraintSet::ReleaseWithin(double t0, double t1) const {
+  double first = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < constraints.size(); ++i) {
+    if (Active(i, t0) && !Active(i, t1)) first = std::min(first, constraints[i].release_time);
+  }
+  return first;
 }
 
 void ConstraintSet::HessianPattern(SparseSink* sink) const {
@@ -194,6 +229,10 @@ void ConstraintSet::AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q,
                                      Eigen::Ref<Eigen::VectorXd> xi) const {
   // d²/dt² [w A·B] = ẅ A·B + 2ẇ (Ȧ·B + A·Ḃ) + w (Ä·B + 2 Ȧ·Ḃ + A·B̈); the Ä, B̈ part is Φ_q q̈.
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) {
+      xi(static_cast<Eigen::Index>(i)) = 0.0;
+      continue;
+    }
     const ScalarConstraint& c = constraints[i];
     double value = c.constant * Weight(c.constant_weight, t, 2);
     for (const auto& term : c.terms) {
@@ -212,6 +251,7 @@ void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::Vec
   // Φ_q v = Σ w (A_q v · B + A · B_q v):  ∂/∂q = w ((B_q v)ᵀ A_q + (A_q v)ᵀ B_q);
   // Φ_t = Σ ẇ A·B:  ∂/∂q = ẇ (Bᵀ A_q + Aᵀ B_q).
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) continue;
     const int row = row_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
       const double w = Weight(term.weight, t, 0), w_dot = Weight(term.weight, t, 1);
@@ -231,6 +271,10 @@ void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::Vec
 void ConstraintSet::TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                    Eigen::Ref<Eigen::VectorXd> phi_t) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
+    if (!Active(i, t)) {
+      phi_t(static_cast<Eigen::Index>(i)) = 0.0;
+      continue;
+    }
     const ScalarConstraint& c = constraints[i];
     double value = c.constant * Weight(c.constant_weight, t, 1);
     for (const auto& term : c.terms) value += Weight(term.weight, t, 1) * term.a.Value(q).dot(term.b.Value(q));

@@ -10,6 +10,7 @@
 // so that Φ_q, the Hessians (constant), Φ_t and Φ_tt follow exactly and cheaply.
 #include <Eigen/Core>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,9 @@ struct ScalarConstraint {
   std::vector<Term> terms;
   double constant = 0.0;        // c, constant part
   DriveWeight constant_weight;  // c(t) = constant × weight(t)
+  // A locked joint's constraint holds up to this time [s] included, then no longer exists: its row
+  // contributes nothing and its multiplier is zero (integrators put an identity row there).
+  double release_time = std::numeric_limits<double>::infinity();
 };
 
 // A prescribed joint coordinate θ(t) (angle or displacement), with its derivatives.
@@ -84,6 +88,14 @@ class ConstraintSet {
   std::vector<Drive> drives;
 
   int size() const { return static_cast<int>(constraints.size()); }
+  bool Active(size_t i, double t) const { return t <= constraints[i].release_time; }
+  // 1 on the diagonal (offset + i, offset + i) of every released row i, so that the
+  // saddle-point matrix stays regular and the row's multiplier stays zero.
+  void AddReleasedDiagonal(double t, SparseSink* sink, int offset) const;
+  // The earliest release time in (t0, t1], or +∞.
+  double NextRelease(double t0, double t1) const;
+  // The earliest release time of a row active at t0 and released at t1, or +∞.
+  double ReleaseWithin(double t0, double t1) const;
 
   // Φ(q, t) into `phi` (size m).
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi) const;

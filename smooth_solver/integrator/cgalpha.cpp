@@ -1,6 +1,7 @@
 #include "smooth_solver/integrator/cgalpha.h"
 
 #include <cmath>
+#include <limits>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
@@ -16,8 +17,10 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   pattern.AddMatrix(system.mass, 0, 0);
   system.constraints.HessianPattern(&pattern);
   system.ForcePattern(&pattern);
-  system.constraints.Jacobian(system.q0, 0.0, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(system.q0, 0.0, &pattern, n, 1.0);
+  // t = −∞: every row active (a locked joint's row exists until its release).
+  const double always = -std::numeric_limits<double>::infinity();
+  system.constraints.Jacobian(system.q0, always, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(system.q0, always, &pattern, n, 1.0);
   for (int i = 0; i < n + m; ++i) pattern.Add(i, i, 0.0);  // keep the diagonal structurally present
   return pattern.Build(n + m, n + m);
 }
@@ -31,6 +34,7 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   sink.AddMatrix(system.mass, 1.0, 0, 0);
   system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
+  system.constraints.AddReleasedDiagonal(t, &sink, n);
   Eigen::VectorXd rhs(n + m);
   system.Force(state->q, state->qdot, t, rhs.head(n));
   system.constraints.AccelerationBias(state->q, state->qdot, t, rhs.tail(m));
@@ -85,6 +89,7 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * gamma_ / (beta_ * h), &sink);
   system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
+  system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
 }
 
 int CgAlpha::Step(double t, double h) {
@@ -93,6 +98,16 @@ int CgAlpha::Step(double t, double h) {
   const double bh2 = beta_ * h * h;
   const double beta_prime = (1.0 - alpha_m_) / ((1.0 - alpha_f_) * bh2);
   const double gamma_prime = gamma_ / (beta_ * h);
+  const double release = system_.constraints.ReleaseWithin(t, t1);
+  if (std::isfinite(release)) {
+    // A locked joint lets go in this step: the equations change, so the accelerations,
+    // multipliers and the acceleration-like history belong to the old ones. Restart from the
+    // state at t with the accelerations consistent with the new equations (just after the
+    // release time), as at the initial time.
+    ConsistentAccelerations(system_, std::max(t, std::nextafter(release, INFINITY)), &state_);
+    a_ = state_.qddot;
+    started_ = true;
+  }
   if (!started_) {
     // a_0 = q̈(t_0 + Δα h), Δα = αm − αf < 0, from the accelerations consistent with a
     // Taylor-shifted state (accurate to O(h²), which is what second order needs).
@@ -107,6 +122,9 @@ int CgAlpha::Step(double t, double h) {
   // Predictor: q̈_{n+1} = q̈_n, λ_{n+1} = λ_n; a, q, q̇ from Eqs. (3) and (5).
   next_.qddot = state_.qddot;
   next_.lambda = state_.lambda;
+  for (int i = 0; i < m; ++i) {
+    if (!system_.constraints.Active(static_cast<size_t>(i), t1)) next_.lambda(i) = 0.0;  // released joint
+  }
   a_next_ = (state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
   next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - beta_) * a_ + beta_ * a_next_);
   next_.qdot = state_.qdot + h * ((1.0 - gamma_) * a_ + gamma_ * a_next_);

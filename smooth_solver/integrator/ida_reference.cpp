@@ -1,10 +1,14 @@
 #include "smooth_solver/integrator/ida_reference.h"
 
+#include "smooth_solver/integrator/cgalpha.h"
+
 #include <ida/ida.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
+
+#include <cmath>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/dense_sink.h"
@@ -50,6 +54,13 @@ struct IdaReference::Impl {
     r.segment(2 * n, m) += p->scratch;
     // Φ
     p->system->constraints.Evaluate(q, t, r.tail(m));
+    // Released rows (a locked joint after its release): λ_i = Λ̇_i = 0, μ_i = Μ̇_i = 0.
+    for (int i = 0; i < m; ++i) {
+      if (!p->system->constraints.Active(static_cast<size_t>(i), t)) {
+        r(2 * n + i) = yp(2 * n + i);
+        r(2 * n + m + i) = yp(2 * n + m + i);
+      }
+    }
     return r.allFinite() ? 0 : 1;
   }
 
@@ -109,6 +120,12 @@ struct IdaReference::Impl {
     cs.Jacobian(q, t, &v_columns, 2 * n, 1.0);
     // Position constraint rows: Φ_q.
     cs.Jacobian(q, t, &sink, 2 * n + m, 1.0);
+    for (int i = 0; i < m; ++i) {
+      if (!cs.Active(static_cast<size_t>(i), t)) {
+        sink.Add(2 * n + i, 2 * n + i, cj);
+        sink.Add(2 * n + m + i, 2 * n + m + i, cj);
+      }
+    }
     return 0;
   }
 
@@ -165,21 +182,43 @@ IdaReference::~IdaReference() {
 
 int IdaReference::Step(double t, double h) {
   Impl& p = *impl_;
-  long before = 0, after = 0;
+  long before = 0, after = 0, total = 0;
   IDAGetNumSteps(p.ida, &before);
   realtype reached = t;
-  const int flag = IDASolve(p.ida, t + h, &reached, p.y, p.yp, IDA_NORMAL);
-  if (flag < 0) {
-    throw NumericalError("IDA failed with flag " + std::to_string(flag) + " on its way to t = " + std::to_string(t + h) +
-                         " s (reached " + std::to_string(reached) + " s)");
+  // A joint released within the step changes the equations: integrate up to the release,
+  // restart IDA there (its multistep history belongs to the old equations), and go on.
+  double target = t + h;
+  while (true) {
+    const double release = p.system->constraints.NextRelease(reached, t + h);
+    target = std::isfinite(release) ? release : t + h;
+    IDASetStopTime(p.ida, target);
+    const int flag = IDASolve(p.ida, target, &reached, p.y, p.yp, IDA_NORMAL);
+    if (flag < 0) {
+      throw NumericalError("IDA failed with flag " + std::to_string(flag) + " on its way to t = " +
+                           std::to_string(target) + " s (reached " + std::to_string(reached) + " s)");
+    }
+    if (!std::isfinite(release) || reached >= t + h) break;
+    IDAGetNumSteps(p.ida, &after);
+    total += after - before;
+    // Consistent v̇ and λ for the equations just after the release.
+    DaeState after_release;
+    after_release.q = View(p.y).head(p.n);
+    after_release.qdot = View(p.y).segment(p.n, p.n);
+    ConsistentAccelerations(*p.system, std::nextafter(reached, INFINITY), &after_release);
+    View(p.yp).segment(p.n, p.n) = after_release.qddot;
+    View(p.yp).segment(2 * p.n, p.m) = after_release.lambda;
+    View(p.yp).tail(p.m).setZero();
+    IDAReInit(p.ida, reached, p.y, p.yp);
+    IDAGetNumSteps(p.ida, &before);
   }
   IDAGetNumSteps(p.ida, &after);
+  total += after - before;
   const auto y = View(p.y), yp = View(p.yp);
   state_.q = y.head(p.n);
   state_.qdot = y.segment(p.n, p.n);
   state_.qddot = yp.segment(p.n, p.n);
   state_.lambda = yp.segment(2 * p.n, p.m);
-  return static_cast<int>(after - before);
+  return static_cast<int>(total);
 }
 
 double IdaReference::ConstraintViolation(double t) const {

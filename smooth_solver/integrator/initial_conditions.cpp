@@ -36,6 +36,9 @@ int Residual(N_Vector y, N_Vector f, void* data) {
   p->system->constraints.AddJacobianTransposeTimes(q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
   p->system->holds.AddJacobianTransposeTimes(q, p->t0, Y.tail(p->mh), F.head(p->n));
   p->system->constraints.Evaluate(q, p->t0, F.segment(p->n, p->mc));
+  for (int i = 0; i < p->mc; ++i) {
+    if (!p->system->constraints.Active(static_cast<size_t>(i), p->t0)) F(p->n + i) = Y(p->n + i);  // released: μ = 0
+  }
   p->system->holds.Evaluate(q, p->t0, F.tail(p->mh));
   return F.allFinite() ? 0 : 1;
 }
@@ -51,6 +54,7 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
   p->system->holds.HessianTimesLambda(p->t0, Y.tail(p->mh), &sink, 1.0);
   p->system->constraints.Jacobian(q, p->t0, &sink, p->n, 1.0);
   p->system->constraints.JacobianTranspose(q, p->t0, &sink, p->n, 1.0);
+  p->system->constraints.AddReleasedDiagonal(p->t0, &sink, p->n);
   p->system->holds.Jacobian(q, p->t0, &sink, p->n + p->mc, 1.0);
   p->system->holds.JacobianTranspose(q, p->t0, &sink, p->n + p->mc, 1.0);
   return 0;
@@ -119,6 +123,7 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
     for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
     system.constraints.Jacobian(state.q, t0, &sink, n, 1.0);
     system.constraints.JacobianTranspose(state.q, t0, &sink, n, 1.0);
+    system.constraints.AddReleasedDiagonal(t0, &sink, n);
     system.holds.Jacobian(state.q, t0, &sink, n + mc, 1.0);
     system.holds.JacobianTranspose(state.q, t0, &sink, n + mc, 1.0);
     Eigen::VectorXd rhs(N);

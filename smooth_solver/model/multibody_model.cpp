@@ -2,6 +2,9 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <cmath>
+#include <limits>
+
 #include "interface/scenario/checks.h"
 
 namespace cosim::smooth {
@@ -134,13 +137,17 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       joint.drive = interface::TimeFunction::Build(checks, path + ".drive.function", d.function());
     }
     joint.locked = j.locked();
+    joint.release_time = std::numeric_limits<double>::infinity();
     if (j.has_release_time()) {
       if (!j.locked()) checks.Fail(path + ".release_time", "given for a joint that is not locked");
+      if (!std::isfinite(j.release_time())) checks.Fail(path + ".release_time", "must be a finite time [s]");
       joint.release_time = j.release_time();
     }
     if (joint.locked) {
-      checks.Fail(path + ".locked", "locked (and released) joints are not available in this build yet; lock a "
-                                    "joint with a drive of constant value instead");
+      if (joint.type != JointType::kRevolute && joint.type != JointType::kPrismatic) {
+        checks.Fail(path + ".locked", "only revolute and prismatic joints (one coordinate) can be locked");
+      }
+      if (joint.driven) checks.Fail(path + ".locked", "a driven joint cannot also be locked");
     }
     model.joints.push_back(joint);
   }

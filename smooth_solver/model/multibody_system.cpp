@@ -230,6 +230,19 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
       }
       cs.constraints.push_back(drive);
     }
+    if (j.locked) {
+      // Locked: the coordinate keeps its initial value until release_time (+∞: for good).
+      ScalarConstraint lock;
+      lock.name = j.name + ".lock";
+      if (j.type == JointType::kRevolute) {
+        AddDot(&lock, b2, c1);  // sin θ = 0
+      } else {
+        AddDot(&lock, p2 - p1, a1);
+        lock.constant = -(p2 - p1).Value(sys.q0).dot(a1.Value(sys.q0));
+      }
+      lock.release_time = j.release_time;
+      cs.constraints.push_back(lock);
+    }
     measure.row_count = cs.size() - measure.first_row;
     measure.body1 = j.body1;
     measure.body2 = j.body2;

@@ -5,13 +5,13 @@
 #include <ida/ida.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
-#include <sunlinsol/sunlinsol_dense.h>
-#include <sunmatrix/sunmatrix_dense.h>
+#include <sunlinsol/sunlinsol_klu.h>
+#include <sunmatrix/sunmatrix_sparse.h>
 
 #include <cmath>
+#include <limits>
 
 #include "interface/run/errors.h"
-#include "smooth_solver/linear_algebra/dense_sink.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 
 namespace cosim::smooth {
@@ -22,6 +22,17 @@ Eigen::Map<Eigen::VectorXd> View(N_Vector v) {
   return Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(v), N_VGetLength(v));
 }
 
+// Adds into another sink at a row and column offset (blocks of the index-2 Jacobian).
+class OffsetSink : public SparseSink {
+ public:
+  OffsetSink(SparseSink* inner, int row, int column) : inner_(inner), row_(row), column_(column) {}
+  void Add(int r, int c, double value) override { inner_->Add(r + row_, c + column_, value); }
+
+ private:
+  SparseSink* inner_;
+  int row_, column_;
+};
+
 }  // namespace
 
 struct IdaReference::Impl {
@@ -30,6 +41,7 @@ struct IdaReference::Impl {
   SUNContext ctx = nullptr;
   N_Vector y = nullptr, yp = nullptr, id = nullptr;
   SUNMatrix J = nullptr;
+  Eigen::SparseMatrix<double> A;  // the Jacobian, pattern fixed at construction
   SUNLinearSolver LS = nullptr;
   void* ida = nullptr;
   Eigen::VectorXd scratch, force;
@@ -64,75 +76,86 @@ struct IdaReference::Impl {
     return r.allFinite() ? 0 : 1;
   }
 
-  // dF/dy + c_j dF/dẏ.
+  // dF/dy + c_j dF/dẏ into `sink` (every entry lies in the pattern of BuildPattern).
+  static void Fill(const Impl& p, double t, double cj, const Eigen::Ref<const Eigen::VectorXd>& y,
+                   const Eigen::Ref<const Eigen::VectorXd>& yp, SparseSink* sink) {
+    const int n = p.n, m = p.m;
+    const Eigen::VectorXd q = y.head(n), v = y.segment(n, n), lambda = yp.segment(2 * n, m), mu = yp.tail(m);
+    const ConstraintSet& cs = p.system->constraints;
+    OffsetSink v_rows(sink, n, 0), v_block(sink, n, n), v_columns(sink, 0, n);
+    for (int i = 0; i < n; ++i) {
+      sink->Add(i, i, cj);        // ∂(q̇)/∂ẏ
+      sink->Add(i, n + i, -1.0);  // −v
+    }
+    // Rows of q̇: Σ μ_i ∂²φ_i/∂q² and c_j Φ_qᵀ (Μ columns: μ = Μ̇).
+    cs.HessianTimesLambda(t, mu, sink, 1.0);
+    cs.JacobianTranspose(q, t, sink, 2 * n + m, cj);
+    // Rows of v̇: Σ λ_i ∂²φ_i/∂q², −∂f/∂q (q columns), c_j M − ∂f/∂v (v columns), c_j Φ_qᵀ (Λ).
+    cs.HessianTimesLambda(t, lambda, &v_rows, 1.0);
+    p.system->AddForceTangent(q, v, t, 1.0, 0.0, &v_rows);
+    p.system->AddForceTangent(q, v, t, 0.0, 1.0, &v_block);
+    AddMatrix(p.system->mass, cj, &v_block);
+    cs.JacobianTranspose(q, t, &v_rows, 2 * n, cj);
+    // Velocity constraint rows: ∂(Φ_q v + Φ_t)/∂q and Φ_q (v columns).
+    cs.VelocityConstraintJacobian(q, v, t, sink, 2 * n);
+    cs.Jacobian(q, t, &v_columns, 2 * n, 1.0);
+    // Position constraint rows: Φ_q.
+    cs.Jacobian(q, t, sink, 2 * n + m, 1.0);
+    for (int i = 0; i < m; ++i) {
+      if (!cs.Active(static_cast<size_t>(i), t)) {
+        sink->Add(2 * n + i, 2 * n + i, cj);
+        sink->Add(2 * n + m + i, 2 * n + m + i, cj);
+      }
+    }
+  }
+
+  // Every entry Fill may touch, whatever the state, time and multipliers.
+  static Eigen::SparseMatrix<double> BuildPattern(const Impl& p) {
+    const int n = p.n, m = p.m, N = 2 * n + 2 * m;
+    const double always = -std::numeric_limits<double>::infinity();
+    const ConstraintSet& cs = p.system->constraints;
+    PatternSink pattern;
+    OffsetSink v_rows(&pattern, n, 0), v_block(&pattern, n, n), v_columns(&pattern, 0, n);
+    for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+    for (int i = 0; i < n; ++i) pattern.Add(i, n + i, 0.0);
+    cs.HessianPattern(&pattern);
+    cs.JacobianTranspose(p.system->q0, always, &pattern, 2 * n + m, 1.0);
+    cs.HessianPattern(&v_rows);
+    p.system->ForcePattern(&v_rows);
+    p.system->ForcePattern(&v_block);
+    AddMatrix(p.system->mass, 1.0, &v_block);
+    cs.JacobianTranspose(p.system->q0, always, &v_rows, 2 * n, 1.0);
+    cs.Jacobian(p.system->q0, always, &pattern, 2 * n, 1.0);  // the velocity rows' q-pattern is Φ_q's
+    cs.Jacobian(p.system->q0, always, &v_columns, 2 * n, 1.0);
+    cs.Jacobian(p.system->q0, always, &pattern, 2 * n + m, 1.0);
+    return pattern.Build(N, N);
+  }
+
   static int Jacobian(realtype t, realtype cj, N_Vector yv, N_Vector ypv, N_Vector, SUNMatrix J, void* data, N_Vector,
                       N_Vector, N_Vector) {
     auto* p = static_cast<Impl*>(data);
-    const int n = p->n, m = p->m;
-    const auto y = View(yv), yp = View(ypv);
-    const auto q = y.head(n), v = y.segment(n, n), lambda = yp.segment(2 * n, m), mu = yp.tail(m);
-    SUNMatZero(J);
-    SunDenseSink sink(J);
-    const ConstraintSet& cs = p->system->constraints;
-    for (int i = 0; i < n; ++i) {
-      sink.Add(i, i, cj);          // ∂(q̇)/∂ẏ
-      sink.Add(i, n + i, -1.0);    // −v
-    }
-    // Rows of q̇: Σ μ_i ∂²φ_i/∂q² and c_j Φ_qᵀ (Μ columns: μ = Μ̇).
-    cs.HessianTimesLambda(t, mu, &sink, 1.0);
-    cs.JacobianTranspose(q, t, &sink, 2 * n + m, cj);
-    // Rows of v̇: Σ λ_i ∂²φ_i/∂q² (shifted to rows n..2n), c_j M, c_j Φ_qᵀ (Λ columns).
-    class Shift : public SparseSink {
-     public:
-      Shift(SparseSink* inner, int row) : inner_(inner), row_(row) {}
-      void Add(int r, int c, double value) override { inner_->Add(r + row_, c, value); }
-
-     private:
-      SparseSink* inner_;
-      int row_;
-    } shifted(&sink, n);
-    cs.HessianTimesLambda(t, lambda, &shifted, 1.0);
-    // −∂f/∂q in the q columns, −∂f/∂v in the v columns.
-    p->system->AddForceTangent(q, v, t, 1.0, 0.0, &shifted);
-    class BothShift : public SparseSink {
-     public:
-      BothShift(SparseSink* inner, int shift) : inner_(inner), shift_(shift) {}
-      void Add(int r, int c, double value) override { inner_->Add(r + shift_, c + shift_, value); }
-
-     private:
-      SparseSink* inner_;
-      int shift_;
-    } v_block(&sink, n);
-    p->system->AddForceTangent(q, v, t, 0.0, 1.0, &v_block);
-    MatrixSinkAdd(p->system->mass, cj, n, n, &sink);
-    cs.JacobianTranspose(q, t, &shifted, 2 * n, cj);
-    // Velocity constraint rows: ∂(Φ_q v + Φ_t)/∂q and Φ_q (v columns).
-    cs.VelocityConstraintJacobian(q, v, t, &sink, 2 * n);
-    class ColumnShift : public SparseSink {
-     public:
-      ColumnShift(SparseSink* inner, int column) : inner_(inner), column_(column) {}
-      void Add(int r, int c, double value) override { inner_->Add(r, c + column_, value); }
-
-     private:
-      SparseSink* inner_;
-      int column_;
-    } v_columns(&sink, n);
-    cs.Jacobian(q, t, &v_columns, 2 * n, 1.0);
-    // Position constraint rows: Φ_q.
-    cs.Jacobian(q, t, &sink, 2 * n + m, 1.0);
-    for (int i = 0; i < m; ++i) {
-      if (!cs.Active(static_cast<size_t>(i), t)) {
-        sink.Add(2 * n + i, 2 * n + i, cj);
-        sink.Add(2 * n + m + i, 2 * n + m + i, cj);
-      }
+    for (Eigen::Index k = 0; k < p->A.nonZeros(); ++k) p->A.valuePtr()[k] = 0.0;
+    MatrixSink sink(&p->A);
+    const Eigen::Index pattern_size = p->A.nonZeros();
+    Fill(*p, t, cj, View(yv), View(ypv), &sink);
+    COSIM_ASSERT(p->A.isCompressed() && p->A.nonZeros() == pattern_size, "IDA Jacobian left its pattern");
+    // Copy into IDA's compressed-sparse-column matrix (same pattern every time).
+    const Eigen::Index nnz = p->A.nonZeros();
+    sunindextype* colptrs = SM_INDEXPTRS_S(J);
+    sunindextype* rowvals = SM_INDEXVALS_S(J);
+    realtype* data_out = SM_DATA_S(J);
+    for (Eigen::Index c = 0; c <= p->A.outerSize(); ++c) colptrs[c] = p->A.outerIndexPtr()[c];
+    for (Eigen::Index k = 0; k < nnz; ++k) {
+      rowvals[k] = p->A.innerIndexPtr()[k];
+      data_out[k] = p->A.valuePtr()[k];
     }
     return 0;
   }
 
-  static void MatrixSinkAdd(const Eigen::SparseMatrix<double>& a, double scale, int row, int column, SparseSink* sink) {
+  static void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, SparseSink* sink) {
     for (int k = 0; k < a.outerSize(); ++k) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
-        sink->Add(row + static_cast<int>(it.row()), column + static_cast<int>(it.col()), scale * it.value());
+        sink->Add(static_cast<int>(it.row()), static_cast<int>(it.col()), scale * it.value());
       }
     }
   }
@@ -156,8 +179,9 @@ IdaReference::IdaReference(const MultibodySystem& system, const IdaSettings& set
   y << initial.q, initial.qdot, Eigen::VectorXd::Zero(2 * p.m);
   yp << initial.qdot, initial.qddot, initial.lambda, Eigen::VectorXd::Zero(p.m);
   id << Eigen::VectorXd::Ones(2 * p.n), Eigen::VectorXd::Zero(2 * p.m);
-  p.J = SUNDenseMatrix(N, N, p.ctx);
-  p.LS = SUNLinSol_Dense(p.y, p.J, p.ctx);
+  p.A = Impl::BuildPattern(p);
+  p.J = SUNSparseMatrix(N, N, p.A.nonZeros(), CSC_MAT, p.ctx);
+  p.LS = SUNLinSol_KLU(p.y, p.J, p.ctx);
   p.ida = IDACreate(p.ctx);
   IDAInit(p.ida, Impl::Residual, t0, p.y, p.yp);
   IDASetUserData(p.ida, &p);
@@ -187,17 +211,17 @@ int IdaReference::Step(double t, double h) {
   realtype reached = t;
   // A joint released within the step changes the equations: integrate up to the release,
   // restart IDA there (its multistep history belongs to the old equations), and go on.
-  double target = t + h;
   while (true) {
     const double release = p.system->constraints.NextRelease(reached, t + h);
-    target = std::isfinite(release) ? release : t + h;
+    const double target = std::isfinite(release) ? release : t + h;
     IDASetStopTime(p.ida, target);
     const int flag = IDASolve(p.ida, target, &reached, p.y, p.yp, IDA_NORMAL);
     if (flag < 0) {
       throw NumericalError("IDA failed with flag " + std::to_string(flag) + " on its way to t = " +
                            std::to_string(target) + " s (reached " + std::to_string(reached) + " s)");
     }
-    if (!std::isfinite(release) || reached >= t + h) break;
+    if (!std::isfinite(release)) break;
+    // At the release time (possibly the end of this step): restart with the new equations.
     IDAGetNumSteps(p.ida, &after);
     total += after - before;
     // Consistent v̇ and λ for the equations just after the release.
@@ -208,8 +232,14 @@ int IdaReference::Step(double t, double h) {
     View(p.yp).segment(p.n, p.n) = after_release.qddot;
     View(p.yp).segment(2 * p.n, p.m) = after_release.lambda;
     View(p.yp).tail(p.m).setZero();
+    // Restart an ulp after the release, so that IDA never evaluates the new equations at the
+    // release time itself, where the lock still holds (it holds up to its release time).
+    reached = std::nextafter(reached, INFINITY);
     IDAReInit(p.ida, reached, p.y, p.yp);
+    // The released rows change which entries are zero: KLU must choose new pivots.
+    SUNLinSol_KLUReInit(p.LS, p.J, p.A.nonZeros(), SUNKLU_REINIT_PARTIAL);
     IDAGetNumSteps(p.ida, &before);
+    if (reached >= t + h) break;
   }
   IDAGetNumSteps(p.ida, &after);
   total += after - before;

@@ -8,7 +8,7 @@
 // the Newton matrix then carries c_j Φ_qᵀ in their columns, scaled like the rest, instead of
 // O(1) columns against O(c_j) rows, which made IDA's Newton iteration fail at tolerances below
 // 1e-8 (round-off in λ amplified by c_j ~ 1/h). Λ and Μ are left out of the error test.
-// Exact dense Jacobian.
+// Exact Jacobian in a sparse matrix whose pattern is fixed once, solved by KLU.
 #include <memory>
 
 #include "smooth_solver/integrator/smooth_integrator.h"

@@ -4,8 +4,11 @@
 // sparse LU's symbolic analysis (analyzePattern) is done once and reused.
 #include <Eigen/SparseCore>
 
+#include <algorithm>
+#include <string>
 #include <vector>
 
+#include "interface/run/errors.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 
 namespace cosim::smooth {
@@ -32,11 +35,21 @@ class PatternSink : public SparseSink {
   std::vector<Eigen::Triplet<double>> entries_;
 };
 
-// Adds into existing entries of a compressed matrix (coeffRef finds them by binary search).
+// Adds into existing entries of a compressed column-major matrix, found by binary search.
+// An entry outside the fixed pattern is a bug in the pattern (it would silently change the
+// structure the factorisation was analysed for): always-on assertion.
 class MatrixSink : public SparseSink {
  public:
   explicit MatrixSink(Eigen::SparseMatrix<double>* m) : m_(m) {}
-  void Add(int row, int column, double value) override { m_->coeffRef(row, column) += value; }
+  void Add(int row, int column, double value) override {
+    const int* inner = m_->innerIndexPtr();
+    const int* begin = inner + m_->outerIndexPtr()[column];
+    const int* end = inner + m_->outerIndexPtr()[column + 1];
+    const int* it = std::lower_bound(begin, end, row);
+    COSIM_ASSERT(it != end && *it == row, "sparse entry (" + std::to_string(row) + ", " + std::to_string(column) +
+                                              ") outside the fixed pattern");
+    m_->valuePtr()[it - inner] += value;
+  }
   void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, int row_offset, int column_offset) {
     for (int k = 0; k < a.outerSize(); ++k) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {

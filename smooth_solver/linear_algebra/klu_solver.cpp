@@ -46,6 +46,7 @@ bool KluSolver::Factorize(const Eigen::SparseMatrix<double>& A) {
   }
   impl_->numeric = klu_factor(Ap, Ai, Ax, impl_->symbolic, &impl_->common);
   ++full_;
+
   return impl_->numeric != nullptr && impl_->common.status == KLU_OK;
 }
 

@@ -1,5 +1,7 @@
 #include "smooth_solver/simulation/multibody_simulation.h"
 
+#include "smooth_solver/integrator/cgalpha_index2.h"
+
 #include <cmath>
 #include <numbers>
 
@@ -43,8 +45,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();
   const sc::SmoothSettings& s = numerics_.smooth();
-  if (s.integrator() != sc::SmoothSettings::CGALPHA && s.integrator() != sc::SmoothSettings::IDA) {
-    checks.Fail("numerics.smooth.integrator", "expected CGALPHA or IDA");
+  if (s.integrator() != sc::SmoothSettings::CGALPHA && s.integrator() != sc::SmoothSettings::IDA &&
+      s.integrator() != sc::SmoothSettings::CGALPHA_INDEX2) {
+    checks.Fail("numerics.smooth.integrator", "expected CGALPHA, CGALPHA_INDEX2 or IDA");
   }
   ida_ = s.integrator() == sc::SmoothSettings::IDA;
   IdaSettings ida;
@@ -146,6 +149,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
   const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
   if (ida_) {
     integrator_ = std::make_unique<IdaReference>(*system_, ida, initial, time_);
+  } else if (s.integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
+    integrator_ = std::make_unique<CgAlphaIndex2>(*system_, settings, initial);
   } else {
     integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
   }

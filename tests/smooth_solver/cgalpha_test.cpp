@@ -457,3 +457,55 @@ TEST(LockedJoints, PendulumHeldUntilReleaseThenSwingsAsIfReleasedThen) {
 
 }  // namespace
 }  // namespace cosim::smooth
+
+namespace cosim::smooth {
+namespace {
+
+// Mean energy of the four-bar over [0, 10] s and [10, 20] s with the index-2 variant.
+std::pair<double, double> MeanEnergies(double h, double rho, double* worst_violation, double* band) {
+  auto sim = std::make_unique<MultibodySimulation>(interface::ScenarioFile::Load(
+      std::string(COSIM_SOURCE_DIR) + "/scenarios/four_bar.pbtxt",
+      {"numerics.smooth.integrator=CGALPHA_INDEX2", "numerics.smooth.rho_inf=" + interface::FormatNumber(rho)}));
+  const MultibodySystem& sys = sim->system();
+  auto energy = [&] {
+    const DaeState& s = sim->integrator().state();
+    return sys.KineticEnergy(s.qdot) + sys.PotentialEnergy(s.q);
+  };
+  const double e0 = energy();
+  double sum[2] = {0, 0};
+  const long steps = std::lround(20.0 / h);
+  for (long k = 0; k < steps; ++k) {
+    sim->Step(static_cast<double>(k) * h, h);
+    const double e = energy();
+    sum[k < steps / 2 ? 0 : 1] += e - e0;
+    *band = std::max(*band, std::abs(e - e0) / e0);
+    *worst_violation = std::max(*worst_violation, sim->integrator().ConstraintViolation(static_cast<double>(k + 1) * h));
+  }
+  const double half = static_cast<double>(steps / 2);
+  return {sum[0] / half, sum[1] / half};
+}
+
+TEST(CgAlphaIndex2, RhoInfOneIsStableAndConservesEnergyUpToASecondOrderDrift) {
+  // Without numerical dissipation (ρ∞ = 1) the index-3 CGα's multipliers grow until Newton
+  // fails (after 2.3 s on the four-bar at h = 2e-3). The stabilised index-2 form keeps them
+  // stable: 20 s (15 revolutions) run, the loop stays closed to the Newton tolerance, the
+  // energy stays within 1e-3 of its initial value. It is not exactly conserving: the position
+  // projection adds a slow drift (observed: the mean energy of the second 10 s exceeds the
+  // first's by 2.9e-3 J at h = 2e-3 and 7.3e-4 J at h = 1e-3, of 33.3 J), which must shrink at
+  // second order with h. Band observed 3.8e-4 and 9.4e-5 relative; violation 5e-12.
+  double drift[2];
+  int run = 0;
+  for (double h : {0.002, 0.001}) {
+    double violation = 0.0, band = 0.0;
+    const auto [first, second] = MeanEnergies(h, 1.0, &violation, &band);
+    drift[run++] = second - first;
+    std::printf("index-2, ρ∞ = 1, h = %.0e: energy band %.2e relative, drift of the mean %.2e J, violation %.1e\n", h,
+                band, second - first, violation);
+    EXPECT_LT(violation, 1e-6);
+    EXPECT_LT(band, 1e-3);
+  }
+  EXPECT_GT(drift[0] / drift[1], 3.0);
+}
+
+}  // namespace
+}  // namespace cosim::smooth

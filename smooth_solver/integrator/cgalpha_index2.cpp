@@ -1,0 +1,183 @@
+#include "smooth_solver/integrator/cgalpha_index2.h"
+
+#include <cmath>
+#include <limits>
+
+#include "interface/run/errors.h"
+#include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+
+namespace cosim::smooth {
+
+namespace {
+
+class OffsetSink : public SparseSink {
+ public:
+  OffsetSink(SparseSink* inner, int row, int column, double scale = 1.0)
+      : inner_(inner), row_(row), column_(column), scale_(scale) {}
+  void Add(int r, int c, double value) override { inner_->Add(r + row_, c + column_, scale_ * value); }
+
+ private:
+  SparseSink* inner_;
+  int row_, column_;
+  double scale_;
+};
+
+void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, SparseSink* sink) {
+  for (int k = 0; k < a.outerSize(); ++k) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
+      sink->Add(static_cast<int>(it.row()), static_cast<int>(it.col()), scale * it.value());
+    }
+  }
+}
+
+}  // namespace
+
+CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
+    : system_(system), settings_(settings), state_(initial) {
+  const double r = settings.rho_inf;
+  alpha_m_ = (2.0 * r - 1.0) / (r + 1.0);
+  alpha_f_ = r / (r + 1.0);
+  gamma_ = 0.5 + alpha_f_ - alpha_m_;
+  beta_ = 0.25 * (gamma_ + 0.5) * (gamma_ + 0.5);
+  a_ = state_.qddot;
+  const int n = system.coordinates, m = system.constraints.size();
+  next_ = state_;
+  nu_ = Eigen::VectorXd::Zero(m);
+  a_next_.resize(n);
+  q_newmark_.resize(n);
+  residual_.resize(2 * n + 2 * m);
+  delta_.resize(2 * n + 2 * m);
+  force_.resize(n);
+  scratch_.resize(m);
+
+  // Pattern of the scaled Newton matrix (rows R1..R4, columns Δq, Δv̇, Δλ, Δν); t = −∞ keeps
+  // every row a locked joint may release.
+  const double always = -std::numeric_limits<double>::infinity();
+  const ConstraintSet& cs = system.constraints;
+  PatternSink p;
+  OffsetSink r1_vdot(&p, 0, n), r2(&p, n, 0), r4(&p, 2 * n + m, 0), r4_vdot(&p, 2 * n + m, n);
+  for (int i = 0; i < 2 * n + 2 * m; ++i) p.Add(i, i, 0.0);
+  cs.HessianPattern(&p);
+  system.ForcePattern(&p);
+  AddMatrix(system.mass, 1.0, &r1_vdot);
+  system.ForcePattern(&r1_vdot);
+  cs.JacobianTranspose(system.q0, always, &p, 2 * n, 1.0);
+  cs.HessianPattern(&r2);
+  for (int i = 0; i < n; ++i) p.Add(n + i, i, 0.0);  // R2: I in the Δq columns
+  cs.JacobianTranspose(system.q0, always, &r2, 2 * n + m, 1.0);
+  cs.Jacobian(system.q0, always, &p, 2 * n, 1.0);
+  cs.Jacobian(system.q0, always, &r4, 0, 1.0);
+  cs.Jacobian(system.q0, always, &r4_vdot, 0, 1.0);
+  S_ = p.Build(2 * n + 2 * m, 2 * n + 2 * m);
+  lu_.Analyze(S_);
+}
+
+double CgAlphaIndex2::ConstraintViolation(double t) const {
+  Eigen::VectorXd phi(system_.constraints.size());
+  system_.constraints.Evaluate(state_.q, t, phi);
+  return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
+}
+
+void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
+  const int n = system_.coordinates, m = system_.constraints.size();
+  const ConstraintSet& cs = system_.constraints;
+  for (Eigen::Index k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
+  MatrixSink sink(&S_);
+  // R1 × c_q: [c_q (Σλ∇²φ − ∂f/∂q), M − c_v ∂f/∂v (column ÷ c_q), Φ_qᵀ (column ÷ c_q), 0].
+  cs.HessianTimesLambda(t1, next_.lambda, &sink, cq);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, cq, 0.0, &sink);
+  OffsetSink r1_vdot(&sink, 0, n);
+  AddMatrix(system_.mass, 1.0, &r1_vdot);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, 0.0, cv, &r1_vdot);
+  cs.JacobianTranspose(next_.q, t1, &sink, 2 * n, 1.0);
+  // R2: [I − Σν∇²φ, −I (column ÷ c_q: −c_q I / c_q), 0, −Φ_qᵀ].
+  OffsetSink r2(&sink, n, 0);
+  for (int i = 0; i < n; ++i) {
+    sink.Add(n + i, i, 1.0);
+    sink.Add(n + i, n + i, -1.0);
+  }
+  cs.HessianTimesLambda(t1, nu_, &r2, -1.0);
+  cs.JacobianTranspose(next_.q, t1, &r2, 2 * n + m, -1.0);
+  // R3: [Φ_q, 0, 0, 0].
+  cs.Jacobian(next_.q, t1, &sink, 2 * n, 1.0);
+  // R4 × c_q/c_v: [(c_q/c_v) ∂(Φ_q v + Φ_t)/∂q, Φ_q (c_v Φ_q × c_q/c_v ÷ c_q), 0, 0].
+  OffsetSink r4(&sink, 2 * n + m, 0, cq / cv), r4_vdot(&sink, 2 * n + m, n);
+  cs.VelocityConstraintJacobian(next_.q, next_.qdot, t1, &r4, 0);
+  cs.Jacobian(next_.q, t1, &r4_vdot, 0, 1.0);
+  // Released joints: identity rows for their λ and ν.
+  cs.AddReleasedDiagonal(t1, &sink, 2 * n);
+  cs.AddReleasedDiagonal(t1, &sink, 2 * n + m);
+}
+
+int CgAlphaIndex2::Step(double t, double h) {
+  const int n = system_.coordinates, m = system_.constraints.size();
+  const ConstraintSet& cs = system_.constraints;
+  const double t1 = t + h;
+  const double ca = (1.0 - alpha_f_) / (1.0 - alpha_m_);  // ∂a_{n+1}/∂v̇_{n+1}
+  const double cv = h * gamma_ * ca, cq = h * h * beta_ * ca;
+  if (std::isfinite(cs.ReleaseWithin(t, t1))) {
+    // A joint lets go: restart the α history from accelerations consistent with the new equations.
+    ConsistentAccelerations(system_, std::max(t, std::nextafter(cs.ReleaseWithin(t, t1), INFINITY)), &state_);
+    a_ = state_.qddot;
+  }
+  // Predictor: v̇_{n+1} = v̇_n, λ_{n+1} = λ_n, ν = 0.
+  next_.qddot = state_.qddot;
+  next_.lambda = state_.lambda;
+  for (int i = 0; i < m; ++i) {
+    if (!cs.Active(static_cast<size_t>(i), t1)) next_.lambda(i) = 0.0;
+  }
+  nu_.setZero();
+  auto update_kinematics = [&] {
+    a_next_ = ((1.0 - alpha_f_) * next_.qddot + alpha_f_ * state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
+    next_.qdot = state_.qdot + h * ((1.0 - gamma_) * a_ + gamma_ * a_next_);
+    q_newmark_ = state_.q + h * state_.qdot + h * h * ((0.5 - beta_) * a_ + beta_ * a_next_);
+  };
+  update_kinematics();
+  next_.q = q_newmark_;
+
+  for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
+    auto r1 = residual_.head(n), r2 = residual_.segment(n, n);
+    system_.Force(next_.q, next_.qdot, t1, force_);
+    r1.noalias() = system_.mass * next_.qddot;
+    r1 -= force_;
+    cs.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r1);
+    r1 *= cq;
+    r2 = next_.q - q_newmark_;
+    force_.setZero();  // reused as scratch for Φ_qᵀ ν
+    cs.AddJacobianTransposeTimes(next_.q, t1, nu_, force_);
+    r2 -= force_;
+    cs.Evaluate(next_.q, t1, residual_.segment(2 * n, m));
+    cs.JacobianTimes(next_.q, t1, next_.qdot, residual_.tail(m));
+    cs.TimeDerivative(next_.q, t1, scratch_);
+    residual_.tail(m) = (residual_.tail(m) + scratch_) * (cq / cv);
+    Assemble(t1, cq, cv);
+    if (!lu_.Factorize(S_)) {
+      throw NumericalError("CGα (index 2): the iteration matrix is singular at t = " + std::to_string(t1) + " s");
+    }
+    delta_ = -residual_;
+    lu_.SolveInPlace(delta_);
+    next_.q += delta_.head(n);
+    next_.qddot += delta_.segment(n, n) / cq;
+    next_.lambda += delta_.segment(2 * n, m) / cq;
+    nu_ += delta_.tail(m);
+    update_kinematics();
+    // Converged: small position correction, constraints met at position and velocity level.
+    cs.Evaluate(next_.q, t1, scratch_);
+    const double phi = m > 0 ? scratch_.lpNorm<Eigen::Infinity>() : 0.0;
+    cs.JacobianTimes(next_.q, t1, next_.qdot, residual_.tail(m));  // reused as scratch
+    cs.TimeDerivative(next_.q, t1, scratch_);
+    const double vel_error = m > 0 ? (residual_.tail(m) + scratch_).lpNorm<Eigen::Infinity>() * h : 0.0;
+    const double dq = delta_.head(n).lpNorm<Eigen::Infinity>();
+    if (!std::isfinite(dq)) break;
+    if (dq <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) && phi <= settings_.tolerance &&
+        vel_error <= settings_.tolerance) {
+      a_ = a_next_;
+      std::swap(state_, next_);
+      return iteration;
+    }
+  }
+  throw NumericalError("CGα (index 2): Newton did not converge in " + std::to_string(settings_.max_iterations) +
+                       " iterations at t = " + std::to_string(t1) + " s; reduce the step or raise the iteration limit");
+}
+
+}  // namespace cosim::smooth

@@ -83,6 +83,22 @@ std::string NameTable::Declare(const std::string& path, bool has, const std::str
   return name;
 }
 
+int ProbeComponent(const Checks& checks, const std::string& path, const scenario::Probe& p, bool vector) {
+  if (!vector) {
+    if (p.component() != scenario::Probe::COMPONENT_UNSPECIFIED) {
+      checks.Fail(path + ".component", "this quantity is a scalar; leave component out");
+    }
+    return 0;
+  }
+  switch (p.component()) {
+    case scenario::Probe::X: return 0;
+    case scenario::Probe::Y: return 1;
+    case scenario::Probe::Z: return 2;
+    case scenario::Probe::NORM: return 3;
+    default: checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
+  }
+}
+
 void NameTable::Add(const std::string& path, const std::string& name) {
   if (index_.count(name) != 0) {
     checks_.Fail(path, kind_ + " name '" + name + "' is already used by " + where_[name] + "; names must be unique");

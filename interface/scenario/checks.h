@@ -46,6 +46,14 @@ class Checks {
   const ScenarioFile& file_;
 };
 
+// The component of a probe (proto Probe.component): 0, 1, 2 for X, Y, Z, 3 for NORM when the
+// quantity is a vector; 0 (and none given) when it is a scalar. InputError otherwise.
+int ProbeComponent(const Checks& checks, const std::string& probe_path, const scenario::Probe& probe, bool vector);
+// A 3-vector's component as chosen by ProbeComponent.
+inline double PickComponent(const Eigen::Vector3d& v, int component) {
+  return component == 3 ? v.norm() : v(component);
+}
+
 // Names of one kind of entity, checked unique, looked up by reference fields.
 class NameTable {
  public:

@@ -75,7 +75,6 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
     }
     total_columns += columns;
     w.m_hat_matrix.resize(w.dofs, w.dofs);
-    w.m_hat = Eigen::LLT<Eigen::MatrixXd>(w.dofs);
     for (Eigen::VectorXd* v : {&w.q, &w.v, &w.fe0, &w.fe1, &w.rhs, &w.v_free}) v->resize(w.dofs);
     w.G = Eigen::MatrixXd::Zero(w.dofs, std::max(columns, 1));
     w.Y.resize(w.dofs, std::max(columns, 1));

@@ -134,22 +134,6 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
   }
 }
 
-int ComponentOf(const Checks& checks, const std::string& path, const sc::Probe& p, bool vector) {
-  if (!vector) {
-    if (p.has_component() && p.component() != sc::Probe::COMPONENT_UNSPECIFIED) {
-      checks.Fail(path + ".component", "this quantity is a scalar; leave component out");
-    }
-    return 0;
-  }
-  switch (p.component()) {
-    case sc::Probe::X: return 0;
-    case sc::Probe::Y: return 1;
-    case sc::Probe::Z: return 2;
-    case sc::Probe::NORM: return 3;
-    default: checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
-  }
-}
-
 void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names,
                  const ContactModel& model, ContactModel* out) {
   std::map<std::string, int> contact_index;
@@ -178,13 +162,13 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
       case sc::Probe::VELOCITY:
         probe.kind = p.quantity() == sc::Probe::POSITION ? ProbeKind::kPosition : ProbeKind::kVelocity;
         probe.index = node_entity();
-        probe.component = ComponentOf(checks, path, p, true);
+        probe.component = interface::ProbeComponent(checks, path, p, true);
         break;
       case sc::Probe::GAP:
       case sc::Probe::IMPULSE:
         probe.kind = p.quantity() == sc::Probe::GAP ? ProbeKind::kGap : ProbeKind::kImpulse;
         probe.index = contact_entity();
-        probe.component = ComponentOf(checks, path, p, false);
+        probe.component = interface::ProbeComponent(checks, path, p, false);
         break;
       case sc::Probe::KINETIC_ENERGY:
       case sc::Probe::POTENTIAL_ENERGY:
@@ -193,7 +177,7 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
                      : p.quantity() == sc::Probe::POTENTIAL_ENERGY ? ProbeKind::kPotentialEnergy
                                                                    : ProbeKind::kTotalEnergy;
         probe.index = entity.empty() ? -1 : node_entity();
-        probe.component = ComponentOf(checks, path, p, false);
+        probe.component = interface::ProbeComponent(checks, path, p, false);
         break;
       default:
         checks.Fail(path + ".quantity",

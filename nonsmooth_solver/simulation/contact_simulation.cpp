@@ -1,5 +1,7 @@
 #include "nonsmooth_solver/simulation/contact_simulation.h"
 
+#include "interface/scenario/checks.h"
+
 namespace cosim::nonsmooth {
 
 ContactSimulation::ContactSimulation(const interface::ScenarioFile& file)
@@ -34,7 +36,7 @@ void ContactSimulation::Probe(std::vector<double>* values) const {
       case ProbeKind::kVelocity: {
         const Eigen::VectorXd& x = p.kind == ProbeKind::kPosition ? mj.positions() : mj.velocities();
         const Eigen::Vector3d node = x.segment<3>(3 * p.index);
-        value = p.component == 3 ? node.norm() : node(p.component);
+        value = interface::PickComponent(node, p.component);
         break;
       }
       case ProbeKind::kGap: value = mj.Gap(p.index); break;

@@ -14,7 +14,7 @@ namespace {
 Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   const int n = system.coordinates, m = system.constraints.size();
   PatternSink pattern;
-  pattern.AddMatrix(system.mass, 0, 0);
+  AddSparse(system.mass, 0.0, &pattern);
   system.constraints.HessianPattern(&pattern);
   system.ForcePattern(&pattern);
   // t = −∞: every row active (a locked joint's row exists until its release).
@@ -31,7 +31,7 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   const int n = system.coordinates, m = system.constraints.size();
   Eigen::SparseMatrix<double> A = SaddlePattern(system);
   MatrixSink sink(&A);
-  sink.AddMatrix(system.mass, 1.0, 0, 0);
+  AddSparse(system.mass, 1.0, &sink);
   system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
@@ -54,11 +54,11 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
 
 CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
     : system_(system), settings_(settings), state_(initial) {
-  const double r = settings.rho_inf;
-  alpha_m_ = (2.0 * r - 1.0) / (r + 1.0);
-  alpha_f_ = r / (r + 1.0);
-  gamma_ = 0.5 + alpha_f_ - alpha_m_;
-  beta_ = 0.25 * (gamma_ + 0.5) * (gamma_ + 0.5);
+  const AlphaCoefficients c = AlphaCoefficients::FromRhoInf(settings.rho_inf);
+  alpha_m_ = c.alpha_m;
+  alpha_f_ = c.alpha_f;
+  gamma_ = c.gamma;
+  beta_ = c.beta;
   a_ = state_.qddot;  // a_0 = q̈_0
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
@@ -83,7 +83,7 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   // Bottasso scaling: dynamic rows × βh², multiplier columns ÷ βh² (Eqs. (34)-(36)).
   for (int k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
   MatrixSink sink(&S_);
-  sink.AddMatrix(system_.mass, (1.0 - alpha_m_) / (1.0 - alpha_f_), 0, 0);  // βh² β' M
+  AddSparse(system_.mass, (1.0 - alpha_m_) / (1.0 - alpha_f_), &sink);  // βh² β' M
   system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);      // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
   system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * gamma_ / (beta_ * h), &sink);

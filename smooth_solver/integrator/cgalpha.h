@@ -30,6 +30,16 @@
 
 namespace cosim::smooth {
 
+// Generalised-α coefficients from ρ∞ (Chung & Hulbert; Arnold & Brüls).
+struct AlphaCoefficients {
+  double alpha_m, alpha_f, gamma, beta;
+  static AlphaCoefficients FromRhoInf(double rho_inf) {
+    const double am = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0), af = rho_inf / (rho_inf + 1.0);
+    const double g = 0.5 + af - am;
+    return {am, af, g, 0.25 * (g + 0.5) * (g + 0.5)};
+  }
+};
+
 struct CgAlphaSettings {
   double rho_inf = 0.9;            // ρ∞ ∈ [0, 1]; 1 = no numerical dissipation
   double tolerance = 1e-6;         // on |Δq|∞ (relative to 1 + |q|∞) and |Φ|∞

@@ -10,35 +10,15 @@ namespace cosim::smooth {
 
 namespace {
 
-class OffsetSink : public SparseSink {
- public:
-  OffsetSink(SparseSink* inner, int row, int column, double scale = 1.0)
-      : inner_(inner), row_(row), column_(column), scale_(scale) {}
-  void Add(int r, int c, double value) override { inner_->Add(r + row_, c + column_, scale_ * value); }
-
- private:
-  SparseSink* inner_;
-  int row_, column_;
-  double scale_;
-};
-
-void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, SparseSink* sink) {
-  for (int k = 0; k < a.outerSize(); ++k) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
-      sink->Add(static_cast<int>(it.row()), static_cast<int>(it.col()), scale * it.value());
-    }
-  }
-}
-
 }  // namespace
 
 CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
     : system_(system), settings_(settings), state_(initial) {
-  const double r = settings.rho_inf;
-  alpha_m_ = (2.0 * r - 1.0) / (r + 1.0);
-  alpha_f_ = r / (r + 1.0);
-  gamma_ = 0.5 + alpha_f_ - alpha_m_;
-  beta_ = 0.25 * (gamma_ + 0.5) * (gamma_ + 0.5);
+  const AlphaCoefficients c = AlphaCoefficients::FromRhoInf(settings.rho_inf);
+  alpha_m_ = c.alpha_m;
+  alpha_f_ = c.alpha_f;
+  gamma_ = c.gamma;
+  beta_ = c.beta;
   a_ = state_.qddot;
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
@@ -59,7 +39,7 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSetting
   for (int i = 0; i < 2 * n + 2 * m; ++i) p.Add(i, i, 0.0);
   cs.HessianPattern(&p);
   system.ForcePattern(&p);
-  AddMatrix(system.mass, 1.0, &r1_vdot);
+  AddSparse(system.mass, 1.0, &r1_vdot);
   system.ForcePattern(&r1_vdot);
   cs.JacobianTranspose(system.q0, always, &p, 2 * n, 1.0);
   cs.HessianPattern(&r2);
@@ -87,7 +67,7 @@ void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
   cs.HessianTimesLambda(t1, next_.lambda, &sink, cq);
   system_.AddForceTangent(next_.q, next_.qdot, t1, cq, 0.0, &sink);
   OffsetSink r1_vdot(&sink, 0, n);
-  AddMatrix(system_.mass, 1.0, &r1_vdot);
+  AddSparse(system_.mass, 1.0, &r1_vdot);
   system_.AddForceTangent(next_.q, next_.qdot, t1, 0.0, cv, &r1_vdot);
   cs.JacobianTranspose(next_.q, t1, &sink, 2 * n, 1.0);
   // R2: [I − Σν∇²φ, −I (column ÷ c_q: −c_q I / c_q), 0, −Φ_qᵀ].

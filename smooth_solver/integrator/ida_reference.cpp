@@ -22,17 +22,6 @@ Eigen::Map<Eigen::VectorXd> View(N_Vector v) {
   return Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(v), N_VGetLength(v));
 }
 
-// Adds into another sink at a row and column offset (blocks of the index-2 Jacobian).
-class OffsetSink : public SparseSink {
- public:
-  OffsetSink(SparseSink* inner, int row, int column) : inner_(inner), row_(row), column_(column) {}
-  void Add(int r, int c, double value) override { inner_->Add(r + row_, c + column_, value); }
-
- private:
-  SparseSink* inner_;
-  int row_, column_;
-};
-
 }  // namespace
 
 struct IdaReference::Impl {
@@ -94,7 +83,7 @@ struct IdaReference::Impl {
     cs.HessianTimesLambda(t, lambda, &v_rows, 1.0);
     p.system->AddForceTangent(q, v, t, 1.0, 0.0, &v_rows);
     p.system->AddForceTangent(q, v, t, 0.0, 1.0, &v_block);
-    AddMatrix(p.system->mass, cj, &v_block);
+    AddSparse(p.system->mass, cj, &v_block);
     cs.JacobianTranspose(q, t, &v_rows, 2 * n, cj);
     // Velocity constraint rows: ∂(Φ_q v + Φ_t)/∂q and Φ_q (v columns).
     cs.VelocityConstraintJacobian(q, v, t, sink, 2 * n);
@@ -123,7 +112,7 @@ struct IdaReference::Impl {
     cs.HessianPattern(&v_rows);
     p.system->ForcePattern(&v_rows);
     p.system->ForcePattern(&v_block);
-    AddMatrix(p.system->mass, 1.0, &v_block);
+    AddSparse(p.system->mass, 1.0, &v_block);
     cs.JacobianTranspose(p.system->q0, always, &v_rows, 2 * n, 1.0);
     cs.Jacobian(p.system->q0, always, &pattern, 2 * n, 1.0);  // the velocity rows' q-pattern is Φ_q's
     cs.Jacobian(p.system->q0, always, &v_columns, 2 * n, 1.0);
@@ -150,14 +139,6 @@ struct IdaReference::Impl {
       data_out[k] = p->A.valuePtr()[k];
     }
     return 0;
-  }
-
-  static void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, SparseSink* sink) {
-    for (int k = 0; k < a.outerSize(); ++k) {
-      for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
-        sink->Add(static_cast<int>(it.row()), static_cast<int>(it.col()), scale * it.value());
-      }
-    }
   }
 };
 

@@ -17,13 +17,6 @@ namespace cosim::smooth {
 class PatternSink : public SparseSink {
  public:
   void Add(int row, int column, double) override { entries_.emplace_back(row, column, 0.0); }
-  void AddMatrix(const Eigen::SparseMatrix<double>& m, int row_offset, int column_offset) {
-    for (int k = 0; k < m.outerSize(); ++k) {
-      for (Eigen::SparseMatrix<double>::InnerIterator it(m, k); it; ++it) {
-        Add(row_offset + static_cast<int>(it.row()), column_offset + static_cast<int>(it.col()), 0.0);
-      }
-    }
-  }
   Eigen::SparseMatrix<double> Build(int rows, int columns) const {
     Eigen::SparseMatrix<double> m(rows, columns);
     m.setFromTriplets(entries_.begin(), entries_.end());
@@ -50,16 +43,31 @@ class MatrixSink : public SparseSink {
                                               ") outside the fixed pattern");
     m_->valuePtr()[it - inner] += value;
   }
-  void AddMatrix(const Eigen::SparseMatrix<double>& a, double scale, int row_offset, int column_offset) {
-    for (int k = 0; k < a.outerSize(); ++k) {
-      for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
-        Add(row_offset + static_cast<int>(it.row()), column_offset + static_cast<int>(it.col()), scale * it.value());
-      }
-    }
-  }
 
  private:
   Eigen::SparseMatrix<double>* m_;
 };
+
+// Adds into another sink at a row and column offset, scaled (blocks of a larger matrix).
+class OffsetSink : public SparseSink {
+ public:
+  OffsetSink(SparseSink* inner, int row, int column, double scale = 1.0)
+      : inner_(inner), row_(row), column_(column), scale_(scale) {}
+  void Add(int r, int c, double value) override { inner_->Add(r + row_, c + column_, scale_ * value); }
+
+ private:
+  SparseSink* inner_;
+  int row_, column_;
+  double scale_;
+};
+
+// sink += scale · a.
+inline void AddSparse(const Eigen::SparseMatrix<double>& a, double scale, SparseSink* sink) {
+  for (int k = 0; k < a.outerSize(); ++k) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(a, k); it; ++it) {
+      sink->Add(static_cast<int>(it.row()), static_cast<int>(it.col()), scale * it.value());
+    }
+  }
+}
 
 }  // namespace cosim::smooth

@@ -15,23 +15,6 @@ namespace sc = cosim::scenario;
 
 namespace {
 
-int Component(const Checks& checks, const std::string& path, const sc::Probe& p, bool vector) {
-  if (!vector) {
-    if (p.component() != sc::Probe::COMPONENT_UNSPECIFIED) {
-      checks.Fail(path + ".component", "this quantity is a scalar; leave component out");
-    }
-    return 0;
-  }
-  switch (p.component()) {
-    case sc::Probe::X: return 0;
-    case sc::Probe::Y: return 1;
-    case sc::Probe::Z: return 2;
-    case sc::Probe::NORM: return 3;
-    default: checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
-  }
-}
-
-double Pick(const Eigen::Vector3d& v, int component) { return component == 3 ? v.norm() : v(component); }
 
 }  // namespace
 
@@ -110,7 +93,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
       case Kind::kAcceleration:
       case Kind::kAngularVelocity:
         spec.index = find(body_index, "body");
-        spec.component = Component(checks, path, p, true);
+        spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
       case Kind::kJointCoordinate:
       case Kind::kJointSpeed: {
@@ -119,7 +102,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
         if (type != JointType::kRevolute && type != JointType::kPrismatic) {
           checks.Fail(path + ".entity", "joint '" + p.entity() + "' has no single coordinate (revolute or prismatic only)");
         }
-        spec.component = Component(checks, path, p, false);
+        spec.component = interface::ProbeComponent(checks, path, p, false);
         break;
       }
       case Kind::kReactionForce:
@@ -127,18 +110,18 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
         if (model_.joints[static_cast<size_t>(spec.index)].type == JointType::kPrismatic) {
           checks.Fail(path + ".entity", "the reaction force of a prismatic joint is not available yet (its moment is)");
         }
-        spec.component = Component(checks, path, p, true);
+        spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
       case Kind::kReactionMoment:
         spec.index = find(joint_index, "joint");
-        spec.component = Component(checks, path, p, true);
+        spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
       case Kind::kKinetic:
       case Kind::kPotential:
       case Kind::kTotal:
       case Kind::kViolation:
         if (!p.entity().empty()) checks.Fail(path + ".entity", "this quantity is for the whole system; leave entity out");
-        spec.component = Component(checks, path, p, false);
+        spec.component = interface::ProbeComponent(checks, path, p, false);
         break;
     }
     probes_.push_back(spec);
@@ -175,14 +158,14 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
     const int o = kCoordinatesPerBody * std::max(p.index, 0);
     double value = 0.0;
     switch (p.kind) {
-      case Kind::kPosition: value = Pick(s.q.segment<3>(o), p.component); break;
-      case Kind::kVelocity: value = Pick(s.qdot.segment<3>(o), p.component); break;
-      case Kind::kAcceleration: value = Pick(s.qddot.segment<3>(o), p.component); break;
+      case Kind::kPosition: value = interface::PickComponent(s.q.segment<3>(o), p.component); break;
+      case Kind::kVelocity: value = interface::PickComponent(s.qdot.segment<3>(o), p.component); break;
+      case Kind::kAcceleration: value = interface::PickComponent(s.qddot.segment<3>(o), p.component); break;
       case Kind::kAngularVelocity: {
         // ω = ½ Σ_k e_k × ė_k for the orthonormal body axes e_k.
         Eigen::Vector3d w = Eigen::Vector3d::Zero();
         for (int k = 0; k < 3; ++k) w += 0.5 * s.q.segment<3>(o + 3 + 3 * k).cross(s.qdot.segment<3>(o + 3 + 3 * k));
-        value = Pick(w, p.component);
+        value = interface::PickComponent(w, p.component);
         break;
       }
       case Kind::kJointCoordinate:
@@ -190,9 +173,9 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         if (system_->joints[static_cast<size_t>(p.index)].rotational) value += angle_offset_[static_cast<size_t>(p.index)];
         break;
       case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
-      case Kind::kReactionForce: value = Pick(system_->JointReactionForce(p.index, s.lambda), p.component); break;
+      case Kind::kReactionForce: value = interface::PickComponent(system_->JointReactionForce(p.index, s.lambda), p.component); break;
       case Kind::kReactionMoment:
-        value = Pick(system_->JointReactionMoment(p.index, s.q, s.lambda, time_), p.component);
+        value = interface::PickComponent(system_->JointReactionMoment(p.index, s.q, s.lambda, time_), p.component);
         break;
       case Kind::kKinetic: value = system_->KineticEnergy(s.qdot); break;
       case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;

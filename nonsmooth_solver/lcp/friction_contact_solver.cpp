@@ -13,6 +13,8 @@ extern "C" {
 #include "SolverOptions.h"
 }
 
+#include "nonsmooth_solver/lcp/siconos_options.h"
+
 namespace cosim::nonsmooth {
 
 namespace {
@@ -72,8 +74,7 @@ FrictionContactResult SolveFrictionContact(const Eigen::Ref<const Eigen::MatrixX
   Eigen::VectorXd u(n);
   result.siconos_info = fc3d_driver(problem, r.data(), u.data(), options);
   result.iterations = options->iparam[SICONOS_IPARAM_ITER_DONE];
-  solver_options_delete(options);
-  std::free(options);
+  FreeSolverOptions(options);
   frictionContactProblem_free(problem);
 
   result.error = FrictionContactError(W, q, mu, r);

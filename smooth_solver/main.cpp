@@ -1,10 +1,17 @@
-// smooth_solver: the rigid multibody solver (CGα). Standalone, it runs a scene of rigid
-// bodies and joints under the run contract (see interface/run/run_driver.h).
+// smooth_solver: the multibody solver. Standalone, it runs a scene of rigid bodies and
+// joints (CGα, DYNAMIC analysis), or elastic bodies in a STATIC analysis, under the run
+// contract (see interface/run/run_driver.h).
 #include "interface/run/run_driver.h"
+#include "smooth_solver/simulation/elastic_static_simulation.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 
 int main(int argc, char** argv) {
-  return cosim::interface::RunProgram("smooth_solver", argc, argv, [](const cosim::interface::ScenarioFile& file) {
-    return std::make_unique<cosim::smooth::MultibodySimulation>(file);
-  });
+  using namespace cosim;
+  return interface::RunProgram(
+      "smooth_solver", argc, argv, [](const interface::ScenarioFile& file) -> std::unique_ptr<interface::Simulation> {
+        if (file.proto().numerics().smooth().analysis() == scenario::SmoothSettings::STATIC) {
+          return std::make_unique<smooth::ElasticStaticSimulation>(file);
+        }
+        return std::make_unique<smooth::MultibodySimulation>(file);
+      });
 }

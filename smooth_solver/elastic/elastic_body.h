@@ -54,9 +54,11 @@ struct StaticResult {
 
 // Newton–Raphson on f_int(x) = f_ext with the nodes in `fixed` held at their reference
 // positions. `loads`: (node, force [N]). Converged when the free residual is at most
-// tolerance × max(|f_ext|∞, |f_int|∞). Throws NumericalError if it does not converge.
+// tolerance × max(|f_ext|∞, |f_int|∞), or when the Newton correction is down to the
+// round-off of the positions (1e-13 of their size). Throws NumericalError otherwise.
+// `start`, if given, is the initial guess of the positions (e.g. the previous load step's).
 StaticResult SolveStatic(const ElasticBody& body, const std::vector<int>& fixed,
                          const std::vector<std::pair<int, Eigen::Vector3d>>& loads, double tolerance,
-                         int max_iterations);
+                         int max_iterations, const Eigen::Matrix3Xd* start = nullptr);
 
 }  // namespace cosim::smooth

@@ -20,10 +20,11 @@ namespace {
 
 MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : model_(BuildMultibodyModel(file)) {
   const Checks checks(file);
-  if (model_.bodies.empty()) checks.Fail("model.bodies", "the smooth solver needs at least one rigid body");
   if (file.proto().model().elastic_bodies_size() > 0) {
-    checks.Fail("model.elastic_bodies", "elastic bodies are not available in this build yet (issue 5)");
+    checks.Fail("model.elastic_bodies", "elastic bodies run in a STATIC analysis (numerics.smooth.analysis: STATIC) in "
+                                        "this build; their dynamics with CGα and GEMM come with issue 5");
   }
+  if (model_.bodies.empty()) checks.Fail("model.bodies", "the smooth solver needs at least one rigid body");
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();

@@ -125,6 +125,7 @@ void PrintTo(const BadInput& c, std::ostream* os) { *os << c.name; }
 
 const std::string kBall = kScenarios + "/bouncing_ball.pbtxt";
 const std::string kPendulum = std::string(COSIM_SOURCE_DIR) + "/tests/data/rigid_pendulum.pbtxt";
+const std::string kCantilever = kScenarios + "/cantilever_static.pbtxt";
 
 class BadInputTest : public ::testing::TestWithParam<BadInput> {};
 
@@ -182,6 +183,15 @@ INSTANTIATE_TEST_SUITE_P(
                  {"numerics.smooth.rho_inf", "must be in [0, 1], got 1.5"}},
         BadInput{"inertia_not_physical", kPendulum, "inertia: [0.001, 0.08, 0.08]", "inertia: [0.001, 0.08, 0.2]", "",
                  {"model.bodies[0].inertia", "triangle inequality"}},
+        BadInput{"poisson_half", kCantilever, "poisson: 0.3", "poisson: 0.5", "",
+                 {"model.elastic_bodies[0].material.poisson", "must be in (-1, 0.5), got 0.5"}},
+        BadInput{"zero_young", kCantilever, "young: 1.792e12", "young: 0", "",
+                 {"model.elastic_bodies[0].material.young", "must be positive (Pa), got 0"}},
+        BadInput{"clamp_outside", kCantilever, "clamps { body: \"ground\" face: \"root\" }",
+                 "clamps { body: \"ground\" nodes { index: [0, 9999] } }", "",
+                 {"model.elastic_bodies[0].clamps[0].nodes.index[1]", "node 9999 is outside the body"}},
+        BadInput{"unknown_face", kCantilever, "face: \"root\"", "face: \"middle\"", "",
+                 {"model.elastic_bodies[0].clamps[0].face", "expected \"root\" or \"tip\", got 'middle'"}},
         BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
                  {"friction", "must be >= 0"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });

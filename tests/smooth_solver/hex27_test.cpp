@@ -8,7 +8,9 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "interface/run/errors.h"
 #include "smooth_solver/elastic/elastic_body.h"
+#include "smooth_solver/elastic/elastic_model.h"
 
 namespace cosim::smooth {
 namespace {
@@ -157,6 +159,38 @@ TEST(Cantilever, ForeshorteningComesFromTheNonlinearStrainOnly) {
   EXPECT_NEAR(b.y() / a.y(), 2.0, 2e-4);
   EXPECT_NEAR(b.x() / a.x(), 4.0, 1e-2);
   EXPECT_NEAR(-a.x(), 0.6 * a.y() * a.y(), 0.05 * 0.6 * a.y() * a.y());
+}
+
+}  // namespace
+}  // namespace cosim::smooth
+
+namespace cosim::smooth {
+namespace {
+
+TEST(ElasticModel, InvertedGeneralMeshIsBadInputNamingTheElement) {
+  // A general mesh whose single element lists its nodes mirrored (i reversed) has a negative
+  // Jacobian determinant everywhere: refused before any computation, naming the element.
+  std::string nodes, order;
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) {
+        nodes += std::to_string(0.5 * i) + ", " + std::to_string(0.1 * j) + ", " + std::to_string(0.1 * k) + ", ";
+        order += std::to_string((2 - i) + 3 * j + 9 * k) + ", ";
+      }
+    }
+  }
+  nodes.resize(nodes.size() - 2);
+  order.resize(order.size() - 2);
+  const std::string text = "model { elastic_bodies { name: \"b\" material { density: 1 young: 1e9 poisson: 0.3 } "
+                           "general { node_coordinates: [" + nodes + "] element_nodes: [" + order + "] } } }\n"
+                           "numerics { end_time: 1 step: 1 }";
+  const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "mesh.pbtxt", {});
+  try {
+    BuildElasticBodies(interface::Checks(file), file.proto().model(), {});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("element 0 is inverted or degenerate"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

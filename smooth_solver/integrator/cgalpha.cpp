@@ -53,12 +53,7 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
 }
 
 CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
-    : system_(system), settings_(settings), state_(initial) {
-  const AlphaCoefficients c = AlphaCoefficients::FromRhoInf(settings.rho_inf);
-  alpha_m_ = c.alpha_m;
-  alpha_f_ = c.alpha_f;
-  gamma_ = c.gamma;
-  beta_ = c.beta;
+    : system_(system), settings_(settings), coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)), state_(initial) {
   a_ = state_.qddot;  // a_0 = q̈_0
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
@@ -79,14 +74,14 @@ double CgAlpha::ConstraintViolation(double t) const {
 
 void CgAlpha::AssembleIteration(double t1, double h) {
   const int n = system_.coordinates;
-  const double bh2 = beta_ * h * h;
+  const double bh2 = coef_.beta * h * h;
   // Bottasso scaling: dynamic rows × βh², multiplier columns ÷ βh² (Eqs. (34)-(36)).
   for (int k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
   MatrixSink sink(&S_);
-  AddSparse(system_.mass, (1.0 - alpha_m_) / (1.0 - alpha_f_), &sink);  // βh² β' M
+  AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);  // βh² β' M
   system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);      // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
-  system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * gamma_ / (beta_ * h), &sink);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink);
   system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
@@ -95,9 +90,9 @@ void CgAlpha::AssembleIteration(double t1, double h) {
 int CgAlpha::Step(double t, double h) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const double t1 = t + h;
-  const double bh2 = beta_ * h * h;
-  const double beta_prime = (1.0 - alpha_m_) / ((1.0 - alpha_f_) * bh2);
-  const double gamma_prime = gamma_ / (beta_ * h);
+  const double bh2 = coef_.beta * h * h;
+  const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
+  const double gamma_prime = coef_.gamma / (coef_.beta * h);
   const double release = system_.constraints.ReleaseWithin(t, t1);
   if (std::isfinite(release)) {
     // A locked joint lets go in this step: the equations change, so the accelerations,
@@ -111,7 +106,7 @@ int CgAlpha::Step(double t, double h) {
   if (!started_) {
     // a_0 = q̈(t_0 + Δα h), Δα = αm − αf < 0, from the accelerations consistent with a
     // Taylor-shifted state (accurate to O(h²), which is what second order needs).
-    const double delta = (alpha_m_ - alpha_f_) * h;
+    const double delta = (coef_.alpha_m - coef_.alpha_f) * h;
     DaeState shifted = state_;
     shifted.q = state_.q + delta * state_.qdot + 0.5 * delta * delta * state_.qddot;
     shifted.qdot = state_.qdot + delta * state_.qddot;
@@ -125,9 +120,9 @@ int CgAlpha::Step(double t, double h) {
   for (int i = 0; i < m; ++i) {
     if (!system_.constraints.Active(static_cast<size_t>(i), t1)) next_.lambda(i) = 0.0;  // released joint
   }
-  a_next_ = (state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
-  next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - beta_) * a_ + beta_ * a_next_);
-  next_.qdot = state_.qdot + h * ((1.0 - gamma_) * a_ + gamma_ * a_next_);
+  a_next_ = (state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
+  next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - coef_.beta) * a_ + coef_.beta * a_next_);
+  next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
 
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     // Residual, scaled: [βh² (M q̈ − f + Φ_qᵀ λ); Φ].
@@ -157,7 +152,7 @@ int CgAlpha::Step(double t, double h) {
     if (dq_norm <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) &&
         phi_norm <= settings_.tolerance) {
       // Accept: a_{n+1} from Eq. (3).
-      a_ = ((1.0 - alpha_f_) * next_.qddot + alpha_f_ * state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
+      a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
       std::swap(state_, next_);
       return iteration;
     }

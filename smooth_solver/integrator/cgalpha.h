@@ -56,10 +56,10 @@ class CgAlpha : public SmoothIntegrator {
   int Step(double t, double h) override;
 
   const DaeState& state() const override { return state_; }
-  double alpha_m() const { return alpha_m_; }
-  double alpha_f() const { return alpha_f_; }
-  double beta() const { return beta_; }
-  double gamma() const { return gamma_; }
+  double alpha_m() const { return coef_.alpha_m; }
+  double alpha_f() const { return coef_.alpha_f; }
+  double beta() const { return coef_.beta; }
+  double gamma() const { return coef_.gamma; }
   // |Φ|∞ at the current state.
   double ConstraintViolation(double t) const override;
 
@@ -68,7 +68,7 @@ class CgAlpha : public SmoothIntegrator {
 
   const MultibodySystem& system_;
   CgAlphaSettings settings_;
-  double alpha_m_ = 0, alpha_f_ = 0, beta_ = 0, gamma_ = 0;
+  AlphaCoefficients coef_;
   DaeState state_;
   Eigen::VectorXd a_;  // acceleration-like variable a_n
   bool started_ = false;

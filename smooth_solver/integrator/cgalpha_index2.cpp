@@ -8,17 +8,8 @@
 
 namespace cosim::smooth {
 
-namespace {
-
-}  // namespace
-
 CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
-    : system_(system), settings_(settings), state_(initial) {
-  const AlphaCoefficients c = AlphaCoefficients::FromRhoInf(settings.rho_inf);
-  alpha_m_ = c.alpha_m;
-  alpha_f_ = c.alpha_f;
-  gamma_ = c.gamma;
-  beta_ = c.beta;
+    : system_(system), settings_(settings), coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)), state_(initial) {
   a_ = state_.qddot;
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
@@ -93,8 +84,8 @@ int CgAlphaIndex2::Step(double t, double h) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const ConstraintSet& cs = system_.constraints;
   const double t1 = t + h;
-  const double ca = (1.0 - alpha_f_) / (1.0 - alpha_m_);  // ∂a_{n+1}/∂v̇_{n+1}
-  const double cv = h * gamma_ * ca, cq = h * h * beta_ * ca;
+  const double ca = (1.0 - coef_.alpha_f) / (1.0 - coef_.alpha_m);  // ∂a_{n+1}/∂v̇_{n+1}
+  const double cv = h * coef_.gamma * ca, cq = h * h * coef_.beta * ca;
   if (std::isfinite(cs.ReleaseWithin(t, t1))) {
     // A joint lets go: restart the α history from accelerations consistent with the new equations.
     ConsistentAccelerations(system_, std::max(t, std::nextafter(cs.ReleaseWithin(t, t1), INFINITY)), &state_);
@@ -108,9 +99,9 @@ int CgAlphaIndex2::Step(double t, double h) {
   }
   nu_.setZero();
   auto update_kinematics = [&] {
-    a_next_ = ((1.0 - alpha_f_) * next_.qddot + alpha_f_ * state_.qddot - alpha_m_ * a_) / (1.0 - alpha_m_);
-    next_.qdot = state_.qdot + h * ((1.0 - gamma_) * a_ + gamma_ * a_next_);
-    q_newmark_ = state_.q + h * state_.qdot + h * h * ((0.5 - beta_) * a_ + beta_ * a_next_);
+    a_next_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
+    next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
+    q_newmark_ = state_.q + h * state_.qdot + h * h * ((0.5 - coef_.beta) * a_ + coef_.beta * a_next_);
   };
   update_kinematics();
   next_.q = q_newmark_;

@@ -29,7 +29,7 @@ class CgAlphaIndex2 : public SmoothIntegrator {
 
   const MultibodySystem& system_;
   CgAlphaSettings settings_;
-  double alpha_m_ = 0, alpha_f_ = 0, beta_ = 0, gamma_ = 0;
+  AlphaCoefficients coef_;
   DaeState state_;  // qddot holds v̇
   Eigen::VectorXd a_;
   DaeState next_;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "smooth_solver/elastic/elastic_force.h"
+
 namespace cosim::smooth {
 
 namespace {
@@ -105,10 +107,17 @@ Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::Vec
   return m.body2 >= 0 ? moment : Eigen::Vector3d(-moment);
 }
 
-MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
+MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<ElasticBodySpec>* elastic) {
   MultibodySystem sys;
   const int nb = static_cast<int>(model.bodies.size());
-  const int n = kCoordinatesPerBody * nb;
+  int n = kCoordinatesPerBody * nb;
+  if (elastic != nullptr) {
+    for (auto& spec : *elastic) {
+      sys.elastic_offset.push_back(n);
+      n += 3 * spec.body.node_count();
+      sys.elastic.push_back(std::make_unique<ElasticBodySpec>(std::move(spec)));
+    }
+  }
   sys.coordinates = n;
   sys.q0.resize(n);
   sys.qdot0.resize(n);
@@ -148,6 +157,42 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model) {
       AddDot(&c, *pairs[k].first, *pairs[k].second);
       c.constant = k < 3 ? -1.0 : 0.0;
       sys.constraints.constraints.push_back(c);
+    }
+  }
+  // Elastic bodies: node positions as coordinates, consistent mass, gravity as M g per node.
+  for (size_t e = 0; e < sys.elastic.size(); ++e) {
+    const ElasticBody& body = sys.elastic[e]->body;
+    const int o = sys.elastic_offset[e];
+    const Eigen::SparseMatrix<double> Me = body.MassMatrix();
+    for (int k = 0; k < Me.outerSize(); ++k) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(Me, k); it; ++it) {
+        mass.emplace_back(o + static_cast<int>(it.row()), o + static_cast<int>(it.col()), it.value());
+      }
+    }
+    for (int a = 0; a < body.node_count(); ++a) {
+      sys.q0.segment<3>(o + 3 * a) = body.mesh().nodes.col(a);
+      sys.qdot0.segment<3>(o + 3 * a).setZero();
+    }
+    Eigen::VectorXd g(3 * body.node_count());
+    for (int a = 0; a < body.node_count(); ++a) g.segment<3>(3 * a) = model.gravity;
+    sys.constant_force.segment(o, g.size()) = Me * g;
+    sys.forces.push_back(std::make_unique<ElasticForce>(&body, o));
+    // Clamps: node = the material point of the rigid body (or the ground point) it sits at.
+    for (const auto& clamp : sys.elastic[e]->clamps) {
+      const Frame f = FrameOf(model, clamp.rigid_body);
+      for (int node : clamp.nodes) {
+        const Eigen::Vector3d X = body.mesh().nodes.col(node);
+        LinearVector at_node;
+        at_node.terms.push_back({o + 3 * node, 1.0});
+        const LinearVector at_body = clamp.rigid_body < 0 ? LinearVector::Constant(X)
+                                                          : LinearVector::Point(clamp.rigid_body, f.R.transpose() * (X - f.x));
+        for (int k = 0; k < 3; ++k) {
+          ScalarConstraint c;
+          c.name = sys.elastic[e]->name + ".clamp_node_" + std::to_string(node);
+          AddDot(&c, at_node - at_body, LinearVector::Constant(Eigen::Vector3d::Unit(k)));
+          sys.constraints.constraints.push_back(c);
+        }
+      }
     }
   }
   sys.mass.resize(n, n);

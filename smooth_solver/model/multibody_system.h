@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/forces/force_elements.h"
 #include "smooth_solver/model/multibody_model.h"
 
@@ -41,6 +42,9 @@ struct MultibodySystem {
   std::vector<JointMeasure> joints;  // one per model joint
   Eigen::VectorXd q0, qdot0;         // the user's initial guess
   std::vector<std::unique_ptr<ForceElement>> forces;
+  // Elastic bodies: their node positions are coordinates from elastic_offset[e] on.
+  std::vector<std::unique_ptr<ElasticBodySpec>> elastic;
+  std::vector<int> elastic_offset;
 
   // Total generalised force f(q, q̇, t): gravity plus every force element.
   void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, Eigen::Ref<Eigen::VectorXd> f) const;
@@ -66,6 +70,8 @@ struct MultibodySystem {
   double PotentialEnergy(const Eigen::VectorXd& q) const;
 };
 
-MultibodySystem BuildMultibodySystem(const MultibodyModel& model);
+// `elastic` (optional) is moved into the system: its bodies' nodes become coordinates after
+// the rigid bodies', clamped to rigid bodies or the ground by point rows.
+MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<ElasticBodySpec>* elastic = nullptr);
 
 }  // namespace cosim::smooth

@@ -20,11 +20,12 @@ namespace {
 
 MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : model_(BuildMultibodyModel(file)) {
   const Checks checks(file);
-  if (file.proto().model().elastic_bodies_size() > 0) {
-    checks.Fail("model.elastic_bodies", "elastic bodies run in a STATIC analysis (numerics.smooth.analysis: STATIC) in "
-                                        "this build; their dynamics with CGα and GEMM come with issue 5");
+  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
+  std::map<std::string, int> elastic_index;
+  for (size_t e = 0; e < elastic.size(); ++e) elastic_index[elastic[e].name] = static_cast<int>(e);
+  if (model_.bodies.empty() && elastic.empty()) {
+    checks.Fail("model.bodies", "the smooth solver needs at least one rigid or elastic body");
   }
-  if (model_.bodies.empty()) checks.Fail("model.bodies", "the smooth solver needs at least one rigid body");
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();
@@ -82,6 +83,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
       case sc::Probe::POTENTIAL_ENERGY: spec.kind = Kind::kPotential; break;
       case sc::Probe::TOTAL_ENERGY: spec.kind = Kind::kTotal; break;
       case sc::Probe::CONSTRAINT_VIOLATION: spec.kind = Kind::kViolation; break;
+      case sc::Probe::DISPLACEMENT: spec.kind = Kind::kDisplacement; break;
+      case sc::Probe::STRAIN_ENERGY: spec.kind = Kind::kStrainEnergy; break;
       default:
         checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
                                         "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
@@ -117,6 +120,16 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
         spec.index = find(joint_index, "joint");
         spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
+      case Kind::kDisplacement:
+        spec.index = find(elastic_index, "elastic body");
+        checks.Require(path + ".point", p.has_point(), "a node index, \"tip_centre\" or \"root_centre\"");
+        spec.node = elastic[static_cast<size_t>(spec.index)].FindPoint(checks, path + ".point", p.point());
+        spec.component = interface::ProbeComponent(checks, path, p, true);
+        break;
+      case Kind::kStrainEnergy:
+        spec.index = find(elastic_index, "elastic body");
+        spec.component = interface::ProbeComponent(checks, path, p, false);
+        break;
       case Kind::kKinetic:
       case Kind::kPotential:
       case Kind::kTotal:
@@ -128,7 +141,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
     probes_.push_back(spec);
   }
 
-  system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_));
+  system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_, &elastic));
   time_ = numerics_.start_time();
   const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
   if (ida_) {
@@ -182,6 +195,19 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;
       case Kind::kTotal: value = system_->KineticEnergy(s.qdot) + system_->PotentialEnergy(s.q); break;
       case Kind::kViolation: value = integrator_->ConstraintViolation(time_); break;
+      case Kind::kDisplacement: {
+        const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
+        const Eigen::Vector3d X = system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
+        value = interface::PickComponent(Eigen::Vector3d(s.q.segment<3>(at)) - X, p.component);
+        break;
+      }
+      case Kind::kStrainEnergy: {
+        const auto& body = system_->elastic[static_cast<size_t>(p.index)]->body;
+        value = body.StrainEnergy(
+            Eigen::Map<const Eigen::Matrix3Xd>(s.q.data() + system_->elastic_offset[static_cast<size_t>(p.index)], 3,
+                                               body.node_count()));
+        break;
+      }
     }
     (*values)[i] = value;
   }

@@ -24,12 +24,14 @@ class MultibodySimulation : public interface::Simulation {
 
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
-                    kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation };
+                    kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation,
+                    kDisplacement, kStrainEnergy };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;
     int index = -1;
     int component = 0;  // 0-2 x, y, z; 3 norm
+    int node = 0;       // elastic-body probes
   };
 
   MultibodyModel model_;

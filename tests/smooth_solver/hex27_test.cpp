@@ -195,3 +195,40 @@ TEST(ElasticModel, InvertedGeneralMeshIsBadInputNamingTheElement) {
 
 }  // namespace
 }  // namespace cosim::smooth
+
+#include "smooth_solver/simulation/multibody_simulation.h"
+
+namespace cosim::smooth {
+namespace {
+
+TEST(FlexiblePendulum, RigidAndElasticUnknownsIntegrateTogether) {
+  // tests/data/flexible_pendulum.pbtxt: a rigid link hinged to ground carries a beam of
+  // 27-node elements clamped to it, released horizontal under gravity. One CGα integration of
+  // rigid and elastic coordinates (the elastic force at the step's end; GEMM is still to come):
+  // over 0.2 s at h = 1e-3 the clamp and hinge constraints hold to 1e-9, the total energy
+  // (kinetic, gravity, strain) changes by less than 1e-4 J (observed 1.8e-5 J, with ρ∞ = 0.8
+  // damping the stiff through-thickness modes), and the beam swings down (observed hinge
+  // angle 0.49 rad and tip z −0.28 m at 0.2 s).
+  // Limits seen: Newton fails at h >= 2e-3 (stiff axial/through-thickness modes excited by
+  // the release from an unstressed state), and the strain energy is not converged in h yet.
+  MultibodySimulation sim(
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/tests/data/flexible_pendulum.pbtxt", {}));
+  std::vector<double> v(6), initial(6);
+  sim.Probe(&initial);
+  double worst_violation = 0.0, worst_energy = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    sim.Step(k * 0.001, 0.001);
+    sim.Probe(&v);
+    worst_violation = std::max(worst_violation, v[5]);
+    worst_energy = std::max(worst_energy, std::abs(v[4] - initial[4]));
+  }
+  std::printf("flexible pendulum: hinge %.4f rad, tip z %.4f m, energy change %.2e J, violation %.1e\n", v[0], v[1],
+              worst_energy, worst_violation);
+  EXPECT_LT(worst_violation, 1e-9);
+  EXPECT_LT(worst_energy, 1e-4);
+  EXPECT_GT(v[0], 0.4);
+  EXPECT_LT(v[1], -0.2);
+}
+
+}  // namespace
+}  // namespace cosim::smooth

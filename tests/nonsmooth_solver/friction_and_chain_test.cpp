@@ -176,12 +176,6 @@ TEST(SplitLcps, GiveTheSameTrajectoryAsOneLcp) {
               a.stats().lcp_fallbacks, b.stats().lcp_solves, b.stats().lcp_fallbacks);
 }
 
-}  // namespace
-}  // namespace cosim::nonsmooth
-
-namespace cosim::nonsmooth {
-namespace {
-
 TEST(MovingPlanes, StickingNodeRidesATiltingFloor) {
   // A floor through the origin tilts about the y axis by φ(t), a cosine ramp to 0.3 rad over
   // 1 s. A node resting on it at x = 0.5 m with μ = 1 > tan 0.3 sticks, so it follows the

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
 namespace cosim::nonsmooth {
 namespace {
@@ -192,12 +194,6 @@ TEST(MoreauJean, FirstImpactTimeConvergesToFirstOrder) {
   EXPECT_NEAR(slope, 1.0, 0.3);
 }
 
-}  // namespace
-}  // namespace cosim::nonsmooth
-
-namespace cosim::nonsmooth {
-namespace {
-
 // A linear oscillator (m = 1, k = 100, anchored at z = 0, no gravity) released from z = A
 // hits a stop plane at z = −d.
 ContactModel OscillatorModel(double amplitude, double stop, double e) {
@@ -271,15 +267,6 @@ TEST(MoreauJean, ElasticOscillatorKeepsItsEnergyAndThePeriodOfTheStoppedMotion) 
   EXPECT_NEAR(tenth_top, 20.0 * tc, 10.0 * h);
 }
 
-}  // namespace
-}  // namespace cosim::nonsmooth
-
-#include <fstream>
-#include <sstream>
-
-namespace cosim::nonsmooth {
-namespace {
-
 TEST(MoreauJean, BallTrajectoryMatchesSiconosKernel) {
   // tests/data/siconos_kernel_ball.csv is the same bouncing ball integrated by Siconos' own
   // kernel (MoreauJeanOSI θ = 1/2 with its LCP; made by benchmarks/siconos_kernel_ball.py):
@@ -340,12 +327,6 @@ TEST(MoreauJean, IndependentNodesOnlyTheTouchingOneFeelsAnImpulse) {
   EXPECT_NEAR(mj.positions()(5), 0.0, 1e-15);
 }
 
-}  // namespace
-}  // namespace cosim::nonsmooth
-
-namespace cosim::nonsmooth {
-namespace {
-
 TEST(MoreauJean, NodeIsCarriedByARisingPlane) {
   // A floor rising at V = 0.5 m/s under a node at rest on it (e = 0). The plane's motion
   // enters the gap rate as −n·V, so the first step's LCP lifts the node to exactly V (impulse
@@ -373,12 +354,6 @@ TEST(MoreauJean, NodeIsCarriedByARisingPlane) {
     ASSERT_NEAR(mj.Gap(0), -V * h / 2.0, 1e-13) << "step " << k;
   }
 }
-
-}  // namespace
-}  // namespace cosim::nonsmooth
-
-namespace cosim::nonsmooth {
-namespace {
 
 TEST(MoreauJean, PeerForceActsLikeAConstantForce) {
   // The coupling peer's reaction enters as an external force held over the step. Given as

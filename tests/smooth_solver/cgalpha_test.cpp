@@ -220,12 +220,6 @@ TEST(FourBar, ALoopThatCannotCloseIsRefused) {
   }
 }
 
-}  // namespace
-}  // namespace cosim::smooth
-
-namespace cosim::smooth {
-namespace {
-
 DaeState RunTo(const std::string& path, const std::vector<std::string>& sets, double end, double h) {
   auto sim = std::make_unique<MultibodySimulation>(interface::ScenarioFile::Load(path, sets));
   for (long k = 0; k < std::lround(end / h); ++k) sim->Step(static_cast<double>(k) * h, h);
@@ -311,12 +305,6 @@ TEST(Drives, SpinUpFollowsTheCosineRampOfEquation37) {
   EXPECT_LT(worst[0], 2e-3);
   EXPECT_GT(worst[0] / worst[1], 3.0);  // second order
 }
-
-}  // namespace
-}  // namespace cosim::smooth
-
-namespace cosim::smooth {
-namespace {
 
 TEST(Reactions, CantileverBodyOnAFixedJointCarriesItsWeight) {
   // A 2 kg body whose centre is 1 m from a FIXED joint at the origin, under gravity −z, stays
@@ -416,12 +404,6 @@ TEST(FourBar, ConstraintForcesAreSmoothAndBounded) {
   EXPECT_GT(second[0] / second[1], 3.0);
 }
 
-}  // namespace
-}  // namespace cosim::smooth
-
-namespace cosim::smooth {
-namespace {
-
 TEST(LockedJoints, PendulumHeldUntilReleaseThenSwingsAsIfReleasedThen) {
   // The rigid pendulum with its hinge locked until t = 0.3 s: before the release it does not
   // move; after it the motion is the free pendulum's, shifted by 0.3 s (the equations are
@@ -454,12 +436,6 @@ TEST(LockedJoints, PendulumHeldUntilReleaseThenSwingsAsIfReleasedThen) {
     EXPECT_NEAR(a, b, std::string(integrator) == "IDA" ? 1e-6 : 1e-9);
   }
 }
-
-}  // namespace
-}  // namespace cosim::smooth
-
-namespace cosim::smooth {
-namespace {
 
 // Mean energy of the four-bar over [0, 10] s and [10, 20] s with the index-2 variant.
 std::pair<double, double> MeanEnergies(double h, double rho, double* worst_violation, double* band) {

@@ -11,6 +11,7 @@
 #include "interface/run/errors.h"
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/elastic/elastic_model.h"
+#include "smooth_solver/simulation/multibody_simulation.h"
 
 namespace cosim::smooth {
 namespace {
@@ -110,12 +111,6 @@ TEST(Hex27, InvertedElementIsRejected) {
   EXPECT_FALSE(e.Initialize(X));
 }
 
-}  // namespace
-}  // namespace cosim::smooth
-
-namespace cosim::smooth {
-namespace {
-
 TEST(Cantilever, StaticTipDisplacementsMatchTables1And2) {
   // The CGα paper's cantilever (Table 1: 1.0 × 0.2 × 0.1 m, E = 1792 GPa, ν = 0.3, one element
   // across, tip load in y at the centre of the tip section), solved statically for 2, 3, 5 and
@@ -161,12 +156,6 @@ TEST(Cantilever, ForeshorteningComesFromTheNonlinearStrainOnly) {
   EXPECT_NEAR(-a.x(), 0.6 * a.y() * a.y(), 0.05 * 0.6 * a.y() * a.y());
 }
 
-}  // namespace
-}  // namespace cosim::smooth
-
-namespace cosim::smooth {
-namespace {
-
 TEST(ElasticModel, InvertedGeneralMeshIsBadInputNamingTheElement) {
   // A general mesh whose single element lists its nodes mirrored (i reversed) has a negative
   // Jacobian determinant everywhere: refused before any computation, naming the element.
@@ -192,14 +181,6 @@ TEST(ElasticModel, InvertedGeneralMeshIsBadInputNamingTheElement) {
     EXPECT_NE(std::string(e.what()).find("element 0 is inverted or degenerate"), std::string::npos) << e.what();
   }
 }
-
-}  // namespace
-}  // namespace cosim::smooth
-
-#include "smooth_solver/simulation/multibody_simulation.h"
-
-namespace cosim::smooth {
-namespace {
 
 TEST(FlexiblePendulum, RigidAndElasticUnknownsIntegrateTogether) {
   // tests/data/flexible_pendulum.pbtxt: a rigid link hinged to ground carries a beam of

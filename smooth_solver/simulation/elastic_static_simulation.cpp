@@ -55,11 +55,14 @@ ElasticStaticSimulation::ElasticStaticSimulation(const interface::ScenarioFile& 
       spec.node = bodies_[static_cast<size_t>(body)].FindPoint(checks, path + ".point", p.point());
       spec.component = interface::ProbeComponent(checks, path, p, true);
     } else if (p.quantity() == sc::Probe::STRAIN_ENERGY) {
-      spec.energy = true;
+      spec.kind = ProbeSpec::Kind::kEnergy;
       spec.component = interface::ProbeComponent(checks, path, p, false);
+    } else if (p.quantity() == sc::Probe::REACTION_FORCE || p.quantity() == sc::Probe::REACTION_MOMENT) {
+      spec.kind = p.quantity() == sc::Probe::REACTION_FORCE ? ProbeSpec::Kind::kForce : ProbeSpec::Kind::kMoment;
+      spec.component = interface::ProbeComponent(checks, path, p, true);
     } else {
-      checks.Fail(path + ".quantity", "a STATIC analysis records DISPLACEMENT or STRAIN_ENERGY, got " +
-                                          sc::Probe::Quantity_Name(p.quantity()));
+      checks.Fail(path + ".quantity", "a STATIC analysis records DISPLACEMENT, STRAIN_ENERGY, REACTION_FORCE or "
+                                      "REACTION_MOMENT, got " + sc::Probe::Quantity_Name(p.quantity()));
     }
     probes_.push_back(spec);
   }
@@ -71,13 +74,42 @@ std::vector<std::string> ElasticStaticSimulation::ProbeNames() const {
   return names;
 }
 
+void ElasticStaticSimulation::Reaction(int b, Eigen::Vector3d* force, Eigen::Vector3d* moment) const {
+  // At a held node the support supplies what the internal force needs: R_a = f_int,a.
+  const ElasticBodySpec& spec = bodies_[static_cast<size_t>(b)];
+  const Eigen::Matrix3Xd& x = positions_[static_cast<size_t>(b)];
+  Eigen::VectorXd f_int;
+  spec.body.Assemble(x, &f_int, nullptr);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int a : fixed_[static_cast<size_t>(b)]) centroid += spec.body.mesh().nodes.col(a);
+  centroid /= static_cast<double>(fixed_[static_cast<size_t>(b)].size());
+  force->setZero();
+  moment->setZero();
+  for (int a : fixed_[static_cast<size_t>(b)]) {
+    const Eigen::Vector3d R = f_int.segment<3>(3 * a);
+    *force += R;
+    *moment += (x.col(a) - centroid).cross(R);
+  }
+}
+
 void ElasticStaticSimulation::Probe(std::vector<double>* values) const {
   for (size_t i = 0; i < probes_.size(); ++i) {
     const ProbeSpec& p = probes_[i];
     const ElasticBodySpec& b = bodies_[static_cast<size_t>(p.body)];
     const Eigen::Matrix3Xd& x = positions_[static_cast<size_t>(p.body)];
-    (*values)[i] = p.energy ? b.body.StrainEnergy(x)
-                            : interface::PickComponent(x.col(p.node) - b.body.mesh().nodes.col(p.node), p.component);
+    switch (p.kind) {
+      case ProbeSpec::Kind::kDisplacement:
+        (*values)[i] = interface::PickComponent(x.col(p.node) - b.body.mesh().nodes.col(p.node), p.component);
+        break;
+      case ProbeSpec::Kind::kEnergy: (*values)[i] = b.body.StrainEnergy(x); break;
+      case ProbeSpec::Kind::kForce:
+      case ProbeSpec::Kind::kMoment: {
+        Eigen::Vector3d force, moment;
+        Reaction(p.body, &force, &moment);
+        (*values)[i] = interface::PickComponent(p.kind == ProbeSpec::Kind::kForce ? force : moment, p.component);
+        break;
+      }
+    }
   }
 }
 

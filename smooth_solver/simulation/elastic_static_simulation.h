@@ -21,10 +21,13 @@ class ElasticStaticSimulation : public interface::Simulation {
 
  private:
   struct ProbeSpec {
+    enum class Kind { kDisplacement, kEnergy, kForce, kMoment };
     std::string name;
-    bool energy = false;
+    Kind kind = Kind::kDisplacement;
     int body = 0, node = 0, component = 0;
   };
+  // Resultant force and moment the clamps exert on body b (about the clamped nodes' centroid).
+  void Reaction(int b, Eigen::Vector3d* force, Eigen::Vector3d* moment) const;
   std::vector<ElasticBodySpec> bodies_;
   std::vector<std::vector<int>> fixed_;     // clamped nodes per body
   std::vector<Eigen::Matrix3Xd> positions_;  // current equilibrium per body

@@ -77,6 +77,23 @@ void MultibodySystem::ForcePattern(SparseSink* sink) const {
   for (const auto& element : forces) element->Pattern(sink);
 }
 
+void MultibodySystem::ClampReaction(int e, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                                    Eigen::Vector3d* force, Eigen::Vector3d* moment) const {
+  const auto& rows = elastic_clamp_rows[static_cast<size_t>(e)];
+  const ElasticBody& body = elastic[static_cast<size_t>(e)]->body;
+  const int o = elastic_offset[static_cast<size_t>(e)];
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& [row, node] : rows) centroid += body.mesh().nodes.col(node);
+  if (!rows.empty()) centroid /= static_cast<double>(rows.size());
+  force->setZero();
+  moment->setZero();
+  for (const auto& [row, node] : rows) {
+    const Eigen::Vector3d R = -lambda.segment<3>(row);
+    *force += R;
+    *moment += (Eigen::Vector3d(q.segment<3>(o + 3 * node)) - centroid).cross(R);
+  }
+}
+
 double MultibodySystem::PotentialEnergy(const Eigen::VectorXd& q) const {
   double e = -constant_force.dot(q);  // gravity
   for (const auto& element : forces) e += element->PotentialEnergy(q);
@@ -178,6 +195,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
     sys.constant_force.segment(o, g.size()) = Me * g;
     sys.forces.push_back(std::make_unique<ElasticForce>(&body, o));
     // Clamps: node = the material point of the rigid body (or the ground point) it sits at.
+    sys.elastic_clamp_rows.emplace_back();
     for (const auto& clamp : sys.elastic[e]->clamps) {
       const Frame f = FrameOf(model, clamp.rigid_body);
       for (int node : clamp.nodes) {
@@ -186,6 +204,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         at_node.terms.push_back({o + 3 * node, 1.0});
         const LinearVector at_body = clamp.rigid_body < 0 ? LinearVector::Constant(X)
                                                           : LinearVector::Point(clamp.rigid_body, f.R.transpose() * (X - f.x));
+        sys.elastic_clamp_rows.back().emplace_back(sys.constraints.size(), node);
         for (int k = 0; k < 3; ++k) {
           ScalarConstraint c;
           c.name = sys.elastic[e]->name + ".clamp_node_" + std::to_string(node);

@@ -45,6 +45,12 @@ struct MultibodySystem {
   // Elastic bodies: their node positions are coordinates from elastic_offset[e] on.
   std::vector<std::unique_ptr<ElasticBodySpec>> elastic;
   std::vector<int> elastic_offset;
+  // Per elastic body: (first constraint row, node) of each clamped node's three point rows.
+  std::vector<std::vector<std::pair<int, int>>> elastic_clamp_rows;
+  // Resultant force and moment the clamps exert on elastic body e (moment about the clamped
+  // nodes' reference centroid), from the multipliers: Φ = node − point, so −λ acts on the node.
+  void ClampReaction(int e, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::Vector3d* force,
+                     Eigen::Vector3d* moment) const;
 
   // Total generalised force f(q, q̇, t): gravity plus every force element.
   void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, Eigen::Ref<Eigen::VectorXd> f) const;

@@ -110,6 +110,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
         break;
       }
       case Kind::kReactionForce:
+        if (elastic_index.count(p.entity()) != 0) {
+          spec.kind = Kind::kClampForce;
+          spec.index = elastic_index[p.entity()];
+          spec.component = interface::ProbeComponent(checks, path, p, true);
+          break;
+        }
         spec.index = find(joint_index, "joint");
         if (model_.joints[static_cast<size_t>(spec.index)].type == JointType::kPrismatic) {
           checks.Fail(path + ".entity", "the reaction force of a prismatic joint is not available yet (its moment is)");
@@ -117,6 +123,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
         spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
       case Kind::kReactionMoment:
+        if (elastic_index.count(p.entity()) != 0) {
+          spec.kind = Kind::kClampMoment;
+          spec.index = elastic_index[p.entity()];
+          spec.component = interface::ProbeComponent(checks, path, p, true);
+          break;
+        }
         spec.index = find(joint_index, "joint");
         spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
@@ -130,6 +142,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
         spec.index = find(elastic_index, "elastic body");
         spec.component = interface::ProbeComponent(checks, path, p, false);
         break;
+      case Kind::kClampForce:
+      case Kind::kClampMoment:
+        break;  // set from REACTION_FORCE / REACTION_MOMENT above
       case Kind::kKinetic:
       case Kind::kPotential:
       case Kind::kTotal:
@@ -199,6 +214,13 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
         const Eigen::Vector3d X = system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
         value = interface::PickComponent(Eigen::Vector3d(s.q.segment<3>(at)) - X, p.component);
+        break;
+      }
+      case Kind::kClampForce:
+      case Kind::kClampMoment: {
+        Eigen::Vector3d force, moment;
+        system_->ClampReaction(p.index, s.q, s.lambda, &force, &moment);
+        value = interface::PickComponent(p.kind == Kind::kClampForce ? force : moment, p.component);
         break;
       }
       case Kind::kStrainEnergy: {

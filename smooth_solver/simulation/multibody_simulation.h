@@ -25,7 +25,7 @@ class MultibodySimulation : public interface::Simulation {
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
                     kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation,
-                    kDisplacement, kStrainEnergy };
+                    kDisplacement, kStrainEnergy, kClampForce, kClampMoment };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;

@@ -78,7 +78,6 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
     for (Eigen::VectorXd* v : {&w.q, &w.v, &w.fe0, &w.fe1, &w.rhs, &w.v_free}) v->resize(w.dofs);
     w.G = Eigen::MatrixXd::Zero(w.dofs, std::max(columns, 1));
     w.Y.resize(w.dofs, std::max(columns, 1));
-    w.active.reserve(group.contacts.size());
     all_groups_.push_back(static_cast<int>(g));
   }
   const int size = std::max(total_columns + total_lambdas, 1);
@@ -329,7 +328,6 @@ void MoreauJean::Step(double t, double h) {
   stats_.last_step_lcp_iterations = 0;
   for (size_t g = 0; g < model_.groups.size(); ++g) {
     first_active_[g] = static_cast<int>(active_.size());
-    work_[g].active.clear();
     for (int c : model_.groups[g].contacts) {
       const Contact& ct = model_.contacts[Idx(c)];
       const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
@@ -337,11 +335,10 @@ void MoreauJean::Step(double t, double h) {
       const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x);
       if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) {
         active_.push_back(ActiveContact{c, static_cast<int>(g), 0, 0, -1, u0});
-        work_[g].active.push_back(c);
       }
     }
     work_[g].columns = 0;
-    if (!work_[g].active.empty()) BuildColumns(static_cast<int>(g), t1);
+    if (active_.size() > static_cast<size_t>(first_active_[g])) BuildColumns(static_cast<int>(g), t1);
   }
   stats_.last_step_active = static_cast<int>(active_.size());
   stats_.activations += static_cast<long long>(active_.size());
@@ -349,7 +346,7 @@ void MoreauJean::Step(double t, double h) {
   if (!active_.empty()) {
     if (model_.split_independent_lcps) {
       for (size_t g = 0; g < model_.groups.size(); ++g) {
-        if (work_[g].active.empty()) continue;
+        if (work_[g].columns == 0) continue;
         one_group_[0] = static_cast<int>(g);
         SolveContacts(one_group_, t1, h);
       }

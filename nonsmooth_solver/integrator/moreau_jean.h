@@ -85,8 +85,7 @@ class MoreauJean {
     double factored_h = -1.0;
     Eigen::VectorXd q, v, fe0, fe1, rhs, v_free;
     Eigen::MatrixXd G, Y;        // dofs × (max columns)
-    std::vector<int> active;     // active contacts of this group, this step
-    int columns = 0;             // impulse columns this step
+    int columns = 0;             // impulse columns this step (0: no active contact)
     int column_offset = 0;       // first column in the assembled problem
   };
   // Where one active contact's unknowns sit in the assembled problem.

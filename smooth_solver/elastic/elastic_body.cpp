@@ -37,6 +37,7 @@ ElasticMesh BeamMesh(double length, double chord, double thickness, int along, i
       }
     }
   }
+  mesh.root_centre = id(0, (ny - 1) / 2, (nz - 1) / 2);
   mesh.tip_centre = id(nx - 1, (ny - 1) / 2, (nz - 1) / 2);
   for (int ek = 0; ek < across_z; ++ek) {
     for (int ej = 0; ej < across_y; ++ej) {

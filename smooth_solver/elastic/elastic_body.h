@@ -18,7 +18,7 @@ struct ElasticMesh {
   Eigen::Matrix3Xd nodes;                    // reference positions [m]
   std::vector<std::array<int, 27>> elements;  // node indices, Hex27 numbering
   std::vector<int> root_face, tip_face;      // beam meshes: nodes at x = 0 and x = length
-  int tip_centre = -1;                       // beam meshes: node at the centre of the tip face
+  int root_centre = -1, tip_centre = -1;     // beam meshes: nodes at the centres of the end faces
 };
 
 // A straight beam along +x from the origin: length × chord (y) × thickness (z), centred on

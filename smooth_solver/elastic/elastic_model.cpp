@@ -15,7 +15,7 @@ namespace sc = cosim::scenario;
 
 int ElasticBodySpec::FindPoint(const Checks& checks, const std::string& path, const std::string& point) const {
   if (point == "tip_centre" || point == "root_centre") {
-    const int node = point == "tip_centre" ? tip_centre : root_centre;
+    const int node = point == "tip_centre" ? body.mesh().tip_centre : body.mesh().root_centre;
     if (node < 0) checks.Fail(path, "'" + point + "' exists on beam meshes only; give a node index");
     return node;
   }
@@ -105,11 +105,8 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
     } else {
       checks.Fail(path, "give a mesh: beam { ... } or general { ... }");
     }
-    spec.root_centre = -1;
-    spec.tip_centre = mesh.tip_centre;
-    if (!mesh.root_face.empty()) spec.root_centre = mesh.root_face[mesh.root_face.size() / 2];
-    const ElasticMesh kept = mesh;
-    const int bad = spec.body.Initialize(mesh, material);
+    const int bad = spec.body.Initialize(std::move(mesh), material);
+    const ElasticMesh& built = spec.body.mesh();
     if (bad >= 0) {
       checks.Fail(mesh_path, "element " + std::to_string(bad) +
                                  " is inverted or degenerate (its Jacobian determinant is not positive); check the node "
@@ -130,11 +127,11 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
         clamp.rigid_body = found;
       }
       if (cl.has_face()) {
-        if (kept.root_face.empty()) checks.Fail(cpath + ".face", "faces exist on beam meshes only; give nodes { ... }");
+        if (built.root_face.empty()) checks.Fail(cpath + ".face", "faces exist on beam meshes only; give nodes { ... }");
         if (cl.face() != "root" && cl.face() != "tip") {
           checks.Fail(cpath + ".face", "expected \"root\" or \"tip\", got '" + cl.face() + "'");
         }
-        clamp.nodes = cl.face() == "root" ? kept.root_face : kept.tip_face;
+        clamp.nodes = cl.face() == "root" ? built.root_face : built.tip_face;
       } else if (cl.has_nodes()) {
         for (int k = 0; k < cl.nodes().index_size(); ++k) {
           const int node = cl.nodes().index(k);

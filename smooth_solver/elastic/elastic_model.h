@@ -23,7 +23,6 @@ struct ElasticBodySpec {
   std::vector<std::pair<int, Eigen::Vector3d>> loads;  // (node, force [N])
   // Node named by a probe's `point`: a 0-based index, "tip_centre" or "root_centre".
   int FindPoint(const interface::Checks& checks, const std::string& path, const std::string& point) const;
-  int root_centre = -1, tip_centre = -1;  // beam meshes
 };
 
 std::vector<ElasticBodySpec> BuildElasticBodies(const interface::Checks& checks, const scenario::Model& model,

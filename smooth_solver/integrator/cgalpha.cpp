@@ -52,6 +52,13 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   state->lambda = x.tail(m);
 }
 
+bool RestartAtRelease(const MultibodySystem& system, double t, double t1, DaeState* state) {
+  const double release = system.constraints.ReleaseWithin(t, t1);
+  if (!std::isfinite(release)) return false;
+  ConsistentAccelerations(system, std::max(t, std::nextafter(release, INFINITY)), state);
+  return true;
+}
+
 CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
     : system_(system), settings_(settings), coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)), state_(initial) {
   a_ = state_.qddot;  // a_0 = q̈_0
@@ -93,13 +100,7 @@ int CgAlpha::Step(double t, double h) {
   const double bh2 = coef_.beta * h * h;
   const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
   const double gamma_prime = coef_.gamma / (coef_.beta * h);
-  const double release = system_.constraints.ReleaseWithin(t, t1);
-  if (std::isfinite(release)) {
-    // A locked joint lets go in this step: the equations change, so the accelerations,
-    // multipliers and the acceleration-like history belong to the old ones. Restart from the
-    // state at t with the accelerations consistent with the new equations (just after the
-    // release time), as at the initial time.
-    ConsistentAccelerations(system_, std::max(t, std::nextafter(release, INFINITY)), &state_);
+  if (RestartAtRelease(system_, t, t1, &state_)) {
     a_ = state_.qddot;
     started_ = true;
   }

@@ -84,4 +84,9 @@ class CgAlpha : public SmoothIntegrator {
 // singular mass matrix).
 void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state);
 
+// If a locked joint lets go between t and t1, the equations change and the accelerations,
+// multipliers and α history belong to the old ones: recompute q̈ and λ of `state` for the new
+// equations (just after the release) and return true, so the caller restarts its history.
+bool RestartAtRelease(const MultibodySystem& system, double t, double t1, DaeState* state);
+
 }  // namespace cosim::smooth

@@ -86,11 +86,7 @@ int CgAlphaIndex2::Step(double t, double h) {
   const double t1 = t + h;
   const double ca = (1.0 - coef_.alpha_f) / (1.0 - coef_.alpha_m);  // ∂a_{n+1}/∂v̇_{n+1}
   const double cv = h * coef_.gamma * ca, cq = h * h * coef_.beta * ca;
-  if (std::isfinite(cs.ReleaseWithin(t, t1))) {
-    // A joint lets go: restart the α history from accelerations consistent with the new equations.
-    ConsistentAccelerations(system_, std::max(t, std::nextafter(cs.ReleaseWithin(t, t1), INFINITY)), &state_);
-    a_ = state_.qddot;
-  }
+  if (RestartAtRelease(system_, t, t1, &state_)) a_ = state_.qddot;  // a joint let go: new α history
   // Predictor: v̇_{n+1} = v̇_n, λ_{n+1} = λ_n, ν = 0.
   next_.qddot = state_.qddot;
   next_.lambda = state_.lambda;

@@ -67,33 +67,58 @@ int ElasticBody::Initialize(ElasticMesh mesh, const ElasticMaterial& material) {
   return -1;
 }
 
-void ElasticBody::Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen::SparseMatrix<double>* K) const {
-  const int n = 3 * node_count();
-  if (f != nullptr) *f = Eigen::VectorXd::Zero(n);
+namespace {
+
+// Collects triplets (for the static solver's stand-alone matrix).
+class TripletSink : public SparseSink {
+ public:
+  void Add(int row, int column, double value) override { triplets.emplace_back(row, column, value); }
   std::vector<Eigen::Triplet<double>> triplets;
-  if (K != nullptr) triplets.reserve(mesh_.elements.size() * 81 * 81);
+};
+
+}  // namespace
+
+void ElasticBody::AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights,
+                                   double f_scale, Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K,
+                                   int offset, std::unique_ptr<Hex27::ElementMatrix>* workspace) const {
+  if (K != nullptr && *workspace == nullptr) *workspace = std::make_unique<Hex27::ElementMatrix>();
+  Hex27::ElementMatrix* Ke = K != nullptr ? workspace->get() : nullptr;
   Hex27::ElementVector fe;
-  Hex27::ElementMatrix Ke;
+  Hex27::NodeMatrix xe, xe_prev;
   for (size_t e = 0; e < elements_.size(); ++e) {
     const auto& nodes = mesh_.elements[e];
-    Hex27::NodeMatrix xe;
-    for (int a = 0; a < Hex27::kNodes; ++a) xe.col(a) = x.col(nodes[static_cast<size_t>(a)]);
-    elements_[e].InternalForce(material_, xe, f != nullptr ? &fe : nullptr, K != nullptr ? &Ke : nullptr);
     for (int a = 0; a < Hex27::kNodes; ++a) {
-      const int A = nodes[static_cast<size_t>(a)];
-      if (f != nullptr) f->segment<3>(3 * A) += fe.segment<3>(3 * a);
-      if (K == nullptr) continue;
-      for (int b = 0; b < Hex27::kNodes; ++b) {
-        const int B = nodes[static_cast<size_t>(b)];
-        for (int i = 0; i < 3; ++i) {
-          for (int j = 0; j < 3; ++j) triplets.emplace_back(3 * A + i, 3 * B + j, Ke(3 * a + i, 3 * b + j));
+      xe.col(a) = x.col(nodes[static_cast<size_t>(a)]);
+      xe_prev.col(a) = x_prev.col(nodes[static_cast<size_t>(a)]);
+    }
+    elements_[e].MidpointForce(material_, xe_prev, xe, weights, f_scale != 0.0 ? &fe : nullptr, Ke);
+    if (f_scale != 0.0) {
+      for (int a = 0; a < Hex27::kNodes; ++a) f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += f_scale * fe.segment<3>(3 * a);
+    }
+    if (K == nullptr) continue;
+    for (int b = 0; b < Hex27::kNodes; ++b) {
+      const int B = offset + 3 * nodes[static_cast<size_t>(b)];
+      for (int j = 0; j < 3; ++j) {
+        for (int a = 0; a < Hex27::kNodes; ++a) {
+          const int A = offset + 3 * nodes[static_cast<size_t>(a)];
+          for (int i = 0; i < 3; ++i) K->Add(A + i, B + j, k_scale * (*Ke)(3 * a + i, 3 * b + j));
         }
       }
     }
   }
+}
+
+void ElasticBody::Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen::SparseMatrix<double>* K) const {
+  const int n = 3 * node_count();
+  Eigen::VectorXd force = Eigen::VectorXd::Zero(n);
+  TripletSink sink;
+  if (K != nullptr) sink.triplets.reserve(mesh_.elements.size() * 81 * 81);
+  std::unique_ptr<Hex27::ElementMatrix> workspace;
+  AssembleMidpoint(x, x, MidpointWeights{}, 1.0, force, 1.0, K != nullptr ? &sink : nullptr, 0, &workspace);
+  if (f != nullptr) *f = std::move(force);
   if (K != nullptr) {
     K->resize(n, n);
-    K->setFromTriplets(triplets.begin(), triplets.end());
+    K->setFromTriplets(sink.triplets.begin(), sink.triplets.end());
   }
 }
 

@@ -7,9 +7,11 @@
 #include <Eigen/SparseCore>
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "smooth_solver/constraints/bilinear_constraints.h"
 #include "smooth_solver/elastic/hex27.h"
 
 namespace cosim::smooth {
@@ -37,6 +39,14 @@ class ElasticBody {
   int node_count() const { return static_cast<int>(mesh_.nodes.cols()); }
   // Internal force (3 per node) and, if K is given, the tangent, at current positions x.
   void Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen::SparseMatrix<double>* K) const;
+  // The GEMM midpoint force over the step x_prev → x (Hex27::MidpointForce), assembled without
+  // allocating: f_scale · f_m is added to `f` (3 per node); if `K` is given, k_scale · ∂f_m/∂x
+  // is added into it at (offset + 3 node + i, offset + 3 node' + j). `workspace` holds one
+  // element matrix (allocated on first use, 0.5 MB).
+  using Positions = Eigen::Ref<const Eigen::Matrix3Xd>;
+  void AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights, double f_scale,
+                        Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K, int offset,
+                        std::unique_ptr<Hex27::ElementMatrix>* workspace) const;
   double StrainEnergy(const Eigen::Matrix3Xd& x) const;
   Eigen::SparseMatrix<double> MassMatrix() const;  // 3 per node, consistent
 

@@ -2,24 +2,25 @@
 
 namespace cosim::smooth {
 
+void ElasticForce::AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f,
+                               Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const {
+  const MidpointWeights weights{alpha_f, alpha_f == 0.0 ? 0.0 : strain_damping_};
+  body_->AssembleMidpoint(Positions(q_prev), Positions(q), weights, 1.0, f_m.segment(offset_, 3 * body_->node_count()),
+                          k_scale, sink, offset_, &workspace_);
+}
+
 void ElasticForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, double,
                             Eigen::Ref<Eigen::VectorXd> f) const {
-  Eigen::VectorXd f_int;
-  body_->Assemble(Positions(q), &f_int, nullptr);
-  f.segment(offset_, f_int.size()) -= f_int;
+  body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, -1.0,
+                          f.segment(offset_, 3 * body_->node_count()), 0.0, nullptr, offset_, &workspace_);
 }
 
 void ElasticForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd&, double, double stiffness_scale, double,
                               SparseSink* sink) const {
   if (stiffness_scale == 0.0) return;  // no damping in the material law
-  Eigen::VectorXd f_int;
-  Eigen::SparseMatrix<double> K;
-  body_->Assemble(Positions(q), &f_int, &K);
-  for (int k = 0; k < K.outerSize(); ++k) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(K, k); it; ++it) {
-      sink->Add(offset_ + static_cast<int>(it.row()), offset_ + static_cast<int>(it.col()), stiffness_scale * it.value());
-    }
-  }
+  Eigen::VectorXd unused = Eigen::VectorXd::Zero(3 * body_->node_count());
+  body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, 0.0, unused, stiffness_scale, sink, offset_,
+                          &workspace_);
 }
 
 void ElasticForce::Pattern(SparseSink* sink) const {

@@ -1,9 +1,13 @@
 #pragma once
 // An elastic body inside the multibody equations: its node positions are coordinates of
 // the system (from `offset`, 3 per node), its consistent mass joins the constant mass matrix,
-// and its internal force enters as the force element −f_int(x) with the tangent K_int.
-// (This is the generalised-α end-point force; the GEMM midpoint force of the CGα paper,
-// Eqs. (13)-(19), is the next step of issue 5.)
+// and its internal force enters as the force element −f_int(x) with the tangent K_int (the
+// end-point force, as IDA and the static analysis use it). The CGα integrator instead asks for
+// the GEMM midpoint force over its step (AddMidpoint, Eqs. (13)-(19)).
+//
+// Not thread-safe: the element-matrix workspace is shared by the calls (one integrator).
+#include <memory>
+
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/forces/force_elements.h"
 
@@ -11,20 +15,30 @@ namespace cosim::smooth {
 
 class ElasticForce : public ForceElement {
  public:
-  ElasticForce(const ElasticBody* body, int offset) : body_(body), offset_(offset) {}
+  ElasticForce(const ElasticBody* body, int offset, double strain_damping)
+      : body_(body), offset_(offset), strain_damping_(strain_damping) {}
   void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
+  bool IsElastic() const override { return true; }
+
+  // f_m += the midpoint internal force over q_prev → q with weights (αf, ξ of this body) —
+  // αf = 0 gives the end-point force f_int(q), whatever ξ — and, if sink is given,
+  // sink += k_scale · ∂f_m/∂q.
+  void AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f,
+                   Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const;
 
  private:
-  Eigen::Matrix3Xd Positions(const Eigen::VectorXd& q) const {
+  Eigen::Map<const Eigen::Matrix3Xd> Positions(const Eigen::VectorXd& q) const {
     return Eigen::Map<const Eigen::Matrix3Xd>(q.data() + offset_, 3, body_->node_count());
   }
   const ElasticBody* body_;
   int offset_;
+  double strain_damping_;
+  mutable std::unique_ptr<Hex27::ElementMatrix> workspace_;
 };
 
 }  // namespace cosim::smooth

@@ -64,32 +64,46 @@ Eigen::Matrix<double, Hex27::kNodes, Hex27::kNodes> Hex27::ScalarMass(double den
   return M;
 }
 
-void Hex27::InternalForce(const ElasticMaterial& m, const NodeMatrix& x, ElementVector* f, ElementMatrix* K) const {
+void Hex27::MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, const NodeMatrix& x, MidpointWeights mw,
+                          ElementVector* f, ElementMatrix* K) const {
   const double lambda = m.lambda(), mu = m.mu();
+  const double c_geometric = 1.0 - mw.alpha_f, c_material = 1.0 - mw.alpha_f + mw.xi;
+  const bool same = mw.alpha_f == 0.0 && mw.xi == 0.0;  // end-point force: x_prev unused
   if (f != nullptr) f->setZero();
   if (K != nullptr) K->setZero();
+  const NodeMatrix u1 = x - reference_;
+  const NodeMatrix u0 = same ? u1 : NodeMatrix(x_prev - reference_);
   for (size_t g = 0; g < kGauss; ++g) {
     const auto& G = grad_[g];
     const double w = weight_[g];
-    const Eigen::Matrix3d H = (x - reference_) * G.transpose();
-    const Eigen::Matrix3d F = Eigen::Matrix3d::Identity() + H;
-    const Eigen::Matrix3d E = 0.5 * (H + H.transpose() + H.transpose() * H);
-    const Eigen::Matrix3d S = lambda * E.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * E;
-    const Eigen::Matrix<double, 3, kNodes> FG = F * G;  // column a: F ∇N_a
+    const Eigen::Matrix3d H1 = u1 * G.transpose();
+    const Eigen::Matrix3d E1 = 0.5 * (H1 + H1.transpose() + H1.transpose() * H1);
+    Eigen::Matrix3d Hm = H1, Em = E1;
+    if (!same) {
+      const Eigen::Matrix3d H0 = u0 * G.transpose();
+      const Eigen::Matrix3d E0 = 0.5 * (H0 + H0.transpose() + H0.transpose() * H0);
+      Hm = (1.0 - mw.alpha_f) * H1 + mw.alpha_f * H0;                       // Eq. (15)
+      Em = (1.0 - mw.alpha_f + mw.xi) * E1 + (mw.alpha_f - mw.xi) * E0;     // Eqs. (16)-(17)
+    }
+    const Eigen::Matrix3d F1 = Eigen::Matrix3d::Identity() + H1;
+    const Eigen::Matrix3d Fm = Eigen::Matrix3d::Identity() + Hm;
+    const Eigen::Matrix3d S = lambda * Em.trace() * Eigen::Matrix3d::Identity() + 2.0 * mu * Em;
     if (f != nullptr) {
-      const Eigen::Matrix<double, 3, kNodes> P = F * S * G;  // column a: F S ∇N_a
-      for (int a = 0; a < kNodes; ++a) f->segment<3>(3 * a) += w * P.col(a);
+      const Eigen::Matrix<double, 3, kNodes> P = (w * Fm * S) * G;  // column a: F_m S_m ∇N_a
+      f->noalias() += Eigen::Map<const ElementVector>(P.data());
     }
     if (K != nullptr) {
-      const Eigen::Matrix<double, kNodes, kNodes> GSG = G.transpose() * S * G;  // ∇N_a · S ∇N_b
-      const Eigen::Matrix<double, kNodes, kNodes> GtG = G.transpose() * G;    // ∇N_a · ∇N_b
-      const Eigen::Matrix3d FFt = F * F.transpose();
+      const Eigen::Matrix<double, 3, kNodes> FmG = Fm * G, F1G = F1 * G;  // columns F∇N_a
+      const Eigen::Matrix<double, kNodes, kNodes> GSG = (w * c_geometric) * (G.transpose() * S * G);
+      const Eigen::Matrix<double, kNodes, kNodes> GtG = (w * c_material * mu) * (G.transpose() * G);
+      const Eigen::Matrix3d FFt = Fm * F1.transpose();
+      const double wl = w * c_material * lambda, wm = w * c_material * mu;
       for (int b = 0; b < kNodes; ++b) {
         for (int a = 0; a < kNodes; ++a) {
-          Eigen::Matrix3d block = lambda * FG.col(a) * FG.col(b).transpose() +
-                                  mu * (GtG(a, b) * FFt + FG.col(b) * FG.col(a).transpose());
+          Eigen::Matrix3d block = (wl * FmG.col(a)) * F1G.col(b).transpose() + GtG(a, b) * FFt +
+                                  (wm * FmG.col(b)) * F1G.col(a).transpose();
           block.diagonal().array() += GSG(a, b);
-          K->block<3, 3>(3 * a, 3 * b) += w * block;
+          K->block<3, 3>(3 * a, 3 * b) += block;
         }
       }
     }

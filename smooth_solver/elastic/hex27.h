@@ -12,6 +12,18 @@
 //   f_int,a = ∫ F S ∇N_a dV,
 //   K_ab = ∫ (∇N_a · S ∇N_b) I dV + ∫ [λ (F∇N_a)(F∇N_b)ᵀ + μ ((∇N_a·∇N_b) FFᵀ + (F∇N_b)(F∇N_a)ᵀ)] dV,
 //   M_ab = ∫ ρ N_a N_b dV I.
+//
+// The GEMM midpoint internal force [CGα paper, Eqs. (13)-(19); Kuhl & Crisfield 1999] over a
+// step x_n → x_{n+1} uses F_m = (1 − αf) F_{n+1} + αf F_n (Eq. (15)) and
+// S_m = C : ((1 − αf + ξ) E_{n+1} + (αf − ξ) E_n) (Eq. (16)):
+//   f_m,a = ∫ F_m S_m ∇N_a dV                                                            Eq. (13)
+// and its derivative with respect to x_{n+1} (Eq. (18), written out for isotropic C):
+//   K_ab = ∫ (1 − αf)(∇N_a · S_m ∇N_b) I dV
+//        + ∫ (1 − αf + ξ)[λ (F_m∇N_a)(F_{n+1}∇N_b)ᵀ + μ ((∇N_a·∇N_b) F_m F_{n+1}ᵀ + (F_m∇N_b)(F_{n+1}∇N_a)ᵀ)] dV,
+// not symmetric unless x_n = x_{n+1}. Since E_{n+1} − E_n = sym(F_mᵀ (F_{n+1} − F_n)) exactly
+// for αf = ½, f_m · (x_{n+1} − x_n) = W(x_{n+1}) − W(x_n) when αf = ½, ξ = 0: the strain
+// energy's increment is the midpoint force's work, which is what conserves energy.
+// With αf = ξ = 0 the midpoint force is the end-point force above.
 #include <Eigen/Core>
 
 #include <array>
@@ -24,6 +36,12 @@ struct ElasticMaterial {
   double poisson = 0.0;  // in (−1, 0.5)
   double lambda() const { return young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson)); }
   double mu() const { return young / (2.0 * (1.0 + poisson)); }
+};
+
+// The weights of the GEMM midpoint (Eqs. (15)-(16)); the default is the end-point force.
+struct MidpointWeights {
+  double alpha_f = 0.0;  // weight of the step's start
+  double xi = 0.0;       // strain damping ξ (Eq. (17))
 };
 
 class Hex27 {
@@ -40,7 +58,12 @@ class Hex27 {
   bool Initialize(const NodeMatrix& reference);
 
   // Internal force (and optionally the tangent) at current node positions x.
-  void InternalForce(const ElasticMaterial& m, const NodeMatrix& x, ElementVector* f, ElementMatrix* K) const;
+  void InternalForce(const ElasticMaterial& m, const NodeMatrix& x, ElementVector* f, ElementMatrix* K) const {
+    MidpointForce(m, x, x, MidpointWeights{}, f, K);
+  }
+  // GEMM midpoint force over the step x_prev → x (and optionally its derivative by x).
+  void MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, const NodeMatrix& x, MidpointWeights w,
+                     ElementVector* f, ElementMatrix* K) const;
   // Strain energy ∫ ½ E : C : E dV.
   double StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const;
   // Consistent mass matrix (the 27×27 scalar part; the 3×3 blocks are this × I).

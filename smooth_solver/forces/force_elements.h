@@ -27,6 +27,8 @@ class ForceElement {
   // Every (row, column) AddTangent may touch.
   virtual void Pattern(SparseSink* sink) const = 0;
   virtual double PotentialEnergy(const Eigen::VectorXd&) const { return 0.0; }
+  // An elastic body's internal force, which CGα evaluates over the step (GEMM) instead.
+  virtual bool IsElastic() const { return false; }
 };
 
 // A force F(t) at a body point s and a torque T(t) on the body, both global. In natural

@@ -60,8 +60,13 @@ bool RestartAtRelease(const MultibodySystem& system, double t, double t1, DaeSta
 }
 
 CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
-    : system_(system), settings_(settings), coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)), state_(initial) {
+    : system_(system),
+      settings_(settings),
+      coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)),
+      state_(initial),
+      elastic_(system, settings.gemm, coef_.alpha_f) {
   a_ = state_.qddot;  // a_0 = q̈_0
+  elastic_.Reset(state_.q);
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
   a_next_.resize(n);
@@ -85,10 +90,13 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   // Bottasso scaling: dynamic rows × βh², multiplier columns ÷ βh² (Eqs. (34)-(36)).
   for (int k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
   MatrixSink sink(&S_);
+  // The elastic force and its tangent in one pass (force_ holds the other forces already).
+  elastic_.Add(state_.q, next_.q, force_, bh2, &sink);
   AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);  // βh² β' M
   system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);      // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
-  system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink,
+                          /*include_elastic=*/false);
   system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
@@ -102,18 +110,32 @@ int CgAlpha::Step(double t, double h) {
   const double gamma_prime = coef_.gamma / (coef_.beta * h);
   if (RestartAtRelease(system_, t, t1, &state_)) {
     a_ = state_.qddot;
+    elastic_.Reset(state_.q);
     started_ = true;
   }
   if (!started_) {
-    // a_0 = q̈(t_0 + Δα h), Δα = αm − αf < 0, from the accelerations consistent with a
-    // Taylor-shifted state (accurate to O(h²), which is what second order needs).
-    const double delta = (coef_.alpha_m - coef_.alpha_f) * h;
-    DaeState shifted = state_;
-    shifted.q = state_.q + delta * state_.qdot + 0.5 * delta * delta * state_.qddot;
-    shifted.qdot = state_.qdot + delta * state_.qddot;
-    ConsistentAccelerations(system_, t + delta, &shifted);
-    a_ = shifted.qddot;
+    // a_0 = q̈(t_0 + Δα h), Δα = αm − αf < 0 (accurate to O(h²), which is what second order
+    // needs): the accelerations consistent with the state at t_0 + Δα h, and that state from
+    // one trapezoidal step (CGα with ρ∞ = 1, time-reversible) of length Δα h.
+    // A Taylor-shifted state q + δ q̇ + ½ δ² q̈ would do for smooth motion, but a velocity field
+    // with stiff components (ωh ≫ 1, e.g. an elastic body's through-thickness modes) turns
+    // into an acceleration ~ ω²|δ| |q̇|, far above the true ~ω |q̇|, and the first steps then
+    // pump energy into those modes (observed: a beam's energy ×12 in ten steps with ρ∞ = 0.6);
+    // the trapezoidal step keeps every mode's amplitude (|amplification| = 1). Its own end
+    // accelerations are not used: for curved constraints the index-3 trapezoidal rule gives
+    // Φ_q q̈ the wrong sign (Φ_q (q̈_0 + q̈_1) = O(δ) instead of 2 Φ_q q̈), hence the
+    // consistent accelerations at its end state.
     started_ = true;
+    const double delta = (coef_.alpha_m - coef_.alpha_f) * h;
+    if (delta != 0.0) {
+      CgAlphaSettings trapezoidal = settings_;
+      trapezoidal.rho_inf = 1.0;  // Δα = 0: no start-up of its own
+      CgAlpha shift(system_, trapezoidal, state_);
+      shift.Step(t, delta);
+      DaeState shifted = shift.state();
+      ConsistentAccelerations(system_, t + delta, &shifted);
+      a_ = shifted.qddot;
+    }
   }
   // Predictor: q̈_{n+1} = q̈_n, λ_{n+1} = λ_n; a, q, q̇ from Eqs. (3) and (5).
   next_.qddot = state_.qddot;
@@ -126,15 +148,15 @@ int CgAlpha::Step(double t, double h) {
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
 
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
-    // Residual, scaled: [βh² (M q̈ − f + Φ_qᵀ λ); Φ].
+    // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix.
+    system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
+    AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
     auto r_q = residual_.head(n);
-    system_.Force(next_.q, next_.qdot, t1, force_);
     r_q.noalias() = system_.mass * next_.qddot;
     r_q -= force_;
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     system_.constraints.Evaluate(next_.q, t1, residual_.tail(m));
-    AssembleIteration(t1, h);
     if (!lu_.Factorize(S_)) {
       throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                            " s (redundant constraints or a singular configuration)");
@@ -154,6 +176,7 @@ int CgAlpha::Step(double t, double h) {
         phi_norm <= settings_.tolerance) {
       // Accept: a_{n+1} from Eq. (3).
       a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
+      elastic_.Accept(state_.q, next_.q);
       std::swap(state_, next_);
       return iteration;
     }

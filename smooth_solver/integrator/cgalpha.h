@@ -25,6 +25,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseLU>
 
+#include "smooth_solver/integrator/elastic_step_force.h"
 #include "smooth_solver/integrator/smooth_integrator.h"
 #include "smooth_solver/linear_algebra/klu_solver.h"
 
@@ -44,6 +45,9 @@ struct CgAlphaSettings {
   double rho_inf = 0.9;            // ρ∞ ∈ [0, 1]; 1 = no numerical dissipation
   double tolerance = 1e-6;         // on |Δq|∞ (relative to 1 + |q|∞) and |Φ|∞
   int max_iterations = 20;
+  // Elastic bodies: the GEMM midpoint internal force (Eq. (30)); false: the generalised-α
+  // end-point force of Eq. (12).
+  bool gemm = true;
 };
 
 class CgAlpha : public SmoothIntegrator {
@@ -64,6 +68,7 @@ class CgAlpha : public SmoothIntegrator {
   double ConstraintViolation(double t) const override;
 
  private:
+  // Zeroes S_, adds the elastic tangent and f̃ (into force_), then the rest of the matrix.
   void AssembleIteration(double t1, double h);
 
   const MultibodySystem& system_;
@@ -71,6 +76,7 @@ class CgAlpha : public SmoothIntegrator {
   AlphaCoefficients coef_;
   DaeState state_;
   Eigen::VectorXd a_;  // acceleration-like variable a_n
+  ElasticStepForce elastic_;  // f̃_n of the elastic bodies
   bool started_ = false;
   // Newton workspace.
   DaeState next_;

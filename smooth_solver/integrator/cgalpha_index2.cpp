@@ -9,8 +9,13 @@
 namespace cosim::smooth {
 
 CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
-    : system_(system), settings_(settings), coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)), state_(initial) {
+    : system_(system),
+      settings_(settings),
+      coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)),
+      state_(initial),
+      elastic_(system, settings.gemm, coef_.alpha_f) {
   a_ = state_.qddot;
+  elastic_.Reset(state_.q);
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
   nu_ = Eigen::VectorXd::Zero(m);
@@ -52,14 +57,13 @@ double CgAlphaIndex2::ConstraintViolation(double t) const {
 void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const ConstraintSet& cs = system_.constraints;
-  for (Eigen::Index k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
-  MatrixSink sink(&S_);
+  MatrixSink sink(&S_);  // zeroed by Step, which added the elastic tangent
   // R1 × c_q: [c_q (Σλ∇²φ − ∂f/∂q), M − c_v ∂f/∂v (column ÷ c_q), Φ_qᵀ (column ÷ c_q), 0].
   cs.HessianTimesLambda(t1, next_.lambda, &sink, cq);
-  system_.AddForceTangent(next_.q, next_.qdot, t1, cq, 0.0, &sink);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, cq, 0.0, &sink, /*include_elastic=*/false);
   OffsetSink r1_vdot(&sink, 0, n);
   AddSparse(system_.mass, 1.0, &r1_vdot);
-  system_.AddForceTangent(next_.q, next_.qdot, t1, 0.0, cv, &r1_vdot);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, 0.0, cv, &r1_vdot, /*include_elastic=*/false);
   cs.JacobianTranspose(next_.q, t1, &sink, 2 * n, 1.0);
   // R2: [I − Σν∇²φ, −I (column ÷ c_q: −c_q I / c_q), 0, −Φ_qᵀ].
   OffsetSink r2(&sink, n, 0);
@@ -86,7 +90,10 @@ int CgAlphaIndex2::Step(double t, double h) {
   const double t1 = t + h;
   const double ca = (1.0 - coef_.alpha_f) / (1.0 - coef_.alpha_m);  // ∂a_{n+1}/∂v̇_{n+1}
   const double cv = h * coef_.gamma * ca, cq = h * h * coef_.beta * ca;
-  if (RestartAtRelease(system_, t, t1, &state_)) a_ = state_.qddot;  // a joint let go: new α history
+  if (RestartAtRelease(system_, t, t1, &state_)) {  // a joint let go: new α history
+    a_ = state_.qddot;
+    elastic_.Reset(state_.q);
+  }
   // Predictor: v̇_{n+1} = v̇_n, λ_{n+1} = λ_n, ν = 0.
   next_.qddot = state_.qddot;
   next_.lambda = state_.lambda;
@@ -104,7 +111,12 @@ int CgAlphaIndex2::Step(double t, double h) {
 
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     auto r1 = residual_.head(n), r2 = residual_.segment(n, n);
-    system_.Force(next_.q, next_.qdot, t1, force_);
+    system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
+    for (Eigen::Index k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
+    {
+      MatrixSink sink(&S_);
+      elastic_.Add(state_.q, next_.q, force_, cq, &sink);  // force_ −= f̃_{n+1}; its tangent × c_q
+    }
     r1.noalias() = system_.mass * next_.qddot;
     r1 -= force_;
     cs.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r1);
@@ -139,6 +151,7 @@ int CgAlphaIndex2::Step(double t, double h) {
     if (dq <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) && phi <= settings_.tolerance &&
         vel_error <= settings_.tolerance) {
       a_ = a_next_;
+      elastic_.Accept(state_.q, next_.q);
       std::swap(state_, next_);
       return iteration;
     }

@@ -13,6 +13,7 @@
 // numerical dissipation, so ρ∞ = 1 gives a non-dissipative, energy-conserving-in-the-mean
 // scheme. Newton on (q, v̇, λ, ν) with the exact Jacobian, KLU with the pattern fixed once.
 #include "smooth_solver/integrator/cgalpha.h"
+#include "smooth_solver/integrator/elastic_step_force.h"
 
 namespace cosim::smooth {
 
@@ -32,6 +33,7 @@ class CgAlphaIndex2 : public SmoothIntegrator {
   AlphaCoefficients coef_;
   DaeState state_;  // qddot holds v̇
   Eigen::VectorXd a_;
+  ElasticStepForce elastic_;  // f̃_n of the elastic bodies (GEMM)
   DaeState next_;
   Eigen::VectorXd nu_, a_next_, q_newmark_, residual_, delta_, force_, scratch_;
   Eigen::SparseMatrix<double> S_;

@@ -63,14 +63,21 @@ double MultibodySystem::JointRate(int joint, const Eigen::VectorXd& q, const Eig
 }
 
 void MultibodySystem::Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
-                            Eigen::Ref<Eigen::VectorXd> f) const {
+                            Eigen::Ref<Eigen::VectorXd> f, bool include_elastic) const {
   f = constant_force;
-  for (const auto& element : forces) element->AddForce(q, qdot, t, f);
+  for (const auto& element : forces) {
+    if (include_elastic || !element->IsElastic()) element->AddForce(q, qdot, t, f);
+  }
 }
 
 void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
-                                      double stiffness_scale, double damping_scale, SparseSink* sink) const {
-  for (const auto& element : forces) element->AddTangent(q, qdot, t, stiffness_scale, damping_scale, sink);
+                                      double stiffness_scale, double damping_scale, SparseSink* sink,
+                                      bool include_elastic) const {
+  for (const auto& element : forces) {
+    if (include_elastic || !element->IsElastic()) {
+      element->AddTangent(q, qdot, t, stiffness_scale, damping_scale, sink);
+    }
+  }
 }
 
 void MultibodySystem::ForcePattern(SparseSink* sink) const {
@@ -193,7 +200,9 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
     Eigen::VectorXd g(3 * body.node_count());
     for (int a = 0; a < body.node_count(); ++a) g.segment<3>(3 * a) = model.gravity;
     sys.constant_force.segment(o, g.size()) = Me * g;
-    sys.forces.push_back(std::make_unique<ElasticForce>(&body, o));
+    auto force = std::make_unique<ElasticForce>(&body, o, sys.elastic[e]->strain_damping);
+    sys.elastic_forces.push_back(force.get());
+    sys.forces.push_back(std::move(force));
     // Clamps: node = the material point of the rigid body (or the ground point) it sits at.
     sys.elastic_clamp_rows.emplace_back();
     for (const auto& clamp : sys.elastic[e]->clamps) {

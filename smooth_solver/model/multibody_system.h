@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/elastic/elastic_force.h"
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/forces/force_elements.h"
 #include "smooth_solver/model/multibody_model.h"
@@ -52,11 +53,16 @@ struct MultibodySystem {
   void ClampReaction(int e, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::Vector3d* force,
                      Eigen::Vector3d* moment) const;
 
-  // Total generalised force f(q, q̇, t): gravity plus every force element.
-  void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, Eigen::Ref<Eigen::VectorXd> f) const;
+  // Total generalised force f(q, q̇, t): gravity plus every force element (with
+  // `include_elastic` false: without the elastic bodies' internal forces, which CGα takes
+  // from `elastic_forces` as GEMM midpoint forces).
+  void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, Eigen::Ref<Eigen::VectorXd> f,
+             bool include_elastic = true) const;
   // sink += stiffness_scale · (−∂f/∂q) + damping_scale · (−∂f/∂q̇).
   void AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                       double damping_scale, SparseSink* sink) const;
+                       double damping_scale, SparseSink* sink, bool include_elastic = true) const;
+  // The elastic bodies' internal forces (also in `forces`).
+  std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;
 
   // Joint coordinate [rad or m] and its rate.

@@ -47,6 +47,10 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : 
     checks.Fail("numerics.smooth.newton_max_iterations", "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
   }
   settings.max_iterations = s.newton_max_iterations();
+  if (s.elastic_force() != sc::SmoothSettings::GEMM && s.elastic_force() != sc::SmoothSettings::END_POINT) {
+    checks.Fail("numerics.smooth.elastic_force", "expected GEMM or END_POINT");
+  }
+  settings.gemm = s.elastic_force() == sc::SmoothSettings::GEMM;
 
   // Probes.
   std::map<std::string, int> body_index, joint_index;

@@ -1,40 +1,86 @@
-// Elastic-body benchmark (not a test): cost of one internal-force (residual) evaluation and
-// of one tangent evaluation (with its sparse assembly) for beams of 10, 40 and 160 27-node
-// elements (one element across), and of one static Newton solve of the cantilever.
+// Elastic-body benchmark (not a test): where the time of an elastic Newton iteration goes.
+//  1. One 27-node element: internal force alone, force and tangent together (Hex27).
+//  2. Beams of 10, 40 and 160 elements (one across): the residual, and the residual with the
+//     tangent assembled into the fixed-pattern matrix the CGα integrator factorises (what one
+//     Newton iteration pays for the elastic part), and the share of that spent scattering.
+//  3. One static Newton solve of the CGα paper's cantilever.
 #include <chrono>
 #include <cstdio>
 
 #include "smooth_solver/elastic/elastic_body.h"
+#include "smooth_solver/elastic/elastic_force.h"
+#include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 
 namespace {
 
 template <typename F>
 double Seconds(int repeats, F&& f) {
+  f();  // warm up (first-use allocations)
   const auto t0 = std::chrono::steady_clock::now();
   for (int r = 0; r < repeats; ++r) f();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats;
 }
 
+// Discards what it is given (the element work without any scatter).
+class NullSink : public cosim::smooth::SparseSink {
+ public:
+  void Add(int, int, double value) override { sum_ += value; }
+  double sum_ = 0.0;
+};
+
 }  // namespace
 
 int main() {
   using namespace cosim::smooth;
-  std::printf("%9s %7s %16s %20s %16s\n", "elements", "nodes", "residual [ms]", "tangent+assembly [ms]", "per element [us]");
+  const ElasticMaterial material{1770, 1.792e12, 0.3};
+  {
+    ElasticBody one;
+    one.Initialize(BeamMesh(0.1, 0.2, 0.1, 1, 1, 1, {}), material);
+    Hex27::NodeMatrix x;
+    for (int a = 0; a < 27; ++a) x.col(a) = one.mesh().nodes.col(one.mesh().elements[0][static_cast<size_t>(a)]);
+    x.row(1) += 1e-4 * x.row(0).array().square().matrix();
+    Hex27 e;
+    Hex27::NodeMatrix X;
+    for (int a = 0; a < 27; ++a) X.col(a) = one.mesh().nodes.col(one.mesh().elements[0][static_cast<size_t>(a)]);
+    e.Initialize(X);
+    Hex27::ElementVector f;
+    auto K = std::make_unique<Hex27::ElementMatrix>();
+    const double force = Seconds(2000, [&] { e.InternalForce(material, x, &f, nullptr); });
+    const double tangent = Seconds(200, [&] { e.InternalForce(material, x, &f, K.get()); });
+    const double gemm = Seconds(200, [&] { e.MidpointForce(material, X, x, {0.5, 0.0}, &f, K.get()); });
+    std::printf("one element: force %.1f us, force + tangent %.1f us (GEMM midpoint %.1f us)\n\n", 1e6 * force,
+                1e6 * tangent, 1e6 * gemm);
+  }
+  std::printf("%9s %7s %14s %26s %14s\n", "elements", "nodes", "residual [ms]", "residual+tangent [ms]",
+              "of which scatter");
   for (int n : {10, 40, 160}) {
     ElasticBody body;
-    body.Initialize(BeamMesh(1.0 * n / 10.0, 0.2, 0.1, n, 1, 1, {}), ElasticMaterial{1770, 1.792e12, 0.3});
+    body.Initialize(BeamMesh(1.0 * n / 10.0, 0.2, 0.1, n, 1, 1, {}), material);
     Eigen::Matrix3Xd x = body.mesh().nodes;
     for (int a = 0; a < x.cols(); ++a) x(1, a) += 1e-4 * x(0, a) * x(0, a);  // a bent shape
-    Eigen::VectorXd f;
-    Eigen::SparseMatrix<double> K;
+    const int dofs = 3 * body.node_count();
+    Eigen::VectorXd q(dofs);
+    Eigen::Map<Eigen::Matrix3Xd>(q.data(), 3, body.node_count()) = x;
+    ElasticForce force(&body, 0, 0.0);
+    PatternSink pattern;
+    force.Pattern(&pattern);
+    Eigen::SparseMatrix<double> S = pattern.Build(dofs, dofs);
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(dofs);
     const int repeats = n > 40 ? 5 : 20;
-    const double residual = Seconds(repeats, [&] { body.Assemble(x, &f, nullptr); });
-    const double tangent = Seconds(repeats, [&] { body.Assemble(x, &f, &K); });
-    std::printf("%9d %7d %16.3f %20.3f %16.1f\n", n, body.node_count(), 1e3 * residual, 1e3 * tangent,
-                1e6 * tangent / n);
+    const double residual = Seconds(repeats * 10, [&] { force.AddMidpoint(q, q, 0.5, f, nullptr, 1.0); });
+    const double tangent = Seconds(repeats, [&] {
+      MatrixSink sink(&S);
+      force.AddMidpoint(q, q, 0.5, f, &sink, 1.0);
+    });
+    const double no_scatter = Seconds(repeats, [&] {
+      NullSink sink;
+      force.AddMidpoint(q, q, 0.5, f, &sink, 1.0);
+    });
+    std::printf("%9d %7d %14.3f %26.3f %13.0f%%\n", n, body.node_count(), 1e3 * residual, 1e3 * tangent,
+                100.0 * (tangent - no_scatter) / tangent);
   }
   ElasticBody cantilever;
-  cantilever.Initialize(BeamMesh(1.0, 0.2, 0.1, 10, 1, 1, {}), ElasticMaterial{1770, 1.792e12, 0.3});
+  cantilever.Initialize(BeamMesh(1.0, 0.2, 0.1, 10, 1, 1, {}), material);
   const double solve = Seconds(5, [&] {
     SolveStatic(cantilever, cantilever.mesh().root_face, {{cantilever.mesh().tip_centre, Eigen::Vector3d(0, 1e4, 0)}},
                 1e-8, 20);

@@ -7,6 +7,9 @@
 //
 // Not thread-safe: the element-matrix workspace is shared by the calls (one integrator).
 #include <memory>
+#include <utility>
+
+#include "interface/scenario/time_function.h"
 
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/forces/force_elements.h"
@@ -39,6 +42,30 @@ class ElasticForce : public ForceElement {
   int offset_;
   double strain_damping_;
   mutable std::unique_ptr<Hex27::ElementMatrix> workspace_;
+};
+
+// A force on one coordinate triple (an elastic body's node): F factor(t), global frame. With a
+// constant factor it is conservative, V = −factor F · (x − X); with a time-varying one it has no
+// potential and the TOTAL_ENERGY probe does not count its work.
+class NodalForce : public ForceElement {
+ public:
+  NodalForce(int index, const Eigen::Vector3d& reference, const Eigen::Vector3d& force,
+             interface::TimeFunction factor, bool time_varying)
+      : index_(index), reference_(reference), force_(force), factor_(std::move(factor)), time_varying_(time_varying) {}
+  void AddForce(const Eigen::VectorXd&, const Eigen::VectorXd&, double t, Eigen::Ref<Eigen::VectorXd> f) const override {
+    f.segment<3>(index_) += factor_.Value(t) * force_;
+  }
+  void AddTangent(const Eigen::VectorXd&, const Eigen::VectorXd&, double, double, double, SparseSink*) const override {}
+  void Pattern(SparseSink*) const override {}
+  double PotentialEnergy(const Eigen::VectorXd& q) const override {
+    return time_varying_ ? 0.0 : -factor_.Value(0.0) * force_.dot(q.segment<3>(index_) - reference_);
+  }
+
+ private:
+  int index_;
+  Eigen::Vector3d reference_, force_;
+  interface::TimeFunction factor_;
+  bool time_varying_;
 };
 
 }  // namespace cosim::smooth

@@ -157,7 +157,14 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
       } else {
         checks.Fail(lpath, "give node: N or face_centre: \"tip\"/\"root\"");
       }
-      spec.loads.emplace_back(node, checks.Vector3(lpath + ".force", load.force(), std::nullopt));
+      ElasticBodySpec::Load built_load;
+      built_load.node = node;
+      built_load.force = checks.Vector3(lpath + ".force", load.force(), std::nullopt);
+      if (load.has_factor()) {
+        built_load.factor = interface::TimeFunction::Build(checks, lpath + ".factor", load.factor());
+        built_load.time_varying = true;
+      }
+      spec.loads.push_back(std::move(built_load));
     }
     out.push_back(std::move(spec));
   }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "interface/scenario/checks.h"
+#include "interface/scenario/time_function.h"
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/model/multibody_model.h"
 
@@ -20,7 +21,13 @@ struct ElasticBodySpec {
     std::vector<int> nodes;
   };
   std::vector<Clamp> clamps;
-  std::vector<std::pair<int, Eigen::Vector3d>> loads;  // (node, force [N])
+  struct Load {
+    int node = -1;
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();  // [N]
+    interface::TimeFunction factor = interface::TimeFunction::Constant(1.0);
+    bool time_varying = false;  // a factor was given
+  };
+  std::vector<Load> loads;
   // Node named by a probe's `point`: a 0-based index, "tip_centre" or "root_centre".
   int FindPoint(const interface::Checks& checks, const std::string& path, const std::string& point) const;
 };

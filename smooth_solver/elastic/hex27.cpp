@@ -70,7 +70,9 @@ void Hex27::MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, co
   const double c_geometric = 1.0 - mw.alpha_f, c_material = 1.0 - mw.alpha_f + mw.xi;
   const bool same = mw.alpha_f == 0.0 && mw.xi == 0.0;  // end-point force: x_prev unused
   if (f != nullptr) f->setZero();
-  if (K != nullptr) K->setZero();
+  ElementMatrix Kc;  // component-major accumulator (52 kB on the stack)
+  Eigen::Matrix<double, kNodes, kNodes> GSG, GtG;
+  if (K != nullptr) Kc.setZero();
   const NodeMatrix u1 = x - reference_;
   const NodeMatrix u0 = same ? u1 : NodeMatrix(x_prev - reference_);
   for (size_t g = 0; g < kGauss; ++g) {
@@ -93,17 +95,30 @@ void Hex27::MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, co
       f->noalias() += Eigen::Map<const ElementVector>(P.data());
     }
     if (K != nullptr) {
-      const Eigen::Matrix<double, 3, kNodes> FmG = Fm * G, F1G = F1 * G;  // columns F∇N_a
-      const Eigen::Matrix<double, kNodes, kNodes> GSG = (w * c_geometric) * (G.transpose() * S * G);
-      const Eigen::Matrix<double, kNodes, kNodes> GtG = (w * c_material * mu) * (G.transpose() * G);
+      // Accumulated component-major, Kc(27 i + a, 27 j + b) = K(3a + i, 3b + j): each of the
+      // nine 27×27 blocks is then a contiguous sum of two rank-1 updates and two scaled
+      // matrices, which vectorises (node-major 3×3 blocks did not: 335 µs per element).
+      const Eigen::Matrix<double, 3, kNodes> U = Fm * G, V = F1 * G;  // columns F_m∇N_a, F_{n+1}∇N_a
+      GSG.noalias() = (w * c_geometric) * (G.transpose() * S * G);
+      GtG.noalias() = (w * c_material * mu) * (G.transpose() * G);
       const Eigen::Matrix3d FFt = Fm * F1.transpose();
       const double wl = w * c_material * lambda, wm = w * c_material * mu;
-      for (int b = 0; b < kNodes; ++b) {
+      for (int j = 0; j < 3; ++j) {
+        for (int i = 0; i < 3; ++i) {
+          auto block = Kc.block<kNodes, kNodes>(kNodes * i, kNodes * j);
+          block.noalias() += (wl * U.row(i).transpose()) * V.row(j);  // λ (F_m∇N_a)_i (F∇N_b)_j
+          block.noalias() += (wm * V.row(j).transpose()) * U.row(i);  // μ (F_m∇N_b)_i (F∇N_a)_j
+          block += FFt(i, j) * GtG;                                     // μ (∇N_a·∇N_b)(F_m Fᵀ)_ij
+          if (i == j) block += GSG;                                     // (∇N_a · S_m ∇N_b) δ_ij
+        }
+      }
+    }
+  }
+  if (K != nullptr) {
+    for (int b = 0; b < kNodes; ++b) {
+      for (int j = 0; j < 3; ++j) {
         for (int a = 0; a < kNodes; ++a) {
-          Eigen::Matrix3d block = (wl * FmG.col(a)) * F1G.col(b).transpose() + GtG(a, b) * FFt +
-                                  (wm * FmG.col(b)) * F1G.col(a).transpose();
-          block.diagonal().array() += GSG(a, b);
-          K->block<3, 3>(3 * a, 3 * b) += block;
+          for (int i = 0; i < 3; ++i) (*K)(3 * a + i, 3 * b + j) = Kc(kNodes * i + a, kNodes * j + b);
         }
       }
     }

@@ -203,6 +203,10 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
     auto force = std::make_unique<ElasticForce>(&body, o, sys.elastic[e]->strain_damping);
     sys.elastic_forces.push_back(force.get());
     sys.forces.push_back(std::move(force));
+    for (const auto& load : sys.elastic[e]->loads) {
+      sys.forces.push_back(std::make_unique<NodalForce>(o + 3 * load.node, body.mesh().nodes.col(load.node), load.force,
+                                                        load.factor, load.time_varying));
+    }
     // Clamps: node = the material point of the rigid body (or the ground point) it sits at.
     sys.elastic_clamp_rows.emplace_back();
     for (const auto& clamp : sys.elastic[e]->clamps) {

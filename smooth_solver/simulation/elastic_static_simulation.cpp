@@ -22,6 +22,13 @@ ElasticStaticSimulation::ElasticStaticSimulation(const interface::ScenarioFile& 
       checks.Fail(ElementPath("model.elastic_bodies", static_cast<int>(b)) + ".clamps",
                   "an unclamped body has no static equilibrium; clamp a face or nodes to \"ground\"");
     }
+    for (size_t l = 0; l < bodies_[b].loads.size(); ++l) {
+      if (bodies_[b].loads[l].time_varying) {
+        checks.Fail(ElementPath(ElementPath("model.elastic_bodies", static_cast<int>(b)) + ".loads", static_cast<int>(l)) +
+                        ".factor",
+                    "a time factor applies to DYNAMIC analyses; a STATIC analysis ramps the loads itself");
+      }
+    }
     fixed_.push_back(fixed);
     positions_.push_back(bodies_[b].body.mesh().nodes);
   }
@@ -117,7 +124,7 @@ void ElasticStaticSimulation::Step(double t, double h) {
   const double factor = (t + h - start_) / (end_ - start_);  // loads grow linearly to end_time
   for (size_t b = 0; b < bodies_.size(); ++b) {
     std::vector<std::pair<int, Eigen::Vector3d>> loads;
-    for (const auto& [node, force] : bodies_[b].loads) loads.emplace_back(node, factor * force);
+    for (const auto& load : bodies_[b].loads) loads.emplace_back(load.node, factor * load.force);
     const StaticResult r = SolveStatic(bodies_[b].body, fixed_[b], loads, tolerance_, max_iterations_, &positions_[b]);
     positions_[b] = bodies_[b].body.mesh().nodes + r.displacement;
     newton_.Add(r.iterations);

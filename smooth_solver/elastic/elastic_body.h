@@ -47,6 +47,10 @@ class ElasticBody {
   void AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights, double f_scale,
                         Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K, int offset,
                         std::unique_ptr<Hex27::ElementMatrix>* workspace) const;
+  // The Kelvin–Voigt viscous force (Hex27::ViscousForce) at positions x and velocities v:
+  // f_scale · f_v added to `f`, and k_scale · ∂f_v/∂x + c_scale · ∂f_v/∂v into `K` (if given).
+  void AssembleViscous(const Positions& x, const Positions& v, double retardation, double f_scale,
+                       Eigen::Ref<Eigen::VectorXd> f, double k_scale, double c_scale, SparseSink* K, int offset) const;
   double StrainEnergy(const Eigen::Matrix3Xd& x) const;
   Eigen::SparseMatrix<double> MassMatrix() const;  // 3 per node, consistent
 

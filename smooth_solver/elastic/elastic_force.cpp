@@ -23,12 +23,30 @@ void ElasticForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd&, 
                           &workspace_);
 }
 
-void ElasticForce::Pattern(SparseSink* sink) const {
-  for (const auto& element : body_->mesh().elements) {
+void ElasticDamping::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+                              Eigen::Ref<Eigen::VectorXd> f) const {
+  body_->AssembleViscous(Nodes(q), Nodes(qdot), retardation_, -1.0, f.segment(offset_, 3 * body_->node_count()), 0.0,
+                         0.0, nullptr, offset_);
+}
+
+void ElasticDamping::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, double stiffness_scale,
+                                double damping_scale, SparseSink* sink) const {
+  if (stiffness_scale == 0.0 && damping_scale == 0.0) return;
+  Eigen::VectorXd unused(0);
+  body_->AssembleViscous(Nodes(q), Nodes(qdot), retardation_, 0.0, unused, stiffness_scale, damping_scale, sink,
+                         offset_);
+}
+
+void ElasticDamping::Pattern(SparseSink* sink) const { ElasticPattern(*body_, offset_, sink); }
+
+void ElasticForce::Pattern(SparseSink* sink) const { ElasticPattern(*body_, offset_, sink); }
+
+void ElasticPattern(const ElasticBody& body, int offset, SparseSink* sink) {
+  for (const auto& element : body.mesh().elements) {
     for (int a : element) {
       for (int b : element) {
         for (int i = 0; i < 3; ++i) {
-          for (int j = 0; j < 3; ++j) sink->Add(offset_ + 3 * a + i, offset_ + 3 * b + j, 0.0);
+          for (int j = 0; j < 3; ++j) sink->Add(offset + 3 * a + i, offset + 3 * b + j, 0.0);
         }
       }
     }

@@ -16,6 +16,9 @@
 
 namespace cosim::smooth {
 
+// Every (row, column) the element matrices of `body` touch, its coordinates from `offset`.
+void ElasticPattern(const ElasticBody& body, int offset, SparseSink* sink);
+
 class ElasticForce : public ForceElement {
  public:
   ElasticForce(const ElasticBody* body, int offset, double strain_damping)
@@ -42,6 +45,27 @@ class ElasticForce : public ForceElement {
   int offset_;
   double strain_damping_;
   mutable std::unique_ptr<Hex27::ElementMatrix> workspace_;
+};
+
+// Kelvin–Voigt structural damping of an elastic body (retardation time β): the force element
+// −f_v(x, ẋ) with both tangents. An ordinary end-point force for the integrators.
+class ElasticDamping : public ForceElement {
+ public:
+  ElasticDamping(const ElasticBody* body, int offset, double retardation)
+      : body_(body), offset_(offset), retardation_(retardation) {}
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                  double damping_scale, SparseSink* sink) const override;
+  void Pattern(SparseSink* sink) const override;
+
+ private:
+  Eigen::Map<const Eigen::Matrix3Xd> Nodes(const Eigen::VectorXd& q) const {
+    return Eigen::Map<const Eigen::Matrix3Xd>(q.data() + offset_, 3, body_->node_count());
+  }
+  const ElasticBody* body_;
+  int offset_;
+  double retardation_;
 };
 
 // A force on one coordinate triple (an elastic body's node): F factor(t), global frame. With a

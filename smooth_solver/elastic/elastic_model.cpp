@@ -60,6 +60,7 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
     material.young = checks.Positive(path + ".material.young", m.has_young(), m.young(), "Pa");
     material.poisson = checks.InRange(path + ".material.poisson", m.has_poisson(), m.poisson(), -1.0, 0.5, true, true);
     spec.strain_damping = checks.NonNegative(path + ".strain_damping", e.strain_damping(), "dimensionless");
+    spec.retardation_time = checks.NonNegative(path + ".retardation_time", e.retardation_time(), "s");
 
     ElasticMesh mesh;
     std::string mesh_path;

@@ -64,6 +64,12 @@ class Hex27 {
   // GEMM midpoint force over the step x_prev → x (and optionally its derivative by x).
   void MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, const NodeMatrix& x, MidpointWeights w,
                      ElementVector* f, ElementMatrix* K) const;
+  // Kelvin–Voigt viscous force at positions x and velocities v: S_v = β C : Ė with
+  // Ė = sym(Fᵀ Ḟ) (objective: no force for a rigid motion), f_a = ∫ F S_v ∇N_a dV; optionally
+  // K = ∂f/∂x and C = ∂f/∂v (β times the material stiffness). β: retardation time [s], which
+  // damps a mode of frequency ω with the ratio ζ = βω/2.
+  void ViscousForce(const ElasticMaterial& m, double retardation, const NodeMatrix& x, const NodeMatrix& v,
+                    ElementVector* f, ElementMatrix* K, ElementMatrix* C) const;
   // Strain energy ∫ ½ E : C : E dV.
   double StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const;
   // Consistent mass matrix (the 27×27 scalar part; the 3×3 blocks are this × I).

@@ -203,6 +203,9 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
     auto force = std::make_unique<ElasticForce>(&body, o, sys.elastic[e]->strain_damping);
     sys.elastic_forces.push_back(force.get());
     sys.forces.push_back(std::move(force));
+    if (sys.elastic[e]->retardation_time > 0.0) {
+      sys.forces.push_back(std::make_unique<ElasticDamping>(&body, o, sys.elastic[e]->retardation_time));
+    }
     for (const auto& load : sys.elastic[e]->loads) {
       sys.forces.push_back(std::make_unique<NodalForce>(o + 3 * load.node, body.mesh().nodes.col(load.node), load.force,
                                                         load.factor, load.time_varying));

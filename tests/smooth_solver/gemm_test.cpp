@@ -14,6 +14,7 @@
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/model/multibody_model.h"
 #include "smooth_solver/model/multibody_system.h"
+#include "smooth_solver/simulation/multibody_simulation.h"
 
 namespace cosim::smooth {
 namespace {
@@ -212,6 +213,94 @@ TEST(Gemm, NumericalDissipationRemovesHighModes) {
   EXPECT_LT(damped_reference.energy_drift, 0.0);
   EXPECT_GT(damped_reference.energy_drift, -1e-3);
   EXPECT_LT(strain_damped.energy_drift, -1e-3);
+}
+
+TEST(StructuralDamping, ViscousForceIsObjectiveDissipativeAndItsTangentsExact) {
+  // Ė = sym(Fᵀ Ḟ) vanishes for a rigid velocity field Ḟ = W F (W skew), so a spinning,
+  // deformed element feels no viscous force (to round-off); f_v · v = ∫ Ė : β C : Ė >= 0 for
+  // any velocity; ∂f_v/∂x and ∂f_v/∂v against central differences.
+  TwoConfigurations c;
+  const double beta = 1e-4;
+  Eigen::Matrix3d W;
+  W << 0, -3, 2, 3, 0, -1, -2, 1, 0;
+  Hex27::NodeMatrix v = W * c.x1;
+  v.colwise() += Eigen::Vector3d(1, 2, 3);
+  Hex27::ElementVector f_rigid, f;
+  Hex27::ElementMatrix K, C;
+  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f_rigid, nullptr, nullptr);
+  for (int a = 0; a < 27; ++a) v.col(a) = Eigen::Vector3d(std::sin(a), std::cos(3.0 * a), std::sin(2.0 * a + 1));
+  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f, &K, &C);
+  // The rigid field is 3 rad/s on a 0.5 m element, the deforming one ~1 m/s per node.
+  EXPECT_LT(f_rigid.lpNorm<Eigen::Infinity>(), 1e-12 * f.lpNorm<Eigen::Infinity>());
+  EXPECT_GT(f.dot(Eigen::Map<const Hex27::ElementVector>(v.data())), 0.0);
+  const double eps = 1e-7;
+  for (int col = 0; col < 81; ++col) {
+    Hex27::NodeMatrix xp = c.x1, xm = c.x1, vp = v, vm = v;
+    xp(col % 3, col / 3) += eps;
+    xm(col % 3, col / 3) -= eps;
+    vp(col % 3, col / 3) += eps;
+    vm(col % 3, col / 3) -= eps;
+    Hex27::ElementVector fp, fm;
+    c.element.ViscousForce(kAluminium, beta, xp, v, &fp, nullptr, nullptr);
+    c.element.ViscousForce(kAluminium, beta, xm, v, &fm, nullptr, nullptr);
+    ASSERT_LT(((fp - fm) / (2 * eps) - K.col(col)).lpNorm<Eigen::Infinity>(), 1e-6 * K.lpNorm<Eigen::Infinity>())
+        << "∂f/∂x column " << col;
+    c.element.ViscousForce(kAluminium, beta, c.x1, vp, &fp, nullptr, nullptr);
+    c.element.ViscousForce(kAluminium, beta, c.x1, vm, &fm, nullptr, nullptr);
+    ASSERT_LT(((fp - fm) / (2 * eps) - C.col(col)).lpNorm<Eigen::Infinity>(), 1e-6 * C.lpNorm<Eigen::Infinity>())
+        << "∂f/∂v column " << col;
+  }
+}
+
+TEST(StructuralDamping, FirstBendingModeDecaysAtTheKelvinVoigtRatio) {
+  // Kelvin–Voigt damping S_v = β C : Ė damps a mode of frequency ω with ζ = βω/2. With
+  // β = 1.9e-4 s the first bending mode of a clamped aluminium strip (ω ≈ 210 rad/s) gets
+  // ζ ≈ 2 %, its higher modes are overdamped. A 10 N tip load, ramped on over 5 ms and off
+  // again at 20 ms, sets it swinging; from 0.03 s on: ω from the zero crossings, ζ from the
+  // decay of successive peaks, ln(peak_k / peak_k+1) = 2πζ/√(1 − ζ²), against βω/2. Observed
+  // within 1 % (ρ∞ = 0.9 at ωh = 0.1 adds ~1e-5 to ζ); asserted to 3 %.
+  const double beta = 1.9e-4, h = 5e-4;
+  const std::string text = R"(
+    name: "damped_strip"
+    model {
+      elastic_bodies {
+        name: "beam"
+        material { density: 2700 young: 7e10 poisson: 0.33 }
+        beam { length: 0.5 chord: 0.05 thickness: 0.01 elements_along: 4 }
+        clamps { body: "ground" face: "root" }
+        retardation_time: )" + std::to_string(beta) + R"(
+        loads {
+          face_centre: "tip" force: [0, 0, 10]
+          factor { table { time: [0, 0.005, 0.015, 0.02] value: [0, 1, 1, 0] } }
+        }
+      }
+    }
+    numerics { end_time: 0.12 step: 5e-4 }
+    output { probes { name: "tip_z" quantity: DISPLACEMENT entity: "beam" point: "tip_centre" component: Z } })";
+  MultibodySimulation sim(interface::ScenarioFile::Parse(text, "damped_strip.pbtxt", {}));
+  std::vector<double> z, value(1);
+  for (int k = 0; k < 240; ++k) {
+    sim.Step(k * h, h);
+    sim.Probe(&value);
+    z.push_back(value[0]);
+  }
+  std::vector<double> crossings, peaks;
+  for (size_t k = 1; k < z.size(); ++k) {
+    if (k * h < 0.03) continue;  // past the first period: the higher modes are gone
+    if ((z[k - 1] < 0.0) != (z[k] < 0.0)) crossings.push_back(h * (k - 1 + z[k - 1] / (z[k - 1] - z[k])));
+    if (k + 1 < z.size() && z[k] > z[k - 1] && z[k] >= z[k + 1] && z[k] > 0.0) {
+      // Parabola through the three samples around the maximum.
+      const double a = 0.5 * (z[k - 1] + z[k + 1]) - z[k], b = 0.5 * (z[k + 1] - z[k - 1]);
+      peaks.push_back(z[k] - b * b / (4.0 * a));
+    }
+  }
+  ASSERT_GE(peaks.size(), 3u);
+  const double omega = M_PI * (crossings.size() - 1) / (crossings.back() - crossings.front());
+  const double decrement = std::log(peaks.front() / peaks.back()) / (peaks.size() - 1);
+  const double zeta = decrement / std::sqrt(4.0 * M_PI * M_PI + decrement * decrement);
+  std::printf("structural damping: omega %.2f rad/s, zeta %.5f (beta omega / 2 = %.5f) over %zu peaks\n", omega, zeta,
+              0.5 * beta * omega, peaks.size());
+  EXPECT_NEAR(zeta, 0.5 * beta * omega, 0.03 * 0.5 * beta * omega);
 }
 
 }  // namespace

@@ -23,6 +23,7 @@ class IterationCounter {
     if (iterations > max_) max_ = iterations;
   }
   void Fill(run::IterationStats* stats) const;
+  long long total() const { return total_; }
 
  private:
   long long total_ = 0;

@@ -112,24 +112,21 @@ void ElasticBody::AssembleViscous(const Positions& x, const Positions& v, double
                                   Eigen::Ref<Eigen::VectorXd> f, double k_scale, double c_scale, SparseSink* K,
                                   int offset) const {
   Hex27::ElementVector fe;
-  Hex27::ElementMatrix Ke, Ce;
+  Hex27::ElementMatrix Ke;
   Hex27::NodeMatrix xe, ve;
-  const bool stiffness = K != nullptr && k_scale != 0.0, damping = K != nullptr && c_scale != 0.0;
+  const bool tangent = K != nullptr && (k_scale != 0.0 || c_scale != 0.0);
   for (size_t e = 0; e < elements_.size(); ++e) {
     const auto& nodes = mesh_.elements[e];
     for (int a = 0; a < Hex27::kNodes; ++a) {
       xe.col(a) = x.col(nodes[static_cast<size_t>(a)]);
       ve.col(a) = v.col(nodes[static_cast<size_t>(a)]);
     }
-    elements_[e].ViscousForce(material_, retardation, xe, ve, f_scale != 0.0 ? &fe : nullptr,
-                              stiffness ? &Ke : nullptr, damping ? &Ce : nullptr);
+    elements_[e].ViscousForce(material_, retardation, xe, ve, f_scale != 0.0 ? &fe : nullptr, k_scale, c_scale,
+                              tangent ? &Ke : nullptr);
     if (f_scale != 0.0) {
       for (int a = 0; a < Hex27::kNodes; ++a) f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += f_scale * fe.segment<3>(3 * a);
     }
-    if (!stiffness && !damping) continue;
-    if (!stiffness) Ke.setZero();
-    if (damping) Ke = k_scale * Ke + c_scale * Ce;
-    else Ke *= k_scale;
+    if (!tangent) continue;
     for (int b = 0; b < Hex27::kNodes; ++b) {
       const int B = offset + 3 * nodes[static_cast<size_t>(b)];
       for (int j = 0; j < 3; ++j) {

@@ -153,12 +153,11 @@ void Hex27::MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, co
 }
 
 void Hex27::ViscousForce(const ElasticMaterial& m, double retardation, const NodeMatrix& x, const NodeMatrix& v,
-                         ElementVector* f, ElementMatrix* K, ElementMatrix* C) const {
+                         ElementVector* f, double k_scale, double c_scale, ElementMatrix* KC) const {
   if (f != nullptr) f->setZero();
-  ElementMatrix Kc, Cc;
+  ElementMatrix Kc;
   NodeNode GSG, GtG;
-  if (K != nullptr) Kc.setZero();
-  if (C != nullptr) Cc.setZero();
+  if (KC != nullptr) Kc.setZero();
   const NodeMatrix u = x - reference_;
   for (size_t g = 0; g < kGauss; ++g) {
     const auto& G = grad_[g];
@@ -171,19 +170,18 @@ void Hex27::ViscousForce(const ElasticMaterial& m, double retardation, const Nod
       const Columns P = (w * F * S) * G;
       f->noalias() += Eigen::Map<const ElementVector>(P.data());
     }
-    if (K == nullptr && C == nullptr) continue;
+    if (KC == nullptr) continue;
+    // ∂/∂v through Ḟ (B = F) and ∂/∂x through Ė's F (B = Ḟ): one material block with
+    // B = k_scale Ḟ + c_scale F; and ∂/∂x through F S_v, the geometric part.
     GtG.noalias() = G.transpose() * G;
-    const Columns FG = F * G;
-    const double wl = w * retardation * m.lambda(), wm = w * retardation * m.mu();
-    if (C != nullptr) AddMaterialBlocks(FG, FG, wl, wm, GtG, F * F.transpose(), &Cc);  // ∂/∂v: via Ḟ
-    if (K != nullptr) {
-      AddMaterialBlocks(FG, Fdot * G, wl, wm, GtG, F * Fdot.transpose(), &Kc);  // ∂/∂x through Ė's F
-      GSG.noalias() = w * (G.transpose() * S * G);                              // and through F S_v
+    const Eigen::Matrix3d B = k_scale * Fdot + c_scale * F;
+    AddMaterialBlocks(F * G, B * G, w * retardation * m.lambda(), w * retardation * m.mu(), GtG, F * B.transpose(), &Kc);
+    if (k_scale != 0.0) {
+      GSG.noalias() = (k_scale * w) * (G.transpose() * S * G);
       AddGeometricBlocks(GSG, &Kc);
     }
   }
-  if (K != nullptr) NodeMajor(Kc, K);
-  if (C != nullptr) NodeMajor(Cc, C);
+  if (KC != nullptr) NodeMajor(Kc, KC);
 }
 
 double Hex27::StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const {

@@ -66,10 +66,11 @@ class Hex27 {
                      ElementVector* f, ElementMatrix* K) const;
   // Kelvin–Voigt viscous force at positions x and velocities v: S_v = β C : Ė with
   // Ė = sym(Fᵀ Ḟ) (objective: no force for a rigid motion), f_a = ∫ F S_v ∇N_a dV; optionally
-  // K = ∂f/∂x and C = ∂f/∂v (β times the material stiffness). β: retardation time [s], which
-  // damps a mode of frequency ω with the ratio ζ = βω/2.
+  // the combined tangent KC = k_scale ∂f/∂x + c_scale ∂f/∂v (∂f/∂v is β times the material
+  // stiffness), in one pass: both are material blocks, linear in Ḟ resp. F on one side.
+  // β: retardation time [s], which damps a mode of frequency ω with the ratio ζ = βω/2.
   void ViscousForce(const ElasticMaterial& m, double retardation, const NodeMatrix& x, const NodeMatrix& v,
-                    ElementVector* f, ElementMatrix* K, ElementMatrix* C) const;
+                    ElementVector* f, double k_scale, double c_scale, ElementMatrix* KC) const;
   // Strain energy ∫ ½ E : C : E dV.
   double StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const;
   // Consistent mass matrix (the 27×27 scalar part; the 3×3 blocks are this × I).

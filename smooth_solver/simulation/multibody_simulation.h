@@ -21,6 +21,8 @@ class MultibodySimulation : public interface::Simulation {
 
   const MultibodySystem& system() const { return *system_; }
   const SmoothIntegrator& integrator() const { return *integrator_; }
+  long long newton_iterations() const { return newton_.total(); }  // CGα, all steps so far
+  long ida_internal_steps() const { return ida_steps_; }
 
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,

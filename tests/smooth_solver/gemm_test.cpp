@@ -227,9 +227,10 @@ TEST(StructuralDamping, ViscousForceIsObjectiveDissipativeAndItsTangentsExact) {
   v.colwise() += Eigen::Vector3d(1, 2, 3);
   Hex27::ElementVector f_rigid, f;
   Hex27::ElementMatrix K, C;
-  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f_rigid, nullptr, nullptr);
+  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f_rigid, 0.0, 0.0, nullptr);
   for (int a = 0; a < 27; ++a) v.col(a) = Eigen::Vector3d(std::sin(a), std::cos(3.0 * a), std::sin(2.0 * a + 1));
-  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f, &K, &C);
+  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f, 1.0, 0.0, &K);
+  c.element.ViscousForce(kAluminium, beta, c.x1, v, &f, 0.0, 1.0, &C);
   // The rigid field is 3 rad/s on a 0.5 m element, the deforming one ~1 m/s per node.
   EXPECT_LT(f_rigid.lpNorm<Eigen::Infinity>(), 1e-12 * f.lpNorm<Eigen::Infinity>());
   EXPECT_GT(f.dot(Eigen::Map<const Hex27::ElementVector>(v.data())), 0.0);
@@ -241,12 +242,12 @@ TEST(StructuralDamping, ViscousForceIsObjectiveDissipativeAndItsTangentsExact) {
     vp(col % 3, col / 3) += eps;
     vm(col % 3, col / 3) -= eps;
     Hex27::ElementVector fp, fm;
-    c.element.ViscousForce(kAluminium, beta, xp, v, &fp, nullptr, nullptr);
-    c.element.ViscousForce(kAluminium, beta, xm, v, &fm, nullptr, nullptr);
+    c.element.ViscousForce(kAluminium, beta, xp, v, &fp, 0.0, 0.0, nullptr);
+    c.element.ViscousForce(kAluminium, beta, xm, v, &fm, 0.0, 0.0, nullptr);
     ASSERT_LT(((fp - fm) / (2 * eps) - K.col(col)).lpNorm<Eigen::Infinity>(), 1e-6 * K.lpNorm<Eigen::Infinity>())
         << "∂f/∂x column " << col;
-    c.element.ViscousForce(kAluminium, beta, c.x1, vp, &fp, nullptr, nullptr);
-    c.element.ViscousForce(kAluminium, beta, c.x1, vm, &fm, nullptr, nullptr);
+    c.element.ViscousForce(kAluminium, beta, c.x1, vp, &fp, 0.0, 0.0, nullptr);
+    c.element.ViscousForce(kAluminium, beta, c.x1, vm, &fm, 0.0, 0.0, nullptr);
     ASSERT_LT(((fp - fm) / (2 * eps) - C.col(col)).lpNorm<Eigen::Infinity>(), 1e-6 * C.lpNorm<Eigen::Infinity>())
         << "∂f/∂v column " << col;
   }

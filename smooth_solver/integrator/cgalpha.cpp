@@ -79,9 +79,9 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
 }
 
 double CgAlpha::ConstraintViolation(double t) const {
-  Eigen::VectorXd phi(system_.constraints.size());
-  system_.constraints.Evaluate(state_.q, t, phi);
-  return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
+  violation_.resize(system_.constraints.size());  // sized once
+  system_.constraints.Evaluate(state_.q, t, violation_);
+  return violation_.size() > 0 ? violation_.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
 void CgAlpha::AssembleIteration(double t1, double h) {

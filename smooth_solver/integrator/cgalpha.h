@@ -81,6 +81,7 @@ class CgAlpha : public SmoothIntegrator {
   // Newton workspace.
   DaeState next_;
   Eigen::VectorXd a_next_, residual_, delta_, phi_, force_;
+  mutable Eigen::VectorXd violation_;
   Eigen::SparseMatrix<double> S_;
   KluSolver lu_;
 };

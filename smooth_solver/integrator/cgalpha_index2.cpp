@@ -49,9 +49,9 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSetting
 }
 
 double CgAlphaIndex2::ConstraintViolation(double t) const {
-  Eigen::VectorXd phi(system_.constraints.size());
-  system_.constraints.Evaluate(state_.q, t, phi);
-  return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
+  violation_.resize(system_.constraints.size());  // sized once
+  system_.constraints.Evaluate(state_.q, t, violation_);
+  return violation_.size() > 0 ? violation_.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
 void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {

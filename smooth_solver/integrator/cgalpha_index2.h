@@ -36,6 +36,7 @@ class CgAlphaIndex2 : public SmoothIntegrator {
   ElasticStepForce elastic_;  // f̃_n of the elastic bodies (GEMM)
   DaeState next_;
   Eigen::VectorXd nu_, a_next_, q_newmark_, residual_, delta_, force_, scratch_;
+  mutable Eigen::VectorXd violation_;
   Eigen::SparseMatrix<double> S_;
   KluSolver lu_;
 };

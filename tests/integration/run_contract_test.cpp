@@ -192,6 +192,11 @@ INSTANTIATE_TEST_SUITE_P(
                  {"model.elastic_bodies[0].clamps[0].nodes.index[1]", "node 9999 is outside the body"}},
         BadInput{"unknown_face", kCantilever, "face: \"root\"", "face: \"middle\"", "",
                  {"model.elastic_bodies[0].clamps[0].face", "expected \"root\" or \"tip\", got 'middle'"}},
+        BadInput{"negative_retardation", kCantilever, "face: \"root\" }", "face: \"root\" }\n    retardation_time: -1", "",
+                 {"model.elastic_bodies[0].retardation_time", "got -1"}},
+        BadInput{"factor_in_static", kCantilever, "force: [0, 1e4, 0]",
+                 "force: [0, 1e4, 0] factor { constant: 2 }", "",
+                 {"model.elastic_bodies[0].loads[0].factor", "applies to DYNAMIC analyses"}},
         BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
                  {"friction", "must be >= 0"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });

@@ -7,6 +7,8 @@
 //   q̇_{n+1} = q̇_n + h (1 − γ) a_n + h γ a_{n+1}
 //   M q̈_{n+1} + Φ_qᵀ λ_{n+1} = f_{n+1},   Φ(q_{n+1}, t_{n+1}) = 0            Eqs. (1)-(2)
 //
+// with the elastic bodies' internal force in f as the GEMM effective end-point force f̃_{n+1}
+// (ElasticStepForce: equivalent to the paper's Eq. (30)),
 // solved by Newton–Raphson on (q_{n+1}, λ_{n+1}) with the exact tangent
 //   [β' M + γ' C + K_t, Φ_qᵀ; Φ_q, 0],  β' = (1 − αm)/((1 − αf) β h²),  γ' = γ/(βh),
 //   K_t = ∂(Φ_qᵀλ)/∂q − ∂f/∂q,  C = −∂f/∂q̇,
@@ -16,7 +18,8 @@
 // Coefficients from ρ∞ ∈ [0, 1] (Chung & Hulbert, as used by Arnold & Brüls):
 //   αm = (2ρ∞ − 1)/(ρ∞ + 1), αf = ρ∞/(ρ∞ + 1), γ = ½ + αf − αm, β = ¼ (γ + ½)².
 // Starting value: a_0 = q̈(t_0 + Δα h), Δα = αm − αf, as Arnold & Brüls prescribe for smooth
-// solutions. Measured: the multipliers still show a period-2 start-up transient (four-bar,
+// solutions, from the consistent accelerations after one trapezoidal step of length Δα h (a
+// Taylor shift would blow up stiff elastic modes; see Step). Measured: the multipliers still show a period-2 start-up transient (four-bar,
 // ρ∞ = 0.95, h = 1e-3: up to 1.4e-2 N on the 24 N joint force after 20 steps, decaying over
 // ~150 steps), which the shifted a_0 changes only in the fifth digit; and a drive whose jerk
 // jumps at t_0 (the cosine spin-up ramp) gives an O(h) transient in the drive torque.

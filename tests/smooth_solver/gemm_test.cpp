@@ -287,8 +287,8 @@ TEST(StructuralDamping, FirstBendingModeDecaysAtTheKelvinVoigtRatio) {
   }
   std::vector<double> crossings, peaks;
   for (size_t k = 1; k < z.size(); ++k) {
-    if (k * h < 0.03) continue;  // past the first period: the higher modes are gone
-    if ((z[k - 1] < 0.0) != (z[k] < 0.0)) crossings.push_back(h * (k - 1 + z[k - 1] / (z[k - 1] - z[k])));
+    if (static_cast<double>(k) * h < 0.03) continue;  // past the first period: the higher modes are gone
+    if ((z[k - 1] < 0.0) != (z[k] < 0.0)) crossings.push_back(h * (static_cast<double>(k - 1) + z[k - 1] / (z[k - 1] - z[k])));
     if (k + 1 < z.size() && z[k] > z[k - 1] && z[k] >= z[k + 1] && z[k] > 0.0) {
       // Parabola through the three samples around the maximum.
       const double a = 0.5 * (z[k - 1] + z[k + 1]) - z[k], b = 0.5 * (z[k + 1] - z[k - 1]);
@@ -296,8 +296,8 @@ TEST(StructuralDamping, FirstBendingModeDecaysAtTheKelvinVoigtRatio) {
     }
   }
   ASSERT_GE(peaks.size(), 3u);
-  const double omega = M_PI * (crossings.size() - 1) / (crossings.back() - crossings.front());
-  const double decrement = std::log(peaks.front() / peaks.back()) / (peaks.size() - 1);
+  const double omega = M_PI * static_cast<double>(crossings.size() - 1) / (crossings.back() - crossings.front());
+  const double decrement = std::log(peaks.front() / peaks.back()) / static_cast<double>(peaks.size() - 1);
   const double zeta = decrement / std::sqrt(4.0 * M_PI * M_PI + decrement * decrement);
   std::printf("structural damping: omega %.2f rad/s, zeta %.5f (beta omega / 2 = %.5f) over %zu peaks\n", omega, zeta,
               0.5 * beta * omega, peaks.size());

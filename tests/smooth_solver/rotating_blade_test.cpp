@@ -54,7 +54,7 @@ SpinRun RunSpinningBlade(double omega) {
   }
   run.radial_stretch /= samples;
   // Half a period between successive crossings; average over all of them.
-  run.flap_frequency = M_PI * (crossings.size() - 1) / (crossings.back() - crossings.front());
+  run.flap_frequency = M_PI * static_cast<double>(crossings.size() - 1) / (crossings.back() - crossings.front());
   return run;
 }
 

@@ -1,0 +1,140 @@
+// The coupling protocol's transport (interface/coupling/channel): a round trip of the real
+// messages over inproc and ipc, and the failures a coordinator must survive with a clear
+// message — a silent peer (timeout, exit 4), a heartbeating but slow peer (not a failure), a
+// malformed message, a wrong protocol version and an out-of-order message (exit 2).
+#include "interface/coupling/channel.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <functional>
+#include <string>
+#include <thread>
+#include <unistd.h>
+#include <zmq.hpp>
+
+#include "interface/run/errors.h"
+
+namespace cosim::interface {
+namespace {
+
+using coupling::Envelope;
+
+struct Pair {
+  zmq::context_t context;
+  Channel contact, smooth;
+  explicit Pair(const std::string& endpoint, double timeout = 2.0)
+      : contact(&context, {endpoint, true, "contact", "smooth", timeout, 0.05}),
+        smooth(&context, {endpoint, false, "smooth", "contact", timeout, 0.05}) {}
+};
+
+void ExpectCode(ExitCode code, const std::function<void()>& f, const std::string& fragment) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one containing '" << fragment << "'";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), code) << e.what();
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+  }
+}
+
+void RoundTrip(Pair& p) {
+  // Coordinator → contact: Reactions of step 4, iteration 2, with one moving-obstacle frame.
+  auto* reactions = p.smooth.Outgoing(4, 2).mutable_reactions();
+  for (double v : {1.0, -2.0, 3.5}) reactions->add_force(v);
+  reactions->add_obstacle_frames()->add_position(0.25);
+  p.smooth.Send();
+  const Envelope& got = p.contact.Receive(Envelope::kReactions, 4, 2);
+  ASSERT_EQ(got.reactions().force_size(), 3);
+  EXPECT_EQ(got.reactions().force(1), -2.0);
+  EXPECT_EQ(got.sender(), "smooth");
+  EXPECT_EQ(got.reactions().obstacle_frames(0).position(0), 0.25);
+  // And back: Kinematics.
+  auto* k = p.contact.Outgoing(4, 2).mutable_kinematics();
+  for (double v : {0.1, 0.2, 0.3}) k->add_position(v);
+  for (double v : {-1.0, 0.0, 1.0}) k->add_velocity(v);
+  p.contact.Send();
+  const Envelope& back = p.smooth.Receive(Envelope::kKinematics, 4, 2);
+  EXPECT_EQ(back.kinematics().velocity(0), -1.0);
+  EXPECT_EQ(back.sender(), "contact");
+}
+
+TEST(Channel, MessagesRoundTripOverInprocAndIpc) {
+  Pair inproc("inproc://round_trip");
+  RoundTrip(inproc);
+  const std::string ipc = "ipc:///tmp/cosim_channel_test_" + std::to_string(getpid());
+  Pair over_ipc(ipc);
+  RoundTrip(over_ipc);
+}
+
+TEST(Channel, SilentPeerEndsTheWaitWithExitCodeFourNamingIt) {
+  // Nobody answers: after `timeout` the coordinator gives up with a PeerError that names the
+  // peer, the endpoint and what it waited for — within the timeout plus polling slack.
+  Pair p("inproc://silent", 0.3);
+  const auto t0 = std::chrono::steady_clock::now();
+  ExpectCode(ExitCode::kPeerFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 7, 0); },
+             "no message from 'contact' (inproc://silent) for 0.3 s while waiting for Kinematics of step 7");
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_GT(waited, 0.29);
+  EXPECT_LT(waited, 0.6);
+}
+
+TEST(Channel, HeartbeatsKeepASlowPeerAlive) {
+  // The contact side is busy for three timeouts but sends heartbeats meanwhile: the wait goes
+  // on, and the reply arrives.
+  Pair p("inproc://slow", 0.2);
+  std::thread busy([&] {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(600);
+    while (std::chrono::steady_clock::now() < end) {
+      p.contact.MaybeHeartbeat();
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    p.contact.Outgoing(1, 0).mutable_kinematics();
+    p.contact.Send();
+  });
+  EXPECT_NO_THROW(p.smooth.Receive(Envelope::kKinematics, 1, 0));
+  busy.join();
+}
+
+TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
+  Pair p("inproc://refusals");
+  // Bytes that are not an Envelope (an invalid wire type).
+  const std::string junk = "\xff\xff\xff\xff garbage";
+  p.contact.socket().send(zmq::buffer(junk), zmq::send_flags::none);
+  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
+             "a malformed message (12 bytes) from 'contact' while waiting for Welcome");
+  // A peer of another protocol version.
+  Envelope old_version;
+  old_version.set_protocol_version(7);
+  old_version.mutable_welcome();
+  p.contact.socket().send(zmq::buffer(old_version.SerializeAsString()), zmq::send_flags::none);
+  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
+             "'contact' speaks protocol version 7, this program speaks version 1");
+  // The right message for the wrong iteration, then the wrong message.
+  p.contact.Outgoing(3, 1).mutable_kinematics();
+  p.contact.Send();
+  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+             "got Kinematics of step 3, iteration 1, expected Kinematics of step 3, iteration 2");
+  p.contact.Outgoing(3, 2).mutable_step_end();
+  p.contact.Send();
+  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+             "got StepEnd of step 3, iteration 2, expected Kinematics");
+  // A peer that reports its own failure.
+  auto* stop = p.contact.Outgoing(3, 2).mutable_shutdown();
+  stop->set_exit_code(3);
+  stop->set_reason("LCP failed at t = 0.25 s");
+  p.contact.Send();
+  ExpectCode(ExitCode::kPeerFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+             "'contact' stopped (exit code 3) while this side waited for Kinematics of step 3, iteration 2: LCP failed");
+}
+
+TEST(Channel, AnEndpointInUseIsReportedNamingIt) {
+  zmq::context_t context;
+  Channel first(&context, {"inproc://taken", true, "contact", "smooth", 1.0, 1.0});
+  ExpectCode(ExitCode::kPeerFailure,
+             [&] { Channel second(&context, {"inproc://taken", true, "contact2", "smooth", 1.0, 1.0}); },
+             "cannot bind endpoint 'inproc://taken' for peer 'smooth'");
+}
+
+}  // namespace
+}  // namespace cosim::interface

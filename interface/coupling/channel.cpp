@@ -1,5 +1,6 @@
 #include "interface/coupling/channel.h"
 
+#include <algorithm>
 #include <chrono>
 #include <zmq.hpp>
 
@@ -35,7 +36,9 @@ Channel::Channel(zmq::context_t* context, ChannelOptions options)
     : options_(std::move(options)), socket_(std::make_unique<zmq::socket_t>(*context, zmq::socket_type::dealer)) {
   const int heartbeat_ms = static_cast<int>(1000.0 * options_.heartbeat);
   const int timeout_ms = static_cast<int>(1000.0 * options_.timeout);
-  socket_->set(zmq::sockopt::linger, 0);
+  // A last reply (to Shutdown) must reach the peer after this side closes; a dead peer must
+  // not hold the close up for long.
+  socket_->set(zmq::sockopt::linger, static_cast<int>(std::min(1000.0, timeout_ms * 1.0)));
   socket_->set(zmq::sockopt::heartbeat_ivl, heartbeat_ms);
   socket_->set(zmq::sockopt::heartbeat_timeout, timeout_ms);
   socket_->set(zmq::sockopt::heartbeat_ttl, timeout_ms);
@@ -99,10 +102,10 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting) {
                       FormatNumber(options_.timeout) + " s while waiting for " + awaiting +
                       "; the peer died, hung or never started (coupling.timeout)");
     }
-    zmq::pollitem_t item{socket_->handle(), 0, ZMQ_POLLIN, 0};
-    zmq::poll(&item, 1, std::chrono::milliseconds(static_cast<long>(1000.0 * left) + 1));
-    if ((item.revents & ZMQ_POLLIN) == 0) continue;
-    if (!socket_->recv(message, zmq::recv_flags::dontwait)) continue;
+    // A blocking receive bounded by the time left (one call, no poll: the round trip is what
+    // the coupling pays per iteration).
+    socket_->set(zmq::sockopt::rcvtimeo, static_cast<int>(1000.0 * left) + 1);
+    if (!socket_->recv(message, zmq::recv_flags::none)) continue;  // timed out: checked above
     if (!incoming_.ParseFromArray(message.data(), static_cast<int>(message.size()))) {
       throw InputError("coupling: a malformed message (" + std::to_string(message.size()) + " bytes) from '" +
                        options_.peer + "' while waiting for " + awaiting +

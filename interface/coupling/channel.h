@@ -46,6 +46,7 @@ class Channel {
   // A message to fill and send: version and sender are set, the body cleared.
   coupling::Envelope& Outgoing(int64_t step, int iteration);
   void Send();  // sends Outgoing()
+  const coupling::Envelope& outgoing() const { return outgoing_; }  // as filled, not cleared
 
   // The next message that is not a heartbeat, parsed and checked: its body must be `expected`,
   // and its step and iteration the given ones (checked when >= 0 / >= 0). `awaiting` says

@@ -70,6 +70,31 @@ class MoreauJean {
   double PotentialEnergy(int node) const;  // gravity and springs; node < 0: all (node springs included)
   const MoreauJeanStats& stats() const { return stats_; }
 
+  // The state a step changes, to try a step again (a coupling iteration) or undo it (a
+  // rejected step). SaveTo reuses the checkpoint's buffers: no allocation once sized.
+  struct Checkpoint {
+    double time = 0.0;
+    Eigen::VectorXd q, v, impulse;
+    Eigen::MatrixXd friction_impulse;
+    MoreauJeanStats stats;
+  };
+  void SaveTo(Checkpoint* c) const {
+    c->time = time_;
+    c->q = q_;
+    c->v = v_;
+    c->impulse = impulse_;
+    c->friction_impulse = friction_impulse_;
+    c->stats = stats_;
+  }
+  void Restore(const Checkpoint& c) {
+    time_ = c.time;
+    q_ = c.q;
+    v_ = c.v;
+    impulse_ = c.impulse;
+    friction_impulse_ = c.friction_impulse;
+    stats_ = c.stats;
+  }
+
  private:
   // Constant matrices and scratch of one node group, sized once.
   struct GroupWork {

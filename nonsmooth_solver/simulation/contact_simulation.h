@@ -20,6 +20,7 @@ class ContactSimulation : public interface::Simulation {
 
   const ContactModel& model() const { return *model_; }
   const MoreauJean& integrator() const { return *integrator_; }
+  MoreauJean& mutable_integrator() { return *integrator_; }  // the coupling server's checkpoints
 
  private:
   std::unique_ptr<const ContactModel> model_;  // stable address for the integrator

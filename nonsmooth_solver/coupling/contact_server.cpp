@@ -1,0 +1,148 @@
+#include "nonsmooth_solver/coupling/contact_server.h"
+
+#include "interface/run/errors.h"
+
+namespace cosim::nonsmooth {
+
+using coupling::Envelope;
+
+ContactServer::ContactServer(ContactSimulation* simulation, interface::Channel* channel, std::string scenario_name)
+    : simulation_(simulation), channel_(channel), scenario_name_(std::move(scenario_name)) {
+  external_ = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(simulation_->model().nodes.size()));
+}
+
+void ContactServer::Handshake(const Envelope& e) {
+  const coupling::Hello& hello = e.hello();
+  const std::string peer = channel_->options().peer;
+  if (hello.scenario_name() != scenario_name_) {
+    throw InputError("coupling: '" + peer + "' runs scenario '" + hello.scenario_name() + "', this process read '" +
+                     scenario_name_ + "'; both sides must read the same scenario");
+  }
+  const auto& model_nodes = simulation_->model().nodes;
+  nodes_.clear();
+  for (int i = 0; i < hello.interface_nodes_size(); ++i) {
+    const std::string& name = hello.interface_nodes(i);
+    int found = -1;
+    for (size_t n = 0; n < model_nodes.size(); ++n) {
+      if (model_nodes[n].name == name) found = static_cast<int>(n);
+    }
+    if (found < 0) {
+      std::string known;
+      for (const auto& n : model_nodes) known += (known.empty() ? "" : ", ") + n.name;
+      throw InputError("coupling: Hello.interface_nodes[" + std::to_string(i) + "] from '" + peer +
+                       "' names contact node '" + name + "', which this process does not have; known: " + known);
+    }
+    nodes_.push_back(found);
+  }
+  if (!(hello.step() > 0.0)) {
+    throw InputError("coupling: Hello.step from '" + peer + "' is " + std::to_string(hello.step()) +
+                     "; expected a positive step [s]");
+  }
+  coupling::Welcome* welcome = channel_->Outgoing(-1, 0).mutable_welcome();
+  welcome->set_process_name(channel_->options().self);
+  welcome->set_solver("nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)");
+  for (const auto& name : hello.interface_nodes()) welcome->add_interface_nodes(name);
+  channel_->Send();
+}
+
+void ContactServer::TentativeStep(int64_t step, int iteration) {
+  MoreauJean& integrator = simulation_->mutable_integrator();
+  integrator.Restore(start_);
+  integrator.SetExternalForces(external_);
+  try {
+    simulation_->Step(t_, h_);
+  } catch (const Error& e) {
+    auto* stop = channel_->Outgoing(step, iteration).mutable_shutdown();
+    stop->set_exit_code(static_cast<int>(e.code()));
+    stop->set_reason(e.what());
+    channel_->Send();
+    throw;
+  }
+  ++tentative_;
+  coupling::Kinematics* k = channel_->Outgoing(step, iteration).mutable_kinematics();
+  const Eigen::VectorXd& q = integrator.positions();
+  const Eigen::VectorXd& v = integrator.velocities();
+  for (int node : nodes_) {
+    for (int i = 0; i < 3; ++i) {
+      k->add_position(q(3 * node + i));
+      k->add_velocity(v(3 * node + i));
+    }
+    int closed = 0;
+    const auto& contacts = simulation_->model().contacts;
+    for (size_t c = 0; c < contacts.size(); ++c) {
+      if (contacts[c].node == node && integrator.impulses()(static_cast<Eigen::Index>(c)) > 0.0) closed = 1;
+    }
+    k->add_in_contact(closed);
+  }
+  channel_->Send();
+}
+
+void ContactServer::Run() {
+  const std::string peer = channel_->options().peer;
+  Handshake(channel_->Receive(Envelope::kHello, -1, -1));
+  while (true) {
+    const Envelope& e = channel_->ReceiveAny();
+    switch (e.body_case()) {
+      case Envelope::kStepBegin: {
+        if (e.step() != last_accepted_ + 1) {
+          throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
+                           "', expected step " + std::to_string(last_accepted_ + 1));
+        }
+        if (!(e.step_begin().step() > 0.0)) {
+          throw InputError("coupling: StepBegin.step from '" + peer + "' is " + std::to_string(e.step_begin().step()) +
+                           "; expected a positive step [s]");
+        }
+        step_ = e.step();
+        t_ = e.step_begin().time();
+        h_ = e.step_begin().step();
+        simulation_->integrator().SaveTo(&start_);
+        TentativeStep(step_, 0);  // the last accepted reactions as predictor
+        break;
+      }
+      case Envelope::kReactions: {
+        if (e.step() != step_ || step_ < 0) {
+          throw InputError("coupling: Reactions of step " + std::to_string(e.step()) + " from '" + peer +
+                           "', but the step under way is " + std::to_string(step_));
+        }
+        const auto& force = e.reactions().force();
+        if (force.size() != 3 * static_cast<int>(nodes_.size())) {
+          throw InputError("coupling: Reactions.force from '" + peer + "' has " + std::to_string(force.size()) +
+                           " values; expected 3 per interface node, " + std::to_string(3 * nodes_.size()));
+        }
+        for (size_t n = 0; n < nodes_.size(); ++n) {
+          for (int i = 0; i < 3; ++i) external_(3 * nodes_[n] + i) = force.Get(3 * static_cast<int>(n) + i);
+        }
+        TentativeStep(step_, e.iteration());
+        break;
+      }
+      case Envelope::kStepEnd: {
+        if (e.step() != step_ || step_ < 0) {
+          throw InputError("coupling: StepEnd of step " + std::to_string(e.step()) + " from '" + peer +
+                           "', but the step under way is " + std::to_string(step_));
+        }
+        const bool accepted = e.step_end().accepted();
+        if (accepted) {
+          last_accepted_ = step_;
+          ++accepted_;
+          if (on_accept) on_accept(t_ + h_);
+        } else {
+          simulation_->mutable_integrator().Restore(start_);
+        }
+        step_ = -1;
+        channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);
+        channel_->Send();
+        break;
+      }
+      case Envelope::kShutdown: {
+        channel_->Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
+        channel_->Send();
+        return;
+      }
+      default:
+        throw InputError("coupling: unexpected " + interface::BodyName(e.body_case()) + " from '" + peer +
+                         "' (a contact process answers StepBegin, Reactions, StepEnd and Shutdown)");
+    }
+  }
+}
+
+}  // namespace cosim::nonsmooth

@@ -1,0 +1,56 @@
+#pragma once
+// The contact process's side of the coupling protocol (proto/coupling.proto): it answers the
+// coordinator (smooth_solver) message by message, each coupling iteration one tentative
+// Moreau–Jean step from the step's start with the reactions it was sent as external forces on
+// the interface nodes [rotor-sailing paper, Section 2]:
+//
+//   Hello      → Welcome      the interface nodes are looked up (unknown: InputError, exit 2)
+//   StepBegin  → Kinematics 0 a checkpoint of the step's start, and a tentative step with the
+//                             last accepted reactions (the coordinator's predictor)
+//   Reactions i → Kinematics i back to the checkpoint, reactions set, one step
+//   StepEnd    → StepEnd      accepted: keep the last tentative step; rejected: back to the
+//                             checkpoint
+//   Shutdown   → Shutdown     end of the run
+//
+// A step that fails (NumericalError) is reported to the coordinator with Shutdown(exit 3) before
+// the error goes on up. Accepted steps are counted; `on_accept` (if set) is called after each,
+// for the run's history rows.
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "interface/coupling/channel.h"
+#include "nonsmooth_solver/simulation/contact_simulation.h"
+
+namespace cosim::nonsmooth {
+
+class ContactServer {
+ public:
+  ContactServer(ContactSimulation* simulation, interface::Channel* channel, std::string scenario_name);
+
+  // Serves until the coordinator's Shutdown. Throws PeerError (the coordinator vanished or
+  // stopped), InputError (a refused message) or NumericalError (a failed step).
+  void Run();
+
+  std::function<void(double time)> on_accept;
+  long long accepted_steps() const { return accepted_; }
+  long long tentative_steps() const { return tentative_; }
+  const std::vector<int>& interface_nodes() const { return nodes_; }  // model node indices
+
+ private:
+  void Handshake(const coupling::Envelope& hello);
+  void TentativeStep(int64_t step, int iteration);
+
+  ContactSimulation* simulation_;
+  interface::Channel* channel_;
+  std::string scenario_name_;
+  std::vector<int> nodes_;
+  Eigen::VectorXd external_;  // 3 per model node: the interface nodes' reactions, 0 elsewhere
+  MoreauJean::Checkpoint start_;
+  double t_ = 0.0, h_ = 0.0;
+  int64_t step_ = -1;          // the step under way
+  int64_t last_accepted_ = -1;
+  long long accepted_ = 0, tentative_ = 0;
+};
+
+}  // namespace cosim::nonsmooth

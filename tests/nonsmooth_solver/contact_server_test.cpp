@@ -1,0 +1,137 @@
+// The contact process's side of the coupling protocol (nonsmooth_solver/coupling/
+// contact_server), driven over inproc by a test coordinator: the handshake, tentative steps
+// that start again from the step's start at every iteration, accept and reject, and refusals.
+#include "nonsmooth_solver/coupling/contact_server.h"
+
+#include <gtest/gtest.h>
+
+#include <exception>
+#include <thread>
+#include <zmq.hpp>
+
+#include "interface/run/errors.h"
+
+namespace cosim::nonsmooth {
+namespace {
+
+using coupling::Envelope;
+
+// The bouncing ball of scenarios/bouncing_ball.pbtxt: 1 kg at z = 1 m above the ground plane.
+const interface::ScenarioFile& Ball() {
+  static const interface::ScenarioFile file =
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/bouncing_ball.pbtxt", {});
+  return file;
+}
+
+// Runs a ContactServer on its own thread; the test thread is the coordinator.
+struct Harness {
+  zmq::context_t context;
+  ContactSimulation simulation{Ball()};
+  interface::Channel contact{&context, {"inproc://server", true, "contacts", "smooth", 2.0, 0.5}};
+  interface::Channel smooth{&context, {"inproc://server", false, "smooth", "contacts", 2.0, 0.5}};
+  ContactServer server{&simulation, &contact, "bouncing_ball"};
+  std::exception_ptr failure;
+  std::thread thread{[this] {
+    try {
+      server.Run();
+    } catch (...) {
+      failure = std::current_exception();
+    }
+  }};
+  ~Harness() {
+    if (thread.joinable()) thread.join();
+  }
+  void Hello(const std::string& node) {
+    auto* hello = smooth.Outgoing(-1, 0).mutable_hello();
+    hello->set_scenario_name("bouncing_ball");
+    hello->add_interface_nodes(node);
+    hello->set_step(0.005);
+    smooth.Send();
+  }
+  const coupling::Kinematics& Iterate(int64_t step, int iteration, double fz) {
+    auto* r = smooth.Outgoing(step, iteration).mutable_reactions();
+    for (double f : {0.0, 0.0, fz}) r->add_force(f);
+    smooth.Send();
+    return smooth.Receive(Envelope::kKinematics, step, iteration).kinematics();
+  }
+  void Finish() {
+    smooth.Outgoing(-1, 0).mutable_shutdown();
+    smooth.Send();
+    smooth.Receive(Envelope::kShutdown, -1, -1);
+    thread.join();
+    if (failure) std::rethrow_exception(failure);
+  }
+};
+
+TEST(ContactServer, IterationsRestartFromTheStepStartAndOnlyAcceptedStepsCount) {
+  // A reaction of +m g holds the ball still; without it the ball falls by ½ g h² in the step
+  // (θ = ½: exact for constant gravity). Each Reactions message recomputes the same step from
+  // its start, whatever came before in the step; a rejected step is undone.
+  Harness h;
+  h.Hello("ball");
+  EXPECT_EQ(h.smooth.Receive(Envelope::kWelcome, -1, -1).welcome().interface_nodes(0), "ball");
+  const double g = 9.81, dt = 0.005;
+  for (int64_t step = 0; step < 2; ++step) {
+    auto* begin = h.smooth.Outgoing(step, 0).mutable_step_begin();
+    begin->set_time(static_cast<double>(step) * dt);
+    begin->set_step(dt);
+    h.smooth.Send();
+    h.smooth.Receive(Envelope::kKinematics, step, 0);  // predictor: the last accepted reactions
+    const coupling::Kinematics falling = h.Iterate(step, 1, 0.0);
+    EXPECT_NEAR(falling.position(2), 1.0 - 0.5 * g * dt * dt, 1e-14);
+    EXPECT_NEAR(falling.velocity(2), -g * dt, 1e-14);
+    const coupling::Kinematics held = h.Iterate(step, 2, g);
+    EXPECT_NEAR(held.position(2), 1.0, 1e-14);
+    EXPECT_NEAR(held.velocity(2), 0.0, 1e-14);
+    EXPECT_EQ(held.in_contact(0), 0);
+    auto* end = h.smooth.Outgoing(step, 2).mutable_step_end();
+    end->set_accepted(step == 0);  // accept the first step, reject the second
+    h.smooth.Send();
+    EXPECT_EQ(h.smooth.Receive(Envelope::kStepEnd, step, 2).step_end().accepted(), step == 0);
+  }
+  h.Finish();
+  EXPECT_EQ(h.server.accepted_steps(), 1);
+  EXPECT_EQ(h.server.tentative_steps(), 6);
+  EXPECT_NEAR(h.simulation.integrator().positions()(2), 1.0, 1e-14);  // the rejected step is undone
+  EXPECT_NEAR(h.simulation.integrator().time(), dt, 1e-15);
+}
+
+TEST(ContactServer, UnknownInterfaceNodeIsRefusedNamingIt) {
+  Harness h;
+  h.Hello("bal");
+  h.thread.join();
+  ASSERT_TRUE(h.failure);
+  try {
+    std::rethrow_exception(h.failure);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("Hello.interface_nodes[0] from 'smooth' names contact node 'bal', which "
+                                         "this process does not have; known: ball"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ContactServer, ReactionsOfTheWrongSizeAreRefused) {
+  Harness h;
+  h.Hello("ball");
+  h.smooth.Receive(Envelope::kWelcome, -1, -1);
+  auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
+  begin->set_time(0.0);
+  begin->set_step(0.005);
+  h.smooth.Send();
+  h.smooth.Receive(Envelope::kKinematics, 0, 0);
+  h.smooth.Outgoing(0, 1).mutable_reactions()->add_force(1.0);
+  h.smooth.Send();
+  h.thread.join();
+  ASSERT_TRUE(h.failure);
+  try {
+    std::rethrow_exception(h.failure);
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("Reactions.force from 'smooth' has 1 values; expected 3 per interface node, 3"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace cosim::nonsmooth

@@ -1,0 +1,84 @@
+#include "interface/coupling/relaxation.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cosim::interface {
+
+Relaxation::Relaxation(Method method, int size, double factor, int max_columns)
+    : method_(method), factor_(factor), omega_(factor), max_columns_(max_columns > 0 ? max_columns : size) {
+  r_.resize(size);
+  r_previous_.resize(size);
+  x_tilde_previous_.resize(size);
+  dr_.resize(size);
+  V_.resize(size, max_columns_);
+  W_.resize(size, max_columns_);
+  alpha_.resize(max_columns_);
+}
+
+void Relaxation::BeginStep() {
+  iteration_ = 0;
+  columns_ = 0;
+  omega_ = factor_;
+}
+
+void Relaxation::Next(const Eigen::VectorXd& x, const Eigen::VectorXd& x_tilde, Eigen::VectorXd* x_next) {
+  r_ = x_tilde - x;
+  const double r_norm = r_.norm();
+  if (r_norm == 0.0) {  // already a fixed point
+    *x_next = x_tilde;
+    ++iteration_;
+    return;
+  }
+  switch (method_) {
+    case Method::kConstant:
+      omega_ = factor_;
+      *x_next = x + omega_ * r_;
+      break;
+    case Method::kAitken: {
+      if (iteration_ == 0) {
+        omega_ = factor_;
+      } else {
+        dr_ = r_ - r_previous_;
+        const double dr2 = dr_.squaredNorm();
+        // A stalled iteration (no change of residual) keeps the last ω.
+        if (dr2 > 0.0) omega_ = std::clamp(-omega_ * r_previous_.dot(dr_) / dr2, -2.0, 2.0);
+      }
+      *x_next = x + omega_ * r_;
+      break;
+    }
+    case Method::kIqnIls: {
+      if (iteration_ > 0) {
+        // New column (newest first): Δr = r_i − r_{i−1}, Δx̃ = x̃_i − x̃_{i−1}.
+        const int keep = std::min(columns_, max_columns_ - 1);
+        for (int c = keep; c > 0; --c) {
+          V_.col(c) = V_.col(c - 1);
+          W_.col(c) = W_.col(c - 1);
+        }
+        V_.col(0) = r_ - r_previous_;
+        W_.col(0) = x_tilde - x_tilde_previous_;
+        columns_ = keep + 1;
+      }
+      // Drop the oldest columns until the fit is well conditioned.
+      bool updated = false;
+      while (columns_ > 0) {
+        Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(V_.leftCols(columns_));
+        qr.setThreshold(1e-10);
+        if (qr.rank() == columns_) {
+          alpha_.head(columns_) = qr.solve(-r_);
+          *x_next = x_tilde + W_.leftCols(columns_) * alpha_.head(columns_);
+          updated = true;
+          break;
+        }
+        --columns_;
+      }
+      if (!updated) *x_next = x + factor_ * r_;  // first iteration, or no usable history
+      break;
+    }
+  }
+  r_previous_ = r_;
+  x_tilde_previous_ = x_tilde;
+  ++iteration_;
+}
+
+}  // namespace cosim::interface

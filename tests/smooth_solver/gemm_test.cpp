@@ -15,6 +15,7 @@
 #include "smooth_solver/model/multibody_model.h"
 #include "smooth_solver/model/multibody_system.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
+#include "tests/smooth_solver/skewed_element.h"
 
 namespace cosim::smooth {
 namespace {
@@ -27,14 +28,7 @@ struct TwoConfigurations {
   Hex27 element;
   Hex27::NodeMatrix x0, x1;
   TwoConfigurations() {
-    Hex27::NodeMatrix X;
-    Eigen::Matrix3d A;
-    A << 0.5, 0.05, 0.0, 0.02, 0.3, 0.01, 0.0, 0.03, 0.2;
-    for (int k = 0; k < 3; ++k) {
-      for (int j = 0; j < 3; ++j) {
-        for (int i = 0; i < 3; ++i) X.col(i + 3 * j + 9 * k) = A * Eigen::Vector3d(i - 1.0, j - 1.0, k - 1.0);
-      }
-    }
+    const Hex27::NodeMatrix X = fixtures::SkewedReference();
     EXPECT_TRUE(element.Initialize(X));
     x0 = X;
     x1 = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix() * X;

@@ -13,22 +13,12 @@
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/simulation/elastic_static_simulation.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
+#include "tests/smooth_solver/skewed_element.h"
 
 namespace cosim::smooth {
 namespace {
 
-// A skewed reference element: the unit-spaced node grid, sheared and scaled.
-Hex27::NodeMatrix Reference() {
-  Hex27::NodeMatrix X;
-  Eigen::Matrix3d A;
-  A << 0.5, 0.05, 0.0, 0.02, 0.3, 0.01, 0.0, 0.03, 0.2;
-  for (int k = 0; k < 3; ++k) {
-    for (int j = 0; j < 3; ++j) {
-      for (int i = 0; i < 3; ++i) X.col(i + 3 * j + 9 * k) = A * Eigen::Vector3d(i - 1.0, j - 1.0, k - 1.0);
-    }
-  }
-  return X;
-}
+Hex27::NodeMatrix Reference() { return fixtures::SkewedReference(); }
 
 const ElasticMaterial kSteelLike{7800.0, 2.1e11, 0.3};
 

@@ -70,6 +70,32 @@ class CgAlpha : public SmoothIntegrator {
   // |Φ|∞ at the current state.
   double ConstraintViolation(double t) const override;
 
+  // Everything a step changes, to try a step again (a coupling iteration) or undo it (a
+  // rejected step). SaveTo reuses the checkpoint's buffers.
+  struct Checkpoint {
+    DaeState state;
+    Eigen::VectorXd a, elastic;
+    bool started = false;
+  };
+  void SaveTo(Checkpoint* c) const {
+    c->state.q = state_.q;
+    c->state.qdot = state_.qdot;
+    c->state.qddot = state_.qddot;
+    c->state.lambda = state_.lambda;
+    c->a = a_;
+    c->elastic = elastic_.current();
+    c->started = started_;
+  }
+  void Restore(const Checkpoint& c) {
+    state_.q = c.state.q;
+    state_.qdot = c.state.qdot;
+    state_.qddot = c.state.qddot;
+    state_.lambda = c.state.lambda;
+    a_ = c.a;
+    elastic_.set_current(c.elastic);
+    started_ = c.started;
+  }
+
  private:
   // Zeroes S_, adds the elastic tangent and f̃ (into force_), then the rest of the matrix.
   void AssembleIteration(double t1, double h);

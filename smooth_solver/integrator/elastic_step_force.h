@@ -32,6 +32,7 @@ class ElasticStepForce {
   // The step q_prev → q is accepted: f̃_n = f̃_{n+1}(q), evaluated at the accepted q.
   void Accept(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q);
   const Eigen::VectorXd& current() const { return current_; }  // f̃_n
+  void set_current(const Eigen::VectorXd& f) { current_ = f; }  // a checkpoint's f̃_n
 
  private:
   void Evaluate(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double k_scale, SparseSink* sink);

@@ -65,13 +65,28 @@ struct ScalarConstraint {
   double release_time = std::numeric_limits<double>::infinity();
 };
 
-// A prescribed joint coordinate θ(t) (angle or displacement), with its derivatives.
+// A coordinate a coupling peer gives instead of a time function: its value, rate and
+// acceleration at the end of the step under way, set by the coordinator between iterations
+// (the contact node's position imposed on a material point, rotor-sailing paper Eq. (6)).
+struct ImposedCoordinate {
+  double value = 0.0, rate = 0.0, acceleration = 0.0;
+};
+
+// A prescribed joint coordinate θ(t) (angle or displacement), with its derivatives; or, if
+// `imposed` is set, whatever the coupling peer imposes now (t is then not used).
 struct Drive {
   interface::TimeFunction function;
   bool is_rate = false;  // the function gives θ̇ (speed drives): θ = ∫ f
-  double Value(double t) const { return is_rate ? function.Integral(t) : function.Value(t); }
-  double Rate(double t) const { return is_rate ? function.Value(t) : function.Derivative(t); }
-  double Acceleration(double t) const { return is_rate ? function.Derivative(t) : function.SecondDerivative(t); }
+  const ImposedCoordinate* imposed = nullptr;
+  double Value(double t) const {
+    return imposed != nullptr ? imposed->value : is_rate ? function.Integral(t) : function.Value(t);
+  }
+  double Rate(double t) const {
+    return imposed != nullptr ? imposed->rate : is_rate ? function.Value(t) : function.Derivative(t);
+  }
+  double Acceleration(double t) const {
+    return imposed != nullptr ? imposed->acceleration : is_rate ? function.Derivative(t) : function.SecondDerivative(t);
+  }
 };
 
 // Triplet sink for sparse assembly: (row, column, value) added into a matrix whose pattern
@@ -86,6 +101,10 @@ class ConstraintSet {
  public:
   std::vector<ScalarConstraint> constraints;
   std::vector<Drive> drives;
+  // Tikhonov regularisation of row i, Φ_i − c_i λ_i = 0 (rotor-sailing paper, Eq. (7)); empty:
+  // none. The CGα integrator honours it; the initial accelerations are computed without it.
+  std::vector<double> compliance;
+  double Compliance(size_t i) const { return i < compliance.size() ? compliance[i] : 0.0; }
 
   int size() const { return static_cast<int>(constraints.size()); }
   bool Active(size_t i, double t) const { return t <= constraints[i].release_time; }

@@ -100,6 +100,11 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
+  // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
+  for (size_t i = 0; i < system_.constraints.compliance.size(); ++i) {
+    const double c = system_.constraints.compliance[i];
+    if (c != 0.0) sink.Add(n + static_cast<int>(i), n + static_cast<int>(i), -c / bh2);
+  }
 }
 
 int CgAlpha::Step(double t, double h) {
@@ -157,6 +162,9 @@ int CgAlpha::Step(double t, double h) {
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     system_.constraints.Evaluate(next_.q, t1, residual_.tail(m));
+    for (size_t i = 0; i < system_.constraints.compliance.size(); ++i) {
+      residual_(n + static_cast<Eigen::Index>(i)) -= system_.constraints.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
+    }
     if (!lu_.Factorize(S_)) {
       throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                            " s (redundant constraints or a singular configuration)");
@@ -169,6 +177,9 @@ int CgAlpha::Step(double t, double h) {
     next_.qddot += beta_prime * dq;
     next_.lambda += delta_.tail(m) / bh2;
     system_.constraints.Evaluate(next_.q, t1, phi_);
+    for (size_t i = 0; i < system_.constraints.compliance.size(); ++i) {
+      phi_(static_cast<Eigen::Index>(i)) -= system_.constraints.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
+    }
     const double dq_norm = dq.lpNorm<Eigen::Infinity>();
     const double phi_norm = m > 0 ? phi_.lpNorm<Eigen::Infinity>() : 0.0;
     if (!std::isfinite(dq_norm)) break;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <set>
 
 #include "interface/scenario/checks.h"
 
@@ -233,6 +234,33 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       checks.Fail(path, "joint '" + hold.Get(i) + "' has no single coordinate to hold; only revolute and prismatic do");
     }
     model.hold_joints.push_back(j);
+  }
+
+  // Coupling interface nodes: a contact node of the scenario tied to a rigid body's point.
+  std::set<std::string> contact_nodes;
+  for (const auto& node : m.contact_nodes()) contact_nodes.insert(node.name());
+  std::set<std::string> tied;
+  const auto& interface_nodes = file.proto().coupling().interface_nodes();
+  for (int i = 0; i < interface_nodes.size(); ++i) {
+    const auto& in = interface_nodes.Get(i);
+    const std::string path = ElementPath("coupling.interface_nodes", i);
+    InterfacePointSpec spec;
+    checks.Require(path + ".contact_node", in.has_contact_node(), "the name of a contact node");
+    if (contact_nodes.count(in.contact_node()) == 0) {
+      std::string known;
+      for (const auto& name : contact_nodes) known += (known.empty() ? "" : ", ") + name;
+      checks.Fail(path + ".contact_node", "no contact node named '" + in.contact_node() + "'" +
+                                             (known.empty() ? "" : "; known: " + known));
+    }
+    if (!tied.insert(in.contact_node()).second) {
+      checks.Fail(path + ".contact_node", "contact node '" + in.contact_node() + "' is tied to the smooth model twice");
+    }
+    spec.contact_node = in.contact_node();
+    checks.Require(path + ".body", in.has_body(), "the name of a rigid body");
+    spec.body = body_names.Find(path + ".body", in.body());
+    spec.point = checks.Vector3(path + ".point", in.point(), Eigen::Vector3d::Zero());
+    spec.regularization = checks.NonNegative(path + ".regularization", in.regularization(), "m/N");
+    model.interface_points.push_back(spec);
   }
   return model;
 }

@@ -58,12 +58,23 @@ struct ForceSpec {
   bool has_torque = false;
 };
 
+// A coupling interface node on the smooth side: the material point `point` (body frame) of
+// rigid body `body`, which must follow the contact node `contact_node` of a contact process
+// (coupling.interface_nodes).
+struct InterfacePointSpec {
+  std::string contact_node;
+  int body = -1;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double regularization = 0.0;  // c of Φ − cλ = 0 [m/N]
+};
+
 struct MultibodyModel {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   std::vector<RigidBody> bodies;
   std::vector<Joint> joints;
   std::vector<int> hold_joints;  // joints whose coordinate and speed the initial state keeps
   std::vector<ForceSpec> forces;
+  std::vector<InterfacePointSpec> interface_points;
 };
 
 // Throws InputError naming the field for every inconsistency it finds.

@@ -353,6 +353,37 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       }
     }
   }
+  // Coupling interface nodes: e_j · p(q) − x_j = 0 with x_j imposed (drive weight −1 on the
+  // constant), and the regularisation c on their rows.
+  if (!model.interface_points.empty()) {
+    sys.imposed = std::make_shared<std::vector<ImposedCoordinate>>(3 * model.interface_points.size());
+    ConstraintSet& cs = sys.constraints;
+    cs.compliance.resize(cs.constraints.size(), 0.0);
+    for (size_t k = 0; k < model.interface_points.size(); ++k) {
+      const InterfacePointSpec& spec = model.interface_points[k];
+      InterfacePoint ip;
+      ip.contact_node = spec.contact_node;
+      ip.first_row = cs.size();
+      ip.point = LinearVector::Point(spec.body, spec.point);
+      const Eigen::Vector3d at = ip.point.Value(sys.q0);
+      for (int j = 0; j < 3; ++j) {
+        ImposedCoordinate& x = (*sys.imposed)[3 * k + static_cast<size_t>(j)];
+        x.value = at(j);  // until the peer says otherwise: where the point is
+        const int d = static_cast<int>(cs.drives.size());
+        Drive drive;
+        drive.imposed = &x;
+        cs.drives.push_back(drive);
+        ScalarConstraint row;
+        row.name = "coupling." + spec.contact_node + "." + std::string(1, "xyz"[j]);
+        AddDot(&row, ip.point, LinearVector::Constant(Eigen::Vector3d::Unit(j)));
+        row.constant = 1.0;
+        row.constant_weight = DriveWeight{DriveWeight::Kind::kValue, -1.0, d};
+        cs.constraints.push_back(row);
+        cs.compliance.push_back(spec.regularization);
+      }
+      sys.interface_points.push_back(ip);
+    }
+  }
   for (int h : model.hold_joints) {
     const JointMeasure& m = sys.joints[static_cast<size_t>(h)];
     ScalarConstraint c;

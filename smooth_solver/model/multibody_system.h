@@ -32,6 +32,15 @@ struct JointMeasure {
   bool rotational = true;
 };
 
+// A coupling interface node: three coincidence rows e_j · p(q) − x_j = 0 (rotor-sailing paper,
+// Eq. (6)) between a body's material point p and the contact node's position x imposed by the
+// peer. The multipliers of those rows are the force the smooth model exerts on the node.
+struct InterfacePoint {
+  std::string contact_node;
+  int first_row = 0;         // its three rows (x, y, z)
+  LinearVector point;        // p(q)
+};
+
 struct MultibodySystem {
   int coordinates = 0;
   Eigen::SparseMatrix<double> mass;  // constant
@@ -61,6 +70,14 @@ struct MultibodySystem {
   // sink += stiffness_scale · (−∂f/∂q) + damping_scale · (−∂f/∂q̇).
   void AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                        double damping_scale, SparseSink* sink, bool include_elastic = true) const;
+  // Coupling interface nodes and the coordinates their peers impose (3 per node: x, y, z), which
+  // the coordinator sets between iterations; the rows' drives point into this storage.
+  std::vector<InterfacePoint> interface_points;
+  std::shared_ptr<std::vector<ImposedCoordinate>> imposed;
+  // Force [N] the smooth model exerts on interface node k, from the multipliers.
+  Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
+    return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);
+  }
   // The elastic bodies' internal forces (also in `forces`).
   std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;

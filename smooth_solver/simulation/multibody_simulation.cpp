@@ -18,8 +18,14 @@ namespace {
 
 }  // namespace
 
-MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file) : model_(BuildMultibodyModel(file)) {
+MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bool coupled)
+    : model_(BuildMultibodyModel(file)) {
   const Checks checks(file);
+  if (!coupled && !model_.interface_points.empty()) {
+    // Standalone, nothing would move the imposed points: they would stay where they start.
+    checks.Fail("coupling.interface_nodes", "a coupled scene needs its contact processes; smooth_solver alone cannot "
+                                            "run it (the coupled run through scripts/cosim run is issue 6, in progress)");
+  }
   std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
   std::map<std::string, int> elastic_index;
   for (size_t e = 0; e < elastic.size(); ++e) elastic_index[elastic[e].name] = static_cast<int>(e);

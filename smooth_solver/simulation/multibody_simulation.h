@@ -12,7 +12,8 @@ namespace cosim::smooth {
 
 class MultibodySimulation : public interface::Simulation {
  public:
-  explicit MultibodySimulation(const interface::ScenarioFile& file);
+  // `coupled`: the coordinator of a coupled run builds it (interface nodes allowed).
+  explicit MultibodySimulation(const interface::ScenarioFile& file, bool coupled = false);
 
   std::vector<std::string> ProbeNames() const override;
   void Probe(std::vector<double>* values) const override;

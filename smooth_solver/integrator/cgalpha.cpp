@@ -27,7 +27,8 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
 
 }  // namespace
 
-void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state) {
+void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state,
+                             const std::vector<int>* free_rows) {
   const int n = system.coordinates, m = system.constraints.size();
   Eigen::SparseMatrix<double> A = SaddlePattern(system);
   MatrixSink sink(&A);
@@ -39,6 +40,19 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   system.Force(state->q, state->qdot, t, rhs.head(n));
   system.constraints.AccelerationBias(state->q, state->qdot, t, rhs.tail(m));
   rhs.tail(m) *= -1.0;
+  if (free_rows != nullptr && !free_rows->empty()) {
+    // Rows left out: an identity row and column (λ_i = 0, no acceleration condition).
+    std::vector<bool> is_free(static_cast<size_t>(n + m), false);
+    for (int i : *free_rows) is_free[static_cast<size_t>(n + i)] = true;
+    for (int k = 0; k < A.outerSize(); ++k) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(A, k); it; ++it) {
+        if (is_free[static_cast<size_t>(it.row())] || is_free[static_cast<size_t>(it.col())]) {
+          it.valueRef() = it.row() == it.col() ? 1.0 : 0.0;
+        }
+      }
+    }
+    for (int i : *free_rows) rhs(n + i) = 0.0;
+  }
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
   lu.compute(A);
   if (lu.info() != Eigen::Success) {

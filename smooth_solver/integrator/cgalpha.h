@@ -28,6 +28,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseLU>
 
+#include <vector>
+
 #include "smooth_solver/integrator/elastic_step_force.h"
 #include "smooth_solver/integrator/smooth_integrator.h"
 #include "smooth_solver/linear_algebra/klu_solver.h"
@@ -69,6 +71,16 @@ class CgAlpha : public SmoothIntegrator {
   double gamma() const { return coef_.gamma; }
   // |Φ|∞ at the current state.
   double ConstraintViolation(double t) const override;
+
+  // Starts again from `state` (consistent), a_n = q̈_n, without the shifted start-up: for a
+  // coupled run, where the imposed coordinates are end-of-step values and a shift step would
+  // impose them at the wrong time.
+  void Restart(const DaeState& state) {
+    state_ = state;
+    a_ = state.qddot;
+    elastic_.Reset(state.q);
+    started_ = true;
+  }
 
   // Everything a step changes, to try a step again (a coupling iteration) or undo it (a
   // rejected step). SaveTo reuses the checkpoint's buffers.
@@ -118,7 +130,10 @@ class CgAlpha : public SmoothIntegrator {
 // Consistent accelerations and multipliers at (q, q̇, t): [M Φ_qᵀ; Φ_q 0][q̈; λ] = [f; −ξ].
 // Throws InputError if the matrix is singular (redundant constraints or a free body with a
 // singular mass matrix).
-void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state);
+// `free_rows` (optional): constraint rows left out (their λ = 0), e.g. the coupling rows at the
+// start of a coupled run, whose imposed accelerations nobody knows yet.
+void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state,
+                             const std::vector<int>* free_rows = nullptr);
 
 // If a locked joint lets go between t and t1, the equations change and the accelerations,
 // multipliers and α history belong to the old ones: recompute q̈ and λ of `state` for the new

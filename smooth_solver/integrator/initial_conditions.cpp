@@ -142,4 +142,28 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   return state;
 }
 
+void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state) {
+  const int n = system.coordinates, m = system.constraints.size(), N = n + m;
+  PatternSink pattern;
+  for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+  system.constraints.Jacobian(state->q, t, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(state->q, t, &pattern, n, 1.0);
+  Eigen::SparseMatrix<double> A = pattern.Build(N, N);
+  MatrixSink sink(&A);
+  for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
+  system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
+  system.constraints.AddReleasedDiagonal(t, &sink, n);
+  Eigen::VectorXd rhs(N);
+  rhs.head(n) = state->qdot;
+  system.constraints.TimeDerivative(state->q, t, rhs.tail(m));
+  rhs.tail(m) *= -1.0;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
+  if (lu.info() != Eigen::Success) {
+    throw NumericalError("the velocity constraints are singular at t = " + std::to_string(t) +
+                         " s (redundant rows: regularise the coupling rows of a closed loop)");
+  }
+  state->qdot = lu.solve(rhs).head(n);
+}
+
 }  // namespace cosim::smooth

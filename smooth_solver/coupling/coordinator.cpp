@@ -1,0 +1,195 @@
+#include "smooth_solver/coupling/coordinator.h"
+
+#include <cmath>
+#include <limits>
+
+#include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
+#include "smooth_solver/integrator/initial_conditions.h"
+
+namespace cosim::smooth {
+
+using coupling::Envelope;
+
+Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std::vector<Peer> peers,
+                         const CouplingSettings& settings)
+    : system_(system),
+      integrator_(integrator),
+      peers_(std::move(peers)),
+      settings_(settings),
+      relaxation_(settings.relaxation, 3 * static_cast<int>(system.interface_points.size()),
+                  settings.relaxation_factor) {
+  n_ = 3 * static_cast<int>(system.interface_points.size());
+  x_ = Eigen::VectorXd::Zero(n_);
+  x_tilde_ = x_;
+  x_next_ = x_;
+  accepted_x_ = x_;
+  position_ = x_;
+  velocity_ = x_;
+  previous_position_ = x_;
+  start_velocity_ = x_;
+  // Until the first step: where the points are, at rest.
+  for (size_t k = 0; k < system.interface_points.size(); ++k) {
+    for (int j = 0; j < 3; ++j) position_(3 * static_cast<Eigen::Index>(k) + j) = (*system.imposed)[3 * k + j].value;
+  }
+}
+
+void Coordinator::Handshake(const std::string& scenario_name, double start_time, double step) {
+  // The start: accelerations with the coupling rows left out (free interface points, λ = 0),
+  // a_0 = q̈_0 (a shifted start would impose end-of-step coordinates at the wrong time).
+  coupling_rows_.clear();
+  for (const InterfacePoint& p : system_.interface_points) {
+    for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
+  }
+  DaeState initial = integrator_->state();
+  ConsistentAccelerations(system_, start_time, &initial, &coupling_rows_);
+  integrator_->Restart(initial);
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+    const Eigen::Vector3d a = system_.interface_points[k].point.Value(initial.qddot) -
+                              system_.interface_points[k].point.constant;  // point acceleration
+    for (int j = 0; j < 3; ++j) (*system_.imposed)[3 * k + static_cast<size_t>(j)].acceleration = a(j);
+  }
+  for (Peer& peer : peers_) {
+    auto* hello = peer.channel->Outgoing(-1, 0).mutable_hello();
+    hello->set_scenario_name(scenario_name);
+    hello->set_process_name(peer.channel->options().peer);
+    for (int p : peer.points) hello->add_interface_nodes(system_.interface_points[static_cast<size_t>(p)].contact_node);
+    hello->set_start_time(start_time);
+    hello->set_step(step);
+    peer.channel->Send();
+  }
+  for (Peer& peer : peers_) {
+    const auto& welcome = peer.channel->Receive(Envelope::kWelcome, -1, -1).welcome();
+    if (welcome.interface_nodes_size() != static_cast<int>(peer.points.size())) {
+      throw InputError("coupling: '" + peer.channel->options().peer + "' welcomed " +
+                       std::to_string(welcome.interface_nodes_size()) + " interface nodes, expected " +
+                       std::to_string(peer.points.size()));
+    }
+  }
+}
+
+void Coordinator::ReceiveKinematics(int iteration) {
+  in_contact_ = false;
+  for (Peer& peer : peers_) {
+    const auto& k = peer.channel->Receive(Envelope::kKinematics, step_, iteration).kinematics();
+    const int expected = 3 * static_cast<int>(peer.points.size());
+    if (k.position_size() != expected || k.velocity_size() != expected) {
+      throw InputError("coupling: Kinematics from '" + peer.channel->options().peer + "' has " +
+                       std::to_string(k.position_size()) + " positions and " + std::to_string(k.velocity_size()) +
+                       " velocities; expected " + std::to_string(expected) + " of each");
+    }
+    for (int c : k.in_contact()) in_contact_ = in_contact_ || c != 0;
+    for (size_t i = 0; i < peer.points.size(); ++i) {
+      for (int j = 0; j < 3; ++j) {
+        const Eigen::Index v = 3 * peer.points[i] + j;
+        position_(v) = k.position(3 * static_cast<int>(i) + j);
+        velocity_(v) = k.velocity(3 * static_cast<int>(i) + j);
+      }
+    }
+  }
+}
+
+void Coordinator::Impose(double h) {
+  for (Eigen::Index v = 0; v < n_; ++v) {
+    ImposedCoordinate& c = (*system_.imposed)[static_cast<size_t>(v)];
+    c.value = position_(v);
+    c.rate = velocity_(v);
+    c.acceleration = (velocity_(v) - start_velocity_(v)) / h;
+  }
+}
+
+int Coordinator::Step(double t, double h) {
+  integrator_->SaveTo(&start_);
+  for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = (*system_.imposed)[static_cast<size_t>(v)].rate;
+  relaxation_.BeginStep();
+  for (Peer& peer : peers_) {
+    auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();
+    begin->set_time(t);
+    begin->set_step(h);
+    peer.channel->Send();
+  }
+  ReceiveKinematics(0);  // with the last accepted reactions
+  x_ = accepted_x_;
+  bool converged = false;
+  int iteration = 0;
+  for (;; ++iteration) {
+    Impose(h);
+    integrator_->Restore(start_);
+    integrator_->Step(t, h);
+    const Eigen::VectorXd& lambda = integrator_->state().lambda;
+    for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+      x_tilde_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
+    }
+    CouplingIterationRecord record;
+    record.step = step_;
+    record.iteration = iteration;
+    record.reaction_residual = n_ > 0 ? (x_tilde_ - x_).lpNorm<Eigen::Infinity>() : 0.0;
+    record.displacement_change = iteration == 0 ? std::numeric_limits<double>::infinity()
+                                                : (position_ - previous_position_).lpNorm<Eigen::Infinity>();
+    const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
+    converged = record.reaction_residual <= settings_.reaction_tolerance * scale &&
+                (iteration > 0 ? record.displacement_change <= settings_.displacement_tolerance
+                               : record.reaction_residual == 0.0);
+    if (converged || iteration + 1 >= settings_.max_iterations) {
+      record.relaxation_factor = 0.0;
+      log_.push_back(record);
+      break;
+    }
+    relaxation_.Next(x_, x_tilde_, &x_next_);
+    record.relaxation_factor = relaxation_.last_factor();
+    log_.push_back(record);
+    x_ = x_next_;
+    previous_position_ = position_;
+    for (Peer& peer : peers_) {
+      auto* r = peer.channel->Outgoing(step_, iteration + 1).mutable_reactions();
+      for (int p : peer.points) {
+        for (int j = 0; j < 3; ++j) r->add_force(x_(3 * p + j));
+      }
+      peer.channel->Send();
+    }
+    ReceiveKinematics(iteration + 1);
+  }
+  if (!converged) {
+    if (settings_.stop_at_max_iterations) {
+      const std::string reason =
+          "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
+          std::to_string(step_) + " (t = " + interface::FormatNumber(t + h) + " s): reaction residual " +
+          interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
+          interface::FormatNumber(log_.back().displacement_change) +
+          " m; raise coupling.iteration.max_iterations, choose AITKEN or IQN_ILS, or shorten the step";
+      integrator_->Restore(start_);
+      throw NumericalError(reason);
+    }
+    ++marked_;
+  }
+  accepted_x_ = x_;
+  if (in_contact_ && !was_in_contact_) {
+    DaeState after = integrator_->state();
+    ProjectVelocities(system_, t + h, &after);  // the points move with their nodes
+    ConsistentAccelerations(system_, t + h, &after, &coupling_rows_);
+    integrator_->Restart(after);
+    accepted_x_.setZero();  // the impact's reaction does not carry over
+  }
+  was_in_contact_ = in_contact_;
+  for (Peer& peer : peers_) {
+    auto* end = peer.channel->Outgoing(step_, iteration).mutable_step_end();
+    end->set_accepted(true);
+    end->set_converged(converged);
+    peer.channel->Send();
+  }
+  for (Peer& peer : peers_) peer.channel->Receive(Envelope::kStepEnd, step_, iteration);
+  ++step_;
+  return iteration + 1;
+}
+
+void Coordinator::Shutdown(int exit_code, const std::string& reason) {
+  for (Peer& peer : peers_) {
+    auto* stop = peer.channel->Outgoing(-1, 0).mutable_shutdown();
+    stop->set_exit_code(exit_code);
+    stop->set_reason(reason);
+    peer.channel->Send();
+  }
+  for (Peer& peer : peers_) peer.channel->Receive(Envelope::kShutdown, -1, -1);
+}
+
+}  // namespace cosim::smooth

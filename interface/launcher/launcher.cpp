@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "interface/run/errors.h"
+#include "interface/run/run_driver.h"
 
 namespace cosim::interface {
 
@@ -19,9 +20,36 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const std::vect
     file.Fail("model", "the scene has neither rigid/elastic bodies nor contact nodes; nothing to simulate");
   }
   if (smooth && contact) {
-    file.Fail("model",
-              "bodies together with contact nodes make a coupled run, which this build cannot launch yet "
-              "(co-simulation is issue 6); run the smooth and the contact parts as separate scenarios");
+    // A coupled run: the contact process (it binds) and smooth_solver, the coordinator
+    // (it connects), both with the endpoint; the contact process's outputs in a subfolder.
+    const scenario::Coupling& coupling = file.proto().coupling();
+    if (coupling.interface_nodes_size() == 0) {
+      file.Fail("coupling.interface_nodes",
+                "bodies and contact nodes together make a coupled run: tie contact nodes to body points with "
+                "coupling.interface_nodes (or run the two parts as separate scenarios)");
+    }
+    if (coupling.processes_size() != 1) {
+      file.Fail("coupling.processes", "a coupled run needs its contact process listed (name, and optionally "
+                                      "endpoint); this build runs exactly one, got " +
+                                          std::to_string(coupling.processes_size()));
+    }
+    const auto& process = coupling.processes(0);
+    if (!process.has_name() || process.name().empty()) file.Fail("coupling.processes[0].name", "give a name");
+    const CommandLine cli = ParseCommandLine(arguments);
+    std::string out = cli.out;
+    if (out.empty()) out = "runs/" + (file.proto().name().empty() ? std::string("run") : file.proto().name());
+    std::vector<std::string> common = arguments;
+    if (!process.has_endpoint()) {
+      // ipc paths are limited to ~100 characters: a short one, unique to this launch.
+      const std::string endpoint =
+          "ipc:///tmp/cosim-" + std::to_string(getpid()) + "-" + process.name() + ".ipc";
+      common.insert(common.end(), {"--set", "coupling.processes[0].endpoint=\"" + endpoint + "\""});
+    }
+    std::vector<std::string> contact_args = common;
+    contact_args.insert(contact_args.end(), {"--process", process.name(), "--out", out + "/" + process.name()});
+    std::vector<std::string> smooth_args = common;
+    if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});
+    return {ProcessPlan{"nonsmooth_solver", contact_args}, ProcessPlan{"smooth_solver", smooth_args}};
   }
   return {ProcessPlan{smooth ? "smooth_solver" : "nonsmooth_solver", arguments}};
 }

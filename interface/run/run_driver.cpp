@@ -14,7 +14,8 @@ std::string Usage(const std::string& program) {
          " SCENARIO.pbtxt [--out DIR] [--set FIELD.PATH=VALUE]...\n"
          "  SCENARIO   scenario in protobuf text format (schema: proto/scenario.proto)\n"
          "  --out DIR  output folder (default: runs/<scenario name>)\n"
-         "  --set P=V  override one field, e.g. --set numerics.step=0.001\n";
+         "  --set P=V  override one field, e.g. --set numerics.step=0.001\n"
+         "  --process NAME  serve as contact process NAME of a coupled run (nonsmooth_solver)\n";
 }
 
 CommandLine ParseCommandLine(const std::vector<std::string>& arguments) {
@@ -30,6 +31,9 @@ CommandLine ParseCommandLine(const std::vector<std::string>& arguments) {
     } else if (a.rfind("--out=", 0) == 0) {
       cli.out = a.substr(6);
       if (cli.out.empty()) throw InputError("command line: --out= needs a folder");
+    } else if (a == "--process") {
+      if (i + 1 >= arguments.size()) throw InputError("command line: --process needs a contact process name");
+      cli.process = arguments[++i];
     } else if (a == "--set") {
       cli.sets.push_back(value(a));
     } else if (a.rfind("--set=", 0) == 0) {
@@ -123,7 +127,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   try {
     file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets));
     span = ValidateTimeSpan(*file);
-    simulation = factory(*file);
+    simulation = factory(*file, cli);
     output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(file.get(), cli.scenario) : cli.out,
                                          simulation->ProbeNames());
   } catch (const InputError& e) {
@@ -178,6 +182,11 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     code = ExitCode::kNumericalFailure;
     reason = "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) +
              " s: unexpected error: " + e.what();
+  }
+  try {
+    simulation->Finish(code, reason);
+  } catch (const Error& e) {
+    output->Log(program + ": note: " + e.what());
   }
   summary.set_steps(static_cast<int>(accepted));
   summary.set_simulated_time(span.TimeAt(accepted));

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "interface/run/errors.h"
 #include "interface/run/run_output.h"
 #include "interface/scenario/scenario_file.h"
 
@@ -16,9 +17,10 @@ struct CommandLine {
   std::string scenario;           // path of the scenario file
   std::string out;                // output folder; empty: runs/<scenario name>
   std::vector<std::string> sets;  // --set FIELD.PATH=VALUE, in order
+  std::string process;            // --process NAME: serve as that contact process of a coupled run
 };
 
-// Parses `SCENARIO [--out DIR] [--set PATH=VALUE]...`; throws InputError.
+// Parses `SCENARIO [--out DIR] [--set PATH=VALUE]... [--process NAME]`; throws InputError.
 CommandLine ParseCommandLine(const std::vector<std::string>& arguments);
 std::string Usage(const std::string& program);
 
@@ -43,9 +45,12 @@ class Simulation {
   virtual void Step(double t, double h) = 0;
   // Statistics and the settings used (defaults filled in).
   virtual void FillSummary(run::RunSummary* summary) const = 0;
+  // The run is over (normally, or with `code` and `reason`): tell the peers. Errors here are
+  // the peers' problem and are not reported.
+  virtual void Finish(ExitCode /*code*/, const std::string& /*reason*/) {}
 };
 
-using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&)>;
+using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&, const CommandLine&)>;
 
 // For a run that ends on bad input before its first step: if the command line named an
 // output folder, writes summary.json (status failed, exit code 2, the reason) and an empty

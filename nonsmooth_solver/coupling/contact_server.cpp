@@ -1,5 +1,8 @@
 #include "nonsmooth_solver/coupling/contact_server.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "interface/run/errors.h"
 
 namespace cosim::nonsmooth {
@@ -11,7 +14,7 @@ ContactServer::ContactServer(ContactSimulation* simulation, interface::Channel* 
   external_ = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(simulation_->model().nodes.size()));
 }
 
-void ContactServer::Handshake(const Envelope& e) {
+void ContactServer::Answer(const Envelope& e) {
   const coupling::Hello& hello = e.hello();
   const std::string peer = channel_->options().peer;
   if (hello.scenario_name() != scenario_name_) {
@@ -77,71 +80,104 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
   channel_->Send();
 }
 
+void ContactServer::Handshake() { Answer(channel_->Receive(Envelope::kHello, -1, -1)); }
+
 void ContactServer::Run() {
-  const std::string peer = channel_->options().peer;
-  Handshake(channel_->Receive(Envelope::kHello, -1, -1));
+  Handshake();
+  while (Handle(channel_->ReceiveAny()) != Outcome::kShutdown) {
+  }
+}
+
+void ContactServer::ServeStep(int64_t step, double t, double h) {
   while (true) {
     const Envelope& e = channel_->ReceiveAny();
-    switch (e.body_case()) {
-      case Envelope::kStepBegin: {
-        if (e.step() != last_accepted_ + 1) {
-          throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
-                           "', expected step " + std::to_string(last_accepted_ + 1));
-        }
-        if (!(e.step_begin().step() > 0.0)) {
-          throw InputError("coupling: StepBegin.step from '" + peer + "' is " + std::to_string(e.step_begin().step()) +
-                           "; expected a positive step [s]");
-        }
-        step_ = e.step();
-        t_ = e.step_begin().time();
-        h_ = e.step_begin().step();
-        simulation_->integrator().SaveTo(&start_);
-        TentativeStep(step_, 0);  // the last accepted reactions as predictor
-        break;
-      }
-      case Envelope::kReactions: {
-        if (e.step() != step_ || step_ < 0) {
-          throw InputError("coupling: Reactions of step " + std::to_string(e.step()) + " from '" + peer +
-                           "', but the step under way is " + std::to_string(step_));
-        }
-        const auto& force = e.reactions().force();
-        if (force.size() != 3 * static_cast<int>(nodes_.size())) {
-          throw InputError("coupling: Reactions.force from '" + peer + "' has " + std::to_string(force.size()) +
-                           " values; expected 3 per interface node, " + std::to_string(3 * nodes_.size()));
-        }
-        for (size_t n = 0; n < nodes_.size(); ++n) {
-          for (int i = 0; i < 3; ++i) external_(3 * nodes_[n] + i) = force.Get(3 * static_cast<int>(n) + i);
-        }
-        TentativeStep(step_, e.iteration());
-        break;
-      }
-      case Envelope::kStepEnd: {
-        if (e.step() != step_ || step_ < 0) {
-          throw InputError("coupling: StepEnd of step " + std::to_string(e.step()) + " from '" + peer +
-                           "', but the step under way is " + std::to_string(step_));
-        }
-        const bool accepted = e.step_end().accepted();
-        if (accepted) {
-          last_accepted_ = step_;
-          ++accepted_;
-          if (on_accept) on_accept(t_ + h_);
-        } else {
-          simulation_->mutable_integrator().Restore(start_);
-        }
-        step_ = -1;
-        channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);
-        channel_->Send();
-        break;
-      }
-      case Envelope::kShutdown: {
-        channel_->Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
-        channel_->Send();
-        return;
-      }
-      default:
-        throw InputError("coupling: unexpected " + interface::BodyName(e.body_case()) + " from '" + peer +
-                         "' (a contact process answers StepBegin, Reactions, StepEnd and Shutdown)");
+    if (e.has_step_begin() &&
+        (e.step() != step || std::abs(e.step_begin().time() - t) > 1e-9 * std::max(1.0, std::abs(t)) ||
+         std::abs(e.step_begin().step() - h) > 1e-12 * std::max(1.0, h))) {
+      throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
+                       std::to_string(e.step_begin().time()) + " s, h = " + std::to_string(e.step_begin().step()) +
+                       " s from '" + channel_->options().peer + "', expected step " + std::to_string(step) +
+                       " at t = " + std::to_string(t) + " s, h = " + std::to_string(h) +
+                       " s: both sides must read the same numerics");
     }
+    const Outcome outcome = Handle(e);
+    if (outcome == Outcome::kAccepted && last_accepted_ == step) return;
+    if (outcome == Outcome::kShutdown) {
+      throw PeerError("coupling: '" + channel_->options().peer + "' ended the run before step " +
+                      std::to_string(step) + " (exit code " + std::to_string(coordinator_exit_code_) +
+                      (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
+    }
+  }
+}
+
+void ContactServer::ServeShutdown() {
+  while (Handle(channel_->ReceiveAny()) != Outcome::kShutdown) {
+  }
+}
+
+ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
+  const std::string peer = channel_->options().peer;
+  switch (e.body_case()) {
+    case Envelope::kStepBegin: {
+      if (e.step() != last_accepted_ + 1) {
+        throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
+                         "', expected step " + std::to_string(last_accepted_ + 1));
+      }
+      if (!(e.step_begin().step() > 0.0)) {
+        throw InputError("coupling: StepBegin.step from '" + peer + "' is " + std::to_string(e.step_begin().step()) +
+                         "; expected a positive step [s]");
+      }
+      step_ = e.step();
+      t_ = e.step_begin().time();
+      h_ = e.step_begin().step();
+      simulation_->integrator().SaveTo(&start_);
+      TentativeStep(step_, 0);  // the last accepted reactions as predictor
+      return Outcome::kContinue;
+    }
+    case Envelope::kReactions: {
+      if (e.step() != step_ || step_ < 0) {
+        throw InputError("coupling: Reactions of step " + std::to_string(e.step()) + " from '" + peer +
+                         "', but the step under way is " + std::to_string(step_));
+      }
+      const auto& force = e.reactions().force();
+      if (force.size() != 3 * static_cast<int>(nodes_.size())) {
+        throw InputError("coupling: Reactions.force from '" + peer + "' has " + std::to_string(force.size()) +
+                         " values; expected 3 per interface node, " + std::to_string(3 * nodes_.size()));
+      }
+      for (size_t n = 0; n < nodes_.size(); ++n) {
+        for (int i = 0; i < 3; ++i) external_(3 * nodes_[n] + i) = force.Get(3 * static_cast<int>(n) + i);
+      }
+      TentativeStep(step_, e.iteration());
+      return Outcome::kContinue;
+    }
+    case Envelope::kStepEnd: {
+      if (e.step() != step_ || step_ < 0) {
+        throw InputError("coupling: StepEnd of step " + std::to_string(e.step()) + " from '" + peer +
+                         "', but the step under way is " + std::to_string(step_));
+      }
+      const bool accepted = e.step_end().accepted();
+      if (accepted) {
+        last_accepted_ = step_;
+        ++accepted_;
+        if (on_accept) on_accept(t_ + h_);
+      } else {
+        simulation_->mutable_integrator().Restore(start_);
+      }
+      step_ = -1;
+      channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);
+      channel_->Send();
+      return accepted ? Outcome::kAccepted : Outcome::kContinue;
+    }
+    case Envelope::kShutdown: {
+      coordinator_exit_code_ = e.shutdown().exit_code();
+      coordinator_reason_ = e.shutdown().reason();
+      channel_->Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
+      channel_->Send();
+      return Outcome::kShutdown;
+    }
+    default:
+      throw InputError("coupling: unexpected " + interface::BodyName(e.body_case()) + " from '" + peer +
+                       "' (a contact process answers StepBegin, Reactions, StepEnd and Shutdown)");
   }
 }
 

@@ -32,14 +32,23 @@ class ContactServer {
   // stopped), InputError (a refused message) or NumericalError (a failed step).
   void Run();
 
+  // The same, step by step (a contact process inside the run driver's time loop):
+  void Handshake();                              // Hello → Welcome
+  void ServeStep(int64_t step, double t, double h);  // until step `step` (t, h) is accepted
+  void ServeShutdown();                          // the coordinator's Shutdown → reply
+
   std::function<void(double time)> on_accept;
   long long accepted_steps() const { return accepted_; }
   long long tentative_steps() const { return tentative_; }
   const std::vector<int>& interface_nodes() const { return nodes_; }  // model node indices
 
  private:
-  void Handshake(const coupling::Envelope& hello);
+  void Answer(const coupling::Envelope& hello);
+  enum class Outcome { kContinue, kAccepted, kShutdown };
+  Outcome Handle(const coupling::Envelope& e);  // one message, answered
   void TentativeStep(int64_t step, int iteration);
+  int coordinator_exit_code_ = 0;
+  std::string coordinator_reason_;
 
   ContactSimulation* simulation_;
   interface::Channel* channel_;

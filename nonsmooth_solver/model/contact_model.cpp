@@ -135,13 +135,16 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
 }
 
 void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names,
-                 const ContactModel& model, ContactModel* out) {
+                 const ContactModel& model, const std::set<std::string>& smooth_entities, ContactModel* out) {
   std::map<std::string, int> contact_index;
   for (size_t c = 0; c < model.contacts.size(); ++c) contact_index[model.contacts[c].name] = static_cast<int>(c);
   NameTable probe_names(checks, "probe");
   for (int i = 0; i < output.probes_size(); ++i) {
     const sc::Probe& p = output.probes(i);
     const std::string path = ElementPath("output.probes", i);
+    // In a coupled run, probes of the smooth model's bodies, joints and elastic bodies are
+    // recorded by smooth_solver.
+    if (smooth_entities.count(p.entity()) != 0) continue;
     Probe probe;
     if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
     probe.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
@@ -286,7 +289,13 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file) {
   BuildNodes(checks, s.model(), obstacle_names, &model, &node_names);
   BuildSprings(checks, s.model(), node_names, &model);
   BuildGroups(&model);
-  BuildProbes(checks, s.output(), node_names, model, &model);
+  std::set<std::string> smooth_entities;
+  if (s.coupling().interface_nodes_size() > 0) {
+    for (const auto& b : s.model().bodies()) smooth_entities.insert(b.name());
+    for (const auto& j : s.model().joints()) smooth_entities.insert(j.name());
+    for (const auto& e : s.model().elastic_bodies()) smooth_entities.insert(e.name());
+  }
+  BuildProbes(checks, s.output(), node_names, model, smooth_entities, &model);
   return model;
 }
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <set>
 
 #include "interface/scenario/checks.h"
 
@@ -64,9 +65,18 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   for (size_t j = 0; j < model_.joints.size(); ++j) joint_index[model_.joints[j].name] = static_cast<int>(j);
   interface::NameTable probe_names(checks, "probe");
   const sc::Output& output = file.proto().output();
+  // In a coupled run, probes of contact nodes and contacts are the contact process's.
+  std::set<std::string> contact_entities;
+  if (coupled) {
+    for (const auto& node : file.proto().model().contact_nodes()) {
+      contact_entities.insert(node.name());
+      for (const auto& c : node.contacts()) contact_entities.insert(node.name() + "/" + c.obstacle());
+    }
+  }
   for (int i = 0; i < output.probes_size(); ++i) {
     const sc::Probe& p = output.probes(i);
     const std::string path = ElementPath("output.probes", i);
+    if (contact_entities.count(p.entity()) != 0) continue;
     if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
     ProbeSpec spec;
     spec.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
@@ -245,14 +255,17 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
   }
 }
 
-void MultibodySimulation::Step(double t, double h) {
-  const int iterations = integrator_->Step(t, h);
+void MultibodySimulation::Step(double t, double h) { Record(t + h, integrator_->Step(t, h)); }
+
+CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
+
+void MultibodySimulation::Record(double t1, int iterations) {
   if (ida_) {
     ida_steps_ += iterations;  // IDA's internal steps
   } else {
     newton_.Add(iterations);
   }
-  time_ = t + h;
+  time_ = t1;
   max_violation_ = std::max(max_violation_, integrator_->ConstraintViolation(time_));
   // Unwrap revolute angles (a step never turns a joint by π).
   for (size_t j = 0; j < model_.joints.size(); ++j) {

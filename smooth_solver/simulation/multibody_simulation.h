@@ -23,6 +23,10 @@ class MultibodySimulation : public interface::Simulation {
   const MultibodySystem& system() const { return *system_; }
   const SmoothIntegrator& integrator() const { return *integrator_; }
   long long newton_iterations() const { return newton_.total(); }  // CGα, all steps so far
+  // For the coordinator of a coupled run, which steps the integrator itself: the CGα
+  // integrator (nullptr for the others), and the bookkeeping of an accepted step to t1.
+  CgAlpha* cgalpha();
+  void Record(double t1, int iterations);
   long ida_internal_steps() const { return ida_steps_; }
 
  private:

@@ -1,0 +1,66 @@
+#include "nonsmooth_solver/coupling/served_simulation.h"
+
+#include <zmq.hpp>
+
+#include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
+
+namespace cosim::nonsmooth {
+
+ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process)
+    : simulation_(std::make_unique<ContactSimulation>(file)), context_(std::make_unique<zmq::context_t>()) {
+  const interface::Checks checks(file);
+  const scenario::Coupling& coupling = file.proto().coupling();
+  if (coupling.processes_size() != 1) {
+    checks.Fail("coupling.processes", "a coupled run with " + std::to_string(coupling.processes_size()) +
+                                          " contact processes; this build serves exactly one (several are to come, "
+                                          "issue 6)");
+  }
+  const auto& p = coupling.processes(0);
+  if (p.name() != process) {
+    checks.Fail("coupling.processes[0].name", "--process names '" + process + "', the scenario's process is '" +
+                                                  p.name() + "'");
+  }
+  checks.Require("coupling.processes[0].endpoint", p.has_endpoint(),
+                 "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
+  interface::ChannelOptions options;
+  options.endpoint = p.endpoint();
+  options.bind = true;
+  options.self = process;
+  options.peer = "smooth_solver";
+  options.timeout = checks.Positive("coupling.timeout", true, coupling.timeout(), "s");
+  options.heartbeat = checks.Positive("coupling.heartbeat", true, coupling.heartbeat(), "s");
+  channel_ = std::make_unique<interface::Channel>(context_.get(), options);
+  server_ = std::make_unique<ContactServer>(simulation_.get(), channel_.get(), file.proto().name());
+}
+
+ServedContactSimulation::~ServedContactSimulation() = default;
+
+void ServedContactSimulation::Step(double t, double h) {
+  if (!handshaken_) {
+    server_->Handshake();
+    handshaken_ = true;
+  }
+  server_->ServeStep(step_, t, h);
+  ++step_;
+}
+
+void ServedContactSimulation::FillSummary(run::RunSummary* summary) const {
+  simulation_->FillSummary(summary);
+  summary->mutable_counters()->insert({"tentative_steps", static_cast<double>(server_->tentative_steps())});
+}
+
+void ServedContactSimulation::Finish(ExitCode code, const std::string& reason) {
+  if (code == ExitCode::kOk) {
+    server_->ServeShutdown();  // the coordinator's last word
+    return;
+  }
+  if (code == ExitCode::kPeerFailure) return;  // the coordinator is gone or broke the protocol
+  // This side failed (its step or bad input): tell the coordinator, which is waiting.
+  auto* stop = channel_->Outgoing(step_, 0).mutable_shutdown();
+  stop->set_exit_code(static_cast<int>(code));
+  stop->set_reason(reason);
+  channel_->Send();
+}
+
+}  // namespace cosim::nonsmooth

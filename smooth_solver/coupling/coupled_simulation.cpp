@@ -1,0 +1,97 @@
+#include "smooth_solver/coupling/coupled_simulation.h"
+
+#include <zmq.hpp>
+
+#include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
+
+namespace cosim::smooth {
+
+namespace sc = scenario;
+
+CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& file)
+    : simulation_(std::make_unique<MultibodySimulation>(file, /*coupled=*/true)),
+      context_(std::make_unique<zmq::context_t>()),
+      scenario_name_(file.proto().name()) {
+  const interface::Checks checks(file);
+  const sc::Coupling& coupling = file.proto().coupling();
+  if (simulation_->cgalpha() == nullptr) {
+    checks.Fail("numerics.smooth.integrator", "a coupled run needs CGALPHA (its steps are repeated per coupling "
+                                              "iteration from a checkpoint)");
+  }
+  if (coupling.processes_size() != 1) {
+    checks.Fail("coupling.processes", "a coupled run with " + std::to_string(coupling.processes_size()) +
+                                          " contact processes; this build runs exactly one (several are to come, "
+                                          "issue 6)");
+  }
+  const auto& p = coupling.processes(0);
+  checks.Require("coupling.processes[0].name", p.has_name(), "a process name");
+  checks.Require("coupling.processes[0].endpoint", p.has_endpoint(),
+                 "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
+  interface::ChannelOptions options;
+  options.endpoint = p.endpoint();
+  options.bind = false;
+  options.self = "smooth_solver";
+  options.peer = p.name();
+  options.timeout = checks.Positive("coupling.timeout", true, coupling.timeout(), "s");
+  options.heartbeat = checks.Positive("coupling.heartbeat", true, coupling.heartbeat(), "s");
+  channel_ = std::make_unique<interface::Channel>(context_.get(), options);
+
+  const sc::Coupling::CouplingIteration& it = coupling.iteration();
+  CouplingSettings settings;
+  if (it.max_iterations() < 1) {
+    checks.Fail("coupling.iteration.max_iterations", "must be >= 1, got " + std::to_string(it.max_iterations()));
+  }
+  settings.max_iterations = it.max_iterations();
+  settings.displacement_tolerance =
+      checks.Positive("coupling.iteration.displacement_tolerance", true, it.displacement_tolerance(), "m");
+  settings.reaction_tolerance =
+      checks.Positive("coupling.iteration.reaction_tolerance", true, it.reaction_tolerance(), "dimensionless");
+  switch (it.relaxation()) {
+    case sc::Coupling::CouplingIteration::CONSTANT: settings.relaxation = interface::Relaxation::Method::kConstant; break;
+    case sc::Coupling::CouplingIteration::AITKEN: settings.relaxation = interface::Relaxation::Method::kAitken; break;
+    case sc::Coupling::CouplingIteration::IQN_ILS: settings.relaxation = interface::Relaxation::Method::kIqnIls; break;
+    default: checks.Fail("coupling.iteration.relaxation", "expected CONSTANT, AITKEN or IQN_ILS");
+  }
+  settings.relaxation_factor =
+      checks.InRange("coupling.iteration.relaxation_factor", true, it.relaxation_factor(), 0.0, 2.0);
+  if (it.on_max_iterations() != sc::Coupling::CouplingIteration::STOP &&
+      it.on_max_iterations() != sc::Coupling::CouplingIteration::ACCEPT_AND_MARK) {
+    checks.Fail("coupling.iteration.on_max_iterations", "expected STOP or ACCEPT_AND_MARK");
+  }
+  settings.stop_at_max_iterations = it.on_max_iterations() == sc::Coupling::CouplingIteration::STOP;
+
+  const MultibodySystem& sys = simulation_->system();
+  std::vector<int> points;
+  for (int k = 0; k < static_cast<int>(sys.interface_points.size()); ++k) points.push_back(k);
+  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->cgalpha(),
+                                               std::vector<Coordinator::Peer>{{channel_.get(), points}}, settings);
+  start_time_ = file.proto().numerics().start_time();
+  step_ = file.proto().numerics().step();
+}
+
+CoupledSmoothSimulation::~CoupledSmoothSimulation() = default;
+
+void CoupledSmoothSimulation::Step(double t, double h) {
+  if (!handshaken_) {
+    coordinator_->Handshake(scenario_name_, start_time_, step_);
+    handshaken_ = true;
+  }
+  const int iterations = coordinator_->Step(t, h);
+  coupling_.Add(iterations);
+  simulation_->Record(t + h, 0);
+}
+
+void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
+  simulation_->FillSummary(summary);
+  coupling_.Fill(summary->mutable_coupling_iterations());
+  summary->mutable_counters()->insert({"coupling_steps_marked", static_cast<double>(coordinator_->marked_steps())});
+}
+
+void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {
+  if (code == ExitCode::kPeerFailure) return;  // the contact process is gone or broke the protocol
+  if (!handshaken_) coordinator_->Handshake(scenario_name_, start_time_, step_);
+  coordinator_->Shutdown(static_cast<int>(code), reason);
+}
+
+}  // namespace cosim::smooth

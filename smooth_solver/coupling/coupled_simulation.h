@@ -1,0 +1,44 @@
+#pragma once
+// smooth_solver as the coordinator of a coupled run (a scenario with coupling.interface_nodes):
+// the multibody model with its coincidence rows, one channel per contact process (it connects
+// to coupling.processes[].endpoint), and the Coordinator stepping them together. Probes and
+// the summary are the smooth model's, plus the coupling iteration statistics; `Finish` ends
+// the contact processes' runs with this run's outcome.
+#include <memory>
+#include <string>
+
+#include "interface/run/run_output.h"
+#include "smooth_solver/coupling/coordinator.h"
+#include "smooth_solver/simulation/multibody_simulation.h"
+
+namespace zmq {
+class context_t;
+}
+
+namespace cosim::smooth {
+
+class CoupledSmoothSimulation : public interface::Simulation {
+ public:
+  // Throws InputError for settings this build cannot run (several contact processes, an
+  // integrator other than CGALPHA, missing endpoints) naming the field.
+  explicit CoupledSmoothSimulation(const interface::ScenarioFile& file);
+  ~CoupledSmoothSimulation() override;
+
+  std::vector<std::string> ProbeNames() const override { return simulation_->ProbeNames(); }
+  void Probe(std::vector<double>* values) const override { simulation_->Probe(values); }
+  void Step(double t, double h) override;
+  void FillSummary(run::RunSummary* summary) const override;
+  void Finish(ExitCode code, const std::string& reason) override;
+
+ private:
+  std::unique_ptr<MultibodySimulation> simulation_;
+  std::unique_ptr<zmq::context_t> context_;
+  std::unique_ptr<interface::Channel> channel_;
+  std::unique_ptr<Coordinator> coordinator_;
+  interface::IterationCounter coupling_;
+  bool handshaken_ = false;
+  std::string scenario_name_;
+  double start_time_ = 0.0, step_ = 0.0;
+};
+
+}  // namespace cosim::smooth

@@ -72,7 +72,7 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     }
     children.push_back(pid);
   }
-  int result = 0;
+  std::vector<int> codes;
   for (size_t i = 0; i < children.size(); ++i) {
     int status = 0;
     while (waitpid(children[i], &status, 0) < 0 && errno == EINTR) {
@@ -84,9 +84,15 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
       std::cerr << "cosim: " << plan[i].program << " was killed by signal " << WTERMSIG(status) << "\n";
       code = static_cast<int>(ExitCode::kNumericalFailure);
     }
-    if (result == 0) result = code;
+    codes.push_back(code);
   }
-  return result;
+  // The last process is the coordinator of a coupled run: its code says what happened to the
+  // run (e.g. 4 when a contact process died); otherwise the first failure.
+  if (!codes.empty() && codes.back() != 0) return codes.back();
+  for (int code : codes) {
+    if (code != 0) return code;
+  }
+  return 0;
 }
 
 }  // namespace cosim::interface

@@ -14,11 +14,15 @@ struct ProcessPlan {
 };
 
 // Single-solver scenes run one process: contact nodes only -> nonsmooth_solver; rigid or
-// elastic bodies only -> smooth_solver. Throws InputError for a scene with neither.
+// elastic bodies only -> smooth_solver. A coupled scene (bodies, contact nodes and
+// coupling.interface_nodes) runs its contact process (`--process NAME`, outputs in
+// OUT/NAME) and smooth_solver, the coordinator, last, both with the ipc endpoint. Throws
+// InputError for a scene with neither, or bodies and contact nodes not tied together.
 std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const std::vector<std::string>& arguments);
 
-// Starts every process, waits for all, and returns the first non-zero exit code (a process
-// killed by a signal counts as a numerical failure, 3), or 0.
+// Starts every process, waits for all, and returns the last process's exit code if it failed
+// (the coordinator of a coupled run), else the first non-zero one (a process killed by a
+// signal counts as a numerical failure, 3), or 0.
 int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan);
 
 }  // namespace cosim::interface

@@ -188,6 +188,11 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   } catch (const Error& e) {
     output->Log(program + ": note: " + e.what());
   }
+  try {
+    simulation->WriteFiles(output->folder());
+  } catch (const Error& e) {
+    output->Log(program + ": note: " + e.what());
+  }
   summary.set_steps(static_cast<int>(accepted));
   summary.set_simulated_time(span.TimeAt(accepted));
   summary.set_step_wall_time(Seconds(step_time));

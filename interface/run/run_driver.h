@@ -48,6 +48,9 @@ class Simulation {
   // The run is over (normally, or with `code` and `reason`): tell the peers. Errors here are
   // the peers' problem and are not reported.
   virtual void Finish(ExitCode /*code*/, const std::string& /*reason*/) {}
+  // Files of its own in the output folder (e.g. the coupling convergence log), written at the
+  // end of the run, failed or not.
+  virtual void WriteFiles(const std::string& /*folder*/) const {}
 };
 
 using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&, const CommandLine&)>;

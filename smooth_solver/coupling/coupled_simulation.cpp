@@ -1,5 +1,6 @@
 #include "smooth_solver/coupling/coupled_simulation.h"
 
+#include <cstdio>
 #include <zmq.hpp>
 
 #include "interface/run/errors.h"
@@ -92,6 +93,18 @@ void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {
   if (code == ExitCode::kPeerFailure) return;  // the contact process is gone or broke the protocol
   if (!handshaken_) coordinator_->Handshake(scenario_name_, start_time_, step_);
   coordinator_->Shutdown(static_cast<int>(code), reason);
+}
+
+void CoupledSmoothSimulation::WriteFiles(const std::string& folder) const {
+  const std::string path = folder + "/coupling.csv";
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) throw InputError("cannot write " + path);
+  std::fprintf(f, "step,iteration,reaction_residual,displacement_change,relaxation_factor\n");
+  for (const CouplingIterationRecord& r : coordinator_->log()) {
+    std::fprintf(f, "%lld,%d,%.17g,%.17g,%.17g\n", r.step, r.iteration, r.reaction_residual, r.displacement_change,
+                 r.relaxation_factor);
+  }
+  std::fclose(f);
 }
 
 }  // namespace cosim::smooth

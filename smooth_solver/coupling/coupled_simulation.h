@@ -29,6 +29,9 @@ class CoupledSmoothSimulation : public interface::Simulation {
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
   void Finish(ExitCode code, const std::string& reason) override;
+  // coupling.csv: every coupling iteration of every step (step, iteration, reaction residual,
+  // displacement change, relaxation factor).
+  void WriteFiles(const std::string& folder) const override;
 
  private:
   std::unique_ptr<MultibodySimulation> simulation_;

@@ -311,6 +311,9 @@ TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   }
   EXPECT_LT(worst, 1e-10);
   EXPECT_NEAR(peak, 0.32, 1e-3);
+  // The convergence log: one row per coupling iteration, as many as the summary counts.
+  const auto log = ReadHistory(out / "coupling.csv");
+  EXPECT_EQ(static_cast<double>(log.size()), smooth.coupling_iterations().total());
 }
 
 TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {

@@ -243,4 +243,78 @@ double CoordinateSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
   return 0.5 * k_ * s * s;
 }
 
+void UnilateralContact::Penetration(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double* delta,
+                                     double* rate) const {
+  const CoordinateSpring::Local l = measure_.Evaluate(q);
+  double theta_dot = 0.0;
+  const auto& index = measure_.coordinates();
+  for (size_t i = 0; i < index.size(); ++i) theta_dot += l.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
+  *delta = side_ * (threshold_ - l.value);
+  *rate = -side_ * theta_dot;
+}
+
+void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  double delta = 0.0, rate = 0.0;
+  Penetration(q, qdot, &delta, &rate);
+  if (delta <= 0.0) impact_speed_ = std::max(rate, law_.speed_threshold);  // the approach speed so far
+}
+
+namespace {
+
+// f(δ, δ̇) of Eq. (8) and its partial derivatives; zero when not in contact or pulling.
+struct ContactForce {
+  double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
+};
+
+ContactForce Law(const HuntCrossleyLaw& law, double impact_speed, double delta, double rate) {
+  ContactForce out;
+  if (delta <= 0.0) return out;
+  const double chi = 8.0 * (1.0 - law.restitution) / (5.0 * law.restitution);
+  const double v0 = std::max(impact_speed, law.speed_threshold);
+  const double elastic = law.stiffness * std::pow(delta, law.exponent);
+  const double factor = 1.0 + chi * rate / v0;
+  out.f = elastic * factor;
+  if (out.f <= 0.0) return ContactForce{};  // separating faster than the law can pull: no force
+  out.df_ddelta = law.exponent * law.stiffness * std::pow(delta, law.exponent - 1.0) * factor;
+  out.df_drate = elastic * chi / v0;
+  return out;
+}
+
+}  // namespace
+
+void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+                                 Eigen::Ref<Eigen::VectorXd> f) const {
+  double delta = 0.0, rate = 0.0;
+  Penetration(q, qdot, &delta, &rate);
+  const ContactForce c = Law(law_, impact_speed_, delta, rate);
+  if (c.f == 0.0) return;
+  const CoordinateSpring::Local l = measure_.Evaluate(q);
+  const auto& index = measure_.coordinates();
+  // The force opposes penetration: its virtual work is −f δδ, so Q = −f ∇δ = side f ∇θ.
+  for (size_t i = 0; i < index.size(); ++i) f(index[i]) += side_ * c.f * l.gradient(static_cast<Eigen::Index>(i));
+}
+
+void UnilateralContact::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+                                   double stiffness_scale, double damping_scale, SparseSink* sink) const {
+  double delta = 0.0, rate = 0.0;
+  Penetration(q, qdot, &delta, &rate);
+  const ContactForce c = Law(law_, impact_speed_, delta, rate);
+  if (c.f == 0.0) return;
+  const CoordinateSpring::Local l = measure_.Evaluate(q);
+  const auto& index = measure_.coordinates();
+  const int n = static_cast<int>(index.size());
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i) v(i) = qdot(index[static_cast<size_t>(i)]);
+  // δ = side (θ0 − θ): ∇δ = −side ∇θ, ∇²δ = −side ∇²θ, δ̇ = ∇δ·q̇.
+  const Eigen::VectorXd g = -side_ * l.gradient;
+  const Eigen::MatrixXd H = -side_ * l.hessian;
+  // Q = −f ∇δ: −∂Q/∂q = ∇δ (f_δ ∇δ + f_δ̇ ∇²δ q̇)ᵀ + f ∇²δ =: K, −∂Q/∂q̇ = f_δ̇ ∇δ ∇δᵀ =: C.
+  const Eigen::MatrixXd K = g * (c.df_ddelta * g + c.df_drate * (H * v)).transpose() + c.f * H;
+  const Eigen::MatrixXd C = c.df_drate * g * g.transpose();
+  const Eigen::MatrixXd T = stiffness_scale * K + damping_scale * C;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) sink->Add(index[static_cast<size_t>(i)], index[static_cast<size_t>(j)], T(i, j));
+  }
+}
+
 }  // namespace cosim::smooth

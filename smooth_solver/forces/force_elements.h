@@ -9,6 +9,7 @@
 
 #include <array>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "smooth_solver/constraints/bilinear_constraints.h"
@@ -29,6 +30,9 @@ class ForceElement {
   virtual double PotentialEnergy(const Eigen::VectorXd&) const { return 0.0; }
   // An elastic body's internal force, which CGα evaluates over the step (GEMM) instead.
   virtual bool IsElastic() const { return false; }
+  // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it
+  // (the contact laws' impact speed). Called by the simulation, never inside Newton.
+  virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/) const {}
 };
 
 // A force F(t) at a body point s and a torque T(t) on the body, both global. In natural
@@ -99,6 +103,41 @@ class CoordinateSpring : public ForceElement {
   LinearVector a_, b_, c_;  // revolute: b1, c1, b2; prismatic: separation, axis, unused
   double k_, damping_, rest_;
   std::vector<int> coordinates_;  // global index of each local coordinate
+};
+
+// The visco-elastic Hertzian contact law of Flores et al. (Hunt–Crossley dissipation written
+// with the restitution e; rotor-sailing paper Eq. (8)) on a one-sided coordinate:
+//   δ = side · (θ0 − θ(q)) > 0 is the penetration, f = K δⁿ (1 + 8(1 − e)/(5e) · δ̇/δ̇⁻) >= 0,
+// with δ̇⁻ the approach speed when the contact began (at least `speed_threshold`). θ(q) is the
+// signed gap (p − c)·n of a body point against a plane (θ0 = 0, side = +1), or a revolute joint
+// angle against a stop (lower: side = +1, upper: side = −1). The generalised force is −f ∇δ.
+// δ̇⁻ is a memory: taken at the last accepted state before the penetration (AcceptStep), so it
+// is fixed within a step's Newton iterations (an O(h) approximation of the onset speed).
+struct HuntCrossleyLaw {
+  double stiffness = 0.0;      // K [N/m^n or N m/rad^n]
+  double exponent = 1.5;       // n
+  double restitution = 1.0;    // e in (0, 1]
+  double speed_threshold = 1e-3;
+};
+
+class UnilateralContact : public ForceElement {
+ public:
+  UnilateralContact(CoordinateSpring measure, double threshold, double side, const HuntCrossleyLaw& law)
+      : measure_(std::move(measure)), threshold_(threshold), side_(side), law_(law) {}
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                  double damping_scale, SparseSink* sink) const override;
+  void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
+  // Penetration δ and its rate at (q, q̇).
+  void Penetration(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double* delta, double* rate) const;
+
+ private:
+  CoordinateSpring measure_;  // θ(q) with gradient and Hessian (zero stiffness: a measure only)
+  double threshold_, side_;
+  HuntCrossleyLaw law_;
+  mutable double impact_speed_ = 0.0;  // δ̇⁻, from the last accepted state without contact
 };
 
 }  // namespace cosim::smooth

@@ -18,6 +18,21 @@ namespace sc = cosim::scenario;
 
 namespace {
 
+// Eq. (8)'s parameters, validated.
+HuntCrossleyLaw ContactLaw(const Checks& checks, const std::string& path, bool has, const sc::ForceElement::HuntCrossley& l) {
+  checks.Require(path, has, "law { stiffness: K restitution: e }");
+  HuntCrossleyLaw law;
+  law.stiffness = checks.Positive(path + ".stiffness", l.has_stiffness(), l.stiffness(), "N/m^n or N m/rad^n");
+  law.exponent = checks.Positive(path + ".exponent", true, l.exponent(), "dimensionless");
+  checks.Require(path + ".restitution", l.has_restitution(), "Newton's restitution e in (0, 1]");
+  if (!(l.restitution() > 0.0 && l.restitution() <= 1.0)) {
+    checks.Fail(path + ".restitution", "must be in (0, 1] (the law divides by e), got " + FormatNumber(l.restitution()));
+  }
+  law.restitution = l.restitution();
+  law.speed_threshold = checks.Positive(path + ".speed_threshold", true, l.speed_threshold(), "m/s or rad/s");
+  return law;
+}
+
 Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const google::protobuf::RepeatedField<double>& v) {
   Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
   if (v.size() == 3) {
@@ -216,9 +231,60 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
         spec.rest = js.rest_value();
         break;
       }
-      case sc::ForceElement::kContinuousContact:
-      case sc::ForceElement::kJointStop:
-        checks.Fail(path, "continuous contact and joint stops arrive with the co-simulation (issue 6)");
+      case sc::ForceElement::kContinuousContact: {
+        const auto& cc = fe.continuous_contact();
+        spec.kind = ForceSpec::Kind::kContact;
+        spec.body1 = find_body(path + ".continuous_contact.body", cc.has_body(), cc.body());
+        if (spec.body1 < 0) checks.Fail(path + ".continuous_contact.body", "the contact point must be on a body");
+        spec.point1 = checks.Vector3(path + ".continuous_contact.point", cc.point(), Eigen::Vector3d::Zero());
+        checks.Require(path + ".continuous_contact.obstacle", cc.has_obstacle(), "the name of an obstacle (a plane)");
+        int found = -1;
+        for (int o = 0; o < m.obstacles_size(); ++o) {
+          if (m.obstacles(o).name() == cc.obstacle()) found = o;
+        }
+        if (found < 0) checks.Fail(path + ".continuous_contact.obstacle", "no obstacle named '" + cc.obstacle() + "'");
+        const sc::Obstacle& ob = m.obstacles(found);
+        const std::string opath = ElementPath("model.obstacles", found);
+        const Eigen::Vector3d point = checks.Vector3(opath + ".point", ob.point(), Eigen::Vector3d::Zero());
+        const Eigen::Vector3d normal = checks.Vector3(opath + ".normal", ob.normal(), std::nullopt);
+        if (!(normal.norm() > 0.0)) checks.Fail(opath + ".normal", "must be non-zero");
+        spec.plane_point = point;
+        spec.plane_normal = normal.normalized();
+        if (ob.has_prescribed()) {
+          checks.Fail(path + ".continuous_contact.obstacle",
+                      "obstacle '" + cc.obstacle() + "' has a prescribed motion, which continuous contact does not "
+                      "follow yet; attach it to a body or fix it");
+        }
+        if (ob.has_attached_to_body()) {
+          spec.plane_body = body_names.Find(opath + ".attached_to_body", ob.attached_to_body());
+          const RigidBody& b = model.bodies[static_cast<size_t>(spec.plane_body)];
+          const Eigen::Matrix3d R = b.orientation.toRotationMatrix();
+          spec.plane_point = R.transpose() * (point - b.position);  // in the body frame
+          spec.plane_normal = R.transpose() * spec.plane_normal;
+        }
+        spec.law = ContactLaw(checks, path + ".continuous_contact.law", cc.has_law(), cc.law());
+        break;
+      }
+      case sc::ForceElement::kJointStop: {
+        const auto& js = fe.joint_stop();
+        spec.kind = ForceSpec::Kind::kJointStop;
+        checks.Require(path + ".joint_stop.joint", js.has_joint(), "the name of a revolute joint");
+        spec.joint = joint_names.Find(path + ".joint_stop.joint", js.joint());
+        if (model.joints[static_cast<size_t>(spec.joint)].type != JointType::kRevolute) {
+          checks.Fail(path + ".joint_stop.joint", "joint '" + js.joint() + "' is not revolute");
+        }
+        spec.has_lower = js.has_lower();
+        spec.has_upper = js.has_upper();
+        spec.lower = js.lower();
+        spec.upper = js.upper();
+        if (!spec.has_lower && !spec.has_upper) checks.Fail(path + ".joint_stop", "give lower, upper or both [rad]");
+        if (spec.has_lower && spec.has_upper && !(spec.lower < spec.upper)) {
+          checks.Fail(path + ".joint_stop.upper", "must be above lower (" + FormatNumber(spec.lower) + " rad), got " +
+                                                      FormatNumber(spec.upper));
+        }
+        spec.law = ContactLaw(checks, path + ".joint_stop.law", js.has_law(), js.law());
+        break;
+      }
       case sc::ForceElement::KIND_NOT_SET:
         checks.Fail(path, "empty force element; give load { ... }, spring { ... } or joint_spring { ... }");
     }

@@ -11,6 +11,7 @@
 
 #include "interface/scenario/scenario_file.h"
 #include "interface/scenario/time_function.h"
+#include "smooth_solver/forces/force_elements.h"
 
 namespace cosim::smooth {
 
@@ -46,7 +47,7 @@ struct Joint {
 
 // A force element as given in the scenario (model.forces).
 struct ForceSpec {
-  enum class Kind { kLoad, kSpring, kJointSpring };
+  enum class Kind { kLoad, kSpring, kJointSpring, kContact, kJointStop };
   Kind kind = Kind::kLoad;
   std::string name;
   int body1 = -1, body2 = -1;  // load: body1; spring: both (−1 = ground)
@@ -56,6 +57,13 @@ struct ForceSpec {
   bool has_rest = false;
   std::array<interface::TimeFunction, 3> force, torque;
   bool has_torque = false;
+  // Continuous contact: body1's point1 against a plane (point, unit normal) fixed in space
+  // (plane_body = −1) or in body plane_body (both in that body's frame). Joint stop: joint.
+  int plane_body = -1;
+  Eigen::Vector3d plane_point = Eigen::Vector3d::Zero(), plane_normal = Eigen::Vector3d::UnitZ();
+  HuntCrossleyLaw law;
+  bool has_lower = false, has_upper = false;
+  double lower = 0.0, upper = 0.0;  // [rad]
 };
 
 // A coupling interface node on the smooth side: the material point `point` (body frame) of

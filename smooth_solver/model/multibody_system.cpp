@@ -80,6 +80,10 @@ void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::Vec
   }
 }
 
+void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  for (const auto& element : forces) element->AcceptStep(q, qdot);
+}
+
 void MultibodySystem::ForcePattern(SparseSink* sink) const {
   for (const auto& element : forces) element->Pattern(sink);
 }
@@ -348,6 +352,25 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
           const double s0 = m.separation.Value(sys.q0).dot(m.axis1.Value(sys.q0));
           sys.forces.push_back(
               std::make_unique<CoordinateSpring>(m.separation, m.axis1, f.stiffness, f.damping, s0 + f.rest));
+        }
+        break;
+      }
+      case ForceSpec::Kind::kContact: {
+        // Signed gap g = (p − c)·n of body1's point against the plane (θ0 = 0, g >= 0 allowed).
+        CoordinateSpring gap(LinearVector::Point(f.body1, f.point1) - LinearVector::Point(f.plane_body, f.plane_point),
+                             LinearVector::Direction(f.plane_body, f.plane_normal), 0.0, 0.0, 0.0);
+        sys.forces.push_back(std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law));
+        break;
+      }
+      case ForceSpec::Kind::kJointStop: {
+        const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
+        if (f.has_lower) {
+          sys.forces.push_back(std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
+                                                                   f.lower, 1.0, f.law));
+        }
+        if (f.has_upper) {
+          sys.forces.push_back(std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
+                                                                   f.upper, -1.0, f.law));
         }
         break;
       }

@@ -81,6 +81,8 @@ struct MultibodySystem {
   // The elastic bodies' internal forces (also in `forces`).
   std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;
+  // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it.
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
 
   // Joint coordinate [rad or m] and its rate.
   double JointCoordinate(int joint, const Eigen::VectorXd& q) const;

@@ -186,6 +186,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   } else {
     integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
   }
+  system_->AcceptStep(initial.q, initial.qdot);  // the contact laws' memory starts here
   angle_offset_.assign(model_.joints.size(), 0.0);
   last_angle_.assign(model_.joints.size(), 0.0);
   for (size_t j = 0; j < model_.joints.size(); ++j) {
@@ -260,6 +261,7 @@ void MultibodySimulation::Step(double t, double h) { Record(t + h, integrator_->
 CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
 
 void MultibodySimulation::Record(double t1, int iterations) {
+  system_->AcceptStep(integrator_->state().q, integrator_->state().qdot);
   if (ida_) {
     ida_steps_ += iterations;  // IDA's internal steps
   } else {

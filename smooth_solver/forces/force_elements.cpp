@@ -282,25 +282,35 @@ ContactForce Law(const HuntCrossleyLaw& law, double impact_speed, double delta, 
 
 }  // namespace
 
+UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  State s;
+  s.measure = measure_.Evaluate(q);
+  double theta_dot = 0.0;
+  const auto& index = measure_.coordinates();
+  for (size_t i = 0; i < index.size(); ++i) theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
+  const ContactForce c = Law(law_, impact_speed_, side_ * (threshold_ - s.measure.value), -side_ * theta_dot);
+  s.f = c.f;
+  s.df_ddelta = c.df_ddelta;
+  s.df_drate = c.df_drate;
+  return s;
+}
+
 void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
                                  Eigen::Ref<Eigen::VectorXd> f) const {
-  double delta = 0.0, rate = 0.0;
-  Penetration(q, qdot, &delta, &rate);
-  const ContactForce c = Law(law_, impact_speed_, delta, rate);
+  const State c = Evaluate(q, qdot);
   if (c.f == 0.0) return;
-  const CoordinateSpring::Local l = measure_.Evaluate(q);
   const auto& index = measure_.coordinates();
   // The force opposes penetration: its virtual work is −f δδ, so Q = −f ∇δ = side f ∇θ.
-  for (size_t i = 0; i < index.size(); ++i) f(index[i]) += side_ * c.f * l.gradient(static_cast<Eigen::Index>(i));
+  for (size_t i = 0; i < index.size(); ++i) {
+    f(index[i]) += side_ * c.f * c.measure.gradient(static_cast<Eigen::Index>(i));
+  }
 }
 
 void UnilateralContact::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
                                    double stiffness_scale, double damping_scale, SparseSink* sink) const {
-  double delta = 0.0, rate = 0.0;
-  Penetration(q, qdot, &delta, &rate);
-  const ContactForce c = Law(law_, impact_speed_, delta, rate);
+  const State c = Evaluate(q, qdot);
   if (c.f == 0.0) return;
-  const CoordinateSpring::Local l = measure_.Evaluate(q);
+  const CoordinateSpring::Local& l = c.measure;
   const auto& index = measure_.coordinates();
   const int n = static_cast<int>(index.size());
   Eigen::VectorXd v(n);

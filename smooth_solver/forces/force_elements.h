@@ -134,6 +134,13 @@ class UnilateralContact : public ForceElement {
   void Penetration(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double* delta, double* rate) const;
 
  private:
+  // θ with its derivatives, and the law's force and partial derivatives at (q, q̇).
+  struct State {
+    CoordinateSpring::Local measure;
+    double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
+  };
+  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+
   CoordinateSpring measure_;  // θ(q) with gradient and Hessian (zero stiffness: a measure only)
   double threshold_, side_;
   HuntCrossleyLaw law_;

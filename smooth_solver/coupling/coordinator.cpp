@@ -110,12 +110,13 @@ int Coordinator::Step(double t, double h) {
   }
   ReceiveKinematics(0);  // with the last accepted reactions
   x_ = accepted_x_;
+  newton_ = 0;
   bool converged = false;
   int iteration = 0;
   for (;; ++iteration) {
     Impose(h);
     integrator_->Restore(start_);
-    integrator_->Step(t, h);
+    newton_ += integrator_->Step(t, h);
     const Eigen::VectorXd& lambda = integrator_->state().lambda;
     for (size_t k = 0; k < system_.interface_points.size(); ++k) {
       x_tilde_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);

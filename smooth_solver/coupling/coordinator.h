@@ -62,6 +62,7 @@ class Coordinator {
   void Shutdown(int exit_code, const std::string& reason);
 
   const std::vector<CouplingIterationRecord>& log() const { return log_; }
+  int last_newton_iterations() const { return newton_; }  // CGα iterations of the last step, all tries
   long long marked_steps() const { return marked_; }
 
  private:
@@ -82,6 +83,7 @@ class Coordinator {
   std::vector<int> coupling_rows_;
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;
+  int newton_ = 0;
 };
 
 }  // namespace cosim::smooth

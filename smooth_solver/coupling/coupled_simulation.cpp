@@ -80,7 +80,7 @@ void CoupledSmoothSimulation::Step(double t, double h) {
   }
   const int iterations = coordinator_->Step(t, h);
   coupling_.Add(iterations);
-  simulation_->Record(t + h, 0);
+  simulation_->Record(t + h, coordinator_->last_newton_iterations());
 }
 
 void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {

@@ -84,8 +84,7 @@ void ContactServer::Handshake() { Answer(channel_->Receive(Envelope::kHello, -1,
 
 void ContactServer::Run() {
   Handshake();
-  while (Handle(channel_->ReceiveAny()) != Outcome::kShutdown) {
-  }
+  ServeShutdown();  // every message up to the coordinator's Shutdown
 }
 
 void ContactServer::ServeStep(int64_t step, double t, double h) {

@@ -28,25 +28,26 @@ Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std
   velocity_ = x_;
   previous_position_ = x_;
   start_velocity_ = x_;
+  for (const InterfacePoint& p : system.interface_points) {
+    for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
+  }
   // Until the first step: where the points are, at rest.
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
     for (int j = 0; j < 3; ++j) position_(3 * static_cast<Eigen::Index>(k) + j) = (*system.imposed)[3 * k + j].value;
   }
 }
 
+void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t) {
+  ConsistentAccelerations(system_, t, &state, &coupling_rows_);
+  integrator_->Restart(state);
+}
+
 void Coordinator::Handshake(const std::string& scenario_name, double start_time, double step) {
   // The start: accelerations with the coupling rows left out (free interface points, λ = 0),
   // a_0 = q̈_0 (a shifted start would impose end-of-step coordinates at the wrong time).
-  coupling_rows_.clear();
-  for (const InterfacePoint& p : system_.interface_points) {
-    for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
-  }
-  DaeState initial = integrator_->state();
-  ConsistentAccelerations(system_, start_time, &initial, &coupling_rows_);
-  integrator_->Restart(initial);
+  RestartWithCouplingRowsFree(integrator_->state(), start_time);
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    const Eigen::Vector3d a = system_.interface_points[k].point.Value(initial.qddot) -
-                              system_.interface_points[k].point.constant;  // point acceleration
+    const Eigen::Vector3d a = system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
     for (int j = 0; j < 3; ++j) (*system_.imposed)[3 * k + static_cast<size_t>(j)].acceleration = a(j);
   }
   for (Peer& peer : peers_) {
@@ -167,8 +168,7 @@ int Coordinator::Step(double t, double h) {
   if (in_contact_ && !was_in_contact_) {
     DaeState after = integrator_->state();
     ProjectVelocities(system_, t + h, &after);  // the points move with their nodes
-    ConsistentAccelerations(system_, t + h, &after, &coupling_rows_);
-    integrator_->Restart(after);
+    RestartWithCouplingRowsFree(std::move(after), t + h);
     accepted_x_.setZero();  // the impact's reaction does not carry over
   }
   was_in_contact_ = in_contact_;

@@ -67,6 +67,8 @@ class Coordinator {
 
  private:
   void Impose(double h);  // k → the interface rows' imposed coordinates
+  // CGα from `state` at t, its accelerations with the coupling rows left out (λ = 0 there).
+  void RestartWithCouplingRowsFree(DaeState state, double t);
   void ReceiveKinematics(int iteration);
 
   const MultibodySystem& system_;
@@ -80,7 +82,7 @@ class Coordinator {
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_;   // reactions
   Eigen::VectorXd position_, velocity_, previous_position_, start_velocity_;  // kinematics
   bool in_contact_ = false, was_in_contact_ = false;  // any interface node, this / last step
-  std::vector<int> coupling_rows_;
+  std::vector<int> coupling_rows_;  // the interface points' constraint rows
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;
   int newton_ = 0;

@@ -78,33 +78,47 @@ class TripletSink : public SparseSink {
 
 }  // namespace
 
-void ElasticBody::AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights,
-                                   double f_scale, Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K,
-                                   int offset, std::unique_ptr<Hex27::ElementMatrix>* workspace) const {
-  if (K != nullptr && *workspace == nullptr) *workspace = std::make_unique<Hex27::ElementMatrix>();
-  Hex27::ElementMatrix* Ke = K != nullptr ? workspace->get() : nullptr;
-  Hex27::ElementVector fe;
-  Hex27::NodeMatrix xe, xe_prev;
-  for (size_t e = 0; e < elements_.size(); ++e) {
-    const auto& nodes = mesh_.elements[e];
-    for (int a = 0; a < Hex27::kNodes; ++a) {
-      xe.col(a) = x.col(nodes[static_cast<size_t>(a)]);
-      xe_prev.col(a) = x_prev.col(nodes[static_cast<size_t>(a)]);
-    }
-    elements_[e].MidpointForce(material_, xe_prev, xe, weights, f_scale != 0.0 ? &fe : nullptr, Ke);
-    if (f_scale != 0.0) {
-      for (int a = 0; a < Hex27::kNodes; ++a) f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += f_scale * fe.segment<3>(3 * a);
-    }
-    if (K == nullptr) continue;
-    for (int b = 0; b < Hex27::kNodes; ++b) {
-      const int B = offset + 3 * nodes[static_cast<size_t>(b)];
-      for (int j = 0; j < 3; ++j) {
-        for (int a = 0; a < Hex27::kNodes; ++a) {
-          const int A = offset + 3 * nodes[static_cast<size_t>(a)];
-          for (int i = 0; i < 3; ++i) K->Add(A + i, B + j, k_scale * (*Ke)(3 * a + i, 3 * b + j));
-        }
+namespace {
+
+using ElementNodes = std::array<int, Hex27::kNodes>;
+
+Hex27::NodeMatrix Gather(const ElasticBody::Positions& x, const ElementNodes& nodes) {
+  Hex27::NodeMatrix xe;
+  for (int a = 0; a < Hex27::kNodes; ++a) xe.col(a) = x.col(nodes[static_cast<size_t>(a)]);
+  return xe;
+}
+
+void ScatterForce(const ElementNodes& nodes, const Hex27::ElementVector& fe, double scale,
+                  Eigen::Ref<Eigen::VectorXd> f) {
+  for (int a = 0; a < Hex27::kNodes; ++a) f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += scale * fe.segment<3>(3 * a);
+}
+
+void ScatterMatrix(const ElementNodes& nodes, const Hex27::ElementMatrix& Ke, double scale, SparseSink* K,
+                   int offset) {
+  for (int b = 0; b < Hex27::kNodes; ++b) {
+    const int B = offset + 3 * nodes[static_cast<size_t>(b)];
+    for (int j = 0; j < 3; ++j) {
+      for (int a = 0; a < Hex27::kNodes; ++a) {
+        const int A = offset + 3 * nodes[static_cast<size_t>(a)];
+        for (int i = 0; i < 3; ++i) K->Add(A + i, B + j, scale * Ke(3 * a + i, 3 * b + j));
       }
     }
+  }
+}
+
+}  // namespace
+
+void ElasticBody::AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights,
+                                   double f_scale, Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K,
+                                   int offset) const {
+  Hex27::ElementVector fe;
+  Hex27::ElementMatrix Ke;  // 52 kB
+  for (size_t e = 0; e < elements_.size(); ++e) {
+    const auto& nodes = mesh_.elements[e];
+    elements_[e].MidpointForce(material_, Gather(x_prev, nodes), Gather(x, nodes), weights,
+                               f_scale != 0.0 ? &fe : nullptr, K != nullptr ? &Ke : nullptr);
+    if (f_scale != 0.0) ScatterForce(nodes, fe, f_scale, f);
+    if (K != nullptr) ScatterMatrix(nodes, Ke, k_scale, K, offset);
   }
 }
 
@@ -113,29 +127,13 @@ void ElasticBody::AssembleViscous(const Positions& x, const Positions& v, double
                                   int offset) const {
   Hex27::ElementVector fe;
   Hex27::ElementMatrix Ke;
-  Hex27::NodeMatrix xe, ve;
   const bool tangent = K != nullptr && (k_scale != 0.0 || c_scale != 0.0);
   for (size_t e = 0; e < elements_.size(); ++e) {
     const auto& nodes = mesh_.elements[e];
-    for (int a = 0; a < Hex27::kNodes; ++a) {
-      xe.col(a) = x.col(nodes[static_cast<size_t>(a)]);
-      ve.col(a) = v.col(nodes[static_cast<size_t>(a)]);
-    }
-    elements_[e].ViscousForce(material_, retardation, xe, ve, f_scale != 0.0 ? &fe : nullptr, k_scale, c_scale,
-                              tangent ? &Ke : nullptr);
-    if (f_scale != 0.0) {
-      for (int a = 0; a < Hex27::kNodes; ++a) f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += f_scale * fe.segment<3>(3 * a);
-    }
-    if (!tangent) continue;
-    for (int b = 0; b < Hex27::kNodes; ++b) {
-      const int B = offset + 3 * nodes[static_cast<size_t>(b)];
-      for (int j = 0; j < 3; ++j) {
-        for (int a = 0; a < Hex27::kNodes; ++a) {
-          const int A = offset + 3 * nodes[static_cast<size_t>(a)];
-          for (int i = 0; i < 3; ++i) K->Add(A + i, B + j, Ke(3 * a + i, 3 * b + j));
-        }
-      }
-    }
+    elements_[e].ViscousForce(material_, retardation, Gather(x, nodes), Gather(v, nodes),
+                              f_scale != 0.0 ? &fe : nullptr, k_scale, c_scale, tangent ? &Ke : nullptr);
+    if (f_scale != 0.0) ScatterForce(nodes, fe, f_scale, f);
+    if (tangent) ScatterMatrix(nodes, Ke, 1.0, K, offset);
   }
 }
 
@@ -144,8 +142,7 @@ void ElasticBody::Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen:
   Eigen::VectorXd force = Eigen::VectorXd::Zero(n);
   TripletSink sink;
   if (K != nullptr) sink.triplets.reserve(mesh_.elements.size() * 81 * 81);
-  std::unique_ptr<Hex27::ElementMatrix> workspace;
-  AssembleMidpoint(x, x, MidpointWeights{}, 1.0, force, 1.0, K != nullptr ? &sink : nullptr, 0, &workspace);
+  AssembleMidpoint(x, x, MidpointWeights{}, 1.0, force, 1.0, K != nullptr ? &sink : nullptr, 0);
   if (f != nullptr) *f = std::move(force);
   if (K != nullptr) {
     K->resize(n, n);

@@ -7,7 +7,6 @@
 #include <Eigen/SparseCore>
 
 #include <array>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,12 +40,10 @@ class ElasticBody {
   void Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen::SparseMatrix<double>* K) const;
   // The GEMM midpoint force over the step x_prev → x (Hex27::MidpointForce), assembled without
   // allocating: f_scale · f_m is added to `f` (3 per node); if `K` is given, k_scale · ∂f_m/∂x
-  // is added into it at (offset + 3 node + i, offset + 3 node' + j). `workspace` holds one
-  // element matrix (allocated on first use, 0.5 MB).
+  // is added into it at (offset + 3 node + i, offset + 3 node' + j).
   using Positions = Eigen::Ref<const Eigen::Matrix3Xd>;
   void AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights, double f_scale,
-                        Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K, int offset,
-                        std::unique_ptr<Hex27::ElementMatrix>* workspace) const;
+                        Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K, int offset) const;
   // The Kelvin–Voigt viscous force (Hex27::ViscousForce) at positions x and velocities v:
   // f_scale · f_v added to `f`, and k_scale · ∂f_v/∂x + c_scale · ∂f_v/∂v into `K` (if given).
   void AssembleViscous(const Positions& x, const Positions& v, double retardation, double f_scale,

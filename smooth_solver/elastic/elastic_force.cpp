@@ -6,21 +6,20 @@ void ElasticForce::AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::Vecto
                                Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const {
   const MidpointWeights weights{alpha_f, alpha_f == 0.0 ? 0.0 : strain_damping_};
   body_->AssembleMidpoint(Positions(q_prev), Positions(q), weights, 1.0, f_m.segment(offset_, 3 * body_->node_count()),
-                          k_scale, sink, offset_, &workspace_);
+                          k_scale, sink, offset_);
 }
 
 void ElasticForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, double,
                             Eigen::Ref<Eigen::VectorXd> f) const {
   body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, -1.0,
-                          f.segment(offset_, 3 * body_->node_count()), 0.0, nullptr, offset_, &workspace_);
+                          f.segment(offset_, 3 * body_->node_count()), 0.0, nullptr, offset_);
 }
 
 void ElasticForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd&, double, double stiffness_scale, double,
                               SparseSink* sink) const {
   if (stiffness_scale == 0.0) return;  // no damping in the material law
-  Eigen::VectorXd unused = Eigen::VectorXd::Zero(3 * body_->node_count());
-  body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, 0.0, unused, stiffness_scale, sink, offset_,
-                          &workspace_);
+  Eigen::VectorXd unused(0);  // f_scale = 0: the force is not assembled
+  body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, 0.0, unused, stiffness_scale, sink, offset_);
 }
 
 void ElasticDamping::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,

@@ -4,9 +4,6 @@
 // and its internal force enters as the force element −f_int(x) with the tangent K_int (the
 // end-point force, as IDA and the static analysis use it). The CGα integrator instead asks for
 // the GEMM midpoint force over its step (AddMidpoint, Eqs. (13)-(19)).
-//
-// Not thread-safe: the element-matrix workspace is shared by the calls (one integrator).
-#include <memory>
 #include <utility>
 
 #include "interface/scenario/time_function.h"
@@ -44,7 +41,6 @@ class ElasticForce : public ForceElement {
   const ElasticBody* body_;
   int offset_;
   double strain_damping_;
-  mutable std::unique_ptr<Hex27::ElementMatrix> workspace_;
 };
 
 // Kelvin–Voigt structural damping of an elastic body (retardation time β): the force element

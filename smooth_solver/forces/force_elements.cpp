@@ -243,20 +243,9 @@ double CoordinateSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
   return 0.5 * k_ * s * s;
 }
 
-void UnilateralContact::Penetration(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double* delta,
-                                     double* rate) const {
-  const CoordinateSpring::Local l = measure_.Evaluate(q);
-  double theta_dot = 0.0;
-  const auto& index = measure_.coordinates();
-  for (size_t i = 0; i < index.size(); ++i) theta_dot += l.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
-  *delta = side_ * (threshold_ - l.value);
-  *rate = -side_ * theta_dot;
-}
-
 void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
-  double delta = 0.0, rate = 0.0;
-  Penetration(q, qdot, &delta, &rate);
-  if (delta <= 0.0) impact_speed_ = std::max(rate, law_.speed_threshold);  // the approach speed so far
+  const State s = Evaluate(q, qdot);
+  if (s.delta <= 0.0) impact_speed_ = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
 }
 
 namespace {
@@ -288,7 +277,9 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
   double theta_dot = 0.0;
   const auto& index = measure_.coordinates();
   for (size_t i = 0; i < index.size(); ++i) theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
-  const ContactForce c = Law(law_, impact_speed_, side_ * (threshold_ - s.measure.value), -side_ * theta_dot);
+  s.delta = side_ * (threshold_ - s.measure.value);
+  s.rate = -side_ * theta_dot;
+  const ContactForce c = Law(law_, impact_speed_, s.delta, s.rate);
   s.f = c.f;
   s.df_ddelta = c.df_ddelta;
   s.df_drate = c.df_drate;

@@ -130,13 +130,12 @@ class UnilateralContact : public ForceElement {
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
   void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
-  // Penetration δ and its rate at (q, q̇).
-  void Penetration(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double* delta, double* rate) const;
-
  private:
-  // θ with its derivatives, and the law's force and partial derivatives at (q, q̇).
+  // θ with its derivatives, the penetration δ and its rate, and the law's force and partial
+  // derivatives at (q, q̇).
   struct State {
     CoordinateSpring::Local measure;
+    double delta = 0.0, rate = 0.0;
     double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
   };
   State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;

@@ -89,20 +89,14 @@ class CgAlpha : public SmoothIntegrator {
     Eigen::VectorXd a, elastic;
     bool started = false;
   };
-  void SaveTo(Checkpoint* c) const {
-    c->state.q = state_.q;
-    c->state.qdot = state_.qdot;
-    c->state.qddot = state_.qddot;
-    c->state.lambda = state_.lambda;
+  void SaveTo(Checkpoint* c) const {  // assignments of equal sizes reuse the buffers
+    c->state = state_;
     c->a = a_;
     c->elastic = elastic_.current();
     c->started = started_;
   }
   void Restore(const Checkpoint& c) {
-    state_.q = c.state.q;
-    state_.qdot = c.state.qdot;
-    state_.qddot = c.state.qddot;
-    state_.lambda = c.state.lambda;
+    state_ = c.state;
     a_ = c.a;
     elastic_.set_current(c.elastic);
     started_ = c.started;

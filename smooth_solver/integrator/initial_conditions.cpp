@@ -60,6 +60,42 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
   return 0;
 }
 
+
+// min ½|q̇ − q̇_ref|² s.t. Φ_q q̇ = −Φ_t and, with `holds`, H_q q̇ = H_q q̇_ref (held joint speeds
+// kept): the KKT system [I Gᵀ; G 0]. Returns false if it is singular (redundant rows).
+bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* holds, double t,
+                            const Eigen::VectorXd& q, const Eigen::VectorXd& qdot_ref, Eigen::VectorXd* qdot) {
+  const int n = system.coordinates, mc = system.constraints.size(), mh = holds != nullptr ? holds->size() : 0;
+  const int N = n + mc + mh;
+  PatternSink pattern;
+  for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+  system.constraints.Jacobian(q, t, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(q, t, &pattern, n, 1.0);
+  if (holds != nullptr) {
+    holds->Jacobian(q, t, &pattern, n + mc, 1.0);
+    holds->JacobianTranspose(q, t, &pattern, n + mc, 1.0);
+  }
+  Eigen::SparseMatrix<double> A = pattern.Build(N, N);
+  MatrixSink sink(&A);
+  for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
+  system.constraints.Jacobian(q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(q, t, &sink, n, 1.0);
+  system.constraints.AddReleasedDiagonal(t, &sink, n);
+  if (holds != nullptr) {
+    holds->Jacobian(q, t, &sink, n + mc, 1.0);
+    holds->JacobianTranspose(q, t, &sink, n + mc, 1.0);
+  }
+  Eigen::VectorXd rhs(N);
+  rhs.head(n) = qdot_ref;
+  system.constraints.TimeDerivative(q, t, rhs.segment(n, mc));
+  rhs.segment(n, mc) *= -1.0;
+  if (holds != nullptr) holds->JacobianTimes(q, t, qdot_ref, rhs.tail(mh));
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
+  if (lu.info() != Eigen::Success) return false;
+  *qdot = lu.solve(rhs).head(n);
+  return true;
+}
+
 }  // namespace
 
 DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report) {
@@ -110,60 +146,20 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   }
 
   // Velocities: min ½|q̇ − q̇₀|² s.t. Φ_q q̇ = −Φ_t, H_q q̇ = H_q q̇₀ (held joint speeds kept).
-  {
-    PatternSink pattern;
-    for (int i = 0; i < n; ++i) pattern.Add(i, i, 0.0);
-    system.constraints.Jacobian(state.q, t0, &pattern, n, 1.0);
-    system.constraints.JacobianTranspose(state.q, t0, &pattern, n, 1.0);
-    system.holds.Jacobian(state.q, t0, &pattern, n + mc, 1.0);
-    system.holds.JacobianTranspose(state.q, t0, &pattern, n + mc, 1.0);
-    for (int i = n; i < N; ++i) pattern.Add(i, i, 0.0);
-    Eigen::SparseMatrix<double> A = pattern.Build(N, N);
-    MatrixSink sink(&A);
-    for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
-    system.constraints.Jacobian(state.q, t0, &sink, n, 1.0);
-    system.constraints.JacobianTranspose(state.q, t0, &sink, n, 1.0);
-    system.constraints.AddReleasedDiagonal(t0, &sink, n);
-    system.holds.Jacobian(state.q, t0, &sink, n + mc, 1.0);
-    system.holds.JacobianTranspose(state.q, t0, &sink, n + mc, 1.0);
-    Eigen::VectorXd rhs(N);
-    rhs.head(n) = system.qdot0;
-    system.constraints.TimeDerivative(state.q, t0, rhs.segment(n, mc));
-    rhs.segment(n, mc) *= -1.0;
-    system.holds.JacobianTimes(state.q, t0, system.qdot0, rhs.tail(mh));
-    Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
-    if (lu.info() != Eigen::Success) {
-      throw InputError("model: the velocity constraints are singular at the initial state (redundant joints)");
-    }
-    state.qdot = lu.solve(rhs).head(n);
-    if (report != nullptr) report->velocity_change = (state.qdot - system.qdot0).lpNorm<Eigen::Infinity>();
+  if (!SmallestVelocityChange(system, &system.holds, t0, state.q, system.qdot0, &state.qdot)) {
+    throw InputError("model: the velocity constraints are singular at the initial state (redundant joints)");
   }
+  if (report != nullptr) report->velocity_change = (state.qdot - system.qdot0).lpNorm<Eigen::Infinity>();
   ConsistentAccelerations(system, t0, &state);
   return state;
 }
 
 void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state) {
-  const int n = system.coordinates, m = system.constraints.size(), N = n + m;
-  PatternSink pattern;
-  for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
-  system.constraints.Jacobian(state->q, t, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(state->q, t, &pattern, n, 1.0);
-  Eigen::SparseMatrix<double> A = pattern.Build(N, N);
-  MatrixSink sink(&A);
-  for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
-  system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
-  system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
-  system.constraints.AddReleasedDiagonal(t, &sink, n);
-  Eigen::VectorXd rhs(N);
-  rhs.head(n) = state->qdot;
-  system.constraints.TimeDerivative(state->q, t, rhs.tail(m));
-  rhs.tail(m) *= -1.0;
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
-  if (lu.info() != Eigen::Success) {
+  const Eigen::VectorXd reference = state->qdot;
+  if (!SmallestVelocityChange(system, nullptr, t, state->q, reference, &state->qdot)) {
     throw NumericalError("the velocity constraints are singular at t = " + std::to_string(t) +
                          " s (redundant rows: regularise the coupling rows of a closed loop)");
   }
-  state->qdot = lu.solve(rhs).head(n);
 }
 
 }  // namespace cosim::smooth

@@ -5,8 +5,13 @@
 
 namespace cosim::interface {
 
-Relaxation::Relaxation(Method method, int size, double factor, int max_columns)
-    : method_(method), factor_(factor), omega_(factor), max_columns_(max_columns > 0 ? max_columns : size) {
+Relaxation::Relaxation(Method method, int size, double factor, int max_columns, int reuse_steps)
+    : method_(method),
+      factor_(factor),
+      omega_(factor),
+      max_columns_(max_columns > 0 ? max_columns : std::max(size, 1)),
+      reuse_steps_(std::max(reuse_steps, 0)) {
+  stamp_.assign(static_cast<size_t>(max_columns_), 0);
   r_.resize(size);
   r_previous_.resize(size);
   x_tilde_previous_.resize(size);
@@ -17,6 +22,14 @@ Relaxation::Relaxation(Method method, int size, double factor, int max_columns)
 }
 
 void Relaxation::BeginStep() {
+  iteration_ = 0;
+  omega_ = factor_;
+  ++step_;
+  // Columns are newest first: keep those made in the last `reuse_steps_` steps.
+  while (columns_ > 0 && stamp_[static_cast<size_t>(columns_ - 1)] < step_ - reuse_steps_) --columns_;
+}
+
+void Relaxation::Forget() {
   iteration_ = 0;
   columns_ = 0;
   omega_ = factor_;
@@ -54,9 +67,11 @@ void Relaxation::Next(const Eigen::VectorXd& x, const Eigen::VectorXd& x_tilde, 
         for (int c = keep; c > 0; --c) {
           V_.col(c) = V_.col(c - 1);
           W_.col(c) = W_.col(c - 1);
+          stamp_[static_cast<size_t>(c)] = stamp_[static_cast<size_t>(c - 1)];
         }
         V_.col(0) = r_ - r_previous_;
         W_.col(0) = x_tilde - x_tilde_previous_;
+        stamp_[0] = step_;
         columns_ = keep + 1;
       }
       // Drop the oldest columns until the fit is well conditioned.
@@ -72,7 +87,7 @@ void Relaxation::Next(const Eigen::VectorXd& x, const Eigen::VectorXd& x_tilde, 
         }
         --columns_;
       }
-      if (!updated) *x_next = x + factor_ * r_;  // first iteration, or no usable history
+      if (!updated) *x_next = x + factor_ * r_;  // first iteration without reused columns
       break;
     }
   }

@@ -193,6 +193,12 @@ void ConstraintSet::AddReleasedDiagonal(double t, SparseSink* sink, int offset) 
   }
 }
 
+void ConstraintSet::AddComplianceDiagonal(SparseSink* sink, int offset, double scale) const {
+  for (size_t i = 0; i < compliance.size(); ++i) {
+    if (compliance[i] != 0.0) sink->Add(offset + static_cast<int>(i), offset + static_cast<int>(i), -scale * compliance[i]);
+  }
+}
+
 double ConstraintSet::NextRelease(double t0, double t1) const {
   double next = std::numeric_limits<double>::infinity();
   for (const auto& c : constraints) {

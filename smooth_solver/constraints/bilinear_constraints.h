@@ -102,9 +102,13 @@ class ConstraintSet {
   std::vector<ScalarConstraint> constraints;
   std::vector<Drive> drives;
   // Tikhonov regularisation of row i, Φ_i − c_i λ_i = 0 (rotor-sailing paper, Eq. (7)); empty:
-  // none. The CGα integrator honours it; the initial accelerations are computed without it.
+  // none. CGα and the initial position and velocity solves honour it; the initial accelerations
+  // leave the regularised (coupling) rows out.
   std::vector<double> compliance;
   double Compliance(size_t i) const { return i < compliance.size() ? compliance[i] : 0.0; }
+  // −scale · c_i on the diagonal (offset + i, offset + i) of every regularised row: the
+  // ∂(Φ_i − c_i λ_i)/∂λ_i block of a saddle-point matrix whose multipliers are scaled by `scale`.
+  void AddComplianceDiagonal(SparseSink* sink, int offset, double scale) const;
 
   int size() const { return static_cast<int>(constraints.size()); }
   bool Active(size_t i, double t) const { return t <= constraints[i].release_time; }

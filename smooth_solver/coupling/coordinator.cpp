@@ -18,7 +18,7 @@ Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std
       peers_(std::move(peers)),
       settings_(settings),
       relaxation_(settings.relaxation, 3 * static_cast<int>(system.interface_points.size()),
-                  settings.relaxation_factor) {
+                  settings.relaxation_factor, -1, settings.reuse_steps) {
   n_ = 3 * static_cast<int>(system.interface_points.size());
   x_ = Eigen::VectorXd::Zero(n_);
   x_tilde_ = x_;
@@ -170,6 +170,7 @@ int Coordinator::Step(double t, double h) {
     ProjectVelocities(system_, t + h, &after);  // the points move with their nodes
     RestartWithCouplingRowsFree(std::move(after), t + h);
     accepted_x_.setZero();  // the impact's reaction does not carry over
+    relaxation_.Forget();   // nor do the secants of the interface map before it
   }
   was_in_contact_ = in_contact_;
   for (Peer& peer : peers_) {

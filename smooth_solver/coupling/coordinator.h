@@ -33,6 +33,7 @@ struct CouplingSettings {
   double reaction_tolerance = 1e-6;      // relative to max(1 N, |x̃|)
   interface::Relaxation::Method relaxation = interface::Relaxation::Method::kAitken;
   double relaxation_factor = 0.5;
+  int reuse_steps = 0;                   // IQN-ILS: columns of that many earlier steps kept
   bool stop_at_max_iterations = true;    // false: accept and mark the step
 };
 

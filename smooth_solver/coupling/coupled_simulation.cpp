@@ -56,6 +56,10 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   }
   settings.relaxation_factor =
       checks.InRange("coupling.iteration.relaxation_factor", true, it.relaxation_factor(), 0.0, 2.0);
+  if (it.reuse_steps() < 0) {
+    checks.Fail("coupling.iteration.reuse_steps", "must be >= 0, got " + std::to_string(it.reuse_steps()));
+  }
+  settings.reuse_steps = it.reuse_steps();
   if (it.on_max_iterations() != sc::Coupling::CouplingIteration::STOP &&
       it.on_max_iterations() != sc::Coupling::CouplingIteration::ACCEPT_AND_MARK) {
     checks.Fail("coupling.iteration.on_max_iterations", "expected STOP or ACCEPT_AND_MARK");

@@ -40,18 +40,36 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   system.Force(state->q, state->qdot, t, rhs.head(n));
   system.constraints.AccelerationBias(state->q, state->qdot, t, rhs.tail(m));
   rhs.tail(m) *= -1.0;
-  if (free_rows != nullptr && !free_rows->empty()) {
-    // Rows left out: an identity row and column (λ_i = 0, no acceleration condition).
-    std::vector<bool> is_free(static_cast<size_t>(n + m), false);
-    for (int i : *free_rows) is_free[static_cast<size_t>(n + i)] = true;
+  // Rows left out (`free_rows`): an identity row and column, λ_i = 0. Regularised rows
+  // (Φ_i − c_i λ_i = 0, Eq. (7) of the rotor-sailing paper): λ_i = Φ_i / c_i is a function of
+  // the positions, so their row is −c_i λ_i = −Φ_i, without an acceleration condition.
+  enum class Row : unsigned char { kKept, kFree, kCompliant };
+  std::vector<Row> mode(static_cast<size_t>(n + m), Row::kKept);
+  bool special = false;
+  for (int i = 0; i < m; ++i) {
+    if (system.constraints.Compliance(static_cast<size_t>(i)) != 0.0) mode[static_cast<size_t>(n + i)] = Row::kCompliant, special = true;
+  }
+  if (free_rows != nullptr) {
+    for (int i : *free_rows) mode[static_cast<size_t>(n + i)] = Row::kFree, special = true;
+  }
+  if (special) {
+    Eigen::VectorXd phi(m);
+    system.constraints.Evaluate(state->q, t, phi);
     for (int k = 0; k < A.outerSize(); ++k) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(A, k); it; ++it) {
-        if (is_free[static_cast<size_t>(it.row())] || is_free[static_cast<size_t>(it.col())]) {
-          it.valueRef() = it.row() == it.col() ? 1.0 : 0.0;
+        const Row r = mode[static_cast<size_t>(it.row())], c = mode[static_cast<size_t>(it.col())];
+        const bool diagonal = it.row() == it.col();
+        if (r == Row::kFree || c == Row::kFree) {
+          it.valueRef() = diagonal ? 1.0 : 0.0;
+        } else if (r == Row::kCompliant) {
+          it.valueRef() = diagonal ? -system.constraints.Compliance(static_cast<size_t>(it.row() - n)) : 0.0;
         }
       }
     }
-    for (int i : *free_rows) rhs(n + i) = 0.0;
+    for (int i = 0; i < m; ++i) {
+      if (mode[static_cast<size_t>(n + i)] == Row::kFree) rhs(n + i) = 0.0;
+      if (mode[static_cast<size_t>(n + i)] == Row::kCompliant) rhs(n + i) = -phi(i);
+    }
   }
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
   lu.compute(A);
@@ -115,10 +133,7 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
-  for (size_t i = 0; i < system_.constraints.compliance.size(); ++i) {
-    const double c = system_.constraints.compliance[i];
-    if (c != 0.0) sink.Add(n + static_cast<int>(i), n + static_cast<int>(i), -c / bh2);
-  }
+  system_.constraints.AddComplianceDiagonal(&sink, n, 1.0 / bh2);
 }
 
 int CgAlpha::Step(double t, double h) {

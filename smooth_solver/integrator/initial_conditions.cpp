@@ -25,8 +25,10 @@ Eigen::Map<Eigen::VectorXd> View(N_Vector v) {
   return Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(v), N_VGetLength(v));
 }
 
-// F(q, μ) = [q − q₀ + Φ_qᵀ μ_c + H_qᵀ μ_h; Φ(q); H(q)]: the KKT conditions of
-// min ½|q − q₀|² subject to the constraints and the holds.
+// F(q, μ) = [q − q₀ + Φ_qᵀ μ_c + H_qᵀ μ_h; Φ(q) − C μ_c; H(q)]: the KKT conditions of
+// min ½|q − q₀|² subject to the constraints and the holds; regularised rows (compliance C,
+// Eq. (7) of the rotor-sailing paper) are met in the least-squares sense, which keeps a loop
+// closed by redundant coupling rows solvable.
 int Residual(N_Vector y, N_Vector f, void* data) {
   const auto* p = static_cast<const ClosureProblem*>(data);
   const auto Y = View(y);
@@ -36,6 +38,7 @@ int Residual(N_Vector y, N_Vector f, void* data) {
   p->system->constraints.AddJacobianTransposeTimes(q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
   p->system->holds.AddJacobianTransposeTimes(q, p->t0, Y.tail(p->mh), F.head(p->n));
   p->system->constraints.Evaluate(q, p->t0, F.segment(p->n, p->mc));
+  for (int i = 0; i < p->mc; ++i) F(p->n + i) -= p->system->constraints.Compliance(static_cast<size_t>(i)) * Y(p->n + i);
   for (int i = 0; i < p->mc; ++i) {
     if (!p->system->constraints.Active(static_cast<size_t>(i), p->t0)) F(p->n + i) = Y(p->n + i);  // released: μ = 0
   }
@@ -55,6 +58,7 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
   p->system->constraints.Jacobian(q, p->t0, &sink, p->n, 1.0);
   p->system->constraints.JacobianTranspose(q, p->t0, &sink, p->n, 1.0);
   p->system->constraints.AddReleasedDiagonal(p->t0, &sink, p->n);
+  p->system->constraints.AddComplianceDiagonal(&sink, p->n, 1.0);
   p->system->holds.Jacobian(q, p->t0, &sink, p->n + p->mc, 1.0);
   p->system->holds.JacobianTranspose(q, p->t0, &sink, p->n + p->mc, 1.0);
   return 0;
@@ -62,7 +66,8 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
 
 
 // min ½|q̇ − q̇_ref|² s.t. Φ_q q̇ = −Φ_t and, with `holds`, H_q q̇ = H_q q̇_ref (held joint speeds
-// kept): the KKT system [I Gᵀ; G 0]. Returns false if it is singular (redundant rows).
+// kept): the KKT system [I Gᵀ; G −C], C the rows' compliance (regularised rows are met in the
+// least-squares sense). Returns false if it is singular (redundant rows not regularised).
 bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* holds, double t,
                             const Eigen::VectorXd& q, const Eigen::VectorXd& qdot_ref, Eigen::VectorXd* qdot) {
   const int n = system.coordinates, mc = system.constraints.size(), mh = holds != nullptr ? holds->size() : 0;
@@ -81,6 +86,7 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   system.constraints.Jacobian(q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
+  system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
   if (holds != nullptr) {
     holds->Jacobian(q, t, &sink, n + mc, 1.0);
     holds->JacobianTranspose(q, t, &sink, n + mc, 1.0);

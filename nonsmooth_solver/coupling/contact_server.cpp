@@ -80,6 +80,25 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
   channel_->Send();
 }
 
+void ContactServer::SetReactions(const coupling::Reactions& reactions, const char* where) {
+  const auto& force = reactions.force();
+  if (force.size() != 3 * static_cast<int>(nodes_.size())) {
+    throw InputError(std::string("coupling: ") + where + ".force from '" + channel_->options().peer + "' has " +
+                     std::to_string(force.size()) + " values; expected 3 per interface node, " +
+                     std::to_string(3 * nodes_.size()));
+  }
+  for (size_t n = 0; n < nodes_.size(); ++n) {
+    for (int i = 0; i < 3; ++i) {
+      const double f = force.Get(3 * static_cast<int>(n) + i);
+      if (!std::isfinite(f)) {
+        throw InputError(std::string("coupling: ") + where + ".force[" + std::to_string(3 * n + static_cast<size_t>(i)) +
+                         "] from '" + channel_->options().peer + "' is " + std::to_string(f) + "; expected a finite force [N]");
+      }
+      external_(3 * nodes_[n] + i) = f;
+    }
+  }
+}
+
 void ContactServer::Handshake() { Answer(channel_->Receive(Envelope::kHello, -1, -1)); }
 
 void ContactServer::Run() {
@@ -130,7 +149,8 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       t_ = e.step_begin().time();
       h_ = e.step_begin().step();
       simulation_->integrator().SaveTo(&start_);
-      TentativeStep(step_, 0);  // the last accepted reactions as predictor
+      if (e.step_begin().has_predictor()) SetReactions(e.step_begin().predictor(), "StepBegin.predictor");
+      TentativeStep(step_, 0);  // the predictor, or the last accepted reactions
       return Outcome::kContinue;
     }
     case Envelope::kReactions: {
@@ -138,14 +158,7 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
         throw InputError("coupling: Reactions of step " + std::to_string(e.step()) + " from '" + peer +
                          "', but the step under way is " + std::to_string(step_));
       }
-      const auto& force = e.reactions().force();
-      if (force.size() != 3 * static_cast<int>(nodes_.size())) {
-        throw InputError("coupling: Reactions.force from '" + peer + "' has " + std::to_string(force.size()) +
-                         " values; expected 3 per interface node, " + std::to_string(3 * nodes_.size()));
-      }
-      for (size_t n = 0; n < nodes_.size(); ++n) {
-        for (int i = 0; i < 3; ++i) external_(3 * nodes_[n] + i) = force.Get(3 * static_cast<int>(n) + i);
-      }
+      SetReactions(e.reactions(), "Reactions");
       TentativeStep(step_, e.iteration());
       return Outcome::kContinue;
     }

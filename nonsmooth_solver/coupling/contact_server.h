@@ -6,7 +6,7 @@
 //
 //   Hello      → Welcome      the interface nodes are looked up (unknown: InputError, exit 2)
 //   StepBegin  → Kinematics 0 a checkpoint of the step's start, and a tentative step with the
-//                             last accepted reactions (the coordinator's predictor)
+//                             coordinator's predicted reactions (or the last accepted ones)
 //   Reactions i → Kinematics i back to the checkpoint, reactions set, one step
 //   StepEnd    → StepEnd      accepted: keep the last tentative step; rejected: back to the
 //                             checkpoint
@@ -47,6 +47,7 @@ class ContactServer {
   enum class Outcome { kContinue, kAccepted, kShutdown };
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
   void TentativeStep(int64_t step, int iteration);
+  void SetReactions(const coupling::Reactions& reactions, const char* where);  // checked, into external_
   int coordinator_exit_code_ = 0;
   std::string coordinator_reason_;
 

@@ -80,7 +80,8 @@ class Coordinator {
   CgAlpha::Checkpoint start_;
   long long step_ = 0;
   int n_ = 0;  // interface values: 3 per point
-  Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_;   // reactions
+  Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions
+  long long accepted_steps_ = 0;  // since the start or the last impact (for the predictor)
   Eigen::VectorXd position_, velocity_, previous_position_, start_velocity_;  // kinematics
   bool in_contact_ = false, was_in_contact_ = false;  // any interface node, this / last step
   std::vector<int> coupling_rows_;  // the interface points' constraint rows

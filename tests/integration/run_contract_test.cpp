@@ -14,52 +14,11 @@
 #include <vector>
 
 #include "run_summary.pb.h"
+#include "tests/integration/launch.h"
 
 namespace {
 
-namespace fs = std::filesystem;
-
-struct Result {
-  int code = -1;
-  std::string output;
-};
-
-std::string Slurp(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-fs::path TestRoot() { return fs::temp_directory_path() / ("cosim_test_" + std::to_string(getpid())); }
-
-// Removes this process's scratch folders when the tests end.
-class ScratchCleanup : public ::testing::Environment {
- public:
-  void TearDown() override { fs::remove_all(TestRoot()); }
-};
-const auto* const kCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = TestRoot() / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-Result Launch(const std::string& arguments) {
-  const fs::path log = TempDir("log") / "out.txt";
-  const std::string command = std::string(COSIM_BIN_DIR) + "/cosim_launch " + arguments + " > " + log.string() + " 2>&1";
-  const int status = std::system(command.c_str());
-  return Result{WIFEXITED(status) ? WEXITSTATUS(status) : -1, Slurp(log)};
-}
-
-cosim::run::RunSummary ReadSummary(const fs::path& folder) {
-  cosim::run::RunSummary summary;
-  const auto status = google::protobuf::util::JsonStringToMessage(Slurp(folder / "summary.json"), &summary);
-  EXPECT_TRUE(status.ok()) << status.ToString();
-  return summary;
-}
+using namespace cosim::test;
 
 const std::string kScenarios = std::string(COSIM_SOURCE_DIR) + "/scenarios";
 
@@ -267,24 +226,6 @@ TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   EXPECT_EQ(rows, s.steps() + 1);  // the initial row plus one per accepted step
 }
 
-}  // namespace
-
-namespace {
-
-std::vector<std::vector<double>> ReadHistory(const fs::path& file) {
-  std::ifstream in(file);
-  std::string line;
-  std::getline(in, line);  // header
-  std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
-    std::vector<double> row;
-    std::stringstream s(line);
-    std::string cell;
-    while (std::getline(s, cell, ',')) row.push_back(std::stod(cell));
-    rows.push_back(row);
-  }
-  return rows;
-}
 
 TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   // scenarios/tied_drop.pbtxt through the launcher: smooth_solver and nonsmooth_solver as two

@@ -109,7 +109,8 @@ TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
   old_version.mutable_welcome();
   p.contact.socket().send(zmq::buffer(old_version.SerializeAsString()), zmq::send_flags::none);
   ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
-             "'contact' speaks protocol version 7, this program speaks version 1");
+             "'contact' speaks protocol version 7, this program speaks version " +
+                 std::to_string(cosim::coupling::PROTOCOL_VERSION_CURRENT));
   // The right message for the wrong iteration, then the wrong message.
   p.contact.Outgoing(3, 1).mutable_kinematics();
   p.contact.Send();

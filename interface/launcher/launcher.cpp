@@ -1,6 +1,7 @@
 #include "interface/launcher/launcher.h"
 
 #include <sys/wait.h>
+#include <csignal>
 #include <unistd.h>
 
 #include <cerrno>
@@ -9,6 +10,7 @@
 
 #include "interface/run/errors.h"
 #include "interface/run/run_driver.h"
+#include "interface/scenario/coupling_plan.h"
 
 namespace cosim::interface {
 
@@ -28,28 +30,28 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const std::vect
                 "bodies and contact nodes together make a coupled run: tie contact nodes to body points with "
                 "coupling.interface_nodes (or run the two parts as separate scenarios)");
     }
-    if (coupling.processes_size() != 1) {
-      file.Fail("coupling.processes", "a coupled run needs its contact process listed (name, and optionally "
-                                      "endpoint); this build runs exactly one, got " +
-                                          std::to_string(coupling.processes_size()));
-    }
-    const auto& process = coupling.processes(0);
-    if (!process.has_name() || process.name().empty()) file.Fail("coupling.processes[0].name", "give a name");
+    const std::vector<ContactProcessPlan> processes = ReadCouplingPlan(file);
     const CommandLine cli = ParseCommandLine(arguments);
     std::string out = cli.out;
     if (out.empty()) out = "runs/" + (file.proto().name().empty() ? std::string("run") : file.proto().name());
     std::vector<std::string> common = arguments;
-    if (!process.has_endpoint()) {
+    for (const ContactProcessPlan& process : processes) {
+      if (!process.endpoint.empty()) continue;
       // ipc paths are limited to ~100 characters: a short one, unique to this launch.
-      const std::string endpoint =
-          "ipc:///tmp/cosim-" + std::to_string(getpid()) + "-" + process.name() + ".ipc";
-      common.insert(common.end(), {"--set", "coupling.processes[0].endpoint=\"" + endpoint + "\""});
+      const std::string endpoint = "ipc:///tmp/cosim-" + std::to_string(getpid()) + "-" + process.name + ".ipc";
+      common.insert(common.end(), {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" +
+                                                endpoint + "\""});
     }
-    std::vector<std::string> contact_args = common;
-    contact_args.insert(contact_args.end(), {"--process", process.name(), "--out", out + "/" + process.name()});
+    std::vector<ProcessPlan> plan;
+    for (const ContactProcessPlan& process : processes) {
+      std::vector<std::string> contact_args = common;
+      contact_args.insert(contact_args.end(), {"--process", process.name, "--out", out + "/" + process.name});
+      plan.push_back(ProcessPlan{process.program, contact_args});
+    }
     std::vector<std::string> smooth_args = common;
     if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});
-    return {ProcessPlan{"nonsmooth_solver", contact_args}, ProcessPlan{"smooth_solver", smooth_args}};
+    plan.push_back(ProcessPlan{"smooth_solver", smooth_args});
+    return plan;
   }
   return {ProcessPlan{smooth ? "smooth_solver" : "nonsmooth_solver", arguments}};
 }
@@ -72,19 +74,39 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     }
     children.push_back(pid);
   }
-  std::vector<int> codes;
-  for (size_t i = 0; i < children.size(); ++i) {
-    int status = 0;
-    while (waitpid(children[i], &status, 0) < 0 && errno == EINTR) {
-    }
-    int code = 0;
-    if (WIFEXITED(status)) {
-      code = WEXITSTATUS(status);
-    } else if (WIFSIGNALED(status)) {
+  // The last process is the coordinator of a coupled run (or the only one): wait for it first.
+  // Contact processes end on its Shutdown; one that has not ended a few seconds after it (the
+  // coordinator failed before it could connect, or vanished) is terminated rather than left to
+  // wait out its coupling timeout.
+  auto status_code = [&](size_t i, int status) {
+    if (WIFEXITED(status)) return WEXITSTATUS(status);
+    if (WIFSIGNALED(status)) {
       std::cerr << "cosim: " << plan[i].program << " was killed by signal " << WTERMSIG(status) << "\n";
-      code = static_cast<int>(ExitCode::kNumericalFailure);
     }
-    codes.push_back(code);
+    return static_cast<int>(ExitCode::kNumericalFailure);
+  };
+  std::vector<int> codes(children.size(), 0);
+  const size_t last = children.size() - 1;
+  int status = 0;
+  while (waitpid(children[last], &status, 0) < 0 && errno == EINTR) {
+  }
+  codes[last] = status_code(last, status);
+  for (size_t i = 0; i < last; ++i) {
+    bool ended = false;
+    for (int tick = 0; tick < 50 && !ended; ++tick) {  // 5 s
+      const pid_t r = waitpid(children[i], &status, WNOHANG);
+      ended = r == children[i] || (r < 0 && errno != EINTR);
+      if (!ended) usleep(100000);
+    }
+    if (!ended) {
+      std::cerr << "cosim: " << plan[i].program << " still running after the coordinator ended; terminating it\n";
+      kill(children[i], SIGTERM);
+      while (waitpid(children[i], &status, 0) < 0 && errno == EINTR) {
+      }
+      codes[i] = codes[last] != 0 ? codes[last] : static_cast<int>(ExitCode::kPeerFailure);
+      continue;
+    }
+    codes[i] = status_code(i, status);
   }
   // The last process is the coordinator of a coupled run: its code says what happened to the
   // run (e.g. 4 when a contact process died); otherwise the first failure.

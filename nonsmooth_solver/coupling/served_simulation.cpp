@@ -1,30 +1,27 @@
 #include "nonsmooth_solver/coupling/served_simulation.h"
 
+#include <set>
 #include <zmq.hpp>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
+#include "interface/scenario/coupling_plan.h"
 
 namespace cosim::nonsmooth {
 
 ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process)
-    : simulation_(std::make_unique<ContactSimulation>(file)), context_(std::make_unique<zmq::context_t>()) {
+    : context_(std::make_unique<zmq::context_t>()) {
   const interface::Checks checks(file);
   const scenario::Coupling& coupling = file.proto().coupling();
-  if (coupling.processes_size() != 1) {
-    checks.Fail("coupling.processes", "a coupled run with " + std::to_string(coupling.processes_size()) +
-                                          " contact processes; this build serves exactly one (several are to come, "
-                                          "issue 6)");
-  }
-  const auto& p = coupling.processes(0);
-  if (p.name() != process) {
-    checks.Fail("coupling.processes[0].name", "--process names '" + process + "', the scenario's process is '" +
-                                                  p.name() + "'");
-  }
-  checks.Require("coupling.processes[0].endpoint", p.has_endpoint(),
+  const std::vector<interface::ContactProcessPlan> plan = interface::ReadCouplingPlan(file);
+  const interface::ContactProcessPlan& p = interface::FindProcess(plan, process, file);
+  // This process integrates its own contact nodes only (the others are other processes').
+  const std::set<std::string> nodes(p.nodes.begin(), p.nodes.end());
+  simulation_ = std::make_unique<ContactSimulation>(file, &nodes);
+  checks.Require(interface::ElementPath("coupling.processes", p.index) + ".endpoint", !p.endpoint.empty(),
                  "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
   interface::ChannelOptions options;
-  options.endpoint = p.endpoint();
+  options.endpoint = p.endpoint;
   options.bind = true;
   options.self = process;
   options.peer = "smooth_solver";

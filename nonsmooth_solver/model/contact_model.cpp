@@ -83,10 +83,11 @@ void BuildObstacles(const Checks& checks, const sc::Model& model, ContactModel* 
   }
 }
 
-void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& obstacle_names, ContactModel* out,
-                NameTable* names) {
+void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& obstacle_names,
+                const std::set<std::string>* only_nodes, ContactModel* out, NameTable* names) {
   for (int i = 0; i < model.contact_nodes_size(); ++i) {
     const sc::ContactNode& n = model.contact_nodes(i);
+    if (only_nodes != nullptr && only_nodes->count(n.name()) == 0) continue;  // another process's
     const std::string path = ElementPath("model.contact_nodes", i);
     ContactNode node;
     node.name = names->Declare(path + ".name", n.has_name(), n.name());
@@ -118,7 +119,7 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
       const sc::ContactNode::Contact& c = n.contacts(j);
       const std::string cpath = ElementPath(path + ".contacts", j);
       Contact contact;
-      contact.node = i;
+      contact.node = static_cast<int>(out->nodes.size());
       checks.Require(cpath + ".obstacle", c.has_obstacle(), "the name of an obstacle");
       contact.obstacle = obstacle_names.Find(cpath + ".obstacle", c.obstacle());
       if (!seen.insert(contact.obstacle).second) {
@@ -135,16 +136,15 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
 }
 
 void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names,
-                 const ContactModel& model, const std::set<std::string>& smooth_entities, ContactModel* out) {
+                 const ContactModel& model, const std::set<std::string>& elsewhere, ContactModel* out) {
   std::map<std::string, int> contact_index;
   for (size_t c = 0; c < model.contacts.size(); ++c) contact_index[model.contacts[c].name] = static_cast<int>(c);
   NameTable probe_names(checks, "probe");
   for (int i = 0; i < output.probes_size(); ++i) {
     const sc::Probe& p = output.probes(i);
     const std::string path = ElementPath("output.probes", i);
-    // In a coupled run, probes of the smooth model's bodies, joints and elastic bodies are
-    // recorded by smooth_solver.
-    if (smooth_entities.count(p.entity()) != 0) continue;
+    // Probes of entities that another process integrates are that process's.
+    if (elsewhere.count(p.entity()) != 0) continue;
     Probe probe;
     if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
     probe.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
@@ -192,11 +192,18 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
   }
 }
 
-void BuildSprings(const Checks& checks, const sc::Model& model, const NameTable& node_names, ContactModel* out) {
+void BuildSprings(const Checks& checks, const sc::Model& model, const NameTable& node_names,
+                  const std::set<std::string>& elsewhere, ContactModel* out) {
   NameTable spring_names(checks, "node spring");
   for (int i = 0; i < model.node_springs_size(); ++i) {
     const sc::NodeSpring& s = model.node_springs(i);
     const std::string path = ElementPath("model.node_springs", i);
+    const bool away1 = elsewhere.count(s.node1()) != 0, away2 = elsewhere.count(s.node2()) != 0;
+    if (away1 && away2) continue;  // between another process's nodes
+    if (away1 || away2) {
+      checks.Fail(path, "node spring '" + s.name() + "' links '" + s.node1() + "' and '" + s.node2() +
+                            "', which are in different contact processes; a spring must stay within one process");
+    }
     NodeSpring spring;
     spring.name = spring_names.Declare(path + ".name", s.has_name(), s.name());
     checks.Require(path + ".node1", s.has_node1(), "the name of a contact node");
@@ -243,7 +250,7 @@ void BuildGroups(ContactModel* model) {
 
 }  // namespace
 
-ContactModel BuildContactModel(const interface::ScenarioFile& file) {
+ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes) {
   const Checks checks(file);
   const sc::Scenario& s = file.proto();
   ContactModel model;
@@ -286,16 +293,23 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file) {
   if (s.model().contact_nodes_size() == 0) {
     checks.Fail("model.contact_nodes", "a contact process needs at least one contact node");
   }
-  BuildNodes(checks, s.model(), obstacle_names, &model, &node_names);
-  BuildSprings(checks, s.model(), node_names, &model);
-  BuildGroups(&model);
-  std::set<std::string> smooth_entities;
-  if (s.coupling().interface_nodes_size() > 0) {
-    for (const auto& b : s.model().bodies()) smooth_entities.insert(b.name());
-    for (const auto& j : s.model().joints()) smooth_entities.insert(j.name());
-    for (const auto& e : s.model().elastic_bodies()) smooth_entities.insert(e.name());
+  BuildNodes(checks, s.model(), obstacle_names, only_nodes, &model, &node_names);
+  // Entities recorded elsewhere: another contact process's nodes and contacts, and in a
+  // coupled run the smooth model's bodies, joints and elastic bodies (smooth_solver's).
+  std::set<std::string> elsewhere;
+  for (const auto& n : s.model().contact_nodes()) {
+    if (only_nodes == nullptr || only_nodes->count(n.name()) != 0) continue;
+    elsewhere.insert(n.name());
+    for (const auto& c : n.contacts()) elsewhere.insert(n.name() + "/" + c.obstacle());
   }
-  BuildProbes(checks, s.output(), node_names, model, smooth_entities, &model);
+  BuildSprings(checks, s.model(), node_names, elsewhere, &model);
+  BuildGroups(&model);
+  if (s.coupling().interface_nodes_size() > 0) {
+    for (const auto& b : s.model().bodies()) elsewhere.insert(b.name());
+    for (const auto& j : s.model().joints()) elsewhere.insert(j.name());
+    for (const auto& e : s.model().elastic_bodies()) elsewhere.insert(e.name());
+  }
+  BuildProbes(checks, s.output(), node_names, model, elsewhere, &model);
   return model;
 }
 

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -111,6 +112,8 @@ struct ContactModel {
 };
 
 // Builds and validates the contact model of a scenario. Throws InputError naming the field.
-ContactModel BuildContactModel(const interface::ScenarioFile& file);
+// `only_nodes` (a contact process of a coupled run with several): build these contact nodes
+// only; the others, their contacts and probes belong to other processes and are skipped.
+ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
 
 }  // namespace cosim::nonsmooth

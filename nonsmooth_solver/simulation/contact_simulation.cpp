@@ -4,8 +4,8 @@
 
 namespace cosim::nonsmooth {
 
-ContactSimulation::ContactSimulation(const interface::ScenarioFile& file)
-    : model_(std::make_unique<const ContactModel>(BuildContactModel(file))) {
+ContactSimulation::ContactSimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes)
+    : model_(std::make_unique<const ContactModel>(BuildContactModel(file, only_nodes))) {
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_smooth();  // settings of the other solver are not used here

@@ -2,6 +2,7 @@
 // A standalone contact process run: the contact model, its Moreau–Jean integrator and the
 // probes, behind the run contract's Simulation interface.
 #include <memory>
+#include <set>
 
 #include "nonsmooth_solver/integrator/moreau_jean.h"
 #include "nonsmooth_solver/model/contact_model.h"
@@ -11,7 +12,8 @@ namespace cosim::nonsmooth {
 
 class ContactSimulation : public interface::Simulation {
  public:
-  explicit ContactSimulation(const interface::ScenarioFile& file);
+  // `only_nodes`: see BuildContactModel (a coupled run's contact process with its own nodes).
+  explicit ContactSimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
 
   std::vector<std::string> ProbeNames() const override;
   void Probe(std::vector<double>* values) const override;

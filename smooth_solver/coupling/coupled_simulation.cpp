@@ -5,6 +5,7 @@
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
+#include "interface/scenario/coupling_plan.h"
 
 namespace cosim::smooth {
 
@@ -20,23 +21,42 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     checks.Fail("numerics.smooth.integrator", "a coupled run needs CGALPHA (its steps are repeated per coupling "
                                               "iteration from a checkpoint)");
   }
-  if (coupling.processes_size() != 1) {
-    checks.Fail("coupling.processes", "a coupled run with " + std::to_string(coupling.processes_size()) +
-                                          " contact processes; this build runs exactly one (several are to come, "
-                                          "issue 6)");
+  const double timeout = checks.Positive("coupling.timeout", true, coupling.timeout(), "s");
+  const double heartbeat = checks.Positive("coupling.heartbeat", true, coupling.heartbeat(), "s");
+  std::vector<Coordinator::Peer> peers;
+  const MultibodySystem& sys = simulation_->system();
+  std::vector<bool> served(sys.interface_points.size(), false);
+  for (const interface::ContactProcessPlan& process : interface::ReadCouplingPlan(file)) {
+    const std::string path = interface::ElementPath("coupling.processes", process.index);
+    checks.Require(path + ".endpoint", !process.endpoint.empty(),
+                   "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
+    interface::ChannelOptions options;
+    options.endpoint = process.endpoint;
+    options.bind = false;
+    options.self = "smooth_solver";
+    options.peer = process.name;
+    options.timeout = timeout;
+    options.heartbeat = heartbeat;
+    // The interface points whose contact node this process integrates, in interface order.
+    std::vector<int> points;
+    for (size_t k = 0; k < sys.interface_points.size(); ++k) {
+      for (const std::string& node : process.nodes) {
+        if (node == sys.interface_points[k].contact_node) {
+          points.push_back(static_cast<int>(k));
+          served[k] = true;
+        }
+      }
+    }
+    if (points.empty()) continue;  // a process without interface nodes has nothing to exchange
+    channels_.push_back(std::make_unique<interface::Channel>(context_.get(), options));
+    peers.push_back(Coordinator::Peer{channels_.back().get(), points});
   }
-  const auto& p = coupling.processes(0);
-  checks.Require("coupling.processes[0].name", p.has_name(), "a process name");
-  checks.Require("coupling.processes[0].endpoint", p.has_endpoint(),
-                 "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
-  interface::ChannelOptions options;
-  options.endpoint = p.endpoint();
-  options.bind = false;
-  options.self = "smooth_solver";
-  options.peer = p.name();
-  options.timeout = checks.Positive("coupling.timeout", true, coupling.timeout(), "s");
-  options.heartbeat = checks.Positive("coupling.heartbeat", true, coupling.heartbeat(), "s");
-  channel_ = std::make_unique<interface::Channel>(context_.get(), options);
+  for (size_t k = 0; k < served.size(); ++k) {
+    if (!served[k]) {
+      checks.Fail(interface::ElementPath("coupling.interface_nodes", static_cast<int>(k)) + ".contact_node",
+                  "contact node '" + sys.interface_points[k].contact_node + "' is in no contact process");
+    }
+  }
 
   const sc::Coupling::CouplingIteration& it = coupling.iteration();
   CouplingSettings settings;
@@ -66,11 +86,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   }
   settings.stop_at_max_iterations = it.on_max_iterations() == sc::Coupling::CouplingIteration::STOP;
 
-  const MultibodySystem& sys = simulation_->system();
-  std::vector<int> points;
-  for (int k = 0; k < static_cast<int>(sys.interface_points.size()); ++k) points.push_back(k);
-  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->cgalpha(),
-                                               std::vector<Coordinator::Peer>{{channel_.get(), points}}, settings);
+  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->cgalpha(), std::move(peers), settings);
   start_time_ = file.proto().numerics().start_time();
   step_ = file.proto().numerics().step();
 }

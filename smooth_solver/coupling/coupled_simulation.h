@@ -6,6 +6,7 @@
 // the contact processes' runs with this run's outcome.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "interface/run/run_output.h"
 #include "smooth_solver/coupling/coordinator.h"
@@ -19,8 +20,8 @@ namespace cosim::smooth {
 
 class CoupledSmoothSimulation : public interface::Simulation {
  public:
-  // Throws InputError for settings this build cannot run (several contact processes, an
-  // integrator other than CGALPHA, missing endpoints) naming the field.
+  // Throws InputError for settings this build cannot run (an integrator other than CGALPHA,
+  // missing endpoints, an interface node in no process) naming the field.
   explicit CoupledSmoothSimulation(const interface::ScenarioFile& file);
   ~CoupledSmoothSimulation() override;
 
@@ -36,7 +37,7 @@ class CoupledSmoothSimulation : public interface::Simulation {
  private:
   std::unique_ptr<MultibodySimulation> simulation_;
   std::unique_ptr<zmq::context_t> context_;
-  std::unique_ptr<interface::Channel> channel_;
+  std::vector<std::unique_ptr<interface::Channel>> channels_;  // one per contact process
   std::unique_ptr<Coordinator> coordinator_;
   interface::IterationCounter coupling_;
   bool handshaken_ = false;

@@ -1,0 +1,34 @@
+#pragma once
+// Which contact process integrates which contact nodes, checked once for all three readers of
+// a coupled scenario: the launcher (which processes to start), smooth_solver (one channel per
+// process, each with its interface points) and each contact process (its own nodes only).
+//
+// Rules: at least one process; names unique and non-empty; `program` one of the contact
+// programs this project ships; with one process an empty `contact_nodes` means every contact
+// node; with several, each lists its nodes and every contact node of the model is in exactly
+// one list. Violations throw InputError naming the field.
+#include <string>
+#include <vector>
+
+#include "interface/scenario/scenario_file.h"
+
+namespace cosim::interface {
+
+struct ContactProcessPlan {
+  std::string name;
+  std::string program;   // executable name in the build's bin folder
+  std::string endpoint;  // empty until the launcher sets one
+  std::vector<std::string> nodes;
+  int index = 0;         // in coupling.processes
+};
+
+// The programs that speak the coupling protocol as a contact process (docs/protocol.md).
+const std::vector<std::string>& ContactPrograms();
+
+std::vector<ContactProcessPlan> ReadCouplingPlan(const ScenarioFile& file);
+
+// The process named `name` (InputError naming --process if there is none).
+const ContactProcessPlan& FindProcess(const std::vector<ContactProcessPlan>& plan, const std::string& name,
+                                      const ScenarioFile& file);
+
+}  // namespace cosim::interface

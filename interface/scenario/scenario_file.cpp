@@ -206,7 +206,9 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
     // The last segment: parse "name: VALUE" as text format into a scratch copy of the parent
     // with the field cleared, then move the value over. This gives --set exactly the syntax
     // of the scenario file (enums by name, lists as [a, b, c], messages as { ... }).
-    if (field->type() == pb::FieldDescriptor::TYPE_STRING && (value.empty() || value[0] != '"')) {
+    // A bare word is a string; a whole repeated field of strings is a list ["a", "b"].
+    const bool string_list = field->is_repeated() && index < 0 && !value.empty() && value[0] == '[';
+    if (field->type() == pb::FieldDescriptor::TYPE_STRING && !string_list && (value.empty() || value[0] != '"')) {
       value = "\"" + value + "\"";
     }
     std::unique_ptr<pb::Message> scratch(message->New());

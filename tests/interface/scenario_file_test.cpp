@@ -25,6 +25,7 @@ model {
   }
 }
 numerics { end_time: 1 step: 0.1 }
+coupling { processes { name: "p" } }
 )";
 
 std::string MessageOf(const std::function<void()>& f) {
@@ -62,7 +63,8 @@ TEST(ScenarioFile, SetOverridesScalarsListsEnumsAndByName) {
   const ScenarioFile f = ScenarioFile::Parse(
       kText, "f.pbtxt",
       {"numerics.step=0.01", "model.contact_nodes[b].mass=7", "model.contact_nodes[0].position=[1, 2, 3]",
-       "model.contact_nodes[0].position[1]=5", "numerics.nonsmooth.lcp.solver=PGS", "name=renamed"});
+       "model.contact_nodes[0].position[1]=5", "numerics.nonsmooth.lcp.solver=PGS", "name=renamed",
+       "coupling.processes[0].contact_nodes=[\"a\", \"b\"]", "coupling.processes[0].contact_nodes[1]=c"});
   EXPECT_DOUBLE_EQ(f.proto().numerics().step(), 0.01);
   EXPECT_DOUBLE_EQ(f.proto().model().contact_nodes(1).mass(), 7.0);
   ASSERT_EQ(f.proto().model().contact_nodes(0).position_size(), 3);
@@ -70,6 +72,10 @@ TEST(ScenarioFile, SetOverridesScalarsListsEnumsAndByName) {
   EXPECT_DOUBLE_EQ(f.proto().model().contact_nodes(0).position(1), 5.0);
   EXPECT_EQ(f.proto().numerics().nonsmooth().lcp().solver(), scenario::LcpSettings::PGS);
   EXPECT_EQ(f.proto().name(), "renamed");
+  // A list of strings, then one element as a bare word.
+  ASSERT_EQ(f.proto().coupling().processes(0).contact_nodes_size(), 2);
+  EXPECT_EQ(f.proto().coupling().processes(0).contact_nodes(0), "a");
+  EXPECT_EQ(f.proto().coupling().processes(0).contact_nodes(1), "c");
   // A value set by --set is reported at the --set, not in the file.
   EXPECT_EQ(f.Where("model.contact_nodes[1].mass"), "--set model.contact_nodes[b].mass=7");
 }

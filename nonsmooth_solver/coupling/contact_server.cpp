@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "interface/run/errors.h"
 
@@ -40,6 +41,49 @@ void ContactServer::Answer(const Envelope& e) {
   if (!(hello.step() > 0.0)) {
     throw InputError("coupling: Hello.step from '" + peer + "' is " + std::to_string(hello.step()) +
                      "; expected a positive step [s]");
+  }
+  // Obstacles attached to smooth bodies: the Hello lists them with their start frames, in
+  // which their scenario geometry (global, at the start) becomes fixed.
+  std::set<std::string> needed;
+  for (const Contact& c : simulation_->model().contacts) {
+    const Obstacle& o = simulation_->model().obstacles[static_cast<size_t>(c.obstacle)];
+    if (o.driven) needed.insert(o.name);
+  }
+  if (hello.obstacle_frames_size() != hello.moving_obstacles_size()) {
+    throw InputError("coupling: Hello from '" + peer + "' lists " + std::to_string(hello.moving_obstacles_size()) +
+                     " moving obstacles and " + std::to_string(hello.obstacle_frames_size()) +
+                     " frames; expected one frame per obstacle");
+  }
+  moving_.clear();
+  for (int i = 0; i < hello.moving_obstacles_size(); ++i) {
+    const std::string& name = hello.moving_obstacles(i);
+    const Obstacle* found = nullptr;
+    for (const Obstacle& o : simulation_->model().obstacles) {
+      if (o.name == name && o.driven) found = &o;
+    }
+    if (found == nullptr || needed.erase(name) == 0) {
+      throw InputError("coupling: Hello.moving_obstacles[" + std::to_string(i) + "] from '" + peer + "' is '" + name +
+                       "', which is not an obstacle attached to a body that this process's nodes touch");
+    }
+    DrivenFrame& d = *found->driven;
+    d.start = d.end = ReadFrame(hello.obstacle_frames(i), "Hello.obstacle_frames[" + std::to_string(i) + "]");
+    d.point_body = d.start.rotation.transpose() * (found->point - d.start.origin);
+    d.normal_body = d.start.rotation.transpose() * found->normal;
+    d.tangent_body = d.start.rotation.transpose() * found->tangent;
+    d.t0 = d.t1 = hello.start_time();
+    d.known = true;
+    moving_.push_back(found->driven);
+  }
+  if (!needed.empty()) {
+    throw InputError("coupling: Hello from '" + peer + "' gives no frame for obstacle '" + *needed.begin() +
+                     "', attached to body '" +
+                     [&] {
+                       for (const Obstacle& o : simulation_->model().obstacles) {
+                         if (o.name == *needed.begin()) return o.driven->body;
+                       }
+                       return std::string();
+                     }() +
+                     "'");
   }
   coupling::Welcome* welcome = channel_->Outgoing(-1, 0).mutable_welcome();
   welcome->set_process_name(channel_->options().self);
@@ -80,7 +124,45 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
   channel_->Send();
 }
 
+BodyFrame ContactServer::ReadFrame(const coupling::Frame& frame, const std::string& where) const {
+  const std::string peer = channel_->options().peer;
+  auto check = [&](const char* field, int size, int expected) {
+    if (size != expected) {
+      throw InputError("coupling: " + where + "." + field + " from '" + peer + "' has " + std::to_string(size) +
+                       " values; expected " + std::to_string(expected));
+    }
+  };
+  check("position", frame.position_size(), 3);
+  check("rotation", frame.rotation_size(), 9);
+  check("velocity", frame.velocity_size(), 3);
+  check("angular_velocity", frame.angular_velocity_size(), 3);
+  BodyFrame f;
+  for (int i = 0; i < 3; ++i) {
+    f.origin(i) = frame.position(i);
+    f.velocity(i) = frame.velocity(i);
+    f.angular_velocity(i) = frame.angular_velocity(i);
+    for (int j = 0; j < 3; ++j) f.rotation(i, j) = frame.rotation(3 * i + j);
+  }
+  const double orthogonality = (f.rotation.transpose() * f.rotation - Eigen::Matrix3d::Identity()).norm();
+  if (!f.origin.allFinite() || !f.velocity.allFinite() || !f.angular_velocity.allFinite() || !(orthogonality < 1e-6) ||
+      !(f.rotation.determinant() > 0.0)) {
+    throw InputError("coupling: " + where + " from '" + peer +
+                     "' is not a frame (finite origin and rates, a proper rotation matrix; |RᵀR − I| = " +
+                     interface::FormatNumber(orthogonality) + ")");
+  }
+  return f;
+}
+
 void ContactServer::SetReactions(const coupling::Reactions& reactions, const char* where) {
+  if (reactions.obstacle_frames_size() != static_cast<int>(moving_.size())) {
+    throw InputError(std::string("coupling: ") + where + ".obstacle_frames from '" + channel_->options().peer +
+                     "' has " + std::to_string(reactions.obstacle_frames_size()) + " frames; expected " +
+                     std::to_string(moving_.size()) + ", one per moving obstacle");
+  }
+  for (size_t i = 0; i < moving_.size(); ++i) {
+    moving_[i]->end =
+        ReadFrame(reactions.obstacle_frames(static_cast<int>(i)), std::string(where) + ".obstacle_frames[" + std::to_string(i) + "]");
+  }
   const auto& force = reactions.force();
   if (force.size() != 3 * static_cast<int>(nodes_.size())) {
     throw InputError(std::string("coupling: ") + where + ".force from '" + channel_->options().peer + "' has " +
@@ -149,6 +231,11 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       t_ = e.step_begin().time();
       h_ = e.step_begin().step();
       simulation_->integrator().SaveTo(&start_);
+      for (const auto& d : moving_) {  // the last accepted end is this step's start
+        d->start = d->end;
+        d->t0 = t_;
+        d->t1 = t_ + h_;
+      }
       if (e.step_begin().has_predictor()) SetReactions(e.step_begin().predictor(), "StepBegin.predictor");
       TentativeStep(step_, 0);  // the predictor, or the last accepted reactions
       return Outcome::kContinue;
@@ -174,6 +261,7 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
         if (on_accept) on_accept(t_ + h_);
       } else {
         simulation_->mutable_integrator().Restore(start_);
+        for (const auto& d : moving_) d->end = d->start;
       }
       step_ = -1;
       channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);

@@ -47,7 +47,10 @@ class ContactServer {
   enum class Outcome { kContinue, kAccepted, kShutdown };
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
   void TentativeStep(int64_t step, int iteration);
-  void SetReactions(const coupling::Reactions& reactions, const char* where);  // checked, into external_
+  // Checked, into external_ and the moving obstacles' end frames.
+  void SetReactions(const coupling::Reactions& reactions, const char* where);
+  BodyFrame ReadFrame(const coupling::Frame& frame, const std::string& where) const;  // checked
+  std::vector<std::shared_ptr<DrivenFrame>> moving_;  // in Hello.moving_obstacles order
   int coordinator_exit_code_ = 0;
   std::string coordinator_reason_;
 

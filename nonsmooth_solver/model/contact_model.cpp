@@ -15,23 +15,49 @@ using interface::FormatNumber;
 using interface::NameTable;
 namespace sc = cosim::scenario;
 
+BodyFrame DrivenFrame::At(double t) const {
+  if (!(t1 > t0) || t >= t1) return end;
+  if (t <= t0) return start;
+  const double s = (t - t0) / (t1 - t0);
+  BodyFrame f;
+  f.origin = (1.0 - s) * start.origin + s * end.origin;
+  f.velocity = (1.0 - s) * start.velocity + s * end.velocity;
+  f.angular_velocity = (1.0 - s) * start.angular_velocity + s * end.angular_velocity;
+  f.rotation = Eigen::Quaterniond(start.rotation).slerp(s, Eigen::Quaterniond(end.rotation)).toRotationMatrix();
+  return f;
+}
+
+Eigen::Vector3d Obstacle::PointAt(double t) const {
+  if (driven) {
+    const BodyFrame f = driven->At(t);
+    return f.origin + f.rotation * driven->point_body;
+  }
+  return point + t * velocity;
+}
+
 Eigen::Vector3d Obstacle::NormalAt(double t) const {
+  if (driven) return driven->At(t).rotation * driven->normal_body;
   if (!moving || rotation_angle.IsZero()) return normal;
   return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * normal;
 }
 
 Eigen::Vector3d Obstacle::TangentAt(double t) const {
+  if (driven) return driven->At(t).rotation * driven->tangent_body;
   if (!moving || rotation_angle.IsZero()) return tangent;
   return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * tangent;
 }
 
 Eigen::Vector3d Obstacle::VelocityAt(double t, const Eigen::Vector3d& x) const {
+  if (driven) {
+    const BodyFrame f = driven->At(t);
+    return f.velocity + f.angular_velocity.cross(x - f.origin);
+  }
   if (!moving) return Eigen::Vector3d::Zero();
   return velocity + rotation_angle.Derivative(t) * rotation_axis.cross(x - PointAt(t));
 }
 
 double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x) const {
-  // g = n·(x − p): dg/dt = n·ẋ − n·ṗ + ṅ·(x − p), with ṅ = ω × n and ω = θ̇ a, and
+  // g = n·(x − p): dg/dt = n·ẋ − n·ṗ + ṅ·(x − p), with ṅ = ω × n, and
   // (ω × n)·r = −n·(ω × r): the bias is −n·(velocity of the plane's point at x).
   if (!moving) return 0.0;
   return -NormalAt(t).dot(VelocityAt(t, x));
@@ -51,7 +77,7 @@ LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpS
   }
 }
 
-void BuildObstacles(const Checks& checks, const sc::Model& model, ContactModel* out, NameTable* names) {
+void BuildObstacles(const Checks& checks, const sc::Model& model, bool served, ContactModel* out, NameTable* names) {
   for (int i = 0; i < model.obstacles_size(); ++i) {
     const sc::Obstacle& o = model.obstacles(i);
     const std::string path = ElementPath("model.obstacles", i);
@@ -73,11 +99,16 @@ void BuildObstacles(const Checks& checks, const sc::Model& model, ContactModel* 
         obstacle.rotation_angle =
             TimeFunction::Build(checks, path + ".prescribed.rotation_angle", m.rotation_angle());
       }
-    } else if (o.has_attached_to_body()) {
-      checks.Fail(path + ".attached_to_body",
-                  "an obstacle attached to body '" + o.attached_to_body() +
-                      "' moves with the smooth model, which only a coupled run provides; a standalone contact "
-                      "run needs a fixed or prescribed obstacle");
+    } else if (o.has_attached_to_body() && o.attached_to_body() != "ground") {
+      if (!served) {
+        checks.Fail(path + ".attached_to_body",
+                    "an obstacle attached to body '" + o.attached_to_body() +
+                        "' moves with the smooth model, which only a coupled run provides; a standalone contact "
+                        "run needs a fixed or prescribed obstacle");
+      }
+      obstacle.moving = true;
+      obstacle.driven = std::make_shared<DrivenFrame>();
+      obstacle.driven->body = o.attached_to_body();
     }
     out->obstacles.push_back(obstacle);
   }
@@ -289,7 +320,7 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::s
 
   NameTable obstacle_names(checks, "obstacle");
   NameTable node_names(checks, "contact node");
-  BuildObstacles(checks, s.model(), &model, &obstacle_names);
+  BuildObstacles(checks, s.model(), only_nodes != nullptr, &model, &obstacle_names);
   if (s.model().contact_nodes_size() == 0) {
     checks.Fail("model.contact_nodes", "a contact process needs at least one contact node");
   }

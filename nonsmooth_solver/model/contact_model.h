@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -33,6 +34,29 @@ struct ContactNode {
 
 // The plane {x : n(t)·(x − p(t)) >= 0}: a reference point moving with constant velocity and
 // a normal rotating about a fixed axis by a prescribed angle.
+// The frame of a smooth body an obstacle is attached to, sent by the coordinator of a coupled
+// run (proto/coupling.proto, Frame) at the step's start (accepted) and end (the iterate), and
+// interpolated in between: origin and velocities linearly, rotation by slerp.
+struct BodyFrame {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero(), velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // body → global
+};
+struct DrivenFrame {
+  std::string body;
+  bool known = false;      // false until the coordinator's Hello
+  double t0 = 0.0, t1 = 0.0;
+  BodyFrame start, end;    // at t0 (last accepted) and t1 (the step's end, this iteration)
+  // The plane's point, normal and tangent in the body frame (fixed at the Hello).
+  Eigen::Vector3d point_body = Eigen::Vector3d::Zero(), normal_body = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d tangent_body = Eigen::Vector3d::UnitX();
+  BodyFrame At(double t) const;
+};
+
+// The plane {x : n(t)·(x − p(t)) >= 0}: fixed, moving with a prescribed rigid motion (a
+// constant velocity plus a rotation angle about an axis through p), or attached to a body of
+// the smooth model in a coupled run (`driven`: the frames come from the coordinator; the
+// integrator reads them through the same functions).
 struct Obstacle {
   std::string name;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();   // p(0)
@@ -42,8 +66,11 @@ struct Obstacle {
   Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitZ();  // unit
   TimeFunction rotation_angle;                               // [rad]
   bool moving = false;
+  // Shared with the contact server, which updates it between iterations (the model stays
+  // immutable otherwise).
+  std::shared_ptr<DrivenFrame> driven;
 
-  Eigen::Vector3d PointAt(double t) const { return point + t * velocity; }
+  Eigen::Vector3d PointAt(double t) const;
   Eigen::Vector3d NormalAt(double t) const;
   Eigen::Vector3d TangentAt(double t) const;
   // Velocity of the plane's material point at x: V + ω × (x − p(t)).

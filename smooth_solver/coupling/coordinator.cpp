@@ -1,5 +1,6 @@
 #include "smooth_solver/coupling/coordinator.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
 
@@ -38,6 +39,32 @@ Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std
   }
 }
 
+namespace {
+
+// Body `body`'s frame in `state` (natural coordinates [x, u, v, w]: R = [u v w]), advanced by
+// `ahead` seconds at constant velocity and angular velocity ω = ½ Σ u_i × u̇_i.
+void FillFrame(int body, const DaeState& state, double ahead, coupling::Frame* frame) {
+  const Eigen::Index o = kCoordinatesPerBody * body;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 3; ++i) {
+    R.col(i) = state.q.segment<3>(o + 3 + 3 * i);
+    omega += 0.5 * R.col(i).cross(state.qdot.segment<3>(o + 3 + 3 * i));
+  }
+  const Eigen::Vector3d v = state.qdot.segment<3>(o);
+  const Eigen::Vector3d c = state.q.segment<3>(o) + ahead * v;
+  const double angle = omega.norm() * ahead;
+  if (angle > 0.0) R = Eigen::AngleAxisd(angle, omega.normalized()).toRotationMatrix() * R;
+  for (int i = 0; i < 3; ++i) {
+    frame->add_position(c(i));
+    frame->add_velocity(v(i));
+    frame->add_angular_velocity(omega(i));
+    for (int j = 0; j < 3; ++j) frame->add_rotation(R(i, j));
+  }
+}
+
+}  // namespace
+
 void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t) {
   ConsistentAccelerations(system_, t, &state, &coupling_rows_);
   integrator_->Restart(state);
@@ -58,6 +85,10 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     for (int p : peer.points) hello->add_interface_nodes(system_.interface_points[static_cast<size_t>(p)].contact_node);
     hello->set_start_time(start_time);
     hello->set_step(step);
+    for (const MovingObstacle& o : peer.obstacles) {
+      hello->add_moving_obstacles(o.name);
+      FillFrame(o.body, integrator_->state(), 0.0, hello->add_obstacle_frames());
+    }
     peer.channel->Send();
   }
   for (Peer& peer : peers_) {
@@ -115,6 +146,9 @@ int Coordinator::Step(double t, double h) {
     for (int p : peer.points) {
       for (int j = 0; j < 3; ++j) begin->mutable_predictor()->add_force(x_(3 * p + j));
     }
+    for (const MovingObstacle& o : peer.obstacles) {
+      FillFrame(o.body, integrator_->state(), h, begin->mutable_predictor()->add_obstacle_frames());
+    }
     peer.channel->Send();
   }
   ReceiveKinematics(0);
@@ -154,6 +188,7 @@ int Coordinator::Step(double t, double h) {
       for (int p : peer.points) {
         for (int j = 0; j < 3; ++j) r->add_force(x_(3 * p + j));
       }
+      for (const MovingObstacle& o : peer.obstacles) FillFrame(o.body, integrator_->state(), 0.0, r->add_obstacle_frames());
       peer.channel->Send();
     }
     ReceiveKinematics(iteration + 1);

@@ -2,7 +2,8 @@
 // The coordinator of a coupled step (rotor-sailing paper, Section 2): Gauss–Seidel between the
 // contact processes and the smooth model, inside every time step, until both agree.
 //
-//   StepBegin → every peer: its predictor kinematics k_0 (a step with the last reactions x_0)
+//   StepBegin → every peer: predicted reactions x_0 (extrapolated from the accepted steps) and
+//               obstacle frames (the bodies' frames advanced by their velocities) → k_0
 //   for i = 0, 1, ...:
 //     impose k_i on the interface points; CGα step from the step's start → multipliers → x̃_i
 //     converged if |x̃_i − x_i| <= reaction_tolerance · max(1 N, |x̃_i|) and (i > 0)
@@ -48,9 +49,16 @@ struct CouplingIterationRecord {
 
 class Coordinator {
  public:
+  // An obstacle of a contact process attached to a rigid body of the smooth model: the body's
+  // frame goes with Hello (start), StepBegin (predicted) and every Reactions (iterate).
+  struct MovingObstacle {
+    std::string name;
+    int body = 0;
+  };
   struct Peer {
     interface::Channel* channel;
     std::vector<int> points;  // indices into MultibodySystem::interface_points, in Hello order
+    std::vector<MovingObstacle> obstacles = {};
   };
   Coordinator(const MultibodySystem& system, CgAlpha* integrator, std::vector<Peer> peers,
               const CouplingSettings& settings);

@@ -1,6 +1,8 @@
 #include "smooth_solver/coupling/coupled_simulation.h"
 
+#include <algorithm>
 #include <cstdio>
+#include <set>
 #include <zmq.hpp>
 
 #include "interface/run/errors.h"
@@ -10,6 +12,36 @@
 namespace cosim::smooth {
 
 namespace sc = scenario;
+
+// The obstacles that `process`'s nodes touch and that are attached to a rigid body of the
+// smooth model (a stop on a hub): their frames go to the process every iteration.
+std::vector<Coordinator::MovingObstacle> CoupledSmoothSimulation::MovingObstacles(
+    const interface::ScenarioFile& file, const interface::ContactProcessPlan& process) const {
+  const sc::Model& model = file.proto().model();
+  std::set<std::string> touched;
+  for (const auto& node : model.contact_nodes()) {
+    if (std::find(process.nodes.begin(), process.nodes.end(), node.name()) == process.nodes.end()) continue;
+    for (const auto& c : node.contacts()) touched.insert(c.obstacle());
+  }
+  std::vector<Coordinator::MovingObstacle> out;
+  const auto& bodies = simulation_->model().bodies;
+  for (int i = 0; i < model.obstacles_size(); ++i) {
+    const sc::Obstacle& o = model.obstacles(i);
+    if (!o.has_attached_to_body() || o.attached_to_body() == "ground" || touched.count(o.name()) == 0) continue;
+    int body = -1;
+    std::string known;
+    for (size_t b = 0; b < bodies.size(); ++b) {
+      if (bodies[b].name == o.attached_to_body()) body = static_cast<int>(b);
+      known += (known.empty() ? "" : ", ") + bodies[b].name;
+    }
+    if (body < 0) {
+      file.Fail(interface::ElementPath("model.obstacles", i) + ".attached_to_body",
+                "no rigid body named '" + o.attached_to_body() + "'; known: " + known);
+    }
+    out.push_back(Coordinator::MovingObstacle{o.name(), body});
+  }
+  return out;
+}
 
 CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& file)
     : simulation_(std::make_unique<MultibodySimulation>(file, /*coupled=*/true)),
@@ -49,7 +81,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     }
     if (points.empty()) continue;  // a process without interface nodes has nothing to exchange
     channels_.push_back(std::make_unique<interface::Channel>(context_.get(), options));
-    peers.push_back(Coordinator::Peer{channels_.back().get(), points});
+    peers.push_back(Coordinator::Peer{channels_.back().get(), points, MovingObstacles(file, process)});
   }
   for (size_t k = 0; k < served.size(); ++k) {
     if (!served[k]) {

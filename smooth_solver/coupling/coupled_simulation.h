@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "interface/run/run_output.h"
+#include "interface/scenario/coupling_plan.h"
 #include "smooth_solver/coupling/coordinator.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 
@@ -35,6 +36,8 @@ class CoupledSmoothSimulation : public interface::Simulation {
   void WriteFiles(const std::string& folder) const override;
 
  private:
+  std::vector<Coordinator::MovingObstacle> MovingObstacles(const interface::ScenarioFile& file,
+                                                           const interface::ContactProcessPlan& process) const;
   std::unique_ptr<MultibodySimulation> simulation_;
   std::unique_ptr<zmq::context_t> context_;
   std::vector<std::unique_ptr<interface::Channel>> channels_;  // one per contact process

@@ -21,6 +21,7 @@ class MultibodySimulation : public interface::Simulation {
   void FillSummary(run::RunSummary* summary) const override;
 
   const MultibodySystem& system() const { return *system_; }
+  const MultibodyModel& model() const { return model_; }
   const SmoothIntegrator& integrator() const { return *integrator_; }
   long long newton_iterations() const { return newton_.total(); }  // CGα, all steps so far
   // For the coordinator of a coupled run, which steps the integrator itself: the CGα

@@ -248,29 +248,6 @@ void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::Vector
   if (s.delta <= 0.0) impact_speed_ = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
 }
 
-namespace {
-
-// f(δ, δ̇) of Eq. (8) and its partial derivatives; zero when not in contact or pulling.
-struct ContactForce {
-  double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
-};
-
-ContactForce Law(const HuntCrossleyLaw& law, double impact_speed, double delta, double rate) {
-  ContactForce out;
-  if (delta <= 0.0) return out;
-  const double chi = 8.0 * (1.0 - law.restitution) / (5.0 * law.restitution);
-  const double v0 = std::max(impact_speed, law.speed_threshold);
-  const double elastic = law.stiffness * std::pow(delta, law.exponent);
-  const double factor = 1.0 + chi * rate / v0;
-  out.f = elastic * factor;
-  if (out.f <= 0.0) return ContactForce{};  // separating faster than the law can pull: no force
-  out.df_ddelta = law.exponent * law.stiffness * std::pow(delta, law.exponent - 1.0) * factor;
-  out.df_drate = elastic * chi / v0;
-  return out;
-}
-
-}  // namespace
-
 UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
   State s;
   s.measure = measure_.Evaluate(q);
@@ -279,7 +256,7 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
   for (size_t i = 0; i < index.size(); ++i) theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
   s.delta = side_ * (threshold_ - s.measure.value);
   s.rate = -side_ * theta_dot;
-  const ContactForce c = Law(law_, impact_speed_, s.delta, s.rate);
+  const interface::HuntCrossleyForce c = interface::EvaluateHuntCrossley(law_, impact_speed_, s.delta, s.rate);
   s.f = c.f;
   s.df_ddelta = c.df_ddelta;
   s.df_drate = c.df_drate;

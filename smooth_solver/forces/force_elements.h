@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "interface/contact/hunt_crossley.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 
 namespace cosim::smooth {
@@ -105,20 +106,13 @@ class CoordinateSpring : public ForceElement {
   std::vector<int> coordinates_;  // global index of each local coordinate
 };
 
-// The visco-elastic Hertzian contact law of Flores et al. (Hunt–Crossley dissipation written
-// with the restitution e; rotor-sailing paper Eq. (8)) on a one-sided coordinate:
-//   δ = side · (θ0 − θ(q)) > 0 is the penetration, f = K δⁿ (1 + 8(1 − e)/(5e) · δ̇/δ̇⁻) >= 0,
-// with δ̇⁻ the approach speed when the contact began (at least `speed_threshold`). θ(q) is the
+// A one-sided coordinate with the Flores / Hunt–Crossley law (interface/contact/hunt_crossley.h,
+// rotor-sailing paper Eq. (8)): δ = side · (θ0 − θ(q)) > 0 is the penetration. θ(q) is the
 // signed gap (p − c)·n of a body point against a plane (θ0 = 0, side = +1), or a revolute joint
 // angle against a stop (lower: side = +1, upper: side = −1). The generalised force is −f ∇δ.
 // δ̇⁻ is a memory: taken at the last accepted state before the penetration (AcceptStep), so it
 // is fixed within a step's Newton iterations (an O(h) approximation of the onset speed).
-struct HuntCrossleyLaw {
-  double stiffness = 0.0;      // K [N/m^n or N m/rad^n]
-  double exponent = 1.5;       // n
-  double restitution = 1.0;    // e in (0, 1]
-  double speed_threshold = 1e-3;
-};
+using HuntCrossleyLaw = interface::HuntCrossleyLaw;
 
 class UnilateralContact : public ForceElement {
  public:

@@ -28,7 +28,9 @@ HuntCrossleyLaw ContactLaw(const Checks& checks, const std::string& path, bool h
   if (!(l.restitution() > 0.0 && l.restitution() <= 1.0)) {
     checks.Fail(path + ".restitution", "must be in (0, 1] (the law divides by e), got " + FormatNumber(l.restitution()));
   }
-  law.restitution = l.restitution();
+  // As given, or the law's e whose own rebound is the given one (so that K → ∞ converges to
+  // the Newton law with that e, as the nonsmooth model has it).
+  law.restitution = l.effective_restitution() ? interface::LawRestitution(l.restitution(), law.exponent) : l.restitution();
   law.speed_threshold = checks.Positive(path + ".speed_threshold", true, l.speed_threshold(), "m/s or rad/s");
   return law;
 }

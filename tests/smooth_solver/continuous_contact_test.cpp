@@ -20,7 +20,7 @@ namespace {
 // units where m = K = δ̇⁻ = 1 (the result depends on e and n only), integrated by RK4 with a
 // tiny step until δ returns to 0: e_eff = −δ̇ at separation. An independent reference for the
 // multibody runs below (Flores' χ = 8(1 − e)/(5e) makes e_eff close to e, not equal).
-double LawRestitution(double e, double n) {
+double ReferenceEffectiveRestitution(double e, double n) {
   const double chi = 8.0 * (1.0 - e) / (5.0 * e);
   auto accel = [&](double d, double v) { return d > 0.0 ? -std::pow(d, n) * (1.0 + chi * v) : 0.0; };
   double d = 0.0, v = 1.0;
@@ -36,6 +36,19 @@ double LawRestitution(double e, double n) {
     v = v1;
   }
   return NAN;
+}
+
+TEST(HuntCrossleyLaw, EffectiveRestitutionAndItsInverse) {
+  // The library's e_eff (RK4 at 2e-3, used to honour effective_restitution) against the fine
+  // reference above (1e-5), and LawRestitution inverting it: e = 0.810888 rebounds at 0.8.
+  for (double e : {0.3, 0.6, 0.8, 0.95}) {
+    EXPECT_NEAR(interface::EffectiveRestitution(e, 1.5), ReferenceEffectiveRestitution(e, 1.5), 1e-8) << e;
+    const double law = interface::LawRestitution(e, 1.5);
+    EXPECT_NEAR(interface::EffectiveRestitution(law, 1.5), e, 1e-10) << e;
+    EXPECT_GT(law, e);  // the law dissipates more than its e says
+  }
+  EXPECT_NEAR(interface::LawRestitution(0.8, 1.5), 0.810888, 1e-6);
+  EXPECT_EQ(interface::LawRestitution(1.0, 1.5), 1.0);
 }
 
 struct Drop {
@@ -77,7 +90,7 @@ Drop RunDrop(double stiffness, double h) {
 
 TEST(ContinuousContact, DroppedBodyReboundsAsTheLawsRestitutionAsTheStiffnessGrows) {
   // As K grows the contact gets shorter, gravity acts on it less, and the rebound peak tends to
-  // e_eff² h0 with e_eff the law's own restitution (LawRestitution: 0.789 for e = 0.8, n = 1.5,
+  // e_eff² h0 with e_eff the law's own restitution (ReferenceEffectiveRestitution: 0.789 for e = 0.8, n = 1.5,
   // i.e. 0.311 m where Newton's e would give 0.32 m — Flores' χ is an approximation), while
   // the penetration shrinks like K^(−2/5). Observed: peak 0.3066 / 0.3092 / 0.3102 m and
   // penetration 10.4 / 4.1 / 1.6 mm for K = 1e6 / 1e7 / 1e8 at h = 1e-5 s; impact at
@@ -88,7 +101,7 @@ TEST(ContinuousContact, DroppedBodyReboundsAsTheLawsRestitutionAsTheStiffnessGro
     std::printf("continuous contact K = %.0e: rebound %.5f m, impact %.5f s, penetration %.3e m\n", K, runs.back().peak,
                 runs.back().impact_time, runs.back().penetration);
   }
-  const double e_eff = LawRestitution(0.8, 1.5);
+  const double e_eff = ReferenceEffectiveRestitution(0.8, 1.5);
   const double target = e_eff * e_eff * 0.5;
   std::printf("law restitution for e = 0.8, n = 1.5: %.5f; rebound limit %.5f m\n", e_eff, target);
   for (const Drop& d : runs) EXPECT_NEAR(d.impact_time, std::sqrt(2.0 * 0.5 / 9.81), 1e-4);
@@ -134,7 +147,7 @@ TEST(ContinuousContact, JointStopReflectsAPendulumWithTheRestitution) {
   ASSERT_TRUE(left);
   std::printf("joint stop: rate in %.4f rad/s, out %.4f rad/s, ratio %.4f, deepest %.2e rad\n", before, after,
               -after / before, deepest);
-  const double e_eff = LawRestitution(0.6, 1.5);
+  const double e_eff = ReferenceEffectiveRestitution(0.6, 1.5);
   std::printf("law restitution for e = 0.6: %.5f\n", e_eff);
   EXPECT_NEAR(-after / before, e_eff, 0.005 * e_eff);
   EXPECT_LT(deepest, 0.01);

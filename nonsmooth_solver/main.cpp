@@ -12,7 +12,12 @@ int main(int argc, char** argv) {
       "nonsmooth_solver", argc, argv,
       [](const interface::ScenarioFile& file,
          const interface::CommandLine& cli) -> std::unique_ptr<interface::Simulation> {
-        if (!cli.process.empty()) return std::make_unique<nonsmooth::ServedContactSimulation>(file, cli.process);
+        if (!cli.process.empty()) {
+          return std::make_unique<nonsmooth::ServedContactSimulation>(
+              file, cli.process, [](const interface::ScenarioFile& f, const std::set<std::string>& nodes) {
+                return std::make_unique<nonsmooth::ContactSimulation>(f, &nodes);
+              });
+        }
         if (file.proto().coupling().interface_nodes_size() > 0) {
           file.Fail("coupling.interface_nodes",
                     "the contact nodes are tied to the smooth model: run the coupled scene with scripts/cosim run "

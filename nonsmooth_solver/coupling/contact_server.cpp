@@ -1,5 +1,7 @@
 #include "nonsmooth_solver/coupling/contact_server.h"
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -10,7 +12,7 @@ namespace cosim::nonsmooth {
 
 using coupling::Envelope;
 
-ContactServer::ContactServer(ContactSimulation* simulation, interface::Channel* channel, std::string scenario_name)
+ContactServer::ContactServer(ContactStepper* simulation, interface::Channel* channel, std::string scenario_name)
     : simulation_(simulation), channel_(channel), scenario_name_(std::move(scenario_name)) {
   external_ = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(simulation_->model().nodes.size()));
 }
@@ -87,15 +89,14 @@ void ContactServer::Answer(const Envelope& e) {
   }
   coupling::Welcome* welcome = channel_->Outgoing(-1, 0).mutable_welcome();
   welcome->set_process_name(channel_->options().self);
-  welcome->set_solver("nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)");
+  welcome->set_solver(simulation_->SolverName());
   for (const auto& name : hello.interface_nodes()) welcome->add_interface_nodes(name);
   channel_->Send();
 }
 
 void ContactServer::TentativeStep(int64_t step, int iteration) {
-  MoreauJean& integrator = simulation_->mutable_integrator();
-  integrator.Restore(start_);
-  integrator.SetExternalForces(external_);
+  simulation_->RestoreStart();
+  simulation_->SetExternalForces(external_);
   try {
     simulation_->Step(t_, h_);
   } catch (const Error& e) {
@@ -107,19 +108,14 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
   }
   ++tentative_;
   coupling::Kinematics* k = channel_->Outgoing(step, iteration).mutable_kinematics();
-  const Eigen::VectorXd& q = integrator.positions();
-  const Eigen::VectorXd& v = integrator.velocities();
+  const Eigen::VectorXd& q = simulation_->positions();
+  const Eigen::VectorXd& v = simulation_->velocities();
   for (int node : nodes_) {
     for (int i = 0; i < 3; ++i) {
       k->add_position(q(3 * node + i));
       k->add_velocity(v(3 * node + i));
     }
-    int closed = 0;
-    const auto& contacts = simulation_->model().contacts;
-    for (size_t c = 0; c < contacts.size(); ++c) {
-      if (contacts[c].node == node && integrator.impulses()(static_cast<Eigen::Index>(c)) > 0.0) closed = 1;
-    }
-    k->add_in_contact(closed);
+    k->add_in_contact(simulation_->InContact(node) ? 1 : 0);
   }
   channel_->Send();
 }
@@ -230,7 +226,7 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       step_ = e.step();
       t_ = e.step_begin().time();
       h_ = e.step_begin().step();
-      simulation_->integrator().SaveTo(&start_);
+      simulation_->SaveStart();
       for (const auto& d : moving_) {  // the last accepted end is this step's start
         d->start = d->end;
         d->t0 = t_;
@@ -260,7 +256,7 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
         ++accepted_;
         if (on_accept) on_accept(t_ + h_);
       } else {
-        simulation_->mutable_integrator().Restore(start_);
+        simulation_->RestoreStart();
         for (const auto& d : moving_) d->end = d->start;
       }
       step_ = -1;

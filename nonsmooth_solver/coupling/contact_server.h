@@ -1,7 +1,7 @@
 #pragma once
 // The contact process's side of the coupling protocol (proto/coupling.proto): it answers the
 // coordinator (smooth_solver) message by message, each coupling iteration one tentative
-// Moreau–Jean step from the step's start with the reactions it was sent as external forces on
+// step of its ContactStepper (Moreau–Jean or penalty) from the step's start with the reactions it was sent as external forces on
 // the interface nodes [rotor-sailing paper, Section 2]:
 //
 //   Hello      → Welcome      the interface nodes are looked up (unknown: InputError, exit 2)
@@ -20,13 +20,13 @@
 #include <vector>
 
 #include "interface/coupling/channel.h"
-#include "nonsmooth_solver/simulation/contact_simulation.h"
+#include "nonsmooth_solver/coupling/contact_stepper.h"
 
 namespace cosim::nonsmooth {
 
 class ContactServer {
  public:
-  ContactServer(ContactSimulation* simulation, interface::Channel* channel, std::string scenario_name);
+  ContactServer(ContactStepper* simulation, interface::Channel* channel, std::string scenario_name);
 
   // Serves until the coordinator's Shutdown. Throws PeerError (the coordinator vanished or
   // stopped), InputError (a refused message) or NumericalError (a failed step).
@@ -54,12 +54,11 @@ class ContactServer {
   int coordinator_exit_code_ = 0;
   std::string coordinator_reason_;
 
-  ContactSimulation* simulation_;
+  ContactStepper* simulation_;
   interface::Channel* channel_;
   std::string scenario_name_;
   std::vector<int> nodes_;
   Eigen::VectorXd external_;  // 3 per model node: the interface nodes' reactions, 0 elsewhere
-  MoreauJean::Checkpoint start_;
   double t_ = 0.0, h_ = 0.0;
   int64_t step_ = -1;          // the step under way
   int64_t last_accepted_ = -1;

@@ -9,7 +9,8 @@
 
 namespace cosim::nonsmooth {
 
-ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process)
+ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process,
+                                                 const StepperFactory& make)
     : context_(std::make_unique<zmq::context_t>()) {
   const interface::Checks checks(file);
   const scenario::Coupling& coupling = file.proto().coupling();
@@ -17,7 +18,7 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   const interface::ContactProcessPlan& p = interface::FindProcess(plan, process, file);
   // This process integrates its own contact nodes only (the others are other processes').
   const std::set<std::string> nodes(p.nodes.begin(), p.nodes.end());
-  simulation_ = std::make_unique<ContactSimulation>(file, &nodes);
+  simulation_ = make(file, nodes);
   checks.Require(interface::ElementPath("coupling.processes", p.index) + ".endpoint", !p.endpoint.empty(),
                  "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
   interface::ChannelOptions options;

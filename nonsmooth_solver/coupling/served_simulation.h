@@ -3,8 +3,12 @@
 // SCENARIO --process NAME): it binds its endpoint (coupling.processes[NAME].endpoint), answers
 // the coordinator's handshake, serves each step until the coordinator accepts it, and answers
 // the coordinator's Shutdown at the end. Its probes, history and summary are those of the
-// standalone contact process, for the accepted steps.
+// standalone contact process, for the accepted steps. The contact method is the program's:
+// `make` builds its ContactStepper for this process's nodes (Moreau–Jean in nonsmooth_solver,
+// the penalty law in penalty_solver).
+#include <functional>
 #include <memory>
+#include <set>
 #include <string>
 
 #include "nonsmooth_solver/coupling/contact_server.h"
@@ -17,9 +21,10 @@ namespace cosim::nonsmooth {
 
 class ServedContactSimulation : public interface::Simulation {
  public:
-  // Throws InputError for an unknown process, a missing endpoint, or a scenario this build
-  // cannot serve (several contact processes).
-  ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process);
+  using StepperFactory =
+      std::function<std::unique_ptr<ContactStepper>(const interface::ScenarioFile&, const std::set<std::string>& nodes)>;
+  // Throws InputError for an unknown process or a missing endpoint.
+  ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process, const StepperFactory& make);
   ~ServedContactSimulation() override;
 
   std::vector<std::string> ProbeNames() const override { return simulation_->ProbeNames(); }
@@ -29,7 +34,7 @@ class ServedContactSimulation : public interface::Simulation {
   void Finish(ExitCode code, const std::string& reason) override;
 
  private:
-  std::unique_ptr<ContactSimulation> simulation_;
+  std::unique_ptr<ContactStepper> simulation_;
   std::unique_ptr<zmq::context_t> context_;
   std::unique_ptr<interface::Channel> channel_;
   std::unique_ptr<ContactServer> server_;

@@ -49,6 +49,14 @@ void ContactSimulation::Probe(std::vector<double>* values) const {
   }
 }
 
+bool ContactSimulation::InContact(int node) const {
+  const auto& contacts = model_->contacts;
+  for (size_t c = 0; c < contacts.size(); ++c) {
+    if (contacts[c].node == node && integrator_->impulses()(static_cast<Eigen::Index>(c)) > 0.0) return true;
+  }
+  return false;
+}
+
 void ContactSimulation::Step(double t, double h) {
   integrator_->Step(t, h);
   // Penetration is the constraint violation of a unilateral contact.

@@ -7,10 +7,11 @@
 #include "nonsmooth_solver/integrator/moreau_jean.h"
 #include "nonsmooth_solver/model/contact_model.h"
 #include "interface/run/run_driver.h"
+#include "nonsmooth_solver/coupling/contact_stepper.h"
 
 namespace cosim::nonsmooth {
 
-class ContactSimulation : public interface::Simulation {
+class ContactSimulation : public ContactStepper {
  public:
   // `only_nodes`: see BuildContactModel (a coupled run's contact process with its own nodes).
   explicit ContactSimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
@@ -20,15 +21,25 @@ class ContactSimulation : public interface::Simulation {
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
 
-  const ContactModel& model() const { return *model_; }
+  const ContactModel& model() const override { return *model_; }
   const MoreauJean& integrator() const { return *integrator_; }
-  MoreauJean& mutable_integrator() { return *integrator_; }  // the coupling server's checkpoints
+  MoreauJean& mutable_integrator() { return *integrator_; }
+
+  // ContactStepper (the coupling server's view).
+  void SaveStart() override { integrator_->SaveTo(&start_); }
+  void RestoreStart() override { integrator_->Restore(start_); }
+  void SetExternalForces(const Eigen::VectorXd& forces) override { integrator_->SetExternalForces(forces); }
+  const Eigen::VectorXd& positions() const override { return integrator_->positions(); }
+  const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
+  bool InContact(int node) const override;
+  std::string SolverName() const override { return "nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)"; }
 
  private:
   std::unique_ptr<const ContactModel> model_;  // stable address for the integrator
   std::unique_ptr<MoreauJean> integrator_;
   scenario::Numerics numerics_;  // as used, defaults filled in
   double max_penetration_ = 0.0;
+  MoreauJean::Checkpoint start_;
 };
 
 }  // namespace cosim::nonsmooth

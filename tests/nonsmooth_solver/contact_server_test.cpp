@@ -2,6 +2,7 @@
 // contact_server), driven over inproc by a test coordinator: the handshake, tentative steps
 // that start again from the step's start at every iteration, accept and reject, and refusals.
 #include "nonsmooth_solver/coupling/contact_server.h"
+#include "nonsmooth_solver/simulation/contact_simulation.h"
 
 #include <gtest/gtest.h>
 

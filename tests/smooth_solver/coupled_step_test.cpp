@@ -14,6 +14,7 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "nonsmooth_solver/coupling/contact_server.h"
+#include "nonsmooth_solver/simulation/contact_simulation.h"
 #include "smooth_solver/coupling/coordinator.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 #include "smooth_solver/model/multibody_model.h"

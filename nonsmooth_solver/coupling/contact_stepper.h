@@ -1,0 +1,29 @@
+#pragma once
+// What a contact process must do for the coupling server (contact_server.h), whatever its
+// method: Moreau–Jean with an LCP (ContactSimulation) or a penalty law (PenaltySimulation).
+// It is also a run-contract Simulation (probes, summary), so the same program runs standalone.
+#include <Eigen/Core>
+
+#include <string>
+
+#include "interface/run/run_driver.h"
+#include "nonsmooth_solver/model/contact_model.h"
+
+namespace cosim::nonsmooth {
+
+class ContactStepper : public interface::Simulation {
+ public:
+  virtual const ContactModel& model() const = 0;
+  // Checkpoint of the step's start, and back to it (every coupling iteration restarts there).
+  virtual void SaveStart() = 0;
+  virtual void RestoreStart() = 0;
+  // Force per node [N] (3 × nodes, model order), constant over the next steps.
+  virtual void SetExternalForces(const Eigen::VectorXd& forces) = 0;
+  virtual const Eigen::VectorXd& positions() const = 0;   // 3 per node
+  virtual const Eigen::VectorXd& velocities() const = 0;  // 3 per node
+  // Whether a contact of `node` transmitted force (an impulse) in the last step.
+  virtual bool InContact(int node) const = 0;
+  virtual std::string SolverName() const = 0;  // for the Welcome
+};
+
+}  // namespace cosim::nonsmooth

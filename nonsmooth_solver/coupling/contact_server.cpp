@@ -115,7 +115,7 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
       k->add_position(q(3 * node + i));
       k->add_velocity(v(3 * node + i));
     }
-    k->add_in_contact(simulation_->InContact(node) ? 1 : 0);
+    k->add_in_contact(simulation_->Impact(node) ? 1 : 0);
   }
   channel_->Send();
 }

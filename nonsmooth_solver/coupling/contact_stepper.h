@@ -21,8 +21,10 @@ class ContactStepper : public interface::Simulation {
   virtual void SetExternalForces(const Eigen::VectorXd& forces) = 0;
   virtual const Eigen::VectorXd& positions() const = 0;   // 3 per node
   virtual const Eigen::VectorXd& velocities() const = 0;  // 3 per node
-  // Whether a contact of `node` transmitted force (an impulse) in the last step.
-  virtual bool InContact(int node) const = 0;
+  // Whether `node`'s velocity jumped in the last step (an impulsive contact reaction: an impact
+  // or a persisting closed contact of the nonsmooth model). Sent as Kinematics.in_contact: the
+  // coordinator restarts the smooth integrator's acceleration history after an impact.
+  virtual bool Impact(int node) const = 0;
   virtual std::string SolverName() const = 0;  // for the Welcome
 };
 

@@ -95,31 +95,9 @@ double MoreauJean::Gap(int contact) const {
   return model_.obstacles[Idx(c.obstacle)].Gap(time_, q_.segment<3>(3 * c.node));
 }
 
-double MoreauJean::KineticEnergy(int node) const {
-  double e = 0.0;
-  for (size_t i = 0; i < model_.nodes.size(); ++i) {
-    if (node >= 0 && Idx(node) != i) continue;
-    e += 0.5 * model_.nodes[i].mass * v_.segment<3>(3 * static_cast<Eigen::Index>(i)).squaredNorm();
-  }
-  return e;
-}
+double MoreauJean::KineticEnergy(int node) const { return nonsmooth::KineticEnergy(model_, v_, node); }
 
-double MoreauJean::PotentialEnergy(int node) const {
-  double e = 0.0;
-  for (size_t i = 0; i < model_.nodes.size(); ++i) {
-    if (node >= 0 && Idx(node) != i) continue;
-    const ContactNode& nd = model_.nodes[i];
-    const Eigen::Vector3d x = q_.segment<3>(3 * static_cast<Eigen::Index>(i));
-    e += -nd.mass * model_.gravity.dot(x) + 0.5 * nd.stiffness * (x - nd.anchor).squaredNorm();
-  }
-  if (node < 0) {
-    for (const NodeSpring& s : model_.springs) {
-      const Eigen::Vector3d stretch = q_.segment<3>(3 * s.node1) - q_.segment<3>(3 * s.node2) - s.rest_offset;
-      e += 0.5 * s.stiffness * stretch.squaredNorm();
-    }
-  }
-  return e;
-}
+double MoreauJean::PotentialEnergy(int node) const { return nonsmooth::PotentialEnergy(model_, q_, node); }
 
 Eigen::Vector3d MoreauJean::FacetDirection(const Obstacle& ob, double t, int j) const {
   const Eigen::Vector3d n = ob.NormalAt(t), t1 = ob.TangentAt(t);

@@ -63,6 +63,32 @@ double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x) const {
   return -NormalAt(t).dot(VelocityAt(t, x));
 }
 
+double KineticEnergy(const ContactModel& model, const Eigen::VectorXd& v, int node) {
+  double e = 0.0;
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    if (node >= 0 && static_cast<size_t>(node) != i) continue;
+    e += 0.5 * model.nodes[i].mass * v.segment<3>(3 * static_cast<Eigen::Index>(i)).squaredNorm();
+  }
+  return e;
+}
+
+double PotentialEnergy(const ContactModel& model, const Eigen::VectorXd& q, int node) {
+  double e = 0.0;
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    if (node >= 0 && static_cast<size_t>(node) != i) continue;
+    const ContactNode& nd = model.nodes[i];
+    const Eigen::Vector3d x = q.segment<3>(3 * static_cast<Eigen::Index>(i));
+    e += -nd.mass * model.gravity.dot(x) + 0.5 * nd.stiffness * (x - nd.anchor).squaredNorm();
+  }
+  if (node < 0) {
+    for (const NodeSpring& s : model.springs) {
+      const Eigen::Vector3d stretch = q.segment<3>(3 * s.node1) - q.segment<3>(3 * s.node2) - s.rest_offset;
+      e += 0.5 * s.stiffness * stretch.squaredNorm();
+    }
+  }
+  return e;
+}
+
 namespace {
 
 LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpSettings::Solver solver) {

@@ -139,6 +139,11 @@ struct ContactModel {
 };
 
 // Builds and validates the contact model of a scenario. Throws InputError naming the field.
+// Energies of the nodes at (q, v): kinetic, and potential of gravity, anchor springs and (for
+// node < 0, the whole process) node springs. node < 0: all nodes.
+double KineticEnergy(const ContactModel& model, const Eigen::VectorXd& v, int node);
+double PotentialEnergy(const ContactModel& model, const Eigen::VectorXd& q, int node);
+
 // `only_nodes` (a contact process of a coupled run with several): build these contact nodes
 // only; the others, their contacts and probes belong to other processes and are skipped.
 ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);

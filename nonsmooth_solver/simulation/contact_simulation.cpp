@@ -49,7 +49,7 @@ void ContactSimulation::Probe(std::vector<double>* values) const {
   }
 }
 
-bool ContactSimulation::InContact(int node) const {
+bool ContactSimulation::Impact(int node) const {
   const auto& contacts = model_->contacts;
   for (size_t c = 0; c < contacts.size(); ++c) {
     if (contacts[c].node == node && integrator_->impulses()(static_cast<Eigen::Index>(c)) > 0.0) return true;

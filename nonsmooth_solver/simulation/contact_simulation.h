@@ -31,7 +31,7 @@ class ContactSimulation : public ContactStepper {
   void SetExternalForces(const Eigen::VectorXd& forces) override { integrator_->SetExternalForces(forces); }
   const Eigen::VectorXd& positions() const override { return integrator_->positions(); }
   const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
-  bool InContact(int node) const override;
+  bool Impact(int node) const override;
   std::string SolverName() const override { return "nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)"; }
 
  private:

@@ -26,6 +26,7 @@ Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std
   x_next_ = x_;
   accepted_x_ = x_;
   previous_accepted_x_ = x_;
+  lambda_start_ = lambda_end_ = filtered_start_ = filtered_end_ = x_;
   position_ = x_;
   velocity_ = x_;
   previous_position_ = x_;
@@ -68,6 +69,9 @@ void FillFrame(int body, const DaeState& state, double ahead, coupling::Frame* f
 void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t) {
   ConsistentAccelerations(system_, t, &state, &coupling_rows_);
   integrator_->Restart(state);
+  // The coupling rows' multipliers are 0 there, and a = q̈: the filtered multipliers too.
+  lambda_start_.setZero();
+  filtered_start_.setZero();
 }
 
 void Coordinator::Handshake(const std::string& scenario_name, double start_time, double step) {
@@ -161,7 +165,19 @@ int Coordinator::Step(double t, double h) {
     newton_ += integrator_->Step(t, h);
     const Eigen::VectorXd& lambda = integrator_->state().lambda;
     for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-      x_tilde_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
+      lambda_end_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
+    }
+    // STEP_AVERAGE: the multipliers through CGα's acceleration filter
+    // (1 − α_m) λ̃₁ + α_m λ̃₀ = (1 − α_f) λ₁ + α_f λ₀, weighted as its velocity update,
+    // (1 − γ) λ̃₀ + γ λ̃₁: h times it is the momentum the smooth side exchanged with the node
+    // over the step. END_OF_STEP: λ₁.
+    filtered_end_ = ((1.0 - integrator_->alpha_f()) * lambda_end_ + integrator_->alpha_f() * lambda_start_ -
+                     integrator_->alpha_m() * filtered_start_) /
+                    (1.0 - integrator_->alpha_m());
+    if (settings_.step_average_reaction) {
+      x_tilde_ = (1.0 - integrator_->gamma()) * filtered_start_ + integrator_->gamma() * filtered_end_;
+    } else {
+      x_tilde_ = lambda_end_;
     }
     CouplingIterationRecord record;
     record.step = step_;
@@ -209,6 +225,8 @@ int Coordinator::Step(double t, double h) {
   previous_accepted_x_ = accepted_x_;
   accepted_x_ = x_;
   ++accepted_steps_;
+  lambda_start_ = lambda_end_;
+  filtered_start_ = filtered_end_;
   if (in_contact_ && !was_in_contact_) {
     DaeState after = integrator_->state();
     ProjectVelocities(system_, t + h, &after);  // the points move with their nodes

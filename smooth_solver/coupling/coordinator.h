@@ -35,6 +35,7 @@ struct CouplingSettings {
   interface::Relaxation::Method relaxation = interface::Relaxation::Method::kAitken;
   double relaxation_factor = 0.5;
   int reuse_steps = 0;                   // IQN-ILS: columns of that many earlier steps kept
+  bool step_average_reaction = false;    // false: λ at the step's end (see scenario.proto)
   bool stop_at_max_iterations = true;    // false: accept and mark the step
 };
 
@@ -90,6 +91,9 @@ class Coordinator {
   int n_ = 0;  // interface values: 3 per point
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions
   long long accepted_steps_ = 0;  // since the start or the last impact (for the predictor)
+  // The interface rows' multipliers λ and their CGα-filtered values λ̃ at the step's start
+  // (accepted) and end (this iteration).
+  Eigen::VectorXd lambda_start_, lambda_end_, filtered_start_, filtered_end_;
   Eigen::VectorXd position_, velocity_, previous_position_, start_velocity_;  // kinematics
   bool in_contact_ = false, was_in_contact_ = false;  // any interface node, this / last step
   std::vector<int> coupling_rows_;  // the interface points' constraint rows

@@ -112,6 +112,11 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     checks.Fail("coupling.iteration.reuse_steps", "must be >= 0, got " + std::to_string(it.reuse_steps()));
   }
   settings.reuse_steps = it.reuse_steps();
+  if (it.reaction() != sc::Coupling::CouplingIteration::END_OF_STEP &&
+      it.reaction() != sc::Coupling::CouplingIteration::STEP_AVERAGE) {
+    checks.Fail("coupling.iteration.reaction", "expected END_OF_STEP or STEP_AVERAGE");
+  }
+  settings.step_average_reaction = it.reaction() == sc::Coupling::CouplingIteration::STEP_AVERAGE;
   if (it.on_max_iterations() != sc::Coupling::CouplingIteration::STOP &&
       it.on_max_iterations() != sc::Coupling::CouplingIteration::ACCEPT_AND_MARK) {
     checks.Fail("coupling.iteration.on_max_iterations", "expected STOP or ACCEPT_AND_MARK");

@@ -65,15 +65,20 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
 }
 
 
-// min ½|q̇ − q̇_ref|² s.t. Φ_q q̇ = −Φ_t and, with `holds`, H_q q̇ = H_q q̇_ref (held joint speeds
-// kept): the KKT system [I Gᵀ; G −C], C the rows' compliance (regularised rows are met in the
-// least-squares sense). Returns false if it is singular (redundant rows not regularised).
+// min ½|q̇ − q̇_ref|²_W s.t. Φ_q q̇ = −Φ_t and, with `holds`, H_q q̇ = H_q q̇_ref (held joint
+// speeds kept): the KKT system [W Gᵀ; G −C], C the rows' compliance (regularised rows are met
+// in the least-squares sense), W = I or, with `mass_metric`, the mass matrix: then the change is
+// the one an impulse through the constraints makes (M Δq̇ = Gᵀ P), which spreads over an elastic
+// body as its inertia does instead of landing on the constrained nodes alone. Returns false if
+// it is singular (redundant rows not regularised).
 bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* holds, double t,
-                            const Eigen::VectorXd& q, const Eigen::VectorXd& qdot_ref, Eigen::VectorXd* qdot) {
+                            const Eigen::VectorXd& q, const Eigen::VectorXd& qdot_ref, Eigen::VectorXd* qdot,
+                            bool mass_metric = false) {
   const int n = system.coordinates, mc = system.constraints.size(), mh = holds != nullptr ? holds->size() : 0;
   const int N = n + mc + mh;
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+  if (mass_metric) AddSparse(system.mass, 1.0, &pattern);
   system.constraints.Jacobian(q, t, &pattern, n, 1.0);
   system.constraints.JacobianTranspose(q, t, &pattern, n, 1.0);
   if (holds != nullptr) {
@@ -82,7 +87,11 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   }
   Eigen::SparseMatrix<double> A = pattern.Build(N, N);
   MatrixSink sink(&A);
-  for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
+  if (mass_metric) {
+    AddSparse(system.mass, 1.0, &sink);
+  } else {
+    for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
+  }
   system.constraints.Jacobian(q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
@@ -92,7 +101,7 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
     holds->JacobianTranspose(q, t, &sink, n + mc, 1.0);
   }
   Eigen::VectorXd rhs(N);
-  rhs.head(n) = qdot_ref;
+  rhs.head(n) = mass_metric ? Eigen::VectorXd(system.mass * qdot_ref) : qdot_ref;
   system.constraints.TimeDerivative(q, t, rhs.segment(n, mc));
   rhs.segment(n, mc) *= -1.0;
   if (holds != nullptr) holds->JacobianTimes(q, t, qdot_ref, rhs.tail(mh));
@@ -162,7 +171,7 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
 
 void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state) {
   const Eigen::VectorXd reference = state->qdot;
-  if (!SmallestVelocityChange(system, nullptr, t, state->q, reference, &state->qdot)) {
+  if (!SmallestVelocityChange(system, nullptr, t, state->q, reference, &state->qdot, /*mass_metric=*/true)) {
     throw NumericalError("the velocity constraints are singular at t = " + std::to_string(t) +
                          " s (redundant rows: regularise the coupling rows of a closed loop)");
   }

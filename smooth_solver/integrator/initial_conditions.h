@@ -19,9 +19,10 @@ struct InitialConditionReport {
 // Throws InputError (exit 2) when the loops cannot be closed from the guess.
 DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report);
 
-// The smallest change of q̇ (Euclidean, natural coordinates) with Φ_q q̇ + Φ_t = 0 at t: after a
-// velocity jump imposed from outside (a contact node's impact in a coupled run). Throws
-// NumericalError for redundant rows.
+// The smallest change of q̇ in the kinetic-energy metric (M Δq̇ = Φ_qᵀ P: the change an impulse
+// through the constraints makes) with Φ_q q̇ + Φ_t = 0 at t: after a velocity jump imposed from
+// outside (a contact node's impact in a coupled run). Throws NumericalError for redundant rows
+// that are not regularised.
 void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state);
 
 }  // namespace cosim::smooth

@@ -324,9 +324,19 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       checks.Fail(path + ".contact_node", "contact node '" + in.contact_node() + "' is tied to the smooth model twice");
     }
     spec.contact_node = in.contact_node();
-    checks.Require(path + ".body", in.has_body(), "the name of a rigid body");
-    spec.body = body_names.Find(path + ".body", in.body());
-    spec.point = checks.Vector3(path + ".point", in.point(), Eigen::Vector3d::Zero());
+    checks.Require(path + ".body", in.has_body(), "the name of a rigid or elastic body");
+    bool elastic = false;
+    for (const auto& e : file.proto().model().elastic_bodies()) elastic = elastic || e.name() == in.body();
+    if (elastic) {
+      checks.Require(path + ".node", in.has_node(), "the elastic body's node (0-based index, tip_centre or root_centre)");
+      if (in.point_size() != 0) checks.Fail(path + ".point", "an elastic body's point is a node: give `node` instead");
+      spec.elastic_body = in.body();
+      spec.elastic_point = in.node();
+    } else {
+      spec.body = body_names.Find(path + ".body", in.body());
+      if (in.has_node()) checks.Fail(path + ".node", "'" + in.body() + "' is a rigid body: give `point` (body frame offset)");
+      spec.point = checks.Vector3(path + ".point", in.point(), Eigen::Vector3d::Zero());
+    }
     spec.regularization = checks.NonNegative(path + ".regularization", in.regularization(), "m/N");
     model.interface_points.push_back(spec);
   }

@@ -71,7 +71,10 @@ struct ForceSpec {
 // (coupling.interface_nodes).
 struct InterfacePointSpec {
   std::string contact_node;
-  int body = -1;
+  int body = -1;                  // rigid body, or −1 for a node of an elastic body:
+  std::string elastic_body;       // its name (resolved with the elastic bodies),
+  std::string elastic_point;      // the node as given (index or face centre),
+  int elastic = -1, elastic_node = -1;  // and once resolved: elastic body index and node
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   double regularization = 0.0;  // c of Φ − cλ = 0 [m/N]
 };

@@ -387,7 +387,11 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       InterfacePoint ip;
       ip.contact_node = spec.contact_node;
       ip.first_row = cs.size();
-      ip.point = LinearVector::Point(spec.body, spec.point);
+      if (spec.elastic >= 0) {  // an elastic body's node: its three coordinates
+        ip.point.terms.push_back({sys.elastic_offset[static_cast<size_t>(spec.elastic)] + 3 * spec.elastic_node, 1.0});
+      } else {
+        ip.point = LinearVector::Point(spec.body, spec.point);
+      }
       const Eigen::Vector3d at = ip.point.Value(sys.q0);
       for (int j = 0; j < 3; ++j) {
         ImposedCoordinate& x = (*sys.imposed)[3 * k + static_cast<size_t>(j)];

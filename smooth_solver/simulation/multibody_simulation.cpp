@@ -30,6 +30,14 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
   std::map<std::string, int> elastic_index;
   for (size_t e = 0; e < elastic.size(); ++e) elastic_index[elastic[e].name] = static_cast<int>(e);
+  // Interface nodes on elastic bodies: which node.
+  for (size_t k = 0; k < model_.interface_points.size(); ++k) {
+    InterfacePointSpec& spec = model_.interface_points[k];
+    if (spec.elastic_body.empty()) continue;
+    spec.elastic = elastic_index.at(spec.elastic_body);
+    spec.elastic_node = elastic[static_cast<size_t>(spec.elastic)].FindPoint(
+        checks, interface::ElementPath("coupling.interface_nodes", static_cast<int>(k)) + ".node", spec.elastic_point);
+  }
   if (model_.bodies.empty() && elastic.empty()) {
     checks.Fail("model.bodies", "the smooth solver needs at least one rigid or elastic body");
   }

@@ -247,13 +247,14 @@ int Coordinator::Step(double t, double h) {
   return iteration + 1;
 }
 
-void Coordinator::Shutdown(int exit_code, const std::string& reason) {
+void Coordinator::Shutdown(int exit_code, const std::string& reason, bool wait_for_replies) {
   for (Peer& peer : peers_) {
     auto* stop = peer.channel->Outgoing(-1, 0).mutable_shutdown();
     stop->set_exit_code(exit_code);
     stop->set_reason(reason);
     peer.channel->Send();
   }
+  if (!wait_for_replies) return;
   for (Peer& peer : peers_) peer.channel->Receive(Envelope::kShutdown, -1, -1);
 }
 

@@ -68,8 +68,9 @@ class Coordinator {
   void Handshake(const std::string& scenario_name, double start_time, double step);
   // One coupled step from t to t + h; returns the coupling iterations used.
   int Step(double t, double h);
-  // Tells every peer the run is over (exit code 0, or the failure's code and reason).
-  void Shutdown(int exit_code, const std::string& reason);
+  // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
+  // `wait_for_replies`, waits for each one's Shutdown.
+  void Shutdown(int exit_code, const std::string& reason, bool wait_for_replies = true);
 
   const std::vector<CouplingIterationRecord>& log() const { return log_; }
   int last_newton_iterations() const { return newton_; }  // CGα iterations of the last step, all tries

@@ -147,7 +147,13 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
 }
 
 void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {
-  if (code == ExitCode::kPeerFailure) return;  // the contact process is gone or broke the protocol
+  if (code == ExitCode::kPeerFailure) return;  // the contact process is gone
+  if (code == ExitCode::kBadInput) {
+    // A contact process broke the protocol (this side's input was checked before the run):
+    // tell the peers that can still listen, without waiting for answers nor handshaking.
+    if (handshaken_) coordinator_->Shutdown(static_cast<int>(code), reason, /*wait_for_replies=*/false);
+    return;
+  }
   if (!handshaken_) coordinator_->Handshake(scenario_name_, start_time_, step_);
   coordinator_->Shutdown(static_cast<int>(code), reason);
 }

@@ -1,0 +1,87 @@
+// smooth_solver as coordinator against a contact peer that misbehaves on the wire: this test
+// binds the contact process's endpoint itself and answers the coordinator's Hello with a
+// message of another protocol version, or with bytes that are not a message. The coordinator
+// must refuse either at the handshake with exit code 2 and a message naming the peer and what
+// came, without a crash and without waiting out its timeout, and keep its outputs.
+#include <chrono>
+#include <cstdlib>
+#include <string>
+#include <thread>
+#include <zmq.hpp>
+
+#include "coupling.pb.h"
+#include "tests/integration/launch.h"
+
+namespace {
+
+using namespace cosim::test;
+
+struct Outcome {
+  int code = -1;
+  double seconds = 0.0;
+  std::string output;
+};
+
+// smooth_solver on tied_drop.pbtxt connecting to `endpoint`, while `answer` plays the contact
+// process on a bound DEALER socket: it gets the coordinator's first message (the Hello) and
+// returns the bytes to send back.
+Outcome AgainstFakePeer(const std::string& name, const std::function<std::string(const std::string&)>& answer) {
+  const fs::path out = TempDir("fault_" + name);
+  const std::string endpoint = "ipc://" + (TestRoot() / ("fault_" + name + ".ipc")).string();
+  zmq::context_t context;
+  zmq::socket_t peer(context, zmq::socket_type::dealer);
+  peer.set(zmq::sockopt::linger, 0);
+  peer.set(zmq::sockopt::rcvtimeo, 10000);
+  peer.bind(endpoint);
+  Outcome outcome;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::thread coordinator([&] {
+    const fs::path log = out / "stderr.txt";
+    const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
+                                "/scenarios/tied_drop.pbtxt --out " + (out / "run").string() +
+                                " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' --set coupling.timeout=20 > " +
+                                log.string() + " 2>&1";
+    const int status = std::system(command.c_str());
+    outcome.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    outcome.output = Slurp(log);
+  });
+  zmq::message_t hello;
+  const bool got = peer.recv(hello).has_value();
+  if (got) {
+    const std::string reply = answer(hello.to_string());
+    peer.send(zmq::buffer(reply), zmq::send_flags::none);
+  }
+  coordinator.join();
+  outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(got) << "the coordinator never said Hello";
+  EXPECT_TRUE(fs::exists(out / "run" / "summary.json"));
+  return outcome;
+}
+
+TEST(ProtocolFaults, WrongVersionPeerIsRefusedAtHandshake) {
+  const Outcome o = AgainstFakePeer("version", [](const std::string& hello_bytes) {
+    cosim::coupling::Envelope hello;
+    EXPECT_TRUE(hello.ParseFromString(hello_bytes));
+    EXPECT_TRUE(hello.has_hello());
+    EXPECT_EQ(hello.protocol_version(), static_cast<unsigned>(cosim::coupling::PROTOCOL_VERSION_CURRENT));
+    cosim::coupling::Envelope welcome;
+    welcome.set_protocol_version(1);  // an old contact process
+    welcome.set_sender("contacts");
+    welcome.set_step(-1);
+    welcome.mutable_welcome()->set_process_name("contacts");
+    return welcome.SerializeAsString();
+  });
+  EXPECT_EQ(o.code, 2) << o.output;
+  EXPECT_NE(o.output.find("'contacts' speaks protocol version 1"), std::string::npos) << o.output;
+  EXPECT_LT(o.seconds, 10.0);  // refused at once, not after the 20 s timeout
+}
+
+TEST(ProtocolFaults, MalformedMessageIsRefusedWithoutACrash) {
+  const Outcome o = AgainstFakePeer("malformed", [](const std::string&) { return std::string("\xff\xff\xff not protobuf", 17); });
+  EXPECT_EQ(o.code, 2) << o.output;
+  EXPECT_NE(o.output.find("malformed message"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("'contacts'"), std::string::npos) << o.output;
+  EXPECT_LT(o.seconds, 10.0);
+}
+
+}  // namespace

@@ -12,7 +12,14 @@
 #include <string>
 #include <zmq.hpp>
 
+#include <google/protobuf/util/json_util.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include "interface/coupling/channel.h"
+#include "run_summary.pb.h"
 
 namespace {
 
@@ -91,6 +98,52 @@ double ProtocolRoundTrip(zmq::context_t& context, const std::string& endpoint, i
   return seconds;
 }
 
+// The relaxation methods on the coupled scenes: every run through cosim_launch (next to this
+// executable), mean and largest coupling iterations per step and wall time from summary.json.
+void RelaxationTable() {
+  char self[4096];
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
+  if (n <= 0) return;
+  self[n] = '\0';
+  const std::string bin = std::filesystem::path(self).parent_path().string();
+  const std::string out = "/tmp/cosim_relaxation_bench_" + std::to_string(getpid());
+  struct Case {
+    const char* scene;
+    const char* label;
+    const char* sets;
+  };
+  const Case cases[] = {
+      {"pendulum_stop", "CONSTANT w=0.05", "--set coupling.iteration.relaxation=CONSTANT --set coupling.iteration.relaxation_factor=0.05 --set coupling.iteration.max_iterations=200"},
+      {"pendulum_stop", "AITKEN", "--set coupling.iteration.relaxation=AITKEN"},
+      {"pendulum_stop", "IQN-ILS", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=0"},
+      {"pendulum_stop", "IQN-ILS(4)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
+      {"pendulum_stop", "IQN-ILS(16)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=16"},
+      {"tied_drop", "CONSTANT w=0.5", "--set coupling.iteration.relaxation=CONSTANT"},
+      {"tied_drop", "AITKEN", "--set coupling.iteration.relaxation=AITKEN"},
+      {"tied_drop", "IQN-ILS", "--set coupling.iteration.relaxation=IQN_ILS"},
+      {"tied_drop", "IQN-ILS(4)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
+      {"linear_oscillator", "AITKEN", "--set coupling.iteration.relaxation=AITKEN"},
+      {"linear_oscillator", "IQN-ILS(4)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
+  };
+  std::printf("\ncoupling iterations per step (all steps converged unless the exit code says otherwise)\n");
+  std::printf("%-18s %-16s %5s %10s %8s %10s\n", "scene", "relaxation", "exit", "mean/step", "max", "wall [s]");
+  for (const Case& c : cases) {
+    const std::string command = bin + "/cosim_launch " + std::string(COSIM_SOURCE_DIR) + "/scenarios/" + c.scene +
+                                ".pbtxt --out " + out + " " + c.sets + " > /dev/null 2>&1";
+    const int status = std::system(command.c_str());
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream in(out + "/summary.json");
+    std::stringstream text;
+    text << in.rdbuf();
+    cosim::run::RunSummary summary;
+    if (!google::protobuf::util::JsonStringToMessage(text.str(), &summary).ok()) continue;
+    std::printf("%-18s %-16s %5d %10.2f %8d %10.2f\n", c.scene, c.label, code,
+                summary.coupling_iterations().mean_per_step(), summary.coupling_iterations().max_per_step(),
+                summary.wall_time());
+    std::filesystem::remove_all(out);
+  }
+}
+
 }  // namespace
 
 int main() {
@@ -134,5 +187,6 @@ int main() {
                   1e6 * raw, 1e6 * protocol, protocol / raw);
     }
   }
+  RelaxationTable();
   return 0;
 }

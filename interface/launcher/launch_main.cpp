@@ -2,8 +2,13 @@
 // the scenario, decides which processes the run needs, starts them with the same command
 // line and passes their exit status on. A single-solver run's process validates the scenario
 // itself and writes the summary of a bad-input failure.
+//
+// `--print-scenario`: print the scenario as read (overrides applied, defaults filled in) as JSON
+// with the schema's field names and exit; scripts (the studies) read scenarios this way.
+#include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 
@@ -17,10 +22,23 @@ int main(int argc, char** argv) {
     std::cout << interface::Usage("cosim run");
     return 0;
   }
+  const auto print = std::find(arguments.begin(), arguments.end(), "--print-scenario");
+  const bool print_scenario = print != arguments.end();
+  if (print_scenario) arguments.erase(print);
   interface::CommandLine cli;
   try {
     cli = interface::ParseCommandLine(arguments);
     const auto file = interface::ScenarioFile::Load(cli.scenario, cli.sets);
+    if (print_scenario) {
+      scenario::Scenario filled = file.proto();
+      interface::MaterializeDefaults(&filled);
+      google::protobuf::util::JsonPrintOptions options;
+      options.preserve_proto_field_names = true;
+      std::string json;
+      if (!google::protobuf::util::MessageToJsonString(filled, &json, options).ok()) return 3;
+      std::cout << json << "\n";
+      return 0;
+    }
     interface::ValidateTimeSpan(file);
     const auto plan = interface::PlanProcesses(file, arguments);
     const std::string bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();

@@ -1,0 +1,590 @@
+#!/usr/bin/python3
+"""Studies of a scenario: scripts/cosim study KIND SCENARIO [options].
+
+KIND
+  convergence     sweep the time step (halvings), error of each probe against a reference
+                  (analytic expressions of the scenario's `study`, or a much finer run),
+                  observed order per probe as a fitted slope
+  work-precision  error against wall time for each method (study.methods; default CGα with
+                  ρ∞ = 0.9, 0.6, 0 and IDA), one curve per method, the same error measure
+  coupling        coupling iterations per step, residual histories and wall time as the
+                  relaxation, the reaction tolerance and the step vary (a coupled scenario)
+  stability       the hard-case table: SCENARIO is a folder of scenarios (or one file); does
+                  each complete, constraint violation, energy drift, iterations, wall time
+  results         every study of docs/results.md, regenerated into docs/
+
+Each study writes into its output folder (default runs/study/KIND-NAME): runs.csv (one row per
+run), PNG plots and report.md embedding them. Runs are independent processes (cosim_launch),
+run in parallel up to --jobs (default: the number of cores); a failed run is a data point.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+EXIT_MEANING = {0: "ok", 2: "bad input", 3: "numerical failure", 4: "peer failure"}
+
+
+def fail(message, code=2):
+    print(f"cosim study: error: {message}", file=sys.stderr)
+    sys.exit(code)
+
+
+# ---------------------------------------------------------------------------------------------
+# Running
+# ---------------------------------------------------------------------------------------------
+
+class Runner:
+    """Runs cosim_launch processes in parallel and reports progress on stderr."""
+
+    def __init__(self, bin_dir, jobs):
+        self.launch = os.path.join(bin_dir, "cosim_launch")
+        if not os.access(self.launch, os.X_OK):
+            fail(f"{self.launch} not found; build the project first (scripts/cosim setup)")
+        self.jobs = max(1, jobs)
+
+    def scenario_json(self, scenario, sets=()):
+        args = [self.launch, scenario, "--print-scenario"]
+        for s in sets:
+            args += ["--set", s]
+        p = subprocess.run(args, capture_output=True, text=True)
+        if p.returncode != 0:
+            fail(f"{scenario}: {p.stderr.strip()}", p.returncode)
+        return json.loads(p.stdout)
+
+    def run_all(self, runs):
+        """runs: list of dicts with id, scenario, sets, out. Adds code, wall, summary, seconds."""
+        total, done = len(runs), [0]
+        start = time.time()
+        lock = threading.Lock()
+
+        def one(run):
+            shutil.rmtree(run["out"], ignore_errors=True)
+            args = [self.launch, run["scenario"], "--out", run["out"]]
+            for s in run["sets"]:
+                args += ["--set", s]
+            t0 = time.time()
+            p = subprocess.run(args, capture_output=True, text=True)
+            run["seconds"] = time.time() - t0
+            run["code"] = p.returncode
+            run["message"] = (p.stderr.strip().splitlines() or [""])[-1]
+            run["summary"] = read_json(os.path.join(run["out"], "summary.json"))
+            # The time in the time steps (the method's cost, without process start and output), else
+            # the process's.
+            summary = run["summary"] or {}
+            run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or run["seconds"]
+            with lock:
+                done[0] += 1
+                status = "ok" if p.returncode == 0 else f"FAILED (exit {p.returncode}: {EXIT_MEANING.get(p.returncode, '?')})"
+                print(f"cosim study: [{done[0]}/{total}] {run['id']}: {status}; {total - done[0]} left, "
+                      f"{time.time() - start:.1f} s so far", file=sys.stderr)
+            return run
+
+        with ThreadPoolExecutor(max_workers=self.jobs) as pool:
+            return list(pool.map(one, runs))
+
+
+def read_json(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+
+def read_histories(out):
+    """Every probe of a run: the coordinator's history and each contact process's (subfolders),
+    as {probe: (times, values)}."""
+    probes = {}
+    folders = [out] + [os.path.join(out, d) for d in sorted(os.listdir(out))
+                       if os.path.isfile(os.path.join(out, d, "history.csv"))] if os.path.isdir(out) else []
+    for folder in folders:
+        path = os.path.join(folder, "history.csv")
+        if not os.path.isfile(path):
+            continue
+        data = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
+        if data.size == 0 or data.dtype.names is None:
+            continue
+        for name in data.dtype.names[1:]:
+            probes.setdefault(name, (np.atleast_1d(data["time"]), np.atleast_1d(data[name])))
+    return probes
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors against a reference
+# ---------------------------------------------------------------------------------------------
+
+SAFE_MATH = {k: getattr(math, k) for k in dir(math) if not k.startswith("_")}
+
+
+def analytic(expression, times, where):
+    try:
+        code = compile(expression, where, "eval")
+    except SyntaxError as e:
+        fail(f"{where}: expression '{expression}' is not valid: {e.msg}")
+    values = []
+    for t in times:
+        try:
+            values.append(float(eval(code, {"__builtins__": {}}, dict(SAFE_MATH, t=float(t)))))
+        except Exception as e:  # noqa: BLE001 - the user's expression
+            fail(f"{where}: expression '{expression}' fails at t = {t}: {e}")
+    return np.array(values)
+
+
+class Reference:
+    """The reference of each probe at any output time: analytic, or a reference run's history."""
+
+    def __init__(self, study, history=None):
+        self.expressions = {r["probe"]: r["expression"] for r in study.get("references", [])}
+        self.history = history or {}
+
+    def probes(self):
+        return set(self.expressions) | set(self.history)
+
+    def values(self, probe, times):
+        if probe in self.expressions:
+            return analytic(self.expressions[probe], times, f"study.references[{probe}]")
+        t_ref, y_ref = self.history[probe]
+        index = {round(t, 9): i for i, t in enumerate(t_ref)}
+        out = []
+        for t in times:
+            i = index.get(round(t, 9))
+            out.append(y_ref[i] if i is not None else np.interp(t, t_ref, y_ref))
+        return np.array(out)
+
+
+def probe_error(history, reference, probe, study):
+    if probe not in history:
+        return float("nan")
+    t, y = history[probe]
+    keep = t >= study.get("error_from", 0.0) - 1e-12
+    t, y = t[keep], y[keep]
+    if t.size == 0:
+        return float("nan")
+    if study.get("error", "MAX") == "END":
+        t, y = t[-1:], y[-1:]
+    return float(np.max(np.abs(y - reference.values(probe, t))))
+
+
+def fitted_order(steps, errors):
+    pts = [(math.log(h), math.log(e)) for h, e in zip(steps, errors) if e == e and e > 1e-14]
+    if len(pts) < 2:
+        return float("nan")
+    x, y = zip(*pts)
+    return float(np.polyfit(x, y, 1)[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# Studies
+# ---------------------------------------------------------------------------------------------
+
+def halving_steps(scenario, study):
+    h0 = study.get("coarsest_step") or scenario["numerics"]["step"]
+    k = max(4, int(study.get("halvings", 4)))
+    return [h0 / 2 ** i for i in range(k + 1)]
+
+
+def every_for(scenario, h, coarsest):
+    """Output decimation so that every run writes the coarsest run's times (and no more)."""
+    every = int(scenario.get("output", {}).get("every", 1))
+    return max(1, int(round(every * coarsest / h)))
+
+
+def reference_run(scenario_path, scenario, study, finest, coarsest, out):
+    """The run a study needs as its reference (None with analytic references)."""
+    if study.get("references"):
+        return None
+    if study.get("reference_run"):
+        r = study["reference_run"]
+        path = os.path.join(os.path.dirname(scenario_path), r["scenario"]) if r.get("scenario") else scenario_path
+        return {"id": f"reference {r.get('name', '')}".strip(), "scenario": path, "sets": list(study.get("set", [])) + list(r.get("set", [])),
+                "out": os.path.join(out, "runs", "reference"), "reference": True}
+    h = finest / int(study.get("reference_refinement", 4))
+    return {"id": f"reference h={h:.3g}", "scenario": scenario_path,
+            "sets": list(study.get("set", [])) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, coarsest)}"],
+            "out": os.path.join(out, "runs", "reference"), "reference": True}
+
+
+def run_with_reference(runner, runs, reference, study, label):
+    """Runs the study's runs and its reference run together; returns (runs, Reference, [reference run])."""
+    done = runner.run_all(runs + ([reference] if reference else []))
+    runs, extra = done[:len(runs)], done[len(runs):]
+    if not extra:
+        return runs, Reference(study), []
+    if extra[0]["code"] != 0:
+        fail(f"the {label} reference run failed (exit {extra[0]['code']}): {extra[0]['message']}", 3)
+    return runs, Reference(study, read_histories(extra[0]["out"])), extra
+
+
+def measured_probes(study, reference, histories):
+    if study.get("probes"):
+        return list(study["probes"])
+    if study.get("references"):
+        return [r["probe"] for r in study["references"]]
+    shared = None
+    for h in histories:
+        if h:
+            shared = set(h) if shared is None else shared & set(h)
+    return sorted((shared or set()) & reference.probes())
+
+
+def write_csv(path, header, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        w.writerows(rows)
+
+
+def fmt(x):
+    return "—" if x != x else f"{x:.3g}"
+
+
+def with_study_sets(runner, scenario_path, sets):
+    """The scenario as read, its study settings, and the overrides of every run (the study's own
+    `set` first, the command line's after, so the command line wins)."""
+    scenario = runner.scenario_json(scenario_path, sets)
+    study = scenario.get("study", {})
+    sets = list(study.get("set", [])) + list(sets)
+    return runner.scenario_json(scenario_path, sets), study, sets
+
+
+def study_convergence(runner, scenario_path, out, sets):
+    scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    steps = halving_steps(scenario, study)
+    runs = [{"id": f"h={h:.4g}", "h": h, "scenario": scenario_path,
+             "sets": list(sets) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, steps[0])}"],
+             "out": os.path.join(out, "runs", f"h{i}")} for i, h in enumerate(steps)]
+    runs, reference, extra = run_with_reference(
+        runner, runs, reference_run(scenario_path, scenario, study, steps[-1], steps[0], out), study, "convergence")
+    histories = [read_histories(r["out"]) if r["code"] == 0 else {} for r in runs]
+    probes = measured_probes(study, reference, histories)
+    if not probes:
+        fail("no probe to measure: give study.references or study.probes, or probes shared with the reference run")
+    errors = {p: [probe_error(hist, reference, p, study) if hist else float("nan") for hist in histories] for p in probes}
+    orders = {p: fitted_order(steps, errors[p]) for p in probes}
+    write_csv(os.path.join(out, "runs.csv"), ["run", "step", "exit", "wall_time"] + [f"error_{p}" for p in probes],
+              [[r["id"], r["h"], r["code"], r["wall"]] + [errors[p][i] for p in probes] for i, r in enumerate(runs)])
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    for p in probes:
+        ok = [(h, e) for h, e in zip(steps, errors[p]) if e == e and e > 0]
+        if ok:
+            ax.loglog(*zip(*ok), "o-", label=f"{p} (order {orders[p]:.2f})")
+    h = np.array(steps)
+    finite = [e for p in probes for e in errors[p] if e == e and e > 0]
+    if finite:
+        anchor = max(finite)
+        ax.loglog(h, anchor * (h / h[0]) ** 2, "k:", label="slope 2")
+        ax.loglog(h, anchor * (h / h[0]), "k--", lw=0.8, label="slope 1")
+    ax.set_xlabel("time step h [s]")
+    ax.set_ylabel(f"error ({'max over time' if study.get('error', 'MAX') == 'MAX' else 'at the end'}) [probe units]")
+    ax.set_title(f"{scenario['name']}: convergence")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "convergence.png"), dpi=120)
+    plt.close(fig)
+    lines = [f"# Convergence: {scenario['name']}", "", scenario.get("description", ""), "",
+             f"Reference: {'analytic (study.references)' if study.get('references') else 'a finer run' if not study.get('reference_run') else 'study.reference_run'}; "
+             f"error: {study.get('error', 'MAX')} over the output times from t = {study.get('error_from', 0)} s.", "",
+             "![convergence](convergence.png)", "",
+             "| probe | " + " | ".join(f"h = {h:.4g}" for h in steps) + " | fitted order |",
+             "|---|" + "---|" * (len(steps) + 1)]
+    for p in probes:
+        lines.append(f"| {p} | " + " | ".join(fmt(e) for e in errors[p]) + f" | {orders[p]:.2f} |")
+    lines += ["", failures_section(runs + extra)]
+    write_report(out, lines)
+    return {"orders": orders, "errors": errors, "steps": steps, "runs": runs}
+
+
+def default_methods(scenario):
+    if scenario.get("model", {}).get("contact_nodes") and not scenario.get("model", {}).get("bodies"):
+        return [{"name": f"Moreau–Jean, {s}", "set": [f"numerics.nonsmooth.lcp.solver={s}"]} for s in ("LEMKE", "PGS")]
+    methods = [{"name": f"CGα ρ∞ = {r}", "set": [f"numerics.smooth.rho_inf={r}"]} for r in (0.9, 0.6, 0.0)]
+    methods.append({"name": "IDA", "set": ["numerics.smooth.integrator=IDA"],
+                    "sweep_field": "numerics.smooth.ida_relative_tolerance",
+                    "sweep_values": [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9]})
+    return methods
+
+
+def study_work_precision(runner, scenario_path, out, sets):
+    scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    steps = halving_steps(scenario, study)
+    methods = study.get("methods") or default_methods(scenario)
+    runs = []
+    for m, method in enumerate(methods):
+        path = os.path.join(os.path.dirname(scenario_path), method["scenario"]) if method.get("scenario") else scenario_path
+        field = method.get("sweep_field", "numerics.step")
+        values = method.get("sweep_values") or steps
+        for i, v in enumerate(values):
+            extra = [f"{field}={v!r}"]
+            if field == "numerics.smooth.ida_relative_tolerance":
+                extra.append(f"numerics.smooth.ida_absolute_tolerance={v!r}")
+            if field == "numerics.step":
+                extra.append(f"output.every={every_for(scenario, v, steps[0])}")
+            else:  # output on the coarsest grid
+                extra += [f"numerics.step={steps[0]!r}"]
+            runs.append({"id": f"{method['name']} {field.split('.')[-1]}={v:.3g}", "method": method["name"], "value": v,
+                         "scenario": path, "sets": list(sets) + list(method.get("set", [])) + extra,
+                         "out": os.path.join(out, "runs", f"m{m}_{i}")})
+    runs, reference, extra_runs = run_with_reference(
+        runner, runs, reference_run(scenario_path, scenario, study, steps[-1], steps[0], out), study, "work-precision")
+    histories = [read_histories(r["out"]) if r["code"] == 0 else {} for r in runs]
+    probes = measured_probes(study, reference, histories)
+    if not probes:
+        fail("no probe to measure: give study.references or study.probes")
+    for r, hist in zip(runs, histories):
+        errs = [probe_error(hist, reference, p, study) for p in probes] if hist else [float("nan")]
+        r["error"] = max(errs) if all(e == e for e in errs) else float("nan")
+    write_csv(os.path.join(out, "runs.csv"), ["run", "method", "swept_value", "exit", "wall_time", "error"],
+              [[r["id"], r["method"], r["value"], r["code"], r["wall"], r["error"]] for r in runs])
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    for method in methods:
+        pts = sorted((r["wall"], r["error"]) for r in runs if r["method"] == method["name"] and r["error"] == r["error"] and r["error"] > 0)
+        if pts:
+            ax.loglog(*zip(*pts), "o-", label=method["name"])
+    ax.set_xlabel("wall time of the time steps [s]")
+    ax.set_ylabel("error, largest over the probes [probe units]")
+    ax.set_title(f"{scenario['name']}: work against precision\n({', '.join(probes)})", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "work_precision.png"), dpi=120)
+    plt.close(fig)
+    lines = [f"# Work against precision: {scenario['name']}", "", scenario.get("description", ""), "",
+             f"Error: the largest over {', '.join(probes)} of {study.get('error', 'MAX')} |value − reference|; "
+             f"reference: {'analytic' if study.get('references') else 'a reference run'}; wall time of the time steps "
+             f"(summary.json step_wall_time; a coupled run: the coordinator's, which includes waiting for its peers).", "",
+             "![work-precision](work_precision.png)", "", "| method | swept | wall [s] | error |", "|---|---|---|---|"]
+    for r in runs:
+        lines.append(f"| {r['method']} | {r['value']:.3g} | {r['wall']:.3g} | {fmt(r['error'])} |")
+    lines += ["", failures_section(runs + extra_runs)]
+    write_report(out, lines)
+    return {"runs": runs, "probes": probes}
+
+
+def study_coupling(runner, scenario_path, out, sets):
+    scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    if not scenario.get("coupling", {}).get("interface_nodes"):
+        fail(f"{scenario_path}: the coupling study needs a coupled scenario (coupling.interface_nodes)")
+    h0 = study.get("coarsest_step") or scenario["numerics"]["step"]
+    relaxations = study.get("relaxations") or ["CONSTANT", "AITKEN", "IQN_ILS"]
+    tolerances = study.get("tolerances") or [1e-4, 1e-6, 1e-8]
+    steps = study.get("steps") or [h0, h0 / 2]
+    runs = []
+    for relax in relaxations:
+        for tol in tolerances:
+            for h in steps:
+                runs.append({"id": f"{relax} tol={tol:g} h={h:g}", "relaxation": relax, "tol": tol, "h": h,
+                             "scenario": scenario_path,
+                             "sets": list(sets) + [f"coupling.iteration.relaxation={relax}",
+                                                   f"coupling.iteration.reaction_tolerance={tol!r}",
+                                                   f"numerics.step={h!r}"],
+                             "out": os.path.join(out, "runs", f"{relax}_{tol:g}_{h:g}".replace(".", "p"))})
+    runs = runner.run_all(runs)
+    for r in runs:
+        it = (r["summary"] or {}).get("coupling_iterations", {})
+        r["mean"], r["max"] = it.get("mean_per_step", float("nan")), it.get("max_per_step", float("nan"))
+    write_csv(os.path.join(out, "runs.csv"), ["run", "relaxation", "reaction_tolerance", "step", "exit",
+                                              "mean_iterations", "max_iterations", "wall_time"],
+              [[r["id"], r["relaxation"], r["tol"], r["h"], r["code"], r["mean"], r["max"], r["wall"]] for r in runs])
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    for relax in relaxations:
+        for h, style in zip(steps, ("o-", "s--", "^:")):
+            pts = [(r["tol"], r["mean"]) for r in runs if r["relaxation"] == relax and r["h"] == h and r["code"] == 0]
+            if pts:
+                axes[0].semilogx(*zip(*sorted(pts)), style, label=f"{relax}, h = {h:g} s")
+            pts = [(r["tol"], r["wall"]) for r in runs if r["relaxation"] == relax and r["h"] == h and r["code"] == 0]
+            if pts:
+                axes[1].loglog(*zip(*sorted(pts)), style, label=f"{relax}, h = {h:g} s")
+    axes[0].set_xlabel("reaction tolerance (relative)")
+    axes[0].set_ylabel("coupling iterations per step (mean)")
+    axes[1].set_xlabel("reaction tolerance (relative)")
+    axes[1].set_ylabel("wall time [s]")
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{scenario['name']}: coupling iterations (failed runs left out, see the table)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "iterations.png"), dpi=120)
+    plt.close(fig)
+    # Residual histories: the step with the most iterations, tightest tolerance, coarsest step.
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    for relax in relaxations:
+        match = [r for r in runs if r["relaxation"] == relax and r["tol"] == min(tolerances) and r["h"] == steps[0]]
+        path = os.path.join(match[0]["out"], "coupling.csv") if match else ""
+        if not os.path.isfile(path):
+            continue
+        log = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
+        if log.size == 0:
+            continue
+        counts = np.bincount(log["step"].astype(int))
+        worst = int(np.argmax(counts))
+        rows = log[log["step"] == worst]
+        ax.semilogy(rows["iteration"], np.maximum(rows["reaction_residual"], 1e-16), "o-",
+                    label=f"{relax}: step {worst} ({len(rows)} iterations)")
+    ax.set_xlabel("coupling iteration")
+    ax.set_ylabel("reaction residual |x̃ − x|∞ [N]")
+    ax.set_title(f"{scenario['name']}: the hardest step, tolerance {min(tolerances):g}")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "residuals.png"), dpi=120)
+    plt.close(fig)
+    lines = [f"# Coupling: {scenario['name']}", "", scenario.get("description", ""), "",
+             "![iterations](iterations.png)", "", "![residuals](residuals.png)", "",
+             "| relaxation | reaction tolerance | step [s] | exit | iterations/step (mean) | max | wall [s] |",
+             "|---|---|---|---|---|---|---|"]
+    for r in runs:
+        lines.append(f"| {r['relaxation']} | {r['tol']:g} | {r['h']:g} | {r['code']} ({EXIT_MEANING.get(r['code'], '?')}) | "
+                     f"{fmt(r['mean'])} | {fmt(r['max'])} | {r['wall']:.3g} |")
+    lines += ["", failures_section(runs)]
+    write_report(out, lines)
+    return {"runs": runs}
+
+
+def study_stability(runner, target, out, sets):
+    if os.path.isdir(target):
+        scenarios = sorted(os.path.join(target, f) for f in os.listdir(target) if f.endswith(".pbtxt"))
+    else:
+        scenarios = [target]
+    if not scenarios:
+        fail(f"{target}: no .pbtxt scenarios")
+    infos, runs = {}, []
+    for i, path in enumerate(scenarios):
+        scenario = runner.scenario_json(path, sets)
+        infos[path] = scenario
+        runs.append({"id": scenario["name"], "scenario": path, "sets": list(sets),
+                     "out": os.path.join(out, "runs", scenario["name"])})
+    runs = runner.run_all(runs)
+    rows = []
+    for r in runs:
+        scenario = infos[r["scenario"]]
+        s = r["summary"] or {}
+        energy = [p["name"] for p in scenario.get("output", {}).get("probes", []) if p.get("quantity") == "TOTAL_ENERGY"]
+        drift = float("nan")
+        if energy:
+            hist = read_histories(r["out"])
+            if energy[0] in hist and hist[energy[0]][1].size > 1:
+                e = hist[energy[0]][1]
+                drift = float(np.max(np.abs(e - e[0])) / max(abs(e[0]), 1e-300))
+        iters = []
+        for key, label in (("newton_iterations", "Newton"), ("coupling_iterations", "coupling"), ("lcp_iterations", "LCP")):
+            if s.get(key, {}).get("mean_per_step") is not None and s.get(key, {}).get("total", 0):
+                iters.append(f"{label} {s[key]['mean_per_step']:.2f}")
+        rows.append({"name": scenario["name"], "reason": scenario.get("study", {}).get("reason") or scenario.get("description", ""),
+                     "code": r["code"], "completes": r["code"] == 0, "violation": s.get("max_constraint_violation", float("nan")),
+                     "drift": drift, "iterations": ", ".join(iters) or "—", "wall": r["wall"], "steps": s.get("steps", 0),
+                     "message": r["message"] if r["code"] != 0 else ""})
+    write_csv(os.path.join(out, "runs.csv"), ["scenario", "exit", "completes", "steps", "max_constraint_violation",
+                                              "energy_drift", "iterations_per_step", "wall_time", "reason", "message"],
+              [[x["name"], x["code"], x["completes"], x["steps"], x["violation"], x["drift"], x["iterations"], x["wall"],
+                x["reason"], x["message"]] for x in rows])
+    lines = ["# Stability: the hard cases", "",
+             "Each scene is run once as shipped. Energy drift: the largest |E(t) − E(0)| / |E(0)| of its TOTAL_ENERGY probe.",
+             "", "| scene | why it is hard | completes | violation | energy drift | iterations per step | wall [s] |",
+             "|---|---|---|---|---|---|---|"]
+    for x in rows:
+        done = "yes" if x["completes"] else f"**no** (exit {x['code']}: {x['message']})"
+        lines.append(f"| {x['name']} | {x['reason']} | {done} | {fmt(x['violation'])} | {fmt(x['drift'])} | "
+                     f"{x['iterations']} | {x['wall']:.3g} |")
+    write_report(out, lines)
+    return {"rows": rows}
+
+
+def failures_section(runs):
+    failed = [r for r in runs if r.get("code", 0) != 0]
+    if not failed:
+        return "Every run completed."
+    out = ["Failed runs (data points, not errors of the study):", ""]
+    for r in failed:
+        out.append(f"- {r['id']}: exit {r['code']} ({EXIT_MEANING.get(r['code'], '?')}): {r['message']}")
+    return "\n".join(out)
+
+
+def write_report(out, lines):
+    with open(os.path.join(out, "report.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print(f"cosim study: report in {os.path.join(out, 'report.md')}", file=sys.stderr)
+
+
+# ---------------------------------------------------------------------------------------------
+# docs/results.md
+# ---------------------------------------------------------------------------------------------
+
+def results(runner, out_root, sets):
+    """The studies behind docs/results.md, their reports copied next to it."""
+    docs = os.path.join(ROOT, "docs")
+    figures = os.path.join(docs, "results")
+    os.makedirs(figures, exist_ok=True)
+    sections = []
+    plan = [("convergence", "four_bar", "scenarios/four_bar.pbtxt"),
+            ("work-precision", "four_bar", "scenarios/four_bar.pbtxt"),
+            ("convergence", "linear_oscillator", "scenarios/linear_oscillator.pbtxt"),
+            ("work-precision", "pendulum_stop", "scenarios/pendulum_stop.pbtxt"),
+            ("coupling", "pendulum_stop", "scenarios/pendulum_stop.pbtxt"),
+            ("stability", "hard", "scenarios/hard")]
+    for kind, name, path in plan:
+        out = os.path.join(out_root, f"{kind}-{name}")
+        os.makedirs(out, exist_ok=True)
+        STUDIES[kind](runner, os.path.join(ROOT, path), out, sets)
+        with open(os.path.join(out, "report.md")) as f:
+            text = f.read()
+        for png in (p for p in os.listdir(out) if p.endswith(".png")):
+            target = f"{kind}-{name}-{png}"
+            shutil.copy(os.path.join(out, png), os.path.join(figures, target))
+            text = text.replace(f"]({png})", f"](results/{target})")
+        sections.append(text.replace("\n# ", "\n## ").replace("# ", "## ", 1))
+    header = ["# Results", "",
+              "Regenerated by `scripts/cosim study results` (the studies of scripts/study.py on the shipped",
+              "scenarios; this machine, 2 cores). The papers' numbers, where they give them: four-bar period",
+              "1.35 s (CGα paper Table 5; ours 1.3514 s), second order of CGα in q, q̇ and λ (its Section 5).", ""]
+    with open(os.path.join(docs, "results.md"), "w") as f:
+        f.write("\n".join(header) + "\n" + "\n".join(sections))
+    print(f"cosim study: docs/results.md written", file=sys.stderr)
+
+
+STUDIES = {"convergence": study_convergence, "work-precision": study_work_precision,
+           "coupling": study_coupling, "stability": study_stability}
+
+
+def main():
+    parser = argparse.ArgumentParser(prog="scripts/cosim study", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("kind", choices=list(STUDIES) + ["results"])
+    parser.add_argument("scenario", nargs="?", help="a scenario file (a folder for stability)")
+    parser.add_argument("--out", help="output folder (default runs/study/KIND-NAME)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at once (default: cores)")
+    parser.add_argument("--set", action="append", default=[], metavar="FIELD.PATH=VALUE",
+                        help="override applied to every run")
+    parser.add_argument("--bin", default=os.environ.get("COSIM_BIN_DIR", os.path.join(ROOT, "build", "release", "bin")))
+    args = parser.parse_args()
+    runner = Runner(args.bin, args.jobs)
+    if args.kind == "results":
+        results(runner, args.out or os.path.join(ROOT, "runs", "study", "results"), args.set)
+        return
+    if not args.scenario:
+        fail(f"study {args.kind} needs a scenario")
+    if not os.path.exists(args.scenario):
+        fail(f"{args.scenario}: no such file or folder")
+    name = os.path.splitext(os.path.basename(os.path.normpath(args.scenario)))[0]
+    out = args.out or os.path.join(ROOT, "runs", "study", f"{args.kind}-{name}")
+    os.makedirs(out, exist_ok=True)
+    STUDIES[args.kind](runner, os.path.abspath(args.scenario), out, args.set)
+
+
+if __name__ == "__main__":
+    main()

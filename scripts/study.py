@@ -376,6 +376,20 @@ def study_work_precision(runner, scenario_path, out, sets):
     return {"runs": runs, "probes": probes}
 
 
+def relaxation_sets(spec):
+    """'AITKEN', 'CONSTANT(0.05)' (the factor ω) or 'IQN_ILS(4)' (secants kept 4 steps)."""
+    name, _, arg = spec.partition("(")
+    name, arg = name.strip(), arg.rstrip(")").strip()
+    if name not in ("CONSTANT", "AITKEN", "IQN_ILS"):
+        fail(f"study.relaxations: '{spec}': expected CONSTANT(ω), AITKEN or IQN_ILS(q)")
+    out = [f"coupling.iteration.relaxation={name}"]
+    if arg and name in ("CONSTANT", "AITKEN"):
+        out.append(f"coupling.iteration.relaxation_factor={arg}")
+    elif arg:
+        out.append(f"coupling.iteration.reuse_steps={arg}")
+    return out
+
+
 def study_coupling(runner, scenario_path, out, sets):
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
     if not scenario.get("coupling", {}).get("interface_nodes"):
@@ -390,10 +404,9 @@ def study_coupling(runner, scenario_path, out, sets):
             for h in steps:
                 runs.append({"id": f"{relax} tol={tol:g} h={h:g}", "relaxation": relax, "tol": tol, "h": h,
                              "scenario": scenario_path,
-                             "sets": list(sets) + [f"coupling.iteration.relaxation={relax}",
-                                                   f"coupling.iteration.reaction_tolerance={tol!r}",
-                                                   f"numerics.step={h!r}"],
-                             "out": os.path.join(out, "runs", f"{relax}_{tol:g}_{h:g}".replace(".", "p"))})
+                             "sets": list(sets) + relaxation_sets(relax) +
+                                     [f"coupling.iteration.reaction_tolerance={tol!r}", f"numerics.step={h!r}"],
+                             "out": os.path.join(out, "runs", f"{relax}_{tol:g}_{h:g}".replace(".", "p").replace("(", "_").replace(")", ""))})
     runs = runner.run_all(runs)
     for r in runs:
         it = (r["summary"] or {}).get("coupling_iterations", {})
@@ -402,14 +415,16 @@ def study_coupling(runner, scenario_path, out, sets):
                                               "mean_iterations", "max_iterations", "wall_time"],
               [[r["id"], r["relaxation"], r["tol"], r["h"], r["code"], r["mean"], r["max"], r["wall"]] for r in runs])
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    for relax in relaxations:
-        for h, style in zip(steps, ("o-", "s--", "^:")):
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for c, relax in enumerate(relaxations):
+        for h, style in zip(steps, ("o-", "s--", "^:", "v-.")):
+            kw = {"color": colours[c % len(colours)], "label": f"{relax}, h = {h:g} s"}
             pts = [(r["tol"], r["mean"]) for r in runs if r["relaxation"] == relax and r["h"] == h and r["code"] == 0]
             if pts:
-                axes[0].semilogx(*zip(*sorted(pts)), style, label=f"{relax}, h = {h:g} s")
+                axes[0].semilogx(*zip(*sorted(pts)), style, **kw)
             pts = [(r["tol"], r["wall"]) for r in runs if r["relaxation"] == relax and r["h"] == h and r["code"] == 0]
             if pts:
-                axes[1].loglog(*zip(*sorted(pts)), style, label=f"{relax}, h = {h:g} s")
+                axes[1].loglog(*zip(*sorted(pts)), style, **kw)
     axes[0].set_xlabel("reaction tolerance (relative)")
     axes[0].set_ylabel("coupling iterations per step (mean)")
     axes[1].set_xlabel("reaction tolerance (relative)")

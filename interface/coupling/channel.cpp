@@ -1,10 +1,12 @@
 #include "interface/coupling/channel.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <zmq.hpp>
 
 #include "interface/run/errors.h"
+#include "interface/run/run_driver.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::interface {
@@ -102,10 +104,20 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting) {
                       FormatNumber(options_.timeout) + " s while waiting for " + awaiting +
                       "; the peer died, hung or never started (coupling.timeout)");
     }
-    // A blocking receive bounded by the time left (one call, no poll: the round trip is what
-    // the coupling pays per iteration).
-    socket_->set(zmq::sockopt::rcvtimeo, static_cast<int>(1000.0 * left) + 1);
-    if (!socket_->recv(message, zmq::recv_flags::none)) continue;  // timed out: checked above
+    if (TerminationRequested()) {
+      throw PeerError("coupling: terminated by a signal while waiting for " + awaiting + " from '" + options_.peer +
+                      "' (the launcher stops the processes of a run when one of them fails: see the others' logs)");
+    }
+    // A blocking receive bounded by the time left, in slices of at most 0.2 s to notice a
+    // termination request (a message ends the wait at once: the round trip does not pay).
+    socket_->set(zmq::sockopt::rcvtimeo, static_cast<int>(1000.0 * std::min(left, 0.2)) + 1);
+    bool received = false;
+    try {
+      received = socket_->recv(message, zmq::recv_flags::none).has_value();
+    } catch (const zmq::error_t& e) {
+      if (e.num() != EINTR) throw;  // a signal interrupted the wait: checked above
+    }
+    if (!received) continue;  // timed out or interrupted: checked above
     if (!incoming_.ParseFromArray(message.data(), static_cast<int>(message.size()))) {
       throw InputError("coupling: a malformed message (" + std::to_string(message.size()) + " bytes) from '" +
                        options_.peer + "' while waiting for " + awaiting +

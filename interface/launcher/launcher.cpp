@@ -58,6 +58,14 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const std::vect
 
 int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan) {
   std::vector<pid_t> children;
+  // The children start with SIGTERM and SIGINT blocked (the mask survives exec) until their run
+  // driver has installed its handler, so that stopping one that has only just started still
+  // lets it write its outputs.
+  sigset_t termination, previous;
+  sigemptyset(&termination);
+  sigaddset(&termination, SIGTERM);
+  sigaddset(&termination, SIGINT);
+  sigprocmask(SIG_BLOCK, &termination, &previous);
   for (const ProcessPlan& p : plan) {
     const std::string path = bin_dir + "/" + p.program;
     std::vector<std::string> argv_storage{path};
@@ -74,10 +82,13 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     }
     children.push_back(pid);
   }
-  // The last process is the coordinator of a coupled run (or the only one): wait for it first.
-  // Contact processes end on its Shutdown; one that has not ended a few seconds after it (the
-  // coordinator failed before it could connect, or vanished) is terminated rather than left to
-  // wait out its coupling timeout.
+  sigprocmask(SIG_SETMASK, &previous, nullptr);
+  // The last process is the coordinator of a coupled run (or the only one). Wait for whichever
+  // ends first: a contact process that fails while the coordinator runs (its scenario part was
+  // refused, its step failed before it could say so) gets the coordinator stopped (SIGTERM: it
+  // ends as a peer failure, outputs kept) instead of left waiting out its coupling timeout.
+  // Contact processes end on the coordinator's Shutdown; one still running 2 s after it (the
+  // coordinator failed before it could connect) is terminated.
   auto status_code = [&](size_t i, int status) {
     if (WIFEXITED(status)) return WEXITSTATUS(status);
     if (WIFSIGNALED(status)) {
@@ -86,19 +97,37 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     return static_cast<int>(ExitCode::kNumericalFailure);
   };
   std::vector<int> codes(children.size(), 0);
+  std::vector<bool> ended(children.size(), false);
   const size_t last = children.size() - 1;
-  int status = 0;
-  while (waitpid(children[last], &status, 0) < 0 && errno == EINTR) {
-  }
-  codes[last] = status_code(last, status);
-  for (size_t i = 0; i < last; ++i) {
-    bool ended = false;
-    for (int tick = 0; tick < 50 && !ended; ++tick) {  // 5 s
-      const pid_t r = waitpid(children[i], &status, WNOHANG);
-      ended = r == children[i] || (r < 0 && errno != EINTR);
-      if (!ended) usleep(100000);
+  int contact_failure = 0;  // the code of the first contact process that failed first
+  while (!ended[last]) {
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      break;
     }
-    if (!ended) {
+    for (size_t i = 0; i < children.size(); ++i) {
+      if (children[i] != pid) continue;
+      ended[i] = true;
+      codes[i] = status_code(i, status);
+      if (i != last && codes[i] != 0 && contact_failure == 0) {
+        contact_failure = codes[i];
+        std::cerr << "cosim: " << plan[i].program << " failed (exit " << codes[i] << "); stopping "
+                  << plan[last].program << "\n";
+        kill(children[last], SIGTERM);
+      }
+    }
+  }
+  for (size_t i = 0; i < last; ++i) {
+    if (ended[i]) continue;
+    int status = 0;
+    for (int tick = 0; tick < 20 && !ended[i]; ++tick) {  // 2 s
+      const pid_t r = waitpid(children[i], &status, WNOHANG);
+      ended[i] = r == children[i] || (r < 0 && errno != EINTR);
+      if (!ended[i]) usleep(100000);
+    }
+    if (!ended[i]) {
       std::cerr << "cosim: " << plan[i].program << " still running after the coordinator ended; terminating it\n";
       kill(children[i], SIGTERM);
       while (waitpid(children[i], &status, 0) < 0 && errno == EINTR) {
@@ -108,9 +137,11 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     }
     codes[i] = status_code(i, status);
   }
-  // The last process is the coordinator of a coupled run: its code says what happened to the
-  // run (e.g. 4 when a contact process died); otherwise the first failure.
-  if (!codes.empty() && codes.back() != 0) return codes.back();
+  // A contact process that failed first says what happened to the run (e.g. 2: its part of the
+  // scenario was refused); else the coordinator's code (e.g. 4 when a contact process died);
+  // otherwise the first failure.
+  if (contact_failure != 0) return contact_failure;
+  if (codes.back() != 0) return codes.back();
   for (int code : codes) {
     if (code != 0) return code;
   }

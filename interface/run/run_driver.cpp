@@ -1,6 +1,7 @@
 #include "interface/run/run_driver.h"
 
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -103,8 +104,28 @@ void WriteInputFailureSummary(const std::string& program, const CommandLine& cli
   }
 }
 
+namespace {
+volatile std::sig_atomic_t g_termination = 0;
+extern "C" void OnTermination(int) { g_termination = 1; }
+}  // namespace
+
+void InstallTerminationHandler() {
+  std::signal(SIGTERM, OnTermination);
+  std::signal(SIGINT, OnTermination);
+  // The launcher starts its children with these blocked: a request made before now is
+  // delivered here.
+  sigset_t termination;
+  sigemptyset(&termination);
+  sigaddset(&termination, SIGTERM);
+  sigaddset(&termination, SIGINT);
+  sigprocmask(SIG_UNBLOCK, &termination, nullptr);
+}
+
+bool TerminationRequested() { return g_termination != 0; }
+
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory) {
   const auto wall_start = std::chrono::steady_clock::now();
+  InstallTerminationHandler();
   std::vector<std::string> arguments(argv + 1, argv + argc);
   if (!arguments.empty() && (arguments[0] == "--help" || arguments[0] == "-h")) {
     std::cout << Usage(program);
@@ -163,6 +184,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     simulation->Probe(&values);
     output->WriteRow(span.start, values);
     for (long long k = 0; k < span.steps; ++k) {
+      if (TerminationRequested()) throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
       const double t = span.TimeAt(k);
       const double h = span.TimeAt(k + 1) - t;
       const auto t0 = std::chrono::steady_clock::now();

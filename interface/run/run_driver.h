@@ -64,4 +64,10 @@ void WriteInputFailureSummary(const std::string& program, const CommandLine& cli
 // main() of a solver executable. Returns the process exit code.
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory);
 
+// SIGTERM and SIGINT (the launcher stopping a run whose other process failed, or a user's ^C)
+// set a flag that RunProgram's time loop and the coupling channel's waits check: the run then
+// ends as a peer failure (exit 4) with its outputs up to the last accepted step.
+void InstallTerminationHandler();
+bool TerminationRequested();
+
 }  // namespace cosim::interface

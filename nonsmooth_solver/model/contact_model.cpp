@@ -193,15 +193,22 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
 }
 
 void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names,
-                 const ContactModel& model, const std::set<std::string>& elsewhere, ContactModel* out) {
+                 const ContactModel& model, const std::set<std::string>& elsewhere, bool coupled, ContactModel* out) {
   std::map<std::string, int> contact_index;
   for (size_t c = 0; c < model.contacts.size(); ++c) contact_index[model.contacts[c].name] = static_cast<int>(c);
   NameTable probe_names(checks, "probe");
   for (int i = 0; i < output.probes_size(); ++i) {
     const sc::Probe& p = output.probes(i);
     const std::string path = ElementPath("output.probes", i);
-    // Probes of entities that another process integrates are that process's.
+    // Probes of entities that another process integrates are that process's; in a coupled run
+    // the smooth model's quantities (constraint violation, reactions, joints...) are
+    // smooth_solver's even without an entity.
     if (elsewhere.count(p.entity()) != 0) continue;
+    if (coupled && p.quantity() != sc::Probe::POSITION && p.quantity() != sc::Probe::VELOCITY &&
+        p.quantity() != sc::Probe::GAP && p.quantity() != sc::Probe::IMPULSE && p.quantity() != sc::Probe::KINETIC_ENERGY &&
+        p.quantity() != sc::Probe::POTENTIAL_ENERGY && p.quantity() != sc::Probe::TOTAL_ENERGY) {
+      continue;
+    }
     Probe probe;
     if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
     probe.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
@@ -366,7 +373,7 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::s
     for (const auto& j : s.model().joints()) elsewhere.insert(j.name());
     for (const auto& e : s.model().elastic_bodies()) elsewhere.insert(e.name());
   }
-  BuildProbes(checks, s.output(), node_names, model, elsewhere, &model);
+  BuildProbes(checks, s.output(), node_names, model, elsewhere, s.coupling().interface_nodes_size() > 0, &model);
   return model;
 }
 

@@ -222,8 +222,9 @@ int CgAlpha::Step(double t, double h) {
     }
   }
   throw NumericalError("CGα: Newton did not converge in " + std::to_string(settings_.max_iterations) +
-                       " iterations at t = " + std::to_string(t1) + " s (tolerance " +
-                       std::to_string(settings_.tolerance) + "); reduce the step or raise the iteration limit");
+                       " iterations at t = " + interface::FormatNumber(t1) + " s (tolerance " +
+                       interface::FormatNumber(settings_.tolerance) +
+                       "); reduce the step or raise numerics.smooth.newton_max_iterations");
 }
 
 }  // namespace cosim::smooth

@@ -162,7 +162,9 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
 
   // Velocities: min ½|q̇ − q̇₀|² s.t. Φ_q q̇ = −Φ_t, H_q q̇ = H_q q̇₀ (held joint speeds kept).
   if (!SmallestVelocityChange(system, &system.holds, t0, state.q, system.qdot0, &state.qdot)) {
-    throw InputError("model: the velocity constraints are singular at the initial state (redundant joints)");
+    throw InputError(
+        "model: the velocity constraints are singular at the initial state (redundant joints, or coincidence rows "
+        "that close a loop: give coupling.interface_nodes[].regularization)");
   }
   if (report != nullptr) report->velocity_change = (state.qdot - system.qdot0).lpNorm<Eigen::Infinity>();
   ConsistentAccelerations(system, t0, &state);

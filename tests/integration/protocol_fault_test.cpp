@@ -85,3 +85,25 @@ TEST(ProtocolFaults, MalformedMessageIsRefusedWithoutACrash) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(ProtocolFaults, AContactProcessRefusingItsPartStopsTheRunAtOnce) {
+  // The second contact process is penalty_solver without its stiffness: it refuses the scenario
+  // (exit 2) while the coordinator waits for it. The launcher stops the coordinator (which ends
+  // as a peer failure with its outputs) and the run exits 2 naming the field, in seconds rather
+  // than after the 10 s coupling timeout.
+  const fs::path out = TempDir("contact_refuses");
+  const auto t0 = std::chrono::steady_clock::now();
+  const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/two_pendulums.pbtxt --out " + out.string() +
+                          " --set coupling.processes[1].program=penalty_solver");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("numerics.penalty.stiffness"), std::string::npos) << r.output;
+  EXPECT_LT(seconds, 8.0);
+  const cosim::run::RunSummary smooth = ReadSummary(out);
+  EXPECT_EQ(smooth.status(), "failed");
+  EXPECT_EQ(smooth.exit_code(), 4);
+}
+
+}  // namespace

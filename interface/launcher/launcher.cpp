@@ -94,7 +94,7 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     if (WIFSIGNALED(status)) {
       std::cerr << "cosim: " << plan[i].program << " was killed by signal " << WTERMSIG(status) << "\n";
     }
-    return static_cast<int>(ExitCode::kNumericalFailure);
+    return static_cast<int>(ExitCode::kPeerFailure);  // a process of the run vanished
   };
   std::vector<int> codes(children.size(), 0);
   std::vector<bool> ended(children.size(), false);

@@ -25,7 +25,8 @@ struct Outcome {
 // smooth_solver on tied_drop.pbtxt connecting to `endpoint`, while `answer` plays the contact
 // process on a bound DEALER socket: it gets the coordinator's first message (the Hello) and
 // returns the bytes to send back.
-Outcome AgainstFakePeer(const std::string& name, const std::function<std::string(const std::string&)>& answer) {
+Outcome AgainstFakePeer(const std::string& name, const std::function<std::string(const std::string&)>& answer,
+                        const std::string& extra = "") {
   const fs::path out = TempDir("fault_" + name);
   const std::string endpoint = "ipc://" + (TestRoot() / ("fault_" + name + ".ipc")).string();
   zmq::context_t context;
@@ -39,7 +40,8 @@ Outcome AgainstFakePeer(const std::string& name, const std::function<std::string
     const fs::path log = out / "stderr.txt";
     const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
                                 "/scenarios/tied_drop.pbtxt --out " + (out / "run").string() +
-                                " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' --set coupling.timeout=20 > " +
+                                " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' --set coupling.timeout=20 " +
+                                extra + " > " +
                                 log.string() + " 2>&1";
     const int status = std::system(command.c_str());
     outcome.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -74,6 +76,25 @@ TEST(ProtocolFaults, WrongVersionPeerIsRefusedAtHandshake) {
   EXPECT_EQ(o.code, 2) << o.output;
   EXPECT_NE(o.output.find("'contacts' speaks protocol version 1"), std::string::npos) << o.output;
   EXPECT_LT(o.seconds, 10.0);  // refused at once, not after the 20 s timeout
+}
+
+TEST(ProtocolFaults, SilentPeerEndsTheRunWithinTheTimeout) {
+  // A contact process that welcomes the coordinator and then says nothing (it hung, or died on
+  // another machine where no launcher watches it): the coordinator gives up after
+  // coupling.timeout (here 2 s) with exit code 4, naming the peer and what it waited for.
+  const Outcome o = AgainstFakePeer("silent", [](const std::string&) {
+    cosim::coupling::Envelope welcome;
+    welcome.set_protocol_version(cosim::coupling::PROTOCOL_VERSION_CURRENT);
+    welcome.set_sender("contacts");
+    welcome.set_step(-1);
+    welcome.mutable_welcome()->set_process_name("contacts");
+    welcome.mutable_welcome()->add_interface_nodes("node");
+    return welcome.SerializeAsString();
+  }, "--set coupling.timeout=2");
+  EXPECT_EQ(o.code, 4) << o.output;
+  EXPECT_NE(o.output.find("no message from 'contacts'"), std::string::npos) << o.output;
+  EXPECT_GT(o.seconds, 1.9);
+  EXPECT_LT(o.seconds, 8.0);
 }
 
 TEST(ProtocolFaults, MalformedMessageIsRefusedWithoutACrash) {

@@ -112,10 +112,24 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
       ended[i] = true;
       codes[i] = status_code(i, status);
       if (i != last && codes[i] != 0 && contact_failure == 0) {
-        contact_failure = codes[i];
-        std::cerr << "cosim: " << plan[i].program << " failed (exit " << codes[i] << "); stopping "
-                  << plan[last].program << "\n";
-        kill(children[last], SIGTERM);
+        // The coordinator may be ending too (it told the contact process to stop): give it a
+        // moment before stopping it.
+        for (int tick = 0; tick < 10 && !ended[last]; ++tick) {
+          int s = 0;
+          const pid_t r = waitpid(children[last], &s, WNOHANG);
+          if (r == children[last]) {
+            ended[last] = true;
+            codes[last] = status_code(last, s);
+          } else {
+            usleep(50000);
+          }
+        }
+        if (!ended[last]) {
+          contact_failure = codes[i];
+          std::cerr << "cosim: " << plan[i].program << " failed (exit " << codes[i] << "); stopping "
+                    << plan[last].program << "\n";
+          kill(children[last], SIGTERM);
+        }
       }
     }
   }

@@ -199,9 +199,15 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
     const Outcome outcome = Handle(e);
     if (outcome == Outcome::kAccepted && last_accepted_ == step) return;
     if (outcome == Outcome::kShutdown) {
-      throw PeerError("coupling: '" + channel_->options().peer + "' ended the run before step " +
-                      std::to_string(step) + " (exit code " + std::to_string(coordinator_exit_code_) +
-                      (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
+      // The coordinator stopped the run: this process ends with the run's outcome (its exit
+      // code when it is one of the contract's failures, else a peer failure).
+      const int code = coordinator_exit_code_;
+      const ExitCode exit = code == static_cast<int>(ExitCode::kBadInput)         ? ExitCode::kBadInput
+                            : code == static_cast<int>(ExitCode::kNumericalFailure) ? ExitCode::kNumericalFailure
+                                                                                    : ExitCode::kPeerFailure;
+      throw Error(exit, "coupling: '" + channel_->options().peer + "' ended the run before step " +
+                            std::to_string(step) + " (exit code " + std::to_string(code) +
+                            (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
     }
   }
 }

@@ -246,7 +246,7 @@ def measured_probes(study, reference, histories):
 
 def write_csv(path, header, rows):
     with open(path, "w", newline="") as f:
-        w = csv.writer(f)
+        w = csv.writer(f, lineterminator="\n")
         w.writerow(header)
         w.writerows(rows)
 
@@ -551,7 +551,7 @@ def results(runner, out_root, sets):
     sections = []
     plan = [("convergence", "four_bar", "scenarios/four_bar.pbtxt"),
             ("work-precision", "four_bar", "scenarios/four_bar.pbtxt"),
-            ("convergence", "linear_oscillator", "scenarios/linear_oscillator.pbtxt"),
+            ("work-precision", "linear_oscillator", "scenarios/linear_oscillator.pbtxt"),
             ("work-precision", "pendulum_stop", "scenarios/pendulum_stop.pbtxt"),
             ("coupling", "pendulum_stop", "scenarios/pendulum_stop.pbtxt"),
             ("stability", "hard", "scenarios/hard")]

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -90,7 +91,11 @@ inline Table ReadTable(const fs::path& file) {
   while (std::getline(in, line)) {
     std::vector<double> row;
     std::stringstream s(line);
-    while (std::getline(s, cell, ',')) row.push_back(std::stod(cell));
+    while (std::getline(s, cell, ',')) {
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      row.push_back(end != cell.c_str() && *end == '\0' ? v : std::nan(""));  // text cells: NaN
+    }
     t.rows.push_back(row);
   }
   return t;

@@ -1,0 +1,53 @@
+// scripts/cosim study end to end on tiny scenes: the convergence study measures CGα's order on
+// a closed-form oscillator and writes its CSV, plot and report; the stability study keeps going
+// past a failing scene and reports it.
+#include <cstdlib>
+#include <string>
+
+#include "tests/integration/launch.h"
+
+namespace {
+
+using namespace cosim::test;
+
+const std::string kData = std::string(COSIM_SOURCE_DIR) + "/tests/data/study";
+
+int Study(const std::string& arguments, const fs::path& log) {
+  const std::string command = "/usr/bin/python3 " + std::string(COSIM_SOURCE_DIR) + "/scripts/study.py " + arguments +
+                              " --bin " + std::string(COSIM_BIN_DIR) + " --jobs 2 > " + log.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(Study, ConvergenceMeasuresOrderTwoOnTheOscillator) {
+  // Five runs (h = 0.01 … 0.000625) against z = 0.1 cos 10t: CGα is second order (observed
+  // 2.00), and the study leaves runs.csv, convergence.png and report.md.
+  const fs::path out = TempDir("study_convergence");
+  ASSERT_EQ(Study("convergence " + kData + "/oscillator.pbtxt --out " + out.string(), out / "log.txt"), 0)
+      << Slurp(out / "log.txt");
+  const Table runs = ReadTable(out / "runs.csv");
+  ASSERT_EQ(runs.size(), 5u);
+  EXPECT_TRUE(fs::exists(out / "convergence.png"));
+  const std::string report = Slurp(out / "report.md");
+  EXPECT_NE(report.find("fitted order"), std::string::npos);
+  const std::vector<double> error = runs.Column("error_z");
+  for (size_t k = 1; k < error.size(); ++k) EXPECT_NEAR(error[k - 1] / error[k], 4.0, 0.4) << k;
+  EXPECT_NE(Slurp(out / "log.txt").find("[5/5]"), std::string::npos);  // progress was shown
+}
+
+TEST(Study, StabilityKeepsGoingPastAFailingScene) {
+  const fs::path out = TempDir("study_stability");
+  ASSERT_EQ(Study("stability " + kData + " --out " + out.string(), out / "log.txt"), 0) << Slurp(out / "log.txt");
+  const std::string report = Slurp(out / "report.md");
+  EXPECT_NE(report.find("| study_oscillator |"), std::string::npos) << report;
+  EXPECT_NE(report.find("**no** (exit 2"), std::string::npos) << report;
+  EXPECT_NE(report.find("numerics.step"), std::string::npos) << report;
+}
+
+TEST(Study, BadArgumentsAreRefused) {
+  const fs::path out = TempDir("study_bad");
+  EXPECT_EQ(Study("convergence " + kData + "/missing.pbtxt --out " + out.string(), out / "log.txt"), 2);
+  EXPECT_NE(Study("sideways " + kData + "/oscillator.pbtxt", out / "log2.txt"), 0);
+}
+
+}  // namespace

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <string>
+#include <vector>
 
 #include "interface/run/run_driver.h"
 #include "nonsmooth_solver/model/contact_model.h"
@@ -26,6 +27,12 @@ class ContactStepper : public interface::Simulation {
   // coordinator restarts the smooth integrator's acceleration history after an impact.
   virtual bool Impact(int node) const = 0;
   virtual std::string SolverName() const = 0;  // for the Welcome
+  virtual double Gap(int contact) const = 0;      // [m] at the current time
+  virtual double Impulse(int contact) const = 0;  // [N s] over the last step
+
+  // The model's probes, from the state above (the same for every contact method).
+  std::vector<std::string> ProbeNames() const override;
+  void Probe(std::vector<double>* values) const override;
 };
 
 }  // namespace cosim::nonsmooth

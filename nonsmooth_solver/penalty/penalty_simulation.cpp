@@ -186,35 +186,6 @@ double PenaltySimulation::Gap(int contact) const {
 
 bool PenaltySimulation::Impact(int) const { return false; }  // finite forces: velocities never jump
 
-std::vector<std::string> PenaltySimulation::ProbeNames() const {
-  std::vector<std::string> names;
-  for (const auto& p : model_->probes) names.push_back(p.name);
-  return names;
-}
-
-void PenaltySimulation::Probe(std::vector<double>* values) const {
-  for (size_t i = 0; i < model_->probes.size(); ++i) {
-    const nonsmooth::Probe& p = model_->probes[i];
-    double value = 0.0;
-    switch (p.kind) {
-      case ProbeKind::kPosition:
-      case ProbeKind::kVelocity: {
-        const Eigen::VectorXd& x = p.kind == ProbeKind::kPosition ? state_.q : state_.v;
-        value = interface::PickComponent(Eigen::Vector3d(x.segment<3>(3 * p.index)), p.component);
-        break;
-      }
-      case ProbeKind::kGap: value = Gap(p.index); break;
-      case ProbeKind::kImpulse: value = state_.impulse(p.index); break;
-      case ProbeKind::kKineticEnergy: value = KineticEnergy(*model_, state_.v, p.index); break;
-      case ProbeKind::kPotentialEnergy: value = PotentialEnergy(*model_, state_.q, p.index); break;
-      case ProbeKind::kTotalEnergy:
-        value = KineticEnergy(*model_, state_.v, p.index) + PotentialEnergy(*model_, state_.q, p.index);
-        break;
-    }
-    (*values)[i] = value;
-  }
-}
-
 void PenaltySimulation::FillSummary(run::RunSummary* summary) const {
   summary->mutable_numerics()->CopyFrom(numerics_);
   summary->set_max_constraint_violation(max_penetration_);  // a penalty contact penetrates

@@ -40,8 +40,6 @@ class PenaltySimulation : public ContactStepper {
   // numerics.penalty settings and for friction (this process is frictionless).
   explicit PenaltySimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
 
-  std::vector<std::string> ProbeNames() const override;
-  void Probe(std::vector<double>* values) const override;
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
 
@@ -54,7 +52,8 @@ class PenaltySimulation : public ContactStepper {
   bool Impact(int node) const override;
   std::string SolverName() const override;
 
-  double Gap(int contact) const;
+  double Gap(int contact) const override;
+  double Impulse(int contact) const override { return state_.impulse(contact); }
 
  private:
   struct State {

@@ -20,35 +20,6 @@ ContactSimulation::ContactSimulation(const interface::ScenarioFile& file, const 
   integrator_ = std::make_unique<MoreauJean>(*model_, numerics_.start_time());
 }
 
-std::vector<std::string> ContactSimulation::ProbeNames() const {
-  std::vector<std::string> names;
-  for (const auto& p : model_->probes) names.push_back(p.name);
-  return names;
-}
-
-void ContactSimulation::Probe(std::vector<double>* values) const {
-  const MoreauJean& mj = *integrator_;
-  for (size_t i = 0; i < model_->probes.size(); ++i) {
-    const nonsmooth::Probe& p = model_->probes[i];
-    double value = 0.0;
-    switch (p.kind) {
-      case ProbeKind::kPosition:
-      case ProbeKind::kVelocity: {
-        const Eigen::VectorXd& x = p.kind == ProbeKind::kPosition ? mj.positions() : mj.velocities();
-        const Eigen::Vector3d node = x.segment<3>(3 * p.index);
-        value = interface::PickComponent(node, p.component);
-        break;
-      }
-      case ProbeKind::kGap: value = mj.Gap(p.index); break;
-      case ProbeKind::kImpulse: value = mj.impulses()(p.index); break;
-      case ProbeKind::kKineticEnergy: value = mj.KineticEnergy(p.index); break;
-      case ProbeKind::kPotentialEnergy: value = mj.PotentialEnergy(p.index); break;
-      case ProbeKind::kTotalEnergy: value = mj.KineticEnergy(p.index) + mj.PotentialEnergy(p.index); break;
-    }
-    (*values)[i] = value;
-  }
-}
-
 bool ContactSimulation::Impact(int node) const {
   const auto& contacts = model_->contacts;
   for (size_t c = 0; c < contacts.size(); ++c) {

@@ -16,8 +16,6 @@ class ContactSimulation : public ContactStepper {
   // `only_nodes`: see BuildContactModel (a coupled run's contact process with its own nodes).
   explicit ContactSimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
 
-  std::vector<std::string> ProbeNames() const override;
-  void Probe(std::vector<double>* values) const override;
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
 
@@ -32,6 +30,8 @@ class ContactSimulation : public ContactStepper {
   const Eigen::VectorXd& positions() const override { return integrator_->positions(); }
   const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
   bool Impact(int node) const override;
+  double Gap(int contact) const override { return integrator_->Gap(contact); }
+  double Impulse(int contact) const override { return integrator_->impulses()(contact); }
   std::string SolverName() const override { return "nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)"; }
 
  private:

@@ -18,7 +18,7 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   const interface::ContactProcessPlan& p = interface::FindProcess(plan, process, file);
   // This process integrates its own contact nodes only (the others are other processes').
   const std::set<std::string> nodes(p.nodes.begin(), p.nodes.end());
-  simulation_ = make(file, nodes);
+  simulation_ = make(file, &nodes);
   checks.Require(interface::ElementPath("coupling.processes", p.index) + ".endpoint", !p.endpoint.empty(),
                  "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
   interface::ChannelOptions options;
@@ -59,6 +59,21 @@ void ServedContactSimulation::Finish(ExitCode code, const std::string& reason) {
   stop->set_exit_code(static_cast<int>(code));
   stop->set_reason(reason);
   channel_->Send();
+}
+
+int RunContactProgram(const std::string& program, int argc, char** argv,
+                      const ServedContactSimulation::StepperFactory& make) {
+  return interface::RunProgram(
+      program, argc, argv,
+      [&](const interface::ScenarioFile& file, const interface::CommandLine& cli) -> std::unique_ptr<interface::Simulation> {
+        if (!cli.process.empty()) return std::make_unique<ServedContactSimulation>(file, cli.process, make);
+        if (file.proto().coupling().interface_nodes_size() > 0) {
+          file.Fail("coupling.interface_nodes",
+                    "the contact nodes are tied to the smooth model: run the coupled scene with scripts/cosim run "
+                    "(or " + program + " --process NAME under a coordinator)");
+        }
+        return make(file, nullptr);  // every node; obstacles on smooth bodies refused
+      });
 }
 
 }  // namespace cosim::nonsmooth

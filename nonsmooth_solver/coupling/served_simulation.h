@@ -4,8 +4,9 @@
 // the coordinator's handshake, serves each step until the coordinator accepts it, and answers
 // the coordinator's Shutdown at the end. Its probes, history and summary are those of the
 // standalone contact process, for the accepted steps. The contact method is the program's:
-// `make` builds its ContactStepper for this process's nodes (Moreau–Jean in nonsmooth_solver,
-// the penalty law in penalty_solver).
+// `make` builds its ContactStepper for this process's nodes, or for every node when given
+// nullptr (a standalone run) (Moreau–Jean in nonsmooth_solver, the penalty law in
+// penalty_solver).
 #include <functional>
 #include <memory>
 #include <set>
@@ -22,7 +23,7 @@ namespace cosim::nonsmooth {
 class ServedContactSimulation : public interface::Simulation {
  public:
   using StepperFactory =
-      std::function<std::unique_ptr<ContactStepper>(const interface::ScenarioFile&, const std::set<std::string>& nodes)>;
+      std::function<std::unique_ptr<ContactStepper>(const interface::ScenarioFile&, const std::set<std::string>* nodes)>;
   // Throws InputError for an unknown process or a missing endpoint.
   ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process, const StepperFactory& make);
   ~ServedContactSimulation() override;
@@ -41,5 +42,11 @@ class ServedContactSimulation : public interface::Simulation {
   int64_t step_ = 0;
   bool handshaken_ = false;
 };
+
+// main() of a contact program: standalone (a scene of contact nodes only) it runs `make`'s
+// stepper over all nodes under the run contract; with --process NAME it serves that contact
+// process of a coupled run. A coupled scene without --process is refused (exit 2).
+int RunContactProgram(const std::string& program, int argc, char** argv,
+                      const ServedContactSimulation::StepperFactory& make);
 
 }  // namespace cosim::nonsmooth

@@ -232,6 +232,18 @@ def run_with_reference(runner, runs, reference, study, label):
     return runs, Reference(study, read_histories(extra[0]["out"])), extra
 
 
+def run_and_measure(runner, runs, scenario_path, scenario, study, steps, out, label):
+    """Runs a study's runs with its reference; returns (runs, reference, reference runs,
+    the runs' histories, the probes measured)."""
+    runs, reference, extra = run_with_reference(
+        runner, runs, reference_run(scenario_path, scenario, study, steps[-1], steps[0], out), study, label)
+    histories = [read_histories(r["out"]) if r["code"] == 0 else {} for r in runs]
+    probes = measured_probes(study, reference, histories)
+    if not probes:
+        fail("no probe to measure: give study.references or study.probes, or probes shared with the reference run")
+    return runs, reference, extra, histories, probes
+
+
 def measured_probes(study, reference, histories):
     if study.get("probes"):
         return list(study["probes"])
@@ -280,12 +292,8 @@ def study_convergence(runner, scenario_path, out, sets):
     runs = [{"id": f"h={h:.4g}", "h": h, "scenario": scenario_path,
              "sets": list(sets) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, steps[0])}"],
              "out": os.path.join(out, "runs", f"h{i}")} for i, h in enumerate(steps)]
-    runs, reference, extra = run_with_reference(
-        runner, runs, reference_run(scenario_path, scenario, study, steps[-1], steps[0], out), study, "convergence")
-    histories = [read_histories(r["out"]) if r["code"] == 0 else {} for r in runs]
-    probes = measured_probes(study, reference, histories)
-    if not probes:
-        fail("no probe to measure: give study.references or study.probes, or probes shared with the reference run")
+    runs, reference, extra, histories, probes = run_and_measure(
+        runner, runs, scenario_path, scenario, study, steps, out, "convergence")
     errors = {p: [probe_error(hist, reference, p, study) if hist else float("nan") for hist in histories] for p in probes}
     orders = {p: fitted_order(steps, errors[p]) for p in probes}
     write_csv(os.path.join(out, "runs.csv"), ["run", "step", "exit", "wall_time"] + [f"error_{p}" for p in probes],
@@ -348,12 +356,8 @@ def study_work_precision(runner, scenario_path, out, sets):
             runs.append({"id": f"{method['name']} {field.split('.')[-1]}={v:.3g}", "method": method["name"], "value": v,
                          "scenario": path, "sets": list(sets) + list(method.get("set", [])) + extra,
                          "out": os.path.join(out, "runs", f"m{m}_{i}")})
-    runs, reference, extra_runs = run_with_reference(
-        runner, runs, reference_run(scenario_path, scenario, study, steps[-1], steps[0], out), study, "work-precision")
-    histories = [read_histories(r["out"]) if r["code"] == 0 else {} for r in runs]
-    probes = measured_probes(study, reference, histories)
-    if not probes:
-        fail("no probe to measure: give study.references or study.probes")
+    runs, reference, extra_runs, histories, probes = run_and_measure(
+        runner, runs, scenario_path, scenario, study, steps, out, "work-precision")
     for r, hist in zip(runs, histories):
         errs = [probe_error(hist, reference, p, study) for p in probes] if hist else [float("nan")]
         r["error"] = max(errs) if all(e == e for e in errs) else float("nan")

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "interface/run/errors.h"
@@ -46,10 +47,10 @@ void ContactServer::Answer(const Envelope& e) {
   }
   // Obstacles attached to smooth bodies: the Hello lists them with their start frames, in
   // which their scenario geometry (global, at the start) becomes fixed.
-  std::set<std::string> needed;
+  std::map<std::string, const Obstacle*> needed;  // the body-attached obstacles this process's nodes touch
   for (const Contact& c : simulation_->model().contacts) {
     const Obstacle& o = simulation_->model().obstacles[static_cast<size_t>(c.obstacle)];
-    if (o.driven) needed.insert(o.name);
+    if (o.driven) needed[o.name] = &o;
   }
   if (hello.obstacle_frames_size() != hello.moving_obstacles_size()) {
     throw InputError("coupling: Hello from '" + peer + "' lists " + std::to_string(hello.moving_obstacles_size()) +
@@ -59,33 +60,24 @@ void ContactServer::Answer(const Envelope& e) {
   moving_.clear();
   for (int i = 0; i < hello.moving_obstacles_size(); ++i) {
     const std::string& name = hello.moving_obstacles(i);
-    const Obstacle* found = nullptr;
-    for (const Obstacle& o : simulation_->model().obstacles) {
-      if (o.name == name && o.driven) found = &o;
-    }
-    if (found == nullptr || needed.erase(name) == 0) {
+    const auto it = needed.find(name);
+    if (it == needed.end()) {
       throw InputError("coupling: Hello.moving_obstacles[" + std::to_string(i) + "] from '" + peer + "' is '" + name +
-                       "', which is not an obstacle attached to a body that this process's nodes touch");
+                       "', which is not an obstacle attached to a body that this process's nodes touch (or is listed twice)");
     }
-    DrivenFrame& d = *found->driven;
+    const Obstacle& found = *it->second;
+    needed.erase(it);
+    DrivenFrame& d = *found.driven;
     d.start = d.end = ReadFrame(hello.obstacle_frames(i), "Hello.obstacle_frames[" + std::to_string(i) + "]");
-    d.point_body = d.start.rotation.transpose() * (found->point - d.start.origin);
-    d.normal_body = d.start.rotation.transpose() * found->normal;
-    d.tangent_body = d.start.rotation.transpose() * found->tangent;
+    d.point_body = d.start.rotation.transpose() * (found.point - d.start.origin);
+    d.normal_body = d.start.rotation.transpose() * found.normal;
+    d.tangent_body = d.start.rotation.transpose() * found.tangent;
     d.t0 = d.t1 = hello.start_time();
-    d.known = true;
-    moving_.push_back(found->driven);
+    moving_.push_back(found.driven);
   }
   if (!needed.empty()) {
-    throw InputError("coupling: Hello from '" + peer + "' gives no frame for obstacle '" + *needed.begin() +
-                     "', attached to body '" +
-                     [&] {
-                       for (const Obstacle& o : simulation_->model().obstacles) {
-                         if (o.name == *needed.begin()) return o.driven->body;
-                       }
-                       return std::string();
-                     }() +
-                     "'");
+    throw InputError("coupling: Hello from '" + peer + "' gives no frame for obstacle '" + needed.begin()->first +
+                     "', attached to body '" + needed.begin()->second->driven->body + "'");
   }
   coupling::Welcome* welcome = channel_->Outgoing(-1, 0).mutable_welcome();
   welcome->set_process_name(channel_->options().self);

@@ -44,7 +44,6 @@ struct BodyFrame {
 };
 struct DrivenFrame {
   std::string body;
-  bool known = false;      // false until the coordinator's Hello
   double t0 = 0.0, t1 = 0.0;
   BodyFrame start, end;    // at t0 (last accepted) and t1 (the step's end, this iteration)
   // The plane's point, normal and tangent in the body frame (fixed at the Hello).

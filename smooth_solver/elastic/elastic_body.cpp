@@ -150,7 +150,7 @@ void ElasticBody::Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen:
   }
 }
 
-double ElasticBody::StrainEnergy(const Eigen::Matrix3Xd& x) const {
+double ElasticBody::StrainEnergy(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const {
   double energy = 0.0;
   for (size_t e = 0; e < elements_.size(); ++e) {
     Hex27::NodeMatrix xe;

@@ -48,7 +48,7 @@ class ElasticBody {
   // f_scale · f_v added to `f`, and k_scale · ∂f_v/∂x + c_scale · ∂f_v/∂v into `K` (if given).
   void AssembleViscous(const Positions& x, const Positions& v, double retardation, double f_scale,
                        Eigen::Ref<Eigen::VectorXd> f, double k_scale, double c_scale, SparseSink* K, int offset) const;
-  double StrainEnergy(const Eigen::Matrix3Xd& x) const;
+  double StrainEnergy(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const;
   Eigen::SparseMatrix<double> MassMatrix() const;  // 3 per node, consistent
 
  private:

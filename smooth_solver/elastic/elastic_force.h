@@ -80,6 +80,7 @@ class NodalForce : public ForceElement {
   double PotentialEnergy(const Eigen::VectorXd& q) const override {
     return time_varying_ ? 0.0 : -factor_.Value(0.0) * force_.dot(q.segment<3>(index_) - reference_);
   }
+  bool Passive() const override { return !time_varying_; }
 
  private:
   int index_;

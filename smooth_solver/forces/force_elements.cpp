@@ -263,6 +263,12 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
   return s;
 }
 
+double UnilateralContact::PotentialEnergy(const Eigen::VectorXd& q) const {
+  const double delta = side_ * (threshold_ - measure_.Evaluate(q).value);
+  if (!(delta > 0.0)) return 0.0;
+  return law_.stiffness * std::pow(delta, law_.exponent + 1.0) / (law_.exponent + 1.0);
+}
+
 void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
                                  Eigen::Ref<Eigen::VectorXd> f) const {
   const State c = Evaluate(q, qdot);

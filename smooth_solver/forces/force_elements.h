@@ -31,6 +31,9 @@ class ForceElement {
   virtual double PotentialEnergy(const Eigen::VectorXd&) const { return 0.0; }
   // An elastic body's internal force, which CGα evaluates over the step (GEMM) instead.
   virtual bool IsElastic() const { return false; }
+  // False for an element that can feed energy into the system beyond its PotentialEnergy
+  // (time-varying or follower loads): the energy watchdog is then off in AUTO mode.
+  virtual bool Passive() const { return true; }
   // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it
   // (the contact laws' impact speed). Called by the simulation, never inside Newton.
   virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/) const {}
@@ -48,6 +51,9 @@ class AppliedLoad : public ForceElement {
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
+
+  // Its work is not in PotentialEnergy (a torque, or a force that varies in time).
+  bool Passive() const override { return false; }
 
  private:
   Eigen::Vector3d Value(const std::array<interface::TimeFunction, 3>& f, double t) const;
@@ -124,6 +130,9 @@ class UnilateralContact : public ForceElement {
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
   void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
+  // The law's elastic part stores K δⁿ⁺¹/(n + 1); its damping part only dissipates.
+  double PotentialEnergy(const Eigen::VectorXd& q) const override;
+
  private:
   // θ with its derivatives, the penetration δ and its rate, and the law's force and partial
   // derivatives at (q, q̇).

@@ -25,6 +25,44 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   return pattern.Build(n + m, n + m);
 }
 
+// Passes on only the rows flagged in `keep` (row − row_offset indexes it), scaled.
+class RowFilterSink : public SparseSink {
+ public:
+  RowFilterSink(SparseSink* inner, const std::vector<char>& keep, int row_offset, double scale)
+      : inner_(inner), keep_(keep), offset_(row_offset), scale_(scale) {}
+  void Add(int row, int column, double value) override {
+    if (keep_[static_cast<size_t>(row - offset_)] != 0) inner_->Add(row, column, scale_ * value);
+  }
+
+ private:
+  SparseSink* inner_;
+  const std::vector<char>& keep_;
+  int offset_;
+  double scale_;
+};
+
+// Whether INDEX2_PROJECTED closes row i at velocity level: a curved row (a term whose two
+// vectors both move: Φ_q changes with q, like the rigidity rows u·u = 1 and the axes of a
+// revolute joint between two bodies), unless it is a coupling interface row (imposed by a peer,
+// rotor-sailing paper Eq. (6), or Tikhonov-regularised, Eq. (7)). A linear row (a point
+// coincidence along fixed axes, an elastic clamp, an axis against the ground) keeps Φ = 0: its
+// normal never turns, so the Newmark update's normal-velocity mode (amplification 1 − γ/β,
+// |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
+bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
+  if (cs.Compliance(i) != 0.0) return false;
+  const ScalarConstraint& c = cs.constraints[i];
+  auto imposed = [&](const DriveWeight& w) {
+    return w.drive >= 0 && cs.drives[static_cast<size_t>(w.drive)].imposed != nullptr;
+  };
+  if (imposed(c.constant_weight)) return false;
+  bool curved = false;
+  for (const auto& term : c.terms) {
+    if (imposed(term.weight)) return false;
+    curved = curved || (!term.a.terms.empty() && !term.b.terms.empty());
+  }
+  return curved;
+}
+
 }  // namespace
 
 void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state,
@@ -106,6 +144,16 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
   force_.resize(n);
   delta_.resize(n + m);
   phi_.resize(m);
+  violation_step_.resize(m);
+  phi_t_.resize(m);
+  velocity_row_.assign(static_cast<size_t>(m), 0);
+  if (settings.form == ConstraintForm::kIndex2Projected) {
+    for (int i = 0; i < m; ++i) {
+      velocity_row_[static_cast<size_t>(i)] = VelocityLevelRow(system.constraints, static_cast<size_t>(i)) ? 1 : 0;
+      any_velocity_row_ = any_velocity_row_ || velocity_row_[static_cast<size_t>(i)] != 0;
+    }
+  }
+  // (Φ_q q̇)_q has the coordinates of Φ_q in every row: the pattern is the index-3 one.
   S_ = SaddlePattern(system);
   lu_.Analyze(S_);  // once: the pattern never changes
 }
@@ -131,9 +179,62 @@ void CgAlpha::AssembleIteration(double t1, double h) {
                           /*include_elastic=*/false);
   system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
   system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
+  if (any_velocity_row_) {
+    // Velocity rows: ∂(Φ_q q̇ + Φ_t)/∂q_{n+1} / γ' = Φ_q + (Φ_q q̇ + Φ_t)_q / γ' (q̇ moves with
+    // γ' Δq along the Newton correction).
+    RowFilterSink velocity_rows(&sink, velocity_row_, n, coef_.beta * h / coef_.gamma);
+    system_.constraints.VelocityConstraintJacobian(next_.q, next_.qdot, t1, &velocity_rows, n);
+  }
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
   system_.constraints.AddComplianceDiagonal(&sink, n, 1.0 / bh2);
+}
+
+void CgAlpha::ConstraintResidual(double t1, double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) {
+  const ConstraintSet& cs = system_.constraints;
+  cs.Evaluate(next_.q, t1, out);
+  if (any_velocity_row_) {
+    cs.JacobianTimes(next_.q, t1, next_.qdot, phi_);
+    cs.TimeDerivative(next_.q, t1, phi_t_);
+    for (Eigen::Index i = 0; i < out.size(); ++i) {
+      if (velocity_row_[static_cast<size_t>(i)] != 0) out(i) = velocity_scale * (phi_(i) + phi_t_(i));
+    }
+  }
+  for (size_t i = 0; i < cs.compliance.size(); ++i) {
+    out(static_cast<Eigen::Index>(i)) -= cs.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
+  }
+}
+
+void CgAlpha::ProjectPositions(double t1) {
+  // Chord iteration on Φ(q) = 0 (velocity rows only; the position rows hold already) with the
+  // last Newton factorisation: its constraint rows are Φ_q + O(h) (Φ_q q̇)_q, so each solve
+  // cuts the violation by a factor O(Ωh); the violation left by one step is O(h³).
+  const int n = system_.coordinates, m = system_.constraints.size();
+  auto rows = delta_.tail(m);
+  // Held well below the Newton tolerance (the index-3 Newton's quadratic convergence usually
+  // leaves |Φ| far below it too), down to round-off: a solve that no longer halves the
+  // violation has reached it.
+  const double target = std::max(1e-4 * settings_.tolerance, 1e-14);
+  double previous = std::numeric_limits<double>::infinity();
+  for (int k = 0;; ++k) {
+    system_.constraints.Evaluate(next_.q, t1, rows);
+    for (int i = 0; i < m; ++i) {
+      if (velocity_row_[static_cast<size_t>(i)] == 0) rows(i) = 0.0;
+    }
+    const double violation = rows.lpNorm<Eigen::Infinity>();
+    if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return;
+    if (k == 10 || !std::isfinite(violation)) {
+      throw NumericalError("CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) +
+                           " s (|Φ| = " + interface::FormatNumber(violation) + " after " + std::to_string(k) +
+                           " solves); reduce the step");
+    }
+    previous = violation;
+    rows *= -1.0;
+    delta_.head(n).setZero();
+    lu_.SolveInPlace(delta_);
+    next_.q += delta_.head(n);
+    ++projection_solves_;
+  }
 }
 
 int CgAlpha::Step(double t, double h) {
@@ -190,10 +291,7 @@ int CgAlpha::Step(double t, double h) {
     r_q -= force_;
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
-    system_.constraints.Evaluate(next_.q, t1, residual_.tail(m));
-    for (size_t i = 0; i < system_.constraints.compliance.size(); ++i) {
-      residual_(n + static_cast<Eigen::Index>(i)) -= system_.constraints.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
-    }
+    ConstraintResidual(t1, 1.0 / gamma_prime, residual_.tail(m));
     if (!lu_.Factorize(S_)) {
       throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                            " s (redundant constraints or a singular configuration)");
@@ -205,13 +303,19 @@ int CgAlpha::Step(double t, double h) {
     next_.qdot += gamma_prime * dq;
     next_.qddot += beta_prime * dq;
     next_.lambda += delta_.tail(m) / bh2;
-    system_.constraints.Evaluate(next_.q, t1, phi_);
-    for (size_t i = 0; i < system_.constraints.compliance.size(); ++i) {
-      phi_(static_cast<Eigen::Index>(i)) -= system_.constraints.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
-    }
     const double dq_norm = dq.lpNorm<Eigen::Infinity>();
-    const double phi_norm = m > 0 ? phi_.lpNorm<Eigen::Infinity>() : 0.0;
     if (!std::isfinite(dq_norm)) break;
+    // INDEX2_PROJECTED: the positions back onto Φ = 0 (velocity rows) inside the iteration, as a
+    // displacement of q alone (q̇ and q̈ stay the Newmark ones): the next residual, forces and
+    // the GEMM elastic force then see the corrected positions, as in the coupled GGL form
+    // q_{n+1} = q_Newmark + Φ_qᵀν. Projecting only after convergence leaves λ and f̃ at the
+    // uncorrected positions, and the multipliers drop to first order (observed: 1.0–1.2 for the
+    // flexible pendulum's reactions, 2.1 with the projection here).
+    if (any_velocity_row_) ProjectPositions(t1);
+    // Converged: small correction and the closing rows met (velocity rows measured as h |Φ_q q̇ + Φ_t|,
+    // the position change their violation makes over one step).
+    ConstraintResidual(t1, h, violation_step_);
+    const double phi_norm = m > 0 ? violation_step_.lpNorm<Eigen::Infinity>() : 0.0;
     if (dq_norm <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) &&
         phi_norm <= settings_.tolerance) {
       // Accept: a_{n+1} from Eq. (3).

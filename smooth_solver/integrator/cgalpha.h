@@ -1,17 +1,32 @@
 #pragma once
-// Constrained generalised-α (CGα) for the index-3 DAE  M q̈ + Φ_qᵀ λ = f,  Φ(q, t) = 0
-// [CGα paper, Section 2; Arnold & Brüls 2007].
+// Constrained generalised-α (CGα) for the DAE  M q̈ + Φ_qᵀ λ = f,  Φ(q, t) = 0
+// [CGα paper, Section 2; Arnold & Brüls 2007], in one of two constraint formulations.
 //
 //   (1 − αm) a_{n+1} + αm a_n = (1 − αf) q̈_{n+1} + αf q̈_n                     Eq. (3)
 //   q_{n+1} = q_n + h q̇_n + h² (½ − β) a_n + h² β a_{n+1}                     Eq. (5)
 //   q̇_{n+1} = q̇_n + h (1 − γ) a_n + h γ a_{n+1}
-//   M q̈_{n+1} + Φ_qᵀ λ_{n+1} = f_{n+1},   Φ(q_{n+1}, t_{n+1}) = 0            Eqs. (1)-(2)
+//   M q̈_{n+1} + Φ_qᵀ λ_{n+1} = f_{n+1}                                         Eq. (1)
+//
+// INDEX3 (the CGα paper, Eq. (2)): Φ(q_{n+1}, t_{n+1}) = 0 closes the step.
+// INDEX2_PROJECTED (the default; docs/design.md, "Spinning bodies"): the velocity constraint
+//   Φ_q(q_{n+1}) q̇_{n+1} + Φ_t = 0 closes the step (the stabilised index-2 form of Arnold,
+//   Brüls & Cardona 2016, whose λ is the velocity-level multiplier), and the positions are then
+//   projected back onto Φ(q, t_{n+1}) = 0 along the Newton matrix's own directions,
+//     q_{n+1} ← q_{n+1} + δ,  [βh² H, Φ_qᵀ; G, 0] [δ; μ] = [0; −Φ],
+//   a correction of the size of one step's drift, O(h³), so the order stays 2. Only curved rows
+//   (Φ_q changing with q) take the velocity form; linear rows, and the rows of coupling interface
+//   nodes (imposed coordinates, optionally Tikhonov-regularised), stay at position level. The index-3 form leaves the velocity-level form of curved constraints
+//   (the rigidity rows u·u = 1, ... of natural coordinates, revolute axes) to the Newmark update,
+//   whose normal-velocity mode has the amplification 1 − γ/β ≈ −0.999 at ρ∞ = 0.9: a body
+//   spinning at Ωh > 0.04 turns that mode into growth (energy ×1e3 in 2 s at Ωh = 0.3).
 //
 // with the elastic bodies' internal force in f as the GEMM effective end-point force f̃_{n+1}
 // (ElasticStepForce: equivalent to the paper's Eq. (30)),
 // solved by Newton–Raphson on (q_{n+1}, λ_{n+1}) with the exact tangent
-//   [β' M + γ' C + K_t, Φ_qᵀ; Φ_q, 0],  β' = (1 − αm)/((1 − αf) β h²),  γ' = γ/(βh),
+//   [β' M + γ' C + K_t, Φ_qᵀ; G, 0],  β' = (1 − αm)/((1 − αf) β h²),  γ' = γ/(βh),
 //   K_t = ∂(Φ_qᵀλ)/∂q − ∂f/∂q,  C = −∂f/∂q̇,
+//   G = Φ_q (position rows) or ∂(Φ_q q̇ + Φ_t)/∂q / γ' = Φ_q + (Φ_q q̇)_q / γ' (velocity rows,
+//   divided by γ' so that the matrix keeps Φ_q's scale and sparsity pattern),
 // and Bottasso's scaling (Eqs. (34)-(36)): the dynamic rows are multiplied by βh² and the
 // multiplier unknowns divided by it, which makes the matrix O(1) as h → 0.
 //
@@ -19,7 +34,8 @@
 //   αm = (2ρ∞ − 1)/(ρ∞ + 1), αf = ρ∞/(ρ∞ + 1), γ = ½ + αf − αm, β = ¼ (γ + ½)².
 // Starting value: a_0 = q̈(t_0 + Δα h), Δα = αm − αf, as Arnold & Brüls prescribe for smooth
 // solutions, from the consistent accelerations after one trapezoidal step of length Δα h (a
-// Taylor shift would blow up stiff elastic modes; see Step). Measured: the multipliers still show a period-2 start-up transient (four-bar,
+// Taylor shift would blow up stiff elastic modes; see Step). Measured (index 3): the multipliers
+// still show a period-2 start-up transient (four-bar,
 // ρ∞ = 0.95, h = 1e-3: up to 1.4e-2 N on the 24 N joint force after 20 steps, decaying over
 // ~150 steps), which the shifted a_0 changes only in the fifth digit; and a drive whose jerk
 // jumps at t_0 (the cosine spin-up ramp) gives an O(h) transient in the drive torque.
@@ -46,8 +62,15 @@ struct AlphaCoefficients {
   }
 };
 
+// Which form of the constraints closes a step (see the top of this file).
+enum class ConstraintForm {
+  kIndex3,           // Φ(q) = 0: the CGα paper
+  kIndex2Projected,  // Φ_q q̇ + Φ_t = 0, then the positions projected onto Φ(q) = 0
+};
+
 struct CgAlphaSettings {
   double rho_inf = 0.9;            // ρ∞ ∈ [0, 1]; 1 = no numerical dissipation
+  ConstraintForm form = ConstraintForm::kIndex2Projected;
   double tolerance = 1e-6;         // on |Δq|∞ (relative to 1 + |q|∞) and |Φ|∞
   int max_iterations = 20;
   // Elastic bodies: the GEMM midpoint internal force (Eq. (30)); false: the generalised-α
@@ -71,6 +94,8 @@ class CgAlpha : public SmoothIntegrator {
   double gamma() const { return coef_.gamma; }
   // |Φ|∞ at the current state.
   double ConstraintViolation(double t) const override;
+  // Solves of the position projection over all steps so far (INDEX2_PROJECTED; cost accounting).
+  long long projection_solves() const { return projection_solves_; }
 
   // Starts again from `state` (consistent), a_n = q̈_n, without the shifted start-up: for a
   // coupled run, where the imposed coordinates are end-of-step values and a shift step would
@@ -105,6 +130,12 @@ class CgAlpha : public SmoothIntegrator {
  private:
   // Zeroes S_, adds the elastic tangent and f̃ (into force_), then the rest of the matrix.
   void AssembleIteration(double t1, double h);
+  // Constraint rows of the residual at next_: Φ (position rows) or (Φ_q q̇ + Φ_t)/γ' (velocity
+  // rows), minus c_i λ_i on regularised rows. `velocity_scale` = 1/γ'.
+  void ConstraintResidual(double t1, double velocity_scale, Eigen::Ref<Eigen::VectorXd> out);
+  // INDEX2_PROJECTED: projects next_.q onto Φ(q, t1) = 0 on the velocity rows with the last
+  // factorisation (a chord iteration); throws NumericalError if it does not converge.
+  void ProjectPositions(double t1);
 
   const MultibodySystem& system_;
   CgAlphaSettings settings_;
@@ -113,9 +144,14 @@ class CgAlpha : public SmoothIntegrator {
   Eigen::VectorXd a_;  // acceleration-like variable a_n
   ElasticStepForce elastic_;  // f̃_n of the elastic bodies
   bool started_ = false;
+  // Per constraint row: 1 where the velocity form closes the step (INDEX2_PROJECTED: the curved
+  // rows but the coupling rows; VelocityLevelRow in cgalpha.cpp), 0 where Φ itself does.
+  std::vector<char> velocity_row_;
+  bool any_velocity_row_ = false;
+  long long projection_solves_ = 0;
   // Newton workspace.
   DaeState next_;
-  Eigen::VectorXd a_next_, residual_, delta_, phi_, force_;
+  Eigen::VectorXd a_next_, residual_, delta_, phi_, phi_t_, violation_step_, force_;
   mutable Eigen::VectorXd violation_;
   Eigen::SparseMatrix<double> S_;
   KluSolver lu_;

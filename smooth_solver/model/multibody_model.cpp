@@ -47,17 +47,22 @@ Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const goo
     checks.Fail(path, "expected [Ixx, Iyy, Izz] or [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] in kg m^2, got " +
                           std::to_string(v.size()) + " values");
   }
-  const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(J).eigenvalues();
+  const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(J).eigenvalues();  // ascending
   if (!(moments.minCoeff() > 0.0)) {
     checks.Fail(path, "must be positive definite; its smallest principal moment is " +
                           FormatNumber(moments.minCoeff()) + " kg m^2");
   }
-  // A real body's principal moments obey I1 + I2 >= I3 (its mass distribution's second
-  // moments are non-negative); the natural-coordinate mass matrix needs them positive.
-  if (!(moments(0) + moments(1) > moments(2))) {
+  // A real body's principal moments obey I1 + I2 >= I3: the second moments of its mass
+  // distribution, J̄ = ½ tr(I) E − I (the natural-coordinate mass matrix's), are ≥ 0. A flat body
+  // (a disc, a plate: I1 + I2 = I3) has one zero second moment — its mass matrix is singular
+  // along that axis, but the rigidity constraints fix that axis from the other two and the
+  // constrained problem is regular. Two zero second moments (all mass on a line: I3 = 0, caught
+  // above) leave the rotation about the line without inertia. Round-off of the sum is allowed.
+  const double round_off = 64.0 * std::numeric_limits<double>::epsilon() * moments.sum();
+  if (moments(0) + moments(1) < moments(2) - round_off) {
     checks.Fail(path, "principal moments " + FormatNumber(moments(0)) + ", " + FormatNumber(moments(1)) + ", " +
                           FormatNumber(moments(2)) +
-                          " kg m^2 break the triangle inequality I1 + I2 > I3 that every real body obeys");
+                          " kg m^2 break the triangle inequality I1 + I2 >= I3 that every real body obeys");
   }
   return J;
 }

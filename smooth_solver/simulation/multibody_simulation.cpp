@@ -66,6 +66,21 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     checks.Fail("numerics.smooth.elastic_force", "expected GEMM or END_POINT");
   }
   settings.gemm = s.elastic_force() == sc::SmoothSettings::GEMM;
+  if (s.constraint_form() != sc::SmoothSettings::INDEX3 && s.constraint_form() != sc::SmoothSettings::INDEX2_PROJECTED) {
+    checks.Fail("numerics.smooth.constraint_form", "expected INDEX3 or INDEX2_PROJECTED");
+  }
+  settings.form = s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
+  const sc::Watchdog& w = s.watchdog();
+  WatchdogSettings watchdog;
+  watchdog.rigidity_rate = checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
+  watchdog.energy_growth = checks.NonNegative("numerics.smooth.watchdog.energy_growth", w.energy_growth(), "dimensionless; 0 = off");
+  if (w.energy_window() < 1) {
+    checks.Fail("numerics.smooth.watchdog.energy_window", "must be >= 1 step, got " + std::to_string(w.energy_window()));
+  }
+  watchdog.energy_window = w.energy_window();
+  if (w.energy_check() != sc::Watchdog::AUTO && w.energy_check() != sc::Watchdog::ON && w.energy_check() != sc::Watchdog::OFF) {
+    checks.Fail("numerics.smooth.watchdog.energy_check", "expected AUTO, ON or OFF");
+  }
 
   // Probes.
   std::map<std::string, int> body_index, joint_index;
@@ -195,6 +210,10 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
   }
   system_->AcceptStep(initial.q, initial.qdot);  // the contact laws' memory starts here
+  watchdog.energy = w.energy_check() == sc::Watchdog::ON || (w.energy_check() == sc::Watchdog::AUTO && PassiveSystem(*system_));
+  std::vector<std::string> body_names;
+  for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
+  watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
   angle_offset_.assign(model_.joints.size(), 0.0);
   last_angle_.assign(model_.joints.size(), 0.0);
   for (size_t j = 0; j < model_.joints.size(); ++j) {
@@ -276,6 +295,7 @@ void MultibodySimulation::Record(double t1, int iterations) {
     newton_.Add(iterations);
   }
   time_ = t1;
+  watchdog_->Check(integrator_->state(), t1, ++steps_);
   max_violation_ = std::max(max_violation_, integrator_->ConstraintViolation(time_));
   // Unwrap revolute angles (a step never turns a joint by π).
   for (size_t j = 0; j < model_.joints.size(); ++j) {
@@ -300,6 +320,12 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   counters["initial_position_change"] = initial_report_.position_change;
   counters["initial_velocity_change"] = initial_report_.velocity_change;
   if (ida_) counters["ida_internal_steps"] = static_cast<double>(ida_steps_);
+  if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get())) {
+    counters["position_projection_solves"] = static_cast<double>(cg->projection_solves());
+  }
+  counters["watchdog_max_rigidity_rate"] = watchdog_->max_rigidity_rate();
+  counters["watchdog_energy_checked"] = watchdog_->energy_checked() ? 1.0 : 0.0;
+  if (watchdog_->energy_checked()) counters["watchdog_max_energy_growth"] = watchdog_->max_energy_growth();
 }
 
 }  // namespace cosim::smooth

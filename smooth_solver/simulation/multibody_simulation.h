@@ -7,6 +7,7 @@
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
+#include "smooth_solver/simulation/watchdog.h"
 
 namespace cosim::smooth {
 
@@ -51,6 +52,8 @@ class MultibodySimulation : public interface::Simulation {
   scenario::Numerics numerics_;
   InitialConditionReport initial_report_;
   interface::IterationCounter newton_;
+  std::unique_ptr<Watchdog> watchdog_;
+  long steps_ = 0;
   double time_ = 0.0;
   double max_violation_ = 0.0;
   // Revolute angles unwrapped across ±π: turns added to atan2 per joint.

@@ -146,6 +146,8 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
   phi_.resize(m);
   violation_step_.resize(m);
   phi_t_.resize(m);
+  rate_.resize(m);
+  rows_.resize(m);
   velocity_row_.assign(static_cast<size_t>(m), 0);
   if (settings.form == ConstraintForm::kIndex2Projected) {
     for (int i = 0; i < m; ++i) {
@@ -190,38 +192,50 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.constraints.AddComplianceDiagonal(&sink, n, 1.0 / bh2);
 }
 
-void CgAlpha::ConstraintResidual(double t1, double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) {
+void CgAlpha::ConstraintRows(double t1, bool phi_known) {
+  // rows_ = Φ − cλ (position rows) or Φ_q q̇ + Φ_t (velocity rows) at next_; phi_ = Φ, taken
+  // as it is when the projection has just evaluated it at next_.q.
   const ConstraintSet& cs = system_.constraints;
-  cs.Evaluate(next_.q, t1, out);
+  if (!phi_known) cs.Evaluate(next_.q, t1, phi_);
+  rows_ = phi_;
   if (any_velocity_row_) {
-    cs.JacobianTimes(next_.q, t1, next_.qdot, phi_);
+    cs.JacobianTimes(next_.q, t1, next_.qdot, rate_);
     cs.TimeDerivative(next_.q, t1, phi_t_);
-    for (Eigen::Index i = 0; i < out.size(); ++i) {
-      if (velocity_row_[static_cast<size_t>(i)] != 0) out(i) = velocity_scale * (phi_(i) + phi_t_(i));
+    for (Eigen::Index i = 0; i < rows_.size(); ++i) {
+      if (velocity_row_[static_cast<size_t>(i)] != 0) rows_(i) = rate_(i) + phi_t_(i);
     }
   }
   for (size_t i = 0; i < cs.compliance.size(); ++i) {
-    out(static_cast<Eigen::Index>(i)) -= cs.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
+    rows_(static_cast<Eigen::Index>(i)) -= cs.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
   }
+}
+
+double CgAlpha::ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) const {
+  out = rows_;
+  if (any_velocity_row_) {
+    for (Eigen::Index i = 0; i < out.size(); ++i) {
+      if (velocity_row_[static_cast<size_t>(i)] != 0) out(i) *= velocity_scale;
+    }
+  }
+  return out.size() > 0 ? out.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
 void CgAlpha::ProjectPositions(double t1) {
   // Chord iteration on Φ(q) = 0 (velocity rows only; the position rows hold already) with the
   // last Newton factorisation: its constraint rows are Φ_q + O(h) (Φ_q q̇)_q, so each solve
-  // cuts the violation by a factor O(Ωh); the violation left by one step is O(h³).
+  // cuts the violation by a factor O(Ωh); the violation left by one step is O(h³). Leaves
+  // phi_ = Φ at the projected positions.
   const int n = system_.coordinates, m = system_.constraints.size();
-  auto rows = delta_.tail(m);
+  auto rhs = delta_.tail(m);
   // Held well below the Newton tolerance (the index-3 Newton's quadratic convergence usually
   // leaves |Φ| far below it too), down to round-off: a solve that no longer halves the
   // violation has reached it.
   const double target = std::max(1e-4 * settings_.tolerance, 1e-14);
   double previous = std::numeric_limits<double>::infinity();
   for (int k = 0;; ++k) {
-    system_.constraints.Evaluate(next_.q, t1, rows);
-    for (int i = 0; i < m; ++i) {
-      if (velocity_row_[static_cast<size_t>(i)] == 0) rows(i) = 0.0;
-    }
-    const double violation = rows.lpNorm<Eigen::Infinity>();
+    system_.constraints.Evaluate(next_.q, t1, phi_);
+    for (int i = 0; i < m; ++i) rhs(i) = velocity_row_[static_cast<size_t>(i)] != 0 ? -phi_(i) : 0.0;
+    const double violation = rhs.lpNorm<Eigen::Infinity>();
     if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return;
     if (k == 10 || !std::isfinite(violation)) {
       throw NumericalError("CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) +
@@ -229,7 +243,6 @@ void CgAlpha::ProjectPositions(double t1) {
                            " solves); reduce the step");
     }
     previous = violation;
-    rows *= -1.0;
     delta_.head(n).setZero();
     lu_.SolveInPlace(delta_);
     next_.q += delta_.head(n);
@@ -282,6 +295,7 @@ int CgAlpha::Step(double t, double h) {
   next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - coef_.beta) * a_ + coef_.beta * a_next_);
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
 
+  ConstraintRows(t1, /*phi_known=*/false);
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix.
     system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
@@ -291,7 +305,7 @@ int CgAlpha::Step(double t, double h) {
     r_q -= force_;
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
-    ConstraintResidual(t1, 1.0 / gamma_prime, residual_.tail(m));
+    ScaledRows(1.0 / gamma_prime, residual_.tail(m));  // rows_ is at next_ (below, or before the loop)
     if (!lu_.Factorize(S_)) {
       throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                            " s (redundant constraints or a singular configuration)");
@@ -313,9 +327,9 @@ int CgAlpha::Step(double t, double h) {
     // flexible pendulum's reactions, 2.1 with the projection here).
     if (any_velocity_row_) ProjectPositions(t1);
     // Converged: small correction and the closing rows met (velocity rows measured as h |Φ_q q̇ + Φ_t|,
-    // the position change their violation makes over one step).
-    ConstraintResidual(t1, h, violation_step_);
-    const double phi_norm = m > 0 ? violation_step_.lpNorm<Eigen::Infinity>() : 0.0;
+    // the position change their violation makes over one step). rows_ serves the next iteration too.
+    ConstraintRows(t1, /*phi_known=*/any_velocity_row_);
+    const double phi_norm = ScaledRows(h, violation_step_);
     if (dq_norm <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) &&
         phi_norm <= settings_.tolerance) {
       // Accept: a_{n+1} from Eq. (3).

@@ -130,9 +130,12 @@ class CgAlpha : public SmoothIntegrator {
  private:
   // Zeroes S_, adds the elastic tangent and f̃ (into force_), then the rest of the matrix.
   void AssembleIteration(double t1, double h);
-  // Constraint rows of the residual at next_: Φ (position rows) or (Φ_q q̇ + Φ_t)/γ' (velocity
-  // rows), minus c_i λ_i on regularised rows. `velocity_scale` = 1/γ'.
-  void ConstraintResidual(double t1, double velocity_scale, Eigen::Ref<Eigen::VectorXd> out);
+  // rows_ at next_: Φ − cλ on position rows (c: Tikhonov regularisation), Φ_q q̇ + Φ_t on
+  // velocity rows; `phi_known`: phi_ holds Φ(next_.q) already.
+  void ConstraintRows(double t1, bool phi_known);
+  // out = rows_ with the velocity rows × velocity_scale (1/γ' in the residual, h in the
+  // convergence test); returns |out|∞.
+  double ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) const;
   // INDEX2_PROJECTED: projects next_.q onto Φ(q, t1) = 0 on the velocity rows with the last
   // factorisation (a chord iteration); throws NumericalError if it does not converge.
   void ProjectPositions(double t1);
@@ -151,7 +154,7 @@ class CgAlpha : public SmoothIntegrator {
   long long projection_solves_ = 0;
   // Newton workspace.
   DaeState next_;
-  Eigen::VectorXd a_next_, residual_, delta_, phi_, phi_t_, violation_step_, force_;
+  Eigen::VectorXd a_next_, residual_, delta_, phi_, phi_t_, rate_, rows_, violation_step_, force_;
   mutable Eigen::VectorXd violation_;
   Eigen::SparseMatrix<double> S_;
   KluSolver lu_;

@@ -150,9 +150,10 @@ void ConstraintSet::AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::Vect
 }
 
 void ConstraintSet::JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
-                                  const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const {
+                                  const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out,
+                                  const std::vector<char>* rows) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
-    if (!Active(i, t)) {
+    if (!Active(i, t) || (rows != nullptr && (*rows)[i] == 0)) {
       out(static_cast<Eigen::Index>(i)) = 0.0;
       continue;
     }
@@ -253,17 +254,17 @@ void ConstraintSet::AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q,
 
 void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q,
                                                const Eigen::Ref<const Eigen::VectorXd>& v, double t, SparseSink* sink,
-                                               int row_offset) const {
+                                               int row_offset, double scale, const std::vector<char>* rows) const {
   // Φ_q v = Σ w (A_q v · B + A · B_q v):  ∂/∂q = w ((B_q v)ᵀ A_q + (A_q v)ᵀ B_q);
   // Φ_t = Σ ẇ A·B:  ∂/∂q = ẇ (Bᵀ A_q + Aᵀ B_q).
   for (size_t i = 0; i < constraints.size(); ++i) {
-    if (!Active(i, t)) continue;
+    if (!Active(i, t) || (rows != nullptr && (*rows)[i] == 0)) continue;
     const int row = row_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
       const double w = Weight(term.weight, t, 0), w_dot = Weight(term.weight, t, 1);
       const Eigen::Vector3d a = term.a.Value(q), b = term.b.Value(q);
       const Eigen::Vector3d a_rate = term.a.Rate(v), b_rate = term.b.Rate(v);
-      const Eigen::Vector3d along_a = w * b_rate + w_dot * b, along_b = w * a_rate + w_dot * a;
+      const Eigen::Vector3d along_a = scale * (w * b_rate + w_dot * b), along_b = scale * (w * a_rate + w_dot * a);
       for (const auto& ta : term.a.terms) {
         for (int k = 0; k < 3; ++k) sink->Add(row, ta.offset + k, ta.coefficient * along_a(k));
       }
@@ -275,9 +276,9 @@ void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::Vec
 }
 
 void ConstraintSet::TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
-                                   Eigen::Ref<Eigen::VectorXd> phi_t) const {
+                                   Eigen::Ref<Eigen::VectorXd> phi_t, const std::vector<char>* rows) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
-    if (!Active(i, t)) {
+    if (!Active(i, t) || (rows != nullptr && (*rows)[i] == 0)) {
       phi_t(static_cast<Eigen::Index>(i)) = 0.0;
       continue;
     }

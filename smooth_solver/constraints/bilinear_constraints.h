@@ -131,9 +131,10 @@ class ConstraintSet {
   // Φ_qᵀ λ into `out` (size n, accumulated).
   void AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                  const Eigen::Ref<const Eigen::VectorXd>& lambda, Eigen::Ref<Eigen::VectorXd> out) const;
-  // Φ_q v into `out` (size m).
+  // Φ_q v into `out` (size m). `rows` (optional): only the rows flagged non-zero, 0 elsewhere
+  // (here and in VelocityConstraintJacobian and TimeDerivative).
   void JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t, const Eigen::Ref<const Eigen::VectorXd>& v,
-                     Eigen::Ref<Eigen::VectorXd> out) const;
+                     Eigen::Ref<Eigen::VectorXd> out, const std::vector<char>* rows = nullptr) const;
   // scale · Σ_i λ_i ∂²φ_i/∂q² into `sink` (constant Hessians of the bilinear terms).
   void HessianTimesLambda(double t, const Eigen::Ref<const Eigen::VectorXd>& lambda, SparseSink* sink,
                           double scale) const;
@@ -145,9 +146,11 @@ class ConstraintSet {
   // ∂(Φ_q v + Φ_t)/∂q into `sink` at (row_offset + i, column): the derivative of the velocity
   // constraint with respect to the positions (index-2 formulations).
   void VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
-                                  double t, SparseSink* sink, int row_offset) const;
+                                  double t, SparseSink* sink, int row_offset, double scale = 1.0,
+                                  const std::vector<char>* rows = nullptr) const;
   // Φ_t (size m): the velocity constraint is Φ_q q̇ + Φ_t = 0.
-  void TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi_t) const;
+  void TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi_t,
+                      const std::vector<char>* rows = nullptr) const;
 
  private:
   double Weight(const DriveWeight& w, double t, int derivative) const;

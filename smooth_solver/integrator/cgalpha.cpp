@@ -25,22 +25,6 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   return pattern.Build(n + m, n + m);
 }
 
-// Passes on only the rows flagged in `keep` (row − row_offset indexes it), scaled.
-class RowFilterSink : public SparseSink {
- public:
-  RowFilterSink(SparseSink* inner, const std::vector<char>& keep, int row_offset, double scale)
-      : inner_(inner), keep_(keep), offset_(row_offset), scale_(scale) {}
-  void Add(int row, int column, double value) override {
-    if (keep_[static_cast<size_t>(row - offset_)] != 0) inner_->Add(row, column, scale_ * value);
-  }
-
- private:
-  SparseSink* inner_;
-  const std::vector<char>& keep_;
-  int offset_;
-  double scale_;
-};
-
 // Whether INDEX2_PROJECTED closes row i at velocity level: a curved row (a term whose two
 // vectors both move: Φ_q changes with q, like the rigidity rows u·u = 1 and the axes of a
 // revolute joint between two bodies), unless it is a coupling interface row (imposed by a peer,
@@ -184,8 +168,8 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   if (any_velocity_row_) {
     // Velocity rows: ∂(Φ_q q̇ + Φ_t)/∂q_{n+1} / γ' = Φ_q + (Φ_q q̇ + Φ_t)_q / γ' (q̇ moves with
     // γ' Δq along the Newton correction).
-    RowFilterSink velocity_rows(&sink, velocity_row_, n, coef_.beta * h / coef_.gamma);
-    system_.constraints.VelocityConstraintJacobian(next_.q, next_.qdot, t1, &velocity_rows, n);
+    system_.constraints.VelocityConstraintJacobian(next_.q, next_.qdot, t1, &sink, n, coef_.beta * h / coef_.gamma,
+                                                   &velocity_row_);
   }
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
@@ -199,8 +183,8 @@ void CgAlpha::ConstraintRows(double t1, bool phi_known) {
   if (!phi_known) cs.Evaluate(next_.q, t1, phi_);
   rows_ = phi_;
   if (any_velocity_row_) {
-    cs.JacobianTimes(next_.q, t1, next_.qdot, rate_);
-    cs.TimeDerivative(next_.q, t1, phi_t_);
+    cs.JacobianTimes(next_.q, t1, next_.qdot, rate_, &velocity_row_);
+    cs.TimeDerivative(next_.q, t1, phi_t_, &velocity_row_);
     for (Eigen::Index i = 0; i < rows_.size(); ++i) {
       if (velocity_row_[static_cast<size_t>(i)] != 0) rows_(i) = rate_(i) + phi_t_(i);
     }

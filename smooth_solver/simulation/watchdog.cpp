@@ -39,6 +39,7 @@ Watchdog::Watchdog(const MultibodySystem& system, const WatchdogSettings& settin
   min_potential_ = max_potential_ = potential;
   magnitude_ = std::abs(kinetic) + std::abs(potential);
   window_.assign(static_cast<size_t>(std::max(1, settings_.energy_window)), Sample{});
+  sorted_.assign(window_.size(), 0.0);
 }
 
 void Watchdog::Energy(const DaeState& state, double* kinetic, double* potential) const {
@@ -88,9 +89,12 @@ void Watchdog::Check(const DaeState& state, double t, long step) {
     slot = now;
     ++filled_;
     if (filled_ < static_cast<long>(w)) return;  // growth must last W steps
-    double lowest_recent = now.energy;
-    for (const Sample& x : window_) lowest_recent = std::min(lowest_recent, x.energy);
-    const double growth = lowest_recent - min_energy_;
+    // The window's median: a few steps of overshoot do not move it, nor do the deep dips of an
+    // energy that swings wildly while it grows (the index-3 blow-ups: their minimum stays low).
+    for (size_t i = 0; i < w; ++i) sorted_[i] = window_[i].energy;
+    std::nth_element(sorted_.begin(), sorted_.begin() + static_cast<std::ptrdiff_t>(w / 2), sorted_.end());
+    const double typical = sorted_[w / 2];
+    const double growth = typical - min_energy_;
     // Round-off of a sum whose terms are `magnitude_` (a potential far from its datum) is no growth.
     const double scale = std::max(max_kinetic_ + (max_potential_ - min_potential_), 1e-9 * magnitude_);
     if (growth > 1e-9 * magnitude_ && scale > 0.0) {
@@ -98,7 +102,7 @@ void Watchdog::Check(const DaeState& state, double t, long step) {
       max_energy_growth_ = std::max(max_energy_growth_, share);
       if (share > settings_.energy_growth) {
         throw NumericalError("watchdog: the total energy grew " + when() + " from " + FormatNumber(min_energy_) +
-                             " J to at least " + FormatNumber(lowest_recent) + " J over the last " + std::to_string(w) +
+                             " J to a median of " + FormatNumber(typical) + " J over the last " + std::to_string(w) +
                              " steps (now " + FormatNumber(now.energy) + " J): " + FormatNumber(share) +
                              " of the scene's energy scale before them, " + FormatNumber(scale) +
                              " J (numerics.smooth.watchdog.energy_growth = " + FormatNumber(settings_.energy_growth) +

@@ -8,7 +8,7 @@
 //    share of the axis velocities that is not a rotation;
 //  - where the scene cannot gain energy (no drives, coupling rows or loads outside the potential,
 //    or declared so), the total energy does not stay above its earlier lowest value by more than
-//    a fraction of the scene's energy scale. The lowest energy of the last `energy_window` steps
+//    a fraction of the scene's energy scale. The median energy of the last `energy_window` steps
 //    is compared with the lowest before them, so that a transient overshoot of a few steps
 //    (generalised-α with small ρ∞ on a suddenly loaded stiff body gains energy for a step or
 //    two, then dissipates it) is no trip and growth that lasts is; the scale is the largest
@@ -24,7 +24,7 @@ namespace cosim::smooth {
 
 struct WatchdogSettings {
   double rigidity_rate = 0.01;  // 0: off
-  double energy_growth = 0.05;  // 0: off
+  double energy_growth = 0.1;   // 0: off
   int energy_window = 10;       // steps the growth must last
   bool energy = true;           // the energy check applies to this scene
 };
@@ -57,6 +57,7 @@ class Watchdog {
     double energy = 0.0, kinetic = 0.0, potential = 0.0;
   };
   std::vector<Sample> window_;  // the last energy_window steps (a ring)
+  std::vector<double> sorted_;  // workspace for the window's median
   long filled_ = 0;
   // Over the steps before the window: lowest energy, largest kinetic energy, potential's span.
   double min_energy_ = 0.0, max_kinetic_ = 0.0, min_potential_ = 0.0, max_potential_ = 0.0, magnitude_ = 0.0;

@@ -278,8 +278,8 @@ TEST(Watchdog, AxisVelocitiesThatAreNotARotationTrip) {
 TEST(Watchdog, LastingEnergyGrowthTripsAndAShortOvershootDoesNot) {
   // The spinning body's state with its velocities scaled: +10 % kinetic energy for two steps,
   // then back (an overshoot: no trip, the growth must last 10 steps); then a steady growth of
-  // 1 % per step trips once the lowest energy of the last 10 steps exceeds the earlier lowest
-  // by 5 % of the scale, i.e. within ~15 steps of its start, long before the ×1e3 of a blow-up.
+  // 1 % per step trips once the median energy of the last 10 steps exceeds the earlier lowest
+  // by 10 % of the scale (observed: 15 steps after its start), long before the ×1e3 of a blow-up.
   WatchdogFixture f;
   Watchdog w = f.Make();
   ASSERT_TRUE(w.energy_checked());  // no drive, no load, no coupling: passive
@@ -297,7 +297,7 @@ TEST(Watchdog, LastingEnergyGrowthTripsAndAShortOvershootDoesNot) {
   while (message.empty() && grown < 100) message = at(std::pow(1.01, ++grown));
   std::printf("watchdog: energy growth of 1 %%/step caught after %d steps (energy ×%.3f)\n", grown,
               std::pow(1.01, grown));
-  EXPECT_LE(grown, 16);
+  EXPECT_LE(grown, 21);
   EXPECT_NE(message.find("the total energy grew"), std::string::npos) << message;
   EXPECT_NE(message.find("energy_growth"), std::string::npos) << message;
 }

@@ -40,12 +40,17 @@ int main(int argc, char** argv) {
       return 0;
     }
     interface::ValidateTimeSpan(file);
-    const auto plan = interface::PlanProcesses(file, arguments);
+    const interface::PrivateFolder sockets;
+    const auto plan = interface::PlanProcesses(file, cli, arguments, sockets.path());
     const std::string bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
-    return interface::RunProcesses(bin_dir, plan);
+    return interface::RunProcesses(bin_dir, plan, cli);
   } catch (const Error& e) {
     std::cerr << "cosim run: error: " << e.what() << "\n";
-    if (e.code() == ExitCode::kBadInput) interface::WriteInputFailureSummary("cosim run", cli, e.what());
+    interface::WriteFailureSummary("cosim run", cli, e.code(), e.what());
     return static_cast<int>(e.code());
+  } catch (const std::exception& e) {
+    std::cerr << "cosim run: error: " << e.what() << "\n";
+    interface::WriteFailureSummary("cosim run", cli, ExitCode::kPeerFailure, e.what());
+    return static_cast<int>(ExitCode::kPeerFailure);
   }
 }

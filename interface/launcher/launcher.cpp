@@ -1,163 +1,315 @@
 #include "interface/launcher/launcher.h"
 
+#include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
-#include <csignal>
 #include <unistd.h>
+#include <zmq.h>
 
 #include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 
+#include "interface/coupling/channel.h"
 #include "interface/run/errors.h"
-#include "interface/run/run_driver.h"
+#include "interface/run/run_output.h"
+#include "interface/scenario/checks.h"
 #include "interface/scenario/coupling_plan.h"
+
+extern char** environ;
 
 namespace cosim::interface {
 
-std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const std::vector<std::string>& arguments) {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// A fresh CURVE key pair (Z85).
+std::pair<std::string, std::string> CurveKeyPair() {
+  char public_key[41], secret_key[41];
+  if (zmq_curve_keypair(public_key, secret_key) != 0) {
+    throw PeerError(std::string("cannot make the coupling's CURVE keys: ") + zmq_strerror(zmq_errno()) +
+                    " (libzmq without CURVE support?)");
+  }
+  return {public_key, secret_key};
+}
+
+}  // namespace
+
+PrivateFolder::PrivateFolder() {
+  // /tmp rather than TMPDIR: an ipc path must fit sun_path (108 bytes).
+  std::string pattern = "/tmp/cosim-XXXXXX";
+  if (mkdtemp(pattern.data()) == nullptr) {
+    throw PeerError(std::string("cannot make a private folder in /tmp for the coupling's sockets: ") +
+                    std::strerror(errno));
+  }
+  path_ = pattern;
+  chmod(path_.c_str(), S_IRWXU);  // mkdtemp's 0700 is masked by the umask; this is not
+}
+
+PrivateFolder::~PrivateFolder() {
+  std::error_code ignored;
+  std::filesystem::remove_all(path_, ignored);
+}
+
+std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLine& cli,
+                                       const std::vector<std::string>& arguments, const std::string& ipc_folder) {
   const scenario::Model& model = file.proto().model();
   const bool smooth = model.bodies_size() > 0 || model.elastic_bodies_size() > 0;
   const bool contact = model.contact_nodes_size() > 0;
   if (!smooth && !contact) {
     file.Fail("model", "the scene has neither rigid/elastic bodies nor contact nodes; nothing to simulate");
   }
-  if (smooth && contact) {
-    // A coupled run: the contact process (it binds) and smooth_solver, the coordinator
-    // (it connects), both with the endpoint; the contact process's outputs in a subfolder.
-    const scenario::Coupling& coupling = file.proto().coupling();
-    if (coupling.interface_nodes_size() == 0) {
-      file.Fail("coupling.interface_nodes",
-                "bodies and contact nodes together make a coupled run: tie contact nodes to body points with "
-                "coupling.interface_nodes (or run the two parts as separate scenarios)");
-    }
-    const std::vector<ContactProcessPlan> processes = ReadCouplingPlan(file);
-    const CommandLine cli = ParseCommandLine(arguments);
-    std::string out = cli.out;
-    if (out.empty()) out = "runs/" + (file.proto().name().empty() ? std::string("run") : file.proto().name());
-    std::vector<std::string> common = arguments;
-    for (const ContactProcessPlan& process : processes) {
-      if (!process.endpoint.empty()) continue;
-      // ipc paths are limited to ~100 characters: a short one, unique to this launch.
-      const std::string endpoint = "ipc:///tmp/cosim-" + std::to_string(getpid()) + "-" + process.name + ".ipc";
-      common.insert(common.end(), {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" +
-                                                endpoint + "\""});
-    }
-    std::vector<ProcessPlan> plan;
-    for (const ContactProcessPlan& process : processes) {
-      std::vector<std::string> contact_args = common;
-      contact_args.insert(contact_args.end(), {"--process", process.name, "--out", out + "/" + process.name});
-      plan.push_back(ProcessPlan{process.program, contact_args});
-    }
-    std::vector<std::string> smooth_args = common;
-    if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});
-    plan.push_back(ProcessPlan{"smooth_solver", smooth_args});
-    return plan;
+  const std::string out = cli.out.empty() ? DefaultOutFolder(file) : cli.out;
+  if (!(smooth && contact)) {
+    const std::string program = smooth ? "smooth_solver" : "nonsmooth_solver";
+    return {ProcessPlan{program, arguments, out, program, {}}};
   }
-  return {ProcessPlan{smooth ? "smooth_solver" : "nonsmooth_solver", arguments}};
+  // A coupled run: the contact processes (they bind) and smooth_solver, the coordinator (it
+  // connects), all with the endpoints; each contact process's outputs in a subfolder.
+  const scenario::Coupling& coupling = file.proto().coupling();
+  if (coupling.interface_nodes_size() == 0) {
+    file.Fail("coupling.interface_nodes",
+              "bodies and contact nodes together make a coupled run: tie contact nodes to body points with "
+              "coupling.interface_nodes (or run the two parts as separate scenarios)");
+  }
+  const std::vector<ContactProcessPlan> processes = ReadCouplingPlan(file);
+  std::vector<std::string> common = arguments;
+  for (const ContactProcessPlan& process : processes) {
+    if (!process.endpoint.empty()) continue;
+    const std::string endpoint = "ipc://" + ipc_folder + "/" + std::to_string(process.index) + ".ipc";
+    common.insert(common.end(), {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" +
+                                              endpoint + "\""});
+  }
+  const auto [server_public, server_secret] = CurveKeyPair();
+  const auto [client_public, client_secret] = CurveKeyPair();
+  auto variable = [](const char* name, const std::string& value) { return std::string(name) + "=" + value; };
+  std::vector<ProcessPlan> plan;
+  for (const ContactProcessPlan& process : processes) {
+    std::vector<std::string> contact_args = common;
+    const std::string folder = out + "/" + process.name;
+    contact_args.insert(contact_args.end(), {"--process", process.name, "--out", folder});
+    plan.push_back(ProcessPlan{process.program, contact_args, folder, "contact process '" + process.name + "'",
+                               {variable(kCurveServerPublic, server_public), variable(kCurveServerSecret, server_secret),
+                                variable(kCurveClientPublic, client_public)}});
+  }
+  std::vector<std::string> smooth_args = common;
+  if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});
+  plan.push_back(ProcessPlan{"smooth_solver", smooth_args, out, "smooth_solver",
+                             {variable(kCurveServerPublic, server_public), variable(kCurveClientPublic, client_public),
+                              variable(kCurveClientSecret, client_secret)}});
+  return plan;
 }
 
-int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan) {
-  std::vector<pid_t> children;
-  // The children start with SIGTERM and SIGINT blocked (the mask survives exec) until their run
-  // driver has installed its handler, so that stopping one that has only just started still
-  // lets it write its outputs.
-  sigset_t termination, previous;
-  sigemptyset(&termination);
-  sigaddset(&termination, SIGTERM);
-  sigaddset(&termination, SIGINT);
-  sigprocmask(SIG_BLOCK, &termination, &previous);
-  for (const ProcessPlan& p : plan) {
+namespace {
+
+struct Child {
+  pid_t pid = -1;
+  bool ended = false;
+  int code = 0;    // the run contract's code (a signal: 4)
+  int signal = 0;  // the signal that killed it, or 0
+  bool terminated = false;  // SIGTERM sent
+  Clock::time_point terminated_at;
+  bool killed = false;      // SIGKILL sent
+};
+
+// The time of the last row of a history.csv and the number of rows (0 if none).
+std::pair<double, long> LastHistoryRow(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  long rows = -1;  // the header
+  while (std::getline(in, line)) {
+    if (!line.empty()) last = line;
+    ++rows;
+  }
+  if (rows <= 0) return {0.0, 0};
+  return {std::strtod(last.c_str(), nullptr), rows};
+}
+
+// The summary of a process that a signal killed: it could not write one.
+void WriteKilledSummary(const ProcessPlan& p, const CommandLine& cli, int signal, const std::string& why) {
+  run::RunSummary s;
+  s.set_program(p.program);
+  s.set_scenario_file(cli.scenario);
+  for (const auto& set : cli.sets) s.add_overrides(set);
+  const auto [time, rows] = LastHistoryRow(p.out + "/history.csv");
+  s.set_simulated_time(time);
+  s.set_status("failed");
+  s.set_exit_code(static_cast<int>(ExitCode::kPeerFailure));
+  s.set_reason(p.name + " was killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")" + why +
+               "; summary written by the launcher; history.csv holds its rows up to t = " + FormatNumber(time) + " s (" +
+               std::to_string(rows) + " rows)");
+  WriteSummaryJson(s, p.out + "/summary.json");
+}
+
+// The run's summary (the coordinator's) says what a contact process that failed first said.
+void PassContactFailureOn(const ProcessPlan& contact, int code, const ProcessPlan& coordinator) {
+  run::RunSummary theirs, ours;
+  const std::string contact_reason =
+      ReadSummaryJson(contact.out + "/summary.json", &theirs) ? theirs.reason() : "(it wrote no summary)";
+  const std::string path = coordinator.out + "/summary.json";
+  if (!ReadSummaryJson(path, &ours)) ours.set_program(coordinator.program);
+  if (ours.exit_code() == code && ours.reason().find(contact_reason) != std::string::npos) return;
+  const std::string own = ours.reason();
+  ours.set_status("failed");
+  ours.set_exit_code(code);
+  ours.set_reason(contact.name + " (" + contact.program + ") failed with exit code " + std::to_string(code) + ": " +
+                  contact_reason + (own.empty() ? "" : " [" + coordinator.program + ": " + own + "]"));
+  WriteSummaryJson(ours, path);
+}
+
+}  // namespace
+
+int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli) {
+  // Everything the launcher waits for arrives as a signal, taken synchronously (sigtimedwait):
+  // children ending (SIGCHLD) and requests to stop (SIGTERM, SIGINT, SIGHUP).
+  sigset_t watched, previous;
+  sigemptyset(&watched);
+  for (int s : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&watched, s);
+  sigprocmask(SIG_BLOCK, &watched, &previous);
+  // The children start with SIGTERM, SIGINT and SIGHUP blocked (the mask survives exec) until
+  // their run driver has installed its handler, so that stopping one that has only just
+  // started still lets it write its outputs.
+  sigset_t child_mask;
+  sigemptyset(&child_mask);
+  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&child_mask, s);
+
+  const pid_t launcher = getpid();
+  std::vector<Child> children(plan.size());
+  for (size_t i = 0; i < plan.size(); ++i) {
+    const ProcessPlan& p = plan[i];
     const std::string path = bin_dir + "/" + p.program;
     std::vector<std::string> argv_storage{path};
     argv_storage.insert(argv_storage.end(), p.arguments.begin(), p.arguments.end());
     std::vector<char*> argv;
     for (auto& a : argv_storage) argv.push_back(a.data());
     argv.push_back(nullptr);
+    // The launcher's environment without any coupling keys of its own, plus this child's.
+    std::vector<std::string> env_storage;
+    for (char** e = environ; *e != nullptr; ++e) {
+      if (std::strncmp(*e, "COSIM_CURVE_", 12) != 0) env_storage.emplace_back(*e);
+    }
+    env_storage.insert(env_storage.end(), p.environment.begin(), p.environment.end());
+    std::vector<char*> envp;
+    for (auto& e : env_storage) envp.push_back(e.data());
+    envp.push_back(nullptr);
     const pid_t pid = fork();
-    if (pid < 0) throw PeerError(std::string("cannot start ") + path + ": " + std::strerror(errno));
+    if (pid < 0) throw PeerError("cannot start " + path + ": " + std::strerror(errno));
     if (pid == 0) {
-      execv(path.c_str(), argv.data());
+      // Dies with the launcher, however the launcher ends (SIGTERM: it writes its outputs).
+      prctl(PR_SET_PDEATHSIG, SIGTERM);
+      if (getppid() != launcher) _exit(static_cast<int>(ExitCode::kPeerFailure));
+      sigprocmask(SIG_SETMASK, &child_mask, nullptr);
+      execve(path.c_str(), argv.data(), envp.data());
       std::fprintf(stderr, "cosim: cannot execute %s: %s\n", path.c_str(), std::strerror(errno));
       _exit(static_cast<int>(ExitCode::kPeerFailure));
     }
-    children.push_back(pid);
+    children[i].pid = pid;
+  }
+
+  const size_t last = children.size() - 1;  // the coordinator of a coupled run, or the only process
+  auto terminate = [&](Child& c) {
+    if (c.ended || c.terminated) return;
+    kill(c.pid, SIGTERM);
+    c.terminated = true;
+    c.terminated_at = Clock::now();
+  };
+  int contact_failure = 0;  // the code of the contact process that failed first
+  size_t failed_contact = 0;
+  bool stop_requested = false;
+  Clock::time_point contact_failed_at, coordinator_ended_at;
+  auto all_ended = [&] {
+    for (const Child& c : children) {
+      if (!c.ended) return false;
+    }
+    return true;
+  };
+  while (!all_ended()) {
+    siginfo_t info;
+    const timespec slice{0, 50'000'000};
+    const int got = sigtimedwait(&watched, &info, &slice);
+    if (got == SIGTERM || got == SIGINT || got == SIGHUP) {
+      if (!stop_requested) std::cerr << "cosim: " << strsignal(got) << ": stopping the run's processes\n";
+      stop_requested = true;
+    }
+    // Reap whoever ended.
+    while (true) {
+      int status = 0;
+      const pid_t pid = waitpid(-1, &status, WNOHANG);
+      if (pid <= 0) break;
+      for (size_t i = 0; i < children.size(); ++i) {
+        Child& c = children[i];
+        if (c.pid != pid) continue;
+        c.ended = true;
+        if (WIFEXITED(status)) {
+          c.code = WEXITSTATUS(status);
+        } else {
+          c.signal = WIFSIGNALED(status) ? WTERMSIG(status) : SIGKILL;
+          c.code = static_cast<int>(ExitCode::kPeerFailure);  // a process of the run vanished
+          std::cerr << "cosim: " << plan[i].program << " was killed by signal " << c.signal << "\n";
+        }
+        if (i == last) coordinator_ended_at = Clock::now();
+        if (i != last && c.code != 0 && contact_failure == 0 && !children[last].ended) {
+          contact_failure = c.code;
+          failed_contact = i;
+          contact_failed_at = Clock::now();
+        }
+      }
+    }
+    if (stop_requested) {
+      for (Child& c : children) terminate(c);
+    }
+    // A contact process failed while the coordinator runs: the coordinator may be ending too
+    // (it told the contact process to stop); give it half a second, then stop it.
+    if (contact_failure != 0 && !children[last].ended && SecondsSince(contact_failed_at) > 0.5 &&
+        !children[last].terminated) {
+      std::cerr << "cosim: " << plan[failed_contact].program << " failed (exit " << contact_failure << "); stopping "
+                << plan[last].program << "\n";
+      terminate(children[last]);
+    }
+    // Contact processes end on the coordinator's Shutdown; one still running 2 s after the
+    // coordinator ended (it failed before it could connect) is stopped.
+    if (children[last].ended && SecondsSince(coordinator_ended_at) > 2.0) {
+      for (size_t i = 0; i < last; ++i) {
+        if (!children[i].ended && !children[i].terminated) {
+          std::cerr << "cosim: " << plan[i].program << " still running after the coordinator ended; terminating it\n";
+          terminate(children[i]);
+        }
+      }
+    }
+    // A process that ignores SIGTERM (stopped, hung in a system call) is killed.
+    for (size_t i = 0; i < children.size(); ++i) {
+      Child& c = children[i];
+      if (c.ended || !c.terminated || c.killed || SecondsSince(c.terminated_at) < kGraceSeconds) continue;
+      std::cerr << "cosim: " << plan[i].program << " did not end " << kGraceSeconds
+                << " s after SIGTERM (stopped or hung); killing it\n";
+      kill(c.pid, SIGKILL);
+      c.killed = true;
+    }
   }
   sigprocmask(SIG_SETMASK, &previous, nullptr);
-  // The last process is the coordinator of a coupled run (or the only one). Wait for whichever
-  // ends first: a contact process that fails while the coordinator runs (its scenario part was
-  // refused, its step failed before it could say so) gets the coordinator stopped (SIGTERM: it
-  // ends as a peer failure, outputs kept) instead of left waiting out its coupling timeout.
-  // Contact processes end on the coordinator's Shutdown; one still running 2 s after it (the
-  // coordinator failed before it could connect) is terminated.
-  auto status_code = [&](size_t i, int status) {
-    if (WIFEXITED(status)) return WEXITSTATUS(status);
-    if (WIFSIGNALED(status)) {
-      std::cerr << "cosim: " << plan[i].program << " was killed by signal " << WTERMSIG(status) << "\n";
-    }
-    return static_cast<int>(ExitCode::kPeerFailure);  // a process of the run vanished
-  };
-  std::vector<int> codes(children.size(), 0);
-  std::vector<bool> ended(children.size(), false);
-  const size_t last = children.size() - 1;
-  int contact_failure = 0;  // the code of the first contact process that failed first
-  while (!ended[last]) {
-    int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0) {
-      if (errno == EINTR) continue;
-      break;
-    }
-    for (size_t i = 0; i < children.size(); ++i) {
-      if (children[i] != pid) continue;
-      ended[i] = true;
-      codes[i] = status_code(i, status);
-      if (i != last && codes[i] != 0 && contact_failure == 0) {
-        // The coordinator may be ending too (it told the contact process to stop): give it a
-        // moment before stopping it.
-        for (int tick = 0; tick < 10 && !ended[last]; ++tick) {
-          int s = 0;
-          const pid_t r = waitpid(children[last], &s, WNOHANG);
-          if (r == children[last]) {
-            ended[last] = true;
-            codes[last] = status_code(last, s);
-          } else {
-            usleep(50000);
-          }
-        }
-        if (!ended[last]) {
-          contact_failure = codes[i];
-          std::cerr << "cosim: " << plan[i].program << " failed (exit " << codes[i] << "); stopping "
-                    << plan[last].program << "\n";
-          kill(children[last], SIGTERM);
-        }
-      }
-    }
+
+  // Summaries the processes could not write, and the run's when a contact process failed first.
+  for (size_t i = 0; i < children.size(); ++i) {
+    if (children[i].signal == 0) continue;
+    const std::string why = children[i].killed ? " (the launcher's, after it ignored SIGTERM for " +
+                                                     FormatNumber(kGraceSeconds) + " s)"
+                                               : "";
+    WriteKilledSummary(plan[i], cli, children[i].signal, why);
   }
-  for (size_t i = 0; i < last; ++i) {
-    if (ended[i]) continue;
-    int status = 0;
-    for (int tick = 0; tick < 20 && !ended[i]; ++tick) {  // 2 s
-      const pid_t r = waitpid(children[i], &status, WNOHANG);
-      ended[i] = r == children[i] || (r < 0 && errno != EINTR);
-      if (!ended[i]) usleep(100000);
-    }
-    if (!ended[i]) {
-      std::cerr << "cosim: " << plan[i].program << " still running after the coordinator ended; terminating it\n";
-      kill(children[i], SIGTERM);
-      while (waitpid(children[i], &status, 0) < 0 && errno == EINTR) {
-      }
-      codes[i] = codes[last] != 0 ? codes[last] : static_cast<int>(ExitCode::kPeerFailure);
-      continue;
-    }
-    codes[i] = status_code(i, status);
-  }
-  // A contact process that failed first says what happened to the run (e.g. 2: its part of the
-  // scenario was refused); else the coordinator's code (e.g. 4 when a contact process died);
-  // otherwise the first failure.
+  if (contact_failure != 0) PassContactFailureOn(plan[failed_contact], contact_failure, plan[last]);
+
   if (contact_failure != 0) return contact_failure;
-  if (codes.back() != 0) return codes.back();
-  for (int code : codes) {
-    if (code != 0) return code;
+  if (children[last].code != 0) return children[last].code;
+  for (const Child& c : children) {
+    if (c.code != 0) return c.code;
   }
   return 0;
 }

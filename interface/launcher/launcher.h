@@ -1,9 +1,14 @@
 #pragma once
 // The launcher behind `scripts/cosim run`: decides from the scenario which processes a run
-// needs, starts them with the same command line, waits, and passes their exit status on.
+// needs, starts them with the same command line, supervises them and passes their exit
+// status on; it writes the run's summary where a process could not (killed by a signal) or
+// where another process's failure is the run's (a contact process that refused its part).
+#include <sys/types.h>
+
 #include <string>
 #include <vector>
 
+#include "interface/run/run_driver.h"
 #include "interface/scenario/scenario_file.h"
 
 namespace cosim::interface {
@@ -11,18 +16,52 @@ namespace cosim::interface {
 struct ProcessPlan {
   std::string program;                 // executable name, next to cosim_launch
   std::vector<std::string> arguments;  // after the program name
+  std::string out;                     // its output folder
+  std::string name;                    // for messages: the program, or the contact process's name
+  std::vector<std::string> environment;  // NAME=VALUE added to (and replacing) the launcher's
+};
+
+// A folder only this user can enter (mode 0700 whatever the umask), for a coupled run's ipc
+// sockets; removed with everything in it when the object goes.
+class PrivateFolder {
+ public:
+  PrivateFolder();  // PeerError if it cannot be made
+  ~PrivateFolder();
+  PrivateFolder(const PrivateFolder&) = delete;
+  PrivateFolder& operator=(const PrivateFolder&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
 };
 
 // Single-solver scenes run one process: contact nodes only -> nonsmooth_solver; rigid or
 // elastic bodies only -> smooth_solver. A coupled scene (bodies, contact nodes and
-// coupling.interface_nodes) runs its contact process (`--process NAME`, outputs in
-// OUT/NAME) and smooth_solver, the coordinator, last, both with the ipc endpoint. Throws
-// InputError for a scene with neither, or bodies and contact nodes not tied together.
-std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const std::vector<std::string>& arguments);
+// coupling.interface_nodes) runs its contact processes (`--process NAME`, outputs in
+// OUT/NAME) and smooth_solver, the coordinator, last. Contact processes without an endpoint
+// get ipc://FOLDER/<index>.ipc in `ipc_folder` (short: within sun_path's 108 bytes whatever
+// the process names). Every coupled run gets a fresh CURVE key pair for the contact processes
+// (servers) and one for the coordinator (client), in the children's environment only
+// (docs/protocol.md, "Security"). Throws InputError for a scene with neither, or bodies and
+// contact nodes not tied together.
+std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLine& cli,
+                                       const std::vector<std::string>& arguments, const std::string& ipc_folder);
 
-// Starts every process, waits for all, and returns the last process's exit code if it failed
-// (the coordinator of a coupled run), else the first non-zero one (a process killed by a
-// signal counts as a numerical failure, 3), or 0.
-int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan);
+// Starts every process and supervises them until all have ended:
+// - a contact process that fails while the coordinator runs gets the coordinator stopped
+//   (SIGTERM) at once; contact processes still running 2 s after the coordinator ended are
+//   stopped; a process that has not ended `kGraceSeconds` after its SIGTERM (it is stopped,
+//   or hung) is killed (SIGKILL): the launcher always returns;
+// - SIGTERM, SIGINT and SIGHUP to the launcher are passed on to the children (SIGTERM), with
+//   the same escalation; the children die with the launcher if it is killed (PR_SET_PDEATHSIG);
+// - a process killed by a signal gets a summary.json written for it (status failed, exit 4,
+//   the signal, the time its history reached); a contact process that failed first makes the
+//   run's (the coordinator's) summary say its exit code and reason.
+// Returns the first failing contact process's code if it failed first, else the coordinator's
+// (or the only process's) if it failed, else the first non-zero one (a signal counts as 4),
+// or 0.
+int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli);
+
+constexpr double kGraceSeconds = 3.0;
 
 }  // namespace cosim::interface

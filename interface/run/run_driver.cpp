@@ -1,10 +1,13 @@
 #include "interface/run/run_driver.h"
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <limits>
+#include <new>
 
 #include "interface/scenario/checks.h"
 
@@ -27,14 +30,18 @@ CommandLine ParseCommandLine(const std::vector<std::string>& arguments) {
       if (i + 1 >= arguments.size()) throw InputError("command line: " + flag + " needs a value");
       return arguments[++i];
     };
+    auto nonempty = [&](const std::string& flag, std::string v) {
+      if (v.empty()) throw InputError("command line: " + flag + " is given an empty string; expected " +
+                                      (flag == "--out" ? "a folder" : "a contact process name"));
+      return v;
+    };
     if (a == "--out") {
-      cli.out = value(a);
+      cli.out = nonempty(a, value(a));
     } else if (a.rfind("--out=", 0) == 0) {
-      cli.out = a.substr(6);
-      if (cli.out.empty()) throw InputError("command line: --out= needs a folder");
+      cli.out = nonempty("--out", a.substr(6));
     } else if (a == "--process") {
       if (i + 1 >= arguments.size()) throw InputError("command line: --process needs a contact process name");
-      cli.process = arguments[++i];
+      cli.process = nonempty(a, arguments[++i]);
     } else if (a == "--set") {
       cli.sets.push_back(value(a));
     } else if (a.rfind("--set=", 0) == 0) {
@@ -73,34 +80,51 @@ TimeSpan ValidateTimeSpan(const ScenarioFile& file) {
   if (count > 2e9) {
     checks.Fail("numerics.step", "gives " + FormatNumber(count) + " steps; more than 2e9 is not a sensible run");
   }
+  // Times are doubles: far from 0 a step below their resolution does not advance the clock
+  // (t + h == t). Ask for a thousandth of a step of resolution at the span's ends.
+  const double resolution = std::numeric_limits<double>::epsilon() * std::max(std::abs(span.start), std::abs(span.end));
+  if (span.step < 1e3 * resolution) {
+    checks.Fail("numerics.step", FormatNumber(span.step) + " s is below what times of " +
+                                     FormatNumber(std::max(std::abs(span.start), std::abs(span.end))) +
+                                     " s resolve (1e3 × their spacing " + FormatNumber(resolution) +
+                                     " s); move start_time nearer 0 or take a longer step");
+  }
   // A last step shorter than 1e-9 of a step is merged away (round-off of end/step).
   span.steps = static_cast<long long>(std::ceil(count - 1e-9));
   if (span.steps < 1) span.steps = 1;
   return span;
 }
 
-namespace {
-
-std::string DefaultOutFolder(const ScenarioFile* file, const std::string& scenario_path) {
-  std::string name = file != nullptr ? file->proto().name() : "";
-  if (name.empty()) name = std::filesystem::path(scenario_path).stem().string();
-  return "runs/" + name;
+std::string ScenarioName(const ScenarioFile& file) {
+  if (!file.proto().name().empty()) return file.proto().name();  // checked when read
+  // Unnamed: the file's stem, if it is a name (it becomes a folder name).
+  const std::string stem = std::filesystem::path(file.path()).stem().string();
+  try {
+    return Checks(file).Name("name", true, stem);
+  } catch (const InputError&) {
+    return "run";
+  }
 }
+
+std::string DefaultOutFolder(const ScenarioFile& file) { return "runs/" + ScenarioName(file); }
+
+namespace {
 
 double Seconds(std::chrono::steady_clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
 }  // namespace
 
-void WriteInputFailureSummary(const std::string& program, const CommandLine& cli, const std::string& reason) {
+void WriteFailureSummary(const std::string& program, const CommandLine& cli, ExitCode code,
+                         const std::string& reason) {
   if (cli.out.empty()) return;
   try {
     RunOutput failed(cli.out, {});
     failed.summary().set_program(program);
     failed.summary().set_scenario_file(cli.scenario);
     for (const auto& s : cli.sets) failed.summary().add_overrides(s);
-    failed.Finish(ExitCode::kBadInput, reason);
+    failed.Finish(code, reason);
   } catch (const Error&) {
-    // The folder itself is the problem; the caller has reported the error.
+    // The folder itself is the problem (or another run's); the caller has reported the error.
   }
 }
 
@@ -145,22 +169,33 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   std::unique_ptr<Simulation> simulation;
   std::unique_ptr<RunOutput> output;
   TimeSpan span;
+  // Whatever stops the run here (bad input, an endpoint that cannot be bound: exit 4, a model
+  // too large for memory) ends it with its exit code and, given --out, a summary saying why.
+  auto fail_before_start = [&](ExitCode code, const std::string& what) {
+    std::cerr << program << ": error: " << what << "\n";
+    WriteFailureSummary(program, cli, code, what);
+    return static_cast<int>(code);
+  };
   try {
     file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets));
     span = ValidateTimeSpan(*file);
     simulation = factory(*file, cli);
-    output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(file.get(), cli.scenario) : cli.out,
+    output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(*file) : cli.out,
                                          simulation->ProbeNames());
-  } catch (const InputError& e) {
-    std::cerr << program << ": error: " << e.what() << "\n";
-    WriteInputFailureSummary(program, cli, e.what());
-    return static_cast<int>(ExitCode::kBadInput);
+    simulation->BeginOutput(output->folder());
+  } catch (const Error& e) {
+    return fail_before_start(e.code(), e.what());
+  } catch (const std::bad_alloc&) {
+    return fail_before_start(ExitCode::kBadInput, "the model does not fit in memory (out of memory while building "
+                                                  "it); reduce its size");
+  } catch (const std::exception& e) {
+    return fail_before_start(ExitCode::kNumericalFailure, std::string("unexpected error while building the model: ") +
+                                                              e.what());
   }
 
   run::RunSummary& summary = output->summary();
   summary.set_program(program);
-  summary.set_scenario(file->proto().name().empty() ? std::filesystem::path(cli.scenario).stem().string()
-                                                    : file->proto().name());
+  summary.set_scenario(ScenarioName(*file));
   summary.set_scenario_file(cli.scenario);
   for (const auto& s : cli.sets) summary.add_overrides(s);
   summary.set_start_time(span.start);
@@ -169,8 +204,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   if (every < 1) {
     std::cerr << program << ": error: " << file->Where("output.every")
               << ": output.every: must be >= 1, got " << every << "\n";
-    output->Finish(ExitCode::kBadInput, "output.every must be >= 1");
-    return static_cast<int>(ExitCode::kBadInput);
+    return static_cast<int>(output->Finish(ExitCode::kBadInput, "output.every must be >= 1"));
   }
 
   output->Log(program + ": scenario '" + summary.scenario() + "', " + std::to_string(span.steps) +
@@ -207,13 +241,17 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   }
   try {
     simulation->Finish(code, reason);
-  } catch (const Error& e) {
+  } catch (const std::exception& e) {
     output->Log(program + ": note: " + e.what());
   }
   try {
-    simulation->WriteFiles(output->folder());
+    simulation->EndOutput();
   } catch (const Error& e) {
-    output->Log(program + ": note: " + e.what());
+    output->Log(program + ": error: " + e.what());
+    if (code == ExitCode::kOk) {
+      code = e.code();
+      reason = e.what();
+    }
   }
   summary.set_steps(static_cast<int>(accepted));
   summary.set_simulated_time(span.TimeAt(accepted));
@@ -232,8 +270,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     output->Log(program + ": done, " + std::to_string(accepted) + " steps to t = " +
                 FormatNumber(span.TimeAt(accepted)) + " s in " + FormatNumber(summary.wall_time()) + " s");
   }
-  output->Finish(code, reason);
-  return static_cast<int>(code);
+  return static_cast<int>(output->Finish(code, reason));
 }
 
 }  // namespace cosim::interface

@@ -24,7 +24,8 @@ struct CommandLine {
 CommandLine ParseCommandLine(const std::vector<std::string>& arguments);
 std::string Usage(const std::string& program);
 
-// The time span of a scenario, validated: start_time < end_time, step > 0.
+// The time span of a scenario, validated: start_time < end_time, step > 0, at most 2e9 steps,
+// and a step that the times' resolution can represent.
 struct TimeSpan {
   double start = 0.0;
   double end = 0.0;
@@ -48,18 +49,26 @@ class Simulation {
   // The run is over (normally, or with `code` and `reason`): tell the peers. Errors here are
   // the peers' problem and are not reported.
   virtual void Finish(ExitCode /*code*/, const std::string& /*reason*/) {}
-  // Files of its own in the output folder (e.g. the coupling convergence log), written at the
-  // end of the run, failed or not.
-  virtual void WriteFiles(const std::string& /*folder*/) const {}
+  // Files of its own in the output folder (e.g. the coupling convergence log): opened once the
+  // folder is locked for the run, before the first step, written as the run goes, and closed
+  // at its end, failed or not (EndOutput throws an Error for a failed write).
+  virtual void BeginOutput(const std::string& /*folder*/) {}
+  virtual void EndOutput() {}
 };
 
 using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&, const CommandLine&)>;
 
-// For a run that ends on bad input before its first step: if the command line named an
-// output folder, writes summary.json (status failed, exit code 2, the reason) and an empty
-// history.csv there, so that a study records the failure. Best effort: a folder that cannot
-// be written is itself the error already reported.
-void WriteInputFailureSummary(const std::string& program, const CommandLine& cli, const std::string& reason);
+// For a run that ends before its first step (bad input, exit 2; an endpoint that cannot be
+// bound, exit 4): if the command line named an output folder, writes summary.json (status
+// failed, the exit code, the reason) and an empty history.csv there, so that a study records
+// the failure. Best effort: a folder that cannot be written (or that another run holds) is
+// itself the error already reported.
+void WriteFailureSummary(const std::string& program, const CommandLine& cli, ExitCode code, const std::string& reason);
+
+// The scenario's name: its `name`, else its file's stem if that is a valid name, else "run";
+// the default output folder is runs/<name>.
+std::string ScenarioName(const ScenarioFile& file);
+std::string DefaultOutFolder(const ScenarioFile& file);
 
 // main() of a solver executable. Returns the process exit code.
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory);

@@ -1,14 +1,19 @@
 #include "interface/run/run_output.h"
 
+#include <fcntl.h>
 #include <google/protobuf/util/json_util.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
-#include <limits>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
+#include <memory>
+#include <sstream>
 
 namespace cosim::interface {
 
@@ -18,67 +23,120 @@ void IterationCounter::Fill(run::IterationStats* stats) const {
   stats->set_max_per_step(static_cast<int>(std::min<long long>(max_, std::numeric_limits<int>::max())));
 }
 
+OutputFile::OutputFile(const std::string& path) : path_(path), last_flush_(std::chrono::steady_clock::now()) {
+  file_ = std::fopen(path.c_str(), "w");
+  if (file_ == nullptr) {
+    throw InputError("cannot write " + path + ": " + std::strerror(errno) + " (choose a writable output folder)");
+  }
+  buffer_.resize(1 << 16);
+  std::setvbuf(file_, buffer_.data(), _IOFBF, buffer_.size());
+}
+
+OutputFile::~OutputFile() {
+  if (file_ != nullptr) std::fclose(file_);
+}
+
+void OutputFile::Check() {
+  if (error_.empty() && std::ferror(file_) != 0) {
+    error_ = "writing " + path_ + " failed: " + std::strerror(errno != 0 ? errno : EIO);
+  }
+}
+
+void OutputFile::EndRow() {
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_flush_ >= std::chrono::seconds(1)) {
+    Flush();
+    last_flush_ = now;
+  }
+  Check();
+  if (!error_.empty()) throw InputError(error_ + " (is the disk full?)");
+}
+
+bool OutputFile::Flush() {
+  errno = 0;
+  if (std::fflush(file_) != 0 && error_.empty()) error_ = "writing " + path_ + " failed: " + std::strerror(errno);
+  Check();
+  return error_.empty();
+}
+
 RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& probe_names)
     : folder_(folder), probe_count_(static_cast<int>(probe_names.size())) {
+  if (folder.empty()) throw InputError("--out: the output folder is an empty string; give a folder");
   std::error_code error;
   std::filesystem::create_directories(folder, error);
   if (error) {
     throw InputError("--out " + folder + ": cannot create the output folder: " + error.message() +
                      " (choose a writable folder)");
   }
-  const std::string history_path = folder + "/history.csv";
-  history_ = std::fopen(history_path.c_str(), "w");
-  if (history_ == nullptr) {
-    throw InputError("--out " + folder + ": cannot write " + history_path + ": " + std::strerror(errno) +
-                     " (choose a writable folder)");
+  // One run per folder: an advisory lock on the folder itself, released when the process
+  // ends however it ends (no lock file is left behind).
+  lock_ = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (lock_ < 0) {
+    throw InputError("--out " + folder + ": cannot open the output folder: " + std::strerror(errno));
   }
-  history_buffer_.resize(1 << 16);
-  std::setvbuf(history_, history_buffer_.data(), _IOFBF, history_buffer_.size());
+  if (::flock(lock_, LOCK_EX | LOCK_NB) != 0) {
+    const int why = errno;
+    ::close(lock_);
+    lock_ = -1;
+    throw InputError("--out " + folder + ": the output folder is in use by another run" +
+                     (why == EWOULDBLOCK ? std::string() : std::string(" (") + std::strerror(why) + ")") +
+                     "; give each run its own folder");
+  }
+  history_ = std::make_unique<OutputFile>(folder + "/history.csv");
   const std::string log_path = folder + "/log.txt";
   log_ = std::fopen(log_path.c_str(), "w");
   if (log_ == nullptr) {
     throw InputError("--out " + folder + ": cannot write " + log_path + ": " + std::strerror(errno));
   }
-  std::fputs("time", history_);
+  std::FILE* h = history_->get();
+  std::fputs("time", h);
   for (const std::string& name : probe_names) {
-    std::fputc(',', history_);
-    std::fputs(name.c_str(), history_);
+    std::fputc(',', h);
+    std::fputs(name.c_str(), h);
   }
-  std::fputc('\n', history_);
+  std::fputc('\n', h);
 }
 
 RunOutput::~RunOutput() {
-  if (history_ != nullptr) std::fclose(history_);
+  history_.reset();
   if (log_ != nullptr) std::fclose(log_);
+  if (lock_ >= 0) ::close(lock_);
 }
 
 void RunOutput::WriteRow(double time, const std::vector<double>& values) {
   COSIM_ASSERT(static_cast<int>(values.size()) == probe_count_, "probe row size");
-  std::fprintf(history_, "%.17g", time);
-  for (double v : values) std::fprintf(history_, ",%.17g", v);
-  std::fputc('\n', history_);
+  std::FILE* h = history_->get();
+  std::fprintf(h, "%.17g", time);
+  for (double v : values) std::fprintf(h, ",%.17g", v);
+  std::fputc('\n', h);
+  history_->EndRow();
 }
 
 void RunOutput::Log(const std::string& line) {
   std::fprintf(stderr, "%s\n", line.c_str());
   std::fprintf(log_, "%s\n", line.c_str());
-  Flush();
-}
-
-void RunOutput::Flush() {
-  std::fflush(history_);
   std::fflush(log_);
+  history_->Flush();
 }
 
-void RunOutput::Finish(ExitCode code, const std::string& reason) {
+ExitCode RunOutput::Finish(ExitCode code, const std::string& reason) {
+  std::string why = reason;
+  if (!history_->Flush() && code == ExitCode::kOk) {
+    code = ExitCode::kBadInput;
+    why = "--out " + folder_ + ": " + history_->error() + " (is the disk full?)";
+    Log("error: " + why);
+  }
   summary_.set_status(code == ExitCode::kOk ? "ok" : "failed");
   summary_.set_exit_code(static_cast<int>(code));
-  summary_.set_reason(reason);
-  Flush();
-  WriteSummaryJson(summary_, folder_ + "/summary.json");
+  summary_.set_reason(why);
+  if (std::fflush(log_) != 0 || std::ferror(log_) != 0) {
+    std::cerr << "error: writing " << folder_ << "/log.txt failed\n";
+  }
+  if (!WriteSummaryJson(summary_, folder_ + "/summary.json")) return ExitCode::kBadInput;
+  return code;
 }
 
-void WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
+bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
   std::string json;
   google::protobuf::util::JsonPrintOptions options;
   options.add_whitespace = true;
@@ -88,7 +146,20 @@ void WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
   COSIM_ASSERT(status.ok(), "RunSummary to JSON: " + status.ToString());
   std::ofstream out(path);
   out << json;
-  if (!out) std::cerr << "error: cannot write " << path << "\n";
+  out.close();
+  if (!out) {
+    std::cerr << "error: cannot write " << path << ": " << std::strerror(errno) << " (the run's outcome is lost)\n";
+    return false;
+  }
+  return true;
+}
+
+bool ReadSummaryJson(const std::string& path, run::RunSummary* summary) {
+  std::ifstream in(path);
+  if (!in) return false;
+  std::stringstream text;
+  text << in.rdbuf();
+  return google::protobuf::util::JsonStringToMessage(text.str(), summary).ok();
 }
 
 }  // namespace cosim::interface

@@ -71,6 +71,15 @@ std::string Checks::Name(const std::string& path, bool has, const std::string& v
       Fail(path, "'" + value + "' contains '" + std::string(1, c) + "'; use letters, digits, '_', '.' or '-'");
     }
   }
+  // Names become file and folder names (a run's output folder, a contact process's subfolder):
+  // "." and ".." would write into the folder itself or its parent.
+  if (value.find_first_not_of('.') == std::string::npos) {
+    Fail(path, "'" + value + "' is not a name (only dots: it would name a folder or its parent)");
+  }
+  if (value.size() > kMaxNameLength) {
+    Fail(path, "'" + value.substr(0, 20) + "...' has " + std::to_string(value.size()) + " characters; at most " +
+                   std::to_string(kMaxNameLength));
+  }
   return value;
 }
 

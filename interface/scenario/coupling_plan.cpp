@@ -1,5 +1,6 @@
 #include "interface/scenario/coupling_plan.h"
 
+#include <charconv>
 #include <map>
 #include <set>
 
@@ -7,6 +8,53 @@
 #include "interface/scenario/checks.h"
 
 namespace cosim::interface {
+
+void CheckEndpoint(const Checks& checks, const std::string& path, const std::string& endpoint) {
+  const std::string expected = " (expected tcp://HOST:PORT or ipc://PATH)";
+  if (endpoint.rfind("ipc://", 0) == 0) {
+    const std::string socket_path = endpoint.substr(6);
+    if (socket_path.empty()) checks.Fail(path, "'" + endpoint + "' has no path" + expected);
+    if (socket_path.size() > 107) {
+      checks.Fail(path, "the ipc path has " + std::to_string(socket_path.size()) +
+                            " bytes; a Unix socket's path holds at most 107 (sun_path): choose a shorter one");
+    }
+    return;
+  }
+  if (endpoint.rfind("tcp://", 0) == 0) {
+    const std::string address = endpoint.substr(6);
+    const size_t colon = address.rfind(':');
+    const std::string host = colon == std::string::npos ? "" : address.substr(0, colon);
+    const std::string port = colon == std::string::npos ? "" : address.substr(colon + 1);
+    if (host.empty() || host == "*") {
+      checks.Fail(path, "'" + endpoint + "' names no host; both sides use the endpoint, so give the contact "
+                                         "process's host (e.g. tcp://127.0.0.1:5555)");
+    }
+    int number = 0;
+    const auto [end, error] = std::from_chars(port.data(), port.data() + port.size(), number);
+    if (port.empty() || error != std::errc() || end != port.data() + port.size() || number < 1 || number > 65535) {
+      checks.Fail(path, "'" + endpoint + "': the port '" + port + "' is not a number in 1..65535");
+    }
+    return;
+  }
+  if (endpoint.rfind("inproc://", 0) == 0) {
+    checks.Fail(path, "'" + endpoint + "': inproc:// joins threads of one process; a contact process is another "
+                                       "process" + expected);
+  }
+  checks.Fail(path, "'" + endpoint + "' is not a ZeroMQ endpoint this project uses" + expected);
+}
+
+ChannelTiming ReadChannelTiming(const ScenarioFile& file) {
+  const Checks checks(file);
+  const scenario::Coupling& coupling = file.proto().coupling();
+  ChannelTiming timing;
+  // ZeroMQ takes milliseconds as an int: 2147483 s at most; a week is more than any wait.
+  timing.timeout = checks.InRange("coupling.timeout", true, coupling.timeout(), 0.0, 1e6, /*lo_open=*/true);
+  timing.heartbeat = coupling.has_heartbeat()
+                         ? checks.InRange("coupling.heartbeat", true, coupling.heartbeat(), 0.0, 0.5 * timing.timeout,
+                                          /*lo_open=*/true)
+                         : 0.1 * timing.timeout;
+  return timing;
+}
 
 const std::vector<std::string>& ContactPrograms() {
   static const std::vector<std::string> programs = {"nonsmooth_solver", "penalty_solver"};
@@ -41,6 +89,7 @@ std::vector<ContactProcessPlan> ReadCouplingPlan(const ScenarioFile& file) {
     if (!known) checks.Fail(path + ".program", "unknown contact program '" + p.program() + "'; expected one of " + programs);
     process.program = p.program();
     process.endpoint = p.endpoint();
+    if (p.has_endpoint()) CheckEndpoint(checks, path + ".endpoint", p.endpoint());
     for (int k = 0; k < p.contact_nodes_size(); ++k) {
       const std::string& node = p.contact_nodes(k);
       const std::string npath = ElementPath(path + ".contact_nodes", k);

@@ -3,11 +3,18 @@
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
 
+#include <sys/stat.h>
+
 #include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
 #include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::interface {
 
@@ -64,14 +71,21 @@ bool IsDecimal(const std::string& s) {
   return true;
 }
 
+// A decimal index, or -1 when it does not fit an int (no list is that long).
+int ParseIndex(const std::string& key) {
+  int index = -1;
+  const auto [end, error] = std::from_chars(key.data(), key.data() + key.size(), index);
+  return error == std::errc() && end == key.data() + key.size() ? index : -1;
+}
+
 // Resolves the key of a repeated field to an index: a decimal index, or the element whose
 // `name` field equals the key. Returns -1 when no element matches.
 int ResolveIndex(const pb::Message& parent, const pb::FieldDescriptor* field, const std::string& key) {
   const pb::Reflection* reflection = parent.GetReflection();
   const int size = reflection->FieldSize(parent, field);
   if (IsDecimal(key)) {
-    const long index = std::stol(key);
-    return index < size ? static_cast<int>(index) : -1;
+    const int index = ParseIndex(key);
+    return index >= 0 && index < size ? index : -1;
   }
   if (field->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) return -1;
   const pb::FieldDescriptor* name_field = field->message_type()->FindFieldByName("name");
@@ -125,13 +139,29 @@ ScenarioFile& ScenarioFile::operator=(ScenarioFile&&) noexcept = default;
 ScenarioFile::~ScenarioFile() = default;
 
 ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::string>& overrides) {
+  // Only a regular file of a sensible size: a FIFO would block in open(), /dev/zero would be
+  // read until memory runs out.
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) {
+    throw InputError(path + ": cannot read the scenario file: " + std::strerror(errno) +
+                     " (does it exist and is it readable?)");
+  }
+  if (!S_ISREG(info.st_mode)) {
+    throw InputError(path + ": the scenario is not a regular file (a folder, device, FIFO or socket); expected a "
+                            "protobuf text file");
+  }
+  if (info.st_size > kMaxScenarioBytes) {
+    throw InputError(path + ": the scenario file has " + std::to_string(info.st_size) + " bytes; at most " +
+                     std::to_string(kMaxScenarioBytes) + " are read (tables belong in files of their own)");
+  }
   std::ifstream in(path);
   if (!in) {
     throw InputError(path + ": cannot read the scenario file (does it exist and is it readable?)");
   }
-  std::stringstream text;
-  text << in.rdbuf();
-  return Parse(text.str(), path, overrides);
+  std::string text(static_cast<size_t>(info.st_size), '\0');
+  in.read(text.data(), info.st_size);
+  text.resize(static_cast<size_t>(in.gcount()));
+  return Parse(text, path, overrides);
 }
 
 ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
@@ -148,7 +178,45 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   }
   for (const std::string& argument : overrides) file.ApplyOverride(argument);
   file.overrides_ = overrides;
+  file.CheckFinite(file.proto_, "");
+  // The name becomes the default output folder runs/<name>.
+  if (file.proto_.has_name()) Checks(file).Name("name", true, file.proto_.name());
   return file;
+}
+
+void ScenarioFile::CheckFinite(const pb::Message& message, const std::string& prefix) const {
+  // Every number of the schema is a finite one (no field gives inf or NaN a meaning): refused
+  // here once, for every reader, with its place.
+  const pb::Descriptor* descriptor = message.GetDescriptor();
+  const pb::Reflection* reflection = message.GetReflection();
+  for (int i = 0; i < descriptor->field_count(); ++i) {
+    const pb::FieldDescriptor* field = descriptor->field(i);
+    const std::string path = prefix.empty() ? field->name() : prefix + "." + field->name();
+    const bool is_double = field->cpp_type() == pb::FieldDescriptor::CPPTYPE_DOUBLE;
+    const bool is_message = field->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE;
+    if (!is_double && !is_message) continue;  // (the schema has no float fields)
+    auto check = [&](double value, const std::string& where) {
+      if (std::isfinite(value)) return;
+      Fail(where, "must be a finite number, got " + std::string(std::isnan(value) ? "nan" : value > 0 ? "inf" : "-inf"));
+    };
+    if (field->is_repeated()) {
+      const int size = reflection->FieldSize(message, field);
+      for (int k = 0; k < size; ++k) {
+        const std::string where = path + "[" + std::to_string(k) + "]";
+        if (is_message) {
+          CheckFinite(reflection->GetRepeatedMessage(message, field, k), where);
+        } else {
+          check(reflection->GetRepeatedDouble(message, field, k), where);
+        }
+      }
+    } else if (reflection->HasField(message, field)) {
+      if (is_message) {
+        CheckFinite(reflection->GetMessage(message, field), path);
+      } else {
+        check(reflection->GetDouble(message, field), path);
+      }
+    }
+  }
 }
 
 void ScenarioFile::ApplyOverride(const std::string& argument) {
@@ -282,7 +350,8 @@ std::string ScenarioFile::Where(const std::string& field_path) const {
     if (field == nullptr) break;
     int index = -1;
     if (field->is_repeated()) {
-      index = segments[s].has_key && IsDecimal(segments[s].key) ? std::stoi(segments[s].key) : 0;
+      index = segments[s].has_key && IsDecimal(segments[s].key) ? ParseIndex(segments[s].key) : 0;
+      if (index < 0) break;
     }
     const pb::TextFormat::ParseLocation location = tree->GetLocation(field, index);
     if (location.line < 0) {

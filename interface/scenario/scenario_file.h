@@ -17,7 +17,9 @@ class ScenarioFile {
   // Reads `path` (protobuf text format, schema proto/scenario.proto), then applies each
   // override "FIELD.PATH=VALUE" in order. Throws InputError naming file:line:col for syntax
   // errors and unknown fields, and the override for a bad `--set`.
+  // Only a regular file of at most kMaxScenarioBytes is read. Every number must be finite.
   static ScenarioFile Load(const std::string& path, const std::vector<std::string>& overrides);
+  static constexpr long long kMaxScenarioBytes = 64LL << 20;
   // The same from text in memory (tests); `display_name` stands in for the file name.
   static ScenarioFile Parse(const std::string& text, const std::string& display_name,
                             const std::vector<std::string>& overrides);
@@ -41,6 +43,8 @@ class ScenarioFile {
  private:
   ScenarioFile();
   void ApplyOverride(const std::string& argument);
+  // InputError at the first non-finite number under `message` (at field path `prefix`).
+  void CheckFinite(const google::protobuf::Message& message, const std::string& prefix) const;
 
   scenario::Scenario proto_;
   std::string path_;

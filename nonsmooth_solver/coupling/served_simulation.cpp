@@ -13,7 +13,6 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
                                                  const StepperFactory& make)
     : context_(std::make_unique<zmq::context_t>()) {
   const interface::Checks checks(file);
-  const scenario::Coupling& coupling = file.proto().coupling();
   const std::vector<interface::ContactProcessPlan> plan = interface::ReadCouplingPlan(file);
   const interface::ContactProcessPlan& p = interface::FindProcess(plan, process, file);
   // This process integrates its own contact nodes only (the others are other processes').
@@ -26,8 +25,10 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   options.bind = true;
   options.self = process;
   options.peer = "smooth_solver";
-  options.timeout = checks.Positive("coupling.timeout", true, coupling.timeout(), "s");
-  options.heartbeat = checks.Positive("coupling.heartbeat", true, coupling.heartbeat(), "s");
+  const interface::ChannelTiming timing = interface::ReadChannelTiming(file);
+  options.timeout = timing.timeout;
+  options.heartbeat = timing.heartbeat;
+  options.keys = interface::CurveKeysFromEnvironment();
   channel_ = std::make_unique<interface::Channel>(context_.get(), options);
   server_ = std::make_unique<ContactServer>(simulation_.get(), channel_.get(), file.proto().name());
 }

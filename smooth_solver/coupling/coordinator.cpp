@@ -136,6 +136,7 @@ void Coordinator::Impose(double h) {
 }
 
 int Coordinator::Step(double t, double h) {
+  log_.clear();  // this step's records (the capacity stays: no allocation once warm)
   integrator_->SaveTo(&start_);
   for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = (*system_.imposed)[static_cast<size_t>(v)].rate;
   relaxation_.BeginStep();

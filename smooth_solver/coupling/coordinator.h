@@ -72,6 +72,7 @@ class Coordinator {
   // `wait_for_replies`, waits for each one's Shutdown.
   void Shutdown(int exit_code, const std::string& reason, bool wait_for_replies = true);
 
+  // The iterations of the last step (or of the step under way when it failed).
   const std::vector<CouplingIterationRecord>& log() const { return log_; }
   int last_newton_iterations() const { return newton_; }  // CGα iterations of the last step, all tries
   long long marked_steps() const { return marked_; }

@@ -53,8 +53,8 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     checks.Fail("numerics.smooth.integrator", "a coupled run needs CGALPHA (its steps are repeated per coupling "
                                               "iteration from a checkpoint)");
   }
-  const double timeout = checks.Positive("coupling.timeout", true, coupling.timeout(), "s");
-  const double heartbeat = checks.Positive("coupling.heartbeat", true, coupling.heartbeat(), "s");
+  const interface::ChannelTiming timing = interface::ReadChannelTiming(file);
+  const interface::CurveKeys keys = interface::CurveKeysFromEnvironment();
   std::vector<Coordinator::Peer> peers;
   const MultibodySystem& sys = simulation_->system();
   std::vector<bool> served(sys.interface_points.size(), false);
@@ -67,8 +67,9 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     options.bind = false;
     options.self = "smooth_solver";
     options.peer = process.name;
-    options.timeout = timeout;
-    options.heartbeat = heartbeat;
+    options.timeout = timing.timeout;
+    options.heartbeat = timing.heartbeat;
+    options.keys = keys;
     // The interface points whose contact node this process integrates, in interface order.
     std::vector<int> points;
     for (size_t k = 0; k < sys.interface_points.size(); ++k) {
@@ -135,7 +136,18 @@ void CoupledSmoothSimulation::Step(double t, double h) {
     coordinator_->Handshake(scenario_name_, start_time_, step_);
     handshaken_ = true;
   }
-  const int iterations = coordinator_->Step(t, h);
+  int iterations = 0;
+  try {
+    iterations = coordinator_->Step(t, h);
+  } catch (const Error&) {
+    try {
+      WriteIterations();  // the failed step's iterations say why it failed
+    } catch (const Error&) {
+      // A failed write is reported by EndOutput; the step's own failure goes on up.
+    }
+    throw;
+  }
+  WriteIterations();
   coupling_.Add(iterations);
   simulation_->Record(t + h, coordinator_->last_newton_iterations());
 }
@@ -158,16 +170,23 @@ void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {
   coordinator_->Shutdown(static_cast<int>(code), reason);
 }
 
-void CoupledSmoothSimulation::WriteFiles(const std::string& folder) const {
-  const std::string path = folder + "/coupling.csv";
-  std::FILE* f = std::fopen(path.c_str(), "w");
-  if (f == nullptr) throw InputError("cannot write " + path);
-  std::fprintf(f, "step,iteration,reaction_residual,displacement_change,relaxation_factor\n");
+void CoupledSmoothSimulation::BeginOutput(const std::string& folder) {
+  iterations_ = std::make_unique<interface::OutputFile>(folder + "/coupling.csv");
+  std::fprintf(iterations_->get(), "step,iteration,reaction_residual,displacement_change,relaxation_factor\n");
+  iterations_->EndRow();
+}
+
+void CoupledSmoothSimulation::WriteIterations() {
+  if (iterations_ == nullptr) return;
   for (const CouplingIterationRecord& r : coordinator_->log()) {
-    std::fprintf(f, "%lld,%d,%.17g,%.17g,%.17g\n", r.step, r.iteration, r.reaction_residual, r.displacement_change,
-                 r.relaxation_factor);
+    std::fprintf(iterations_->get(), "%lld,%d,%.17g,%.17g,%.17g\n", r.step, r.iteration, r.reaction_residual,
+                 r.displacement_change, r.relaxation_factor);
   }
-  std::fclose(f);
+  iterations_->EndRow();
+}
+
+void CoupledSmoothSimulation::EndOutput() {
+  if (iterations_ != nullptr && !iterations_->Flush()) throw InputError(iterations_->error() + " (is the disk full?)");
 }
 
 }  // namespace cosim::smooth

@@ -32,8 +32,9 @@ class CoupledSmoothSimulation : public interface::Simulation {
   void FillSummary(run::RunSummary* summary) const override;
   void Finish(ExitCode code, const std::string& reason) override;
   // coupling.csv: every coupling iteration of every step (step, iteration, reaction residual,
-  // displacement change, relaxation factor).
-  void WriteFiles(const std::string& folder) const override;
+  // displacement change, relaxation factor), written as the steps go.
+  void BeginOutput(const std::string& folder) override;
+  void EndOutput() override;
 
  private:
   std::vector<Coordinator::MovingObstacle> MovingObstacles(const interface::ScenarioFile& file,
@@ -43,6 +44,8 @@ class CoupledSmoothSimulation : public interface::Simulation {
   std::vector<std::unique_ptr<interface::Channel>> channels_;  // one per contact process
   std::unique_ptr<Coordinator> coordinator_;
   interface::IterationCounter coupling_;
+  void WriteIterations();  // the coordinator's records of the last step, to coupling.csv
+  std::unique_ptr<interface::OutputFile> iterations_;
   bool handshaken_ = false;
   std::string scenario_name_;
   double start_time_ = 0.0, step_ = 0.0;

@@ -200,7 +200,29 @@ INSTANTIATE_TEST_SUITE_P(
                  "force: [0, 1e4, 0] factor { constant: 2 }", "",
                  {"model.elastic_bodies[0].loads[0].factor", "applies to DYNAMIC analyses"}},
         BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
-                 {"friction", "must be >= 0"}}),
+                 {"friction", "must be >= 0"}},
+        // Hardening (issue 13): an index too large for any integer type is no element (it
+        // threw std::out_of_range: abort, 134).
+        BadInput{"huge_index", kBall, "", "", "--set 'model.contact_nodes[99999999999999999999].mass=2'",
+                 {"'contact_nodes' has 1 elements and none matches [99999999999999999999]"}},
+        // Every number of the schema is finite, wherever it is (file or --set): NaN and inf
+        // passed the range checks written as `value < lo` in several fields.
+        BadInput{"nan_in_file", kBall, "restitution: 0.9", "restitution: nan", "",
+                 {"broken.pbtxt:19:", "model.contact_nodes[0].contacts[0].restitution", "must be a finite number, got nan"}},
+        BadInput{"inf_by_set", kPendulum, "", "", "--set 'model.gravity=[0, 0, -inf]'",
+                 {"--set model.gravity=[0, 0, -inf]", "model.gravity[2]", "must be a finite number, got -inf"}},
+        BadInput{"inf_timeout", kBall, "", "", "--set coupling.timeout=inf", {"coupling.timeout", "got inf"}},
+        // Far from t = 0 a small step does not advance the clock: t + h == t.
+        BadInput{"time_resolution", kBall, "", "", "--set numerics.start_time=-1e15 --set numerics.end_time=-999999999999999.875",
+                 {"numerics.step", "below what times of 1e+15 s resolve"}},
+        // The name becomes the output folder runs/<name>: it must be a name.
+        BadInput{"escaping_name", kBall, "name: \"bouncing_ball\"", "name: \"../../escaped\"", "",
+                 {"broken.pbtxt:", "name: '../../escaped' contains '/'"}},
+        BadInput{"blank_in_name", kBall, "name: \"bouncing_ball\"", "name: \"a b\"", "", {"name: 'a b' contains ' '"}},
+        BadInput{"empty_name", kBall, "name: \"bouncing_ball\"", "name: \"\"", "", {"name: must not be empty"}},
+        BadInput{"dot_dot_node", kBall, "name: \"ball\"", "name: \"..\"", "",
+                 {"model.contact_nodes[0].name: '..' is not a name"}},
+        BadInput{"empty_out", kBall, "", "", "--out ''", {"--out is given an empty string"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
 
 TEST(RunContract, ScriptPassesExitCodesOn) {

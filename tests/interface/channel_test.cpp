@@ -70,9 +70,13 @@ TEST(Channel, MessagesRoundTripOverInprocAndIpc) {
 TEST(Channel, SilentPeerEndsTheWaitWithExitCodeFourNamingIt) {
   // Nobody answers: after `timeout` the coordinator gives up with a PeerError that names the
   // peer, the endpoint and what it waited for — within the timeout plus polling slack.
-  Pair p("inproc://silent", 0.3);
+  // (A bare socket: a Channel would send heartbeats from its own thread.)
+  zmq::context_t context;
+  zmq::socket_t silent(context, zmq::socket_type::dealer);
+  silent.bind("inproc://silent");
+  Channel smooth(&context, {"inproc://silent", false, "smooth", "contact", 0.3, 0.05});
   const auto t0 = std::chrono::steady_clock::now();
-  ExpectCode(ExitCode::kPeerFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 7, 0); },
+  ExpectCode(ExitCode::kPeerFailure, [&] { smooth.Receive(Envelope::kKinematics, 7, 0); },
              "no message from 'contact' (inproc://silent) for 0.3 s while waiting for Kinematics of step 7");
   const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_GT(waited, 0.29);
@@ -84,16 +88,14 @@ TEST(Channel, HeartbeatsKeepASlowPeerAlive) {
   // on, and the reply arrives.
   Pair p("inproc://slow", 0.2);
   std::thread busy([&] {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(600);
-    while (std::chrono::steady_clock::now() < end) {
-      p.contact.MaybeHeartbeat();
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
+    // Busy: no call into the channel at all; its own thread sends the heartbeats.
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
     p.contact.Outgoing(1, 0).mutable_kinematics();
     p.contact.Send();
   });
   EXPECT_NO_THROW(p.smooth.Receive(Envelope::kKinematics, 1, 0));
   busy.join();
+  EXPECT_GE(p.contact.heartbeats_sent(), 5);  // every 0.05 s for 0.6 s, give or take the thread's wake-ups
 }
 
 TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
@@ -125,7 +127,9 @@ TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
   stop->set_exit_code(3);
   stop->set_reason("LCP failed at t = 0.25 s");
   p.contact.Send();
-  ExpectCode(ExitCode::kPeerFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+  // A peer that reports its own numerical failure: this side ends with the same code (3), not
+  // as a peer failure (4), and passes its reason on.
+  ExpectCode(ExitCode::kNumericalFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
              "'contact' stopped (exit code 3) while this side waited for Kinematics of step 3, iteration 2: LCP failed");
 }
 

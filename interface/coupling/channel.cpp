@@ -292,6 +292,7 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting) {
       deadline = Now() + options_.timeout;  // alive, busy
       continue;
     }
+    peer_stopped_ = peer_stopped_ || incoming_.has_shutdown();
     return incoming_;
   }
 }

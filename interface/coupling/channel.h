@@ -88,6 +88,8 @@ class Channel {
   const coupling::Envelope& ReceiveAny();
 
   const ChannelOptions& options() const { return options_; }
+  // The peer sent its Shutdown (it has ended or is ending: no more messages to it).
+  bool peer_stopped() const { return peer_stopped_; }
   long long heartbeats_sent() const;
   // Raw access for the transport benchmark and tests (not while the channel is in use).
   zmq::socket_t& socket() { return *socket_; }
@@ -107,6 +109,7 @@ class Channel {
   mutable std::mutex socket_mutex_;  // the socket, last_send_, heartbeats_
   double last_send_ = 0.0;
   long long heartbeats_ = 0;
+  bool peer_stopped_ = false;
   std::mutex stop_mutex_;
   std::condition_variable stop_;
   bool stopping_ = false;

@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
     interface::ValidateTimeSpan(file);
     const interface::PrivateFolder sockets;
     const auto plan = interface::PlanProcesses(file, cli, arguments, sockets.path());
+    if (plan.size() > 1) std::cerr << "cosim: coupling sockets in " << sockets.path() << " (removed at the end)\n";
     const std::string bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
     return interface::RunProcesses(bin_dir, plan, cli);
   } catch (const Error& e) {

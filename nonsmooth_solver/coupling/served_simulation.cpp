@@ -55,6 +55,7 @@ void ServedContactSimulation::Finish(ExitCode code, const std::string& reason) {
     return;
   }
   if (code == ExitCode::kPeerFailure) return;  // the coordinator is gone or broke the protocol
+  if (channel_->peer_stopped()) return;         // the coordinator ended the run: it knows
   // This side failed (its step or bad input): tell the coordinator, which is waiting.
   auto* stop = channel_->Outgoing(step_, 0).mutable_shutdown();
   stop->set_exit_code(static_cast<int>(code));

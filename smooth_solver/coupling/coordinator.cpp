@@ -250,13 +250,16 @@ int Coordinator::Step(double t, double h) {
 
 void Coordinator::Shutdown(int exit_code, const std::string& reason, bool wait_for_replies) {
   for (Peer& peer : peers_) {
+    if (peer.channel->peer_stopped()) continue;  // it said Shutdown itself: it is gone
     auto* stop = peer.channel->Outgoing(-1, 0).mutable_shutdown();
     stop->set_exit_code(exit_code);
     stop->set_reason(reason);
     peer.channel->Send();
   }
   if (!wait_for_replies) return;
-  for (Peer& peer : peers_) peer.channel->Receive(Envelope::kShutdown, -1, -1);
+  for (Peer& peer : peers_) {
+    if (!peer.channel->peer_stopped()) peer.channel->Receive(Envelope::kShutdown, -1, -1);
+  }
 }
 
 }  // namespace cosim::smooth

@@ -18,6 +18,9 @@
 #include <thread>
 #include <vector>
 
+#include <zmq.hpp>
+
+#include "coupling.pb.h"
 #include "tests/integration/launch.h"
 
 namespace {
@@ -158,6 +161,197 @@ TEST(Hardening, SecondRunIntoTheSameFolderIsRefused) {
   // The first run's files are its own: every row has the first run's time grid.
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(static_cast<long>(ReadHistory(out / "history.csv").size()), s.steps() + 1);
+}
+
+// The launcher's socket folder, from its output.
+std::string SocketFolder(const std::string& output) {
+  const std::string tag = "coupling sockets in ";
+  const size_t at = output.find(tag);
+  if (at == std::string::npos) return "";
+  const size_t start = at + tag.size();
+  return output.substr(start, output.find(' ', start) - start);
+}
+
+TEST(Hardening, UnbindableEndpointEndsWithExitFourAndASummary) {
+  // A contact endpoint that cannot be bound threw a PeerError out of the simulation factory,
+  // where only InputError was caught: nonsmooth_solver aborted.
+  const fs::path out = TempDir("unbindable");
+  const Result r = Launch(kTiedDrop + " --out " + out.string() +
+                          " --set 'coupling.processes[0].endpoint=\"ipc:///nonexistent_cosim_dir/x.ipc\"'");
+  EXPECT_EQ(r.code, 4) << r.output;
+  EXPECT_EQ(r.output.find("terminate called"), std::string::npos) << r.output;
+  const cosim::run::RunSummary contact = ReadSummary(out / "contacts");
+  EXPECT_EQ(contact.exit_code(), 4);
+  EXPECT_NE(contact.reason().find("cannot bind endpoint 'ipc:///nonexistent_cosim_dir/x.ipc'"), std::string::npos)
+      << contact.reason();
+  EXPECT_EQ(ReadSummary(out).exit_code(), 4);  // the run's summary says what ended it
+}
+
+TEST(Hardening, LongProcessNameAndTheSocketFolder) {
+  // A legal process name of 100 characters made the ipc path longer than sun_path: the contact
+  // process aborted. The launcher's endpoints are short (a private folder, the process's
+  // index); the folder is the user's alone (0700) while the run goes and gone after it (every
+  // coupled run used to leave its socket file in /tmp).
+  const fs::path out = TempDir("long_name");
+  const std::string name(100, 'p');
+  const Result r = Launch(kTiedDrop + " --out " + out.string() + " --set numerics.end_time=0.2 --set coupling.processes[0].name=" + name);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(ReadSummary(out / name).status(), "ok");
+  const std::string folder = SocketFolder(r.output);
+  ASSERT_FALSE(folder.empty()) << r.output;
+  EXPECT_FALSE(fs::exists(folder)) << folder;
+  // While a run goes: mode 0700 whatever the umask (here 0777 masks everything).
+  const fs::path out2 = TempDir("socket_folder_mode");
+  const mode_t old_mask = umask(0777);
+  Background run = Start("cosim_launch", {kTiedDrop, "--out", out2.string(), "--set", "numerics.end_time=1e4"},
+                         out2.parent_path() / "socket_folder_mode.txt");
+  umask(old_mask);
+  ASSERT_NE(WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out2.string()), -1);
+  std::string running;
+  for (int i = 0; i < 100 && SocketFolder(running).empty(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    running = Slurp(out2.parent_path() / "socket_folder_mode.txt");
+  }
+  struct stat info {};
+  ASSERT_EQ(stat(SocketFolder(running).c_str(), &info), 0) << running;
+  EXPECT_EQ(info.st_mode & 0777, 0700u);
+  kill(run.pid, SIGTERM);
+  EXPECT_EQ(run.Wait(10.0), 4);
+  EXPECT_FALSE(fs::exists(SocketFolder(running)));
+}
+
+TEST(Hardening, StoppedContactProcessDoesNotHangTheRun) {
+  // A stopped (SIGSTOP) contact process: the coordinator gave up after coupling.timeout with
+  // exit 4, then the launcher sent SIGTERM to the stopped process and waited for ever. It now
+  // escalates to SIGKILL after a grace period and writes the killed process's summary.
+  const fs::path out = TempDir("stopped_contact");
+  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4",
+                                          "--set", "coupling.timeout=1"},
+                         out.parent_path() / "stopped_contact.txt");
+  const pid_t contact = WaitForProcess("nonsmooth_solver " + kTiedDrop + " --out " + out.string());
+  ASSERT_NE(contact, -1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto t0 = Clock::now();
+  kill(contact, SIGSTOP);
+  EXPECT_EQ(run.Wait(20.0), 4);
+  // timeout 1 s + 2 s for the contact process to follow the coordinator + 3 s of grace.
+  EXPECT_LT(SecondsSince(t0), 9.0);
+  EXPECT_EQ(ReadSummary(out).exit_code(), 4);
+  const cosim::run::RunSummary killed = ReadSummary(out / "contacts");
+  EXPECT_EQ(killed.exit_code(), 4);
+  EXPECT_NE(killed.reason().find("was killed by signal 9"), std::string::npos) << killed.reason();
+  EXPECT_NE(killed.reason().find("after it ignored SIGTERM"), std::string::npos) << killed.reason();
+}
+
+TEST(Hardening, StoppedCoordinatorDoesNotHangTheRun) {
+  // The mirror case: the contact process gives up after coupling.timeout; the launcher stops
+  // the coordinator (SIGTERM, then SIGKILL) and writes the run's summary for it.
+  const fs::path out = TempDir("stopped_coordinator");
+  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4",
+                                          "--set", "coupling.timeout=1"},
+                         out.parent_path() / "stopped_coordinator.txt");
+  const pid_t coordinator = WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out.string());
+  ASSERT_NE(coordinator, -1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past its first flush of rows
+  const auto t0 = Clock::now();
+  kill(coordinator, SIGSTOP);
+  EXPECT_EQ(run.Wait(20.0), 4);
+  EXPECT_LT(SecondsSince(t0), 9.0);
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.exit_code(), 4);
+  EXPECT_NE(s.reason().find("smooth_solver was killed by signal 9"), std::string::npos) << s.reason();
+  EXPECT_GT(s.simulated_time(), 0.0);  // its rows reached the disk before it was stopped
+}
+
+TEST(Hardening, SignalsToTheLauncherReachItsChildren) {
+  // SIGTERM (or ^C) to cosim_launch ended it at once while its children ran on; a SIGKILLed
+  // launcher left them orphaned. Now SIGTERM is passed on (the run ends with exit 4 and every
+  // process's outputs), and the children die with a killed launcher (PR_SET_PDEATHSIG), still
+  // writing their summaries.
+  for (const int signal : {SIGTERM, SIGKILL}) {
+    const fs::path out = TempDir("launcher_signal_" + std::to_string(signal));
+    Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4"},
+                           out.parent_path() / ("launcher_signal_" + std::to_string(signal) + ".txt"));
+    ASSERT_NE(WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out.string()), -1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(run.pid, signal);
+    const int code = run.Wait(10.0);
+    EXPECT_EQ(code, signal == SIGTERM ? 4 : -SIGKILL);
+    const auto t0 = Clock::now();
+    while (!FindProcesses(out.string()).empty() && SecondsSince(t0) < 10.0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    EXPECT_TRUE(FindProcesses(out.string()).empty()) << "children outlived the launcher (signal " << signal << ")";
+    for (const fs::path folder : {out, out / "contacts"}) {
+      const cosim::run::RunSummary s = ReadSummary(folder);
+      EXPECT_EQ(s.exit_code(), 4) << folder;
+      EXPECT_GT(s.steps(), 0) << folder;
+    }
+  }
+}
+
+TEST(Hardening, KilledCoordinatorStillLeavesASummaryAndItsRecentRows) {
+  // A coordinator killed by SIGKILL left no summary.json and lost up to 64 KiB of buffered
+  // history rows. The launcher writes its summary; rows reach the disk at least every second.
+  const fs::path out = TempDir("killed_coordinator");
+  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4"},
+                         out.parent_path() / "killed_coordinator.txt");
+  const pid_t coordinator = WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out.string());
+  ASSERT_NE(coordinator, -1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  kill(coordinator, SIGKILL);
+  EXPECT_EQ(run.Wait(15.0), 4);
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.status(), "failed");
+  EXPECT_NE(s.reason().find("smooth_solver was killed by signal 9"), std::string::npos) << s.reason();
+  // Rows written within the last second before the kill: at least a second's worth of a run
+  // that went for 2.5 s (a tied_drop step takes well under a millisecond).
+  const auto rows = ReadHistory(out / "history.csv");
+  ASSERT_GT(rows.size(), 10u);
+  EXPECT_GT(rows.back()[0], 0.1);
+  EXPECT_NEAR(s.simulated_time(), rows.back()[0], 1e-12);
+  const auto iterations = ReadHistory(out / "coupling.csv");  // streamed too
+  EXPECT_GT(iterations.size(), 10u);
+}
+
+TEST(Hardening, ContactOnlyBadInputIsTheRunsExitCodeAndReason) {
+  // A contact node mass of 0 is checked only by the contact process: it exits 2, and the run's
+  // summary said exit 4 "terminated by a signal while waiting for Welcome".
+  const fs::path out = TempDir("contact_bad_input");
+  const Result r = Launch(kTiedDrop + " --out " + out.string() + " --set model.contact_nodes[0].mass=0");
+  EXPECT_EQ(r.code, 2) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.exit_code(), 2);
+  EXPECT_NE(s.reason().find("model.contact_nodes[0].mass"), std::string::npos) << s.reason();
+}
+
+TEST(Hardening, AStrangerOnTheMachineCannotEndARun) {
+  // Over tcp anyone on the machine could talk to a contact process: one Shutdown from another
+  // user ended the run. The launcher's CURVE keys make the contact process refuse a peer
+  // without them at the handshake; the run goes on to exit 0.
+  const fs::path out = TempDir("stranger");
+  const int port = 20000 + getpid() % 20000;
+  const std::string endpoint = "tcp://127.0.0.1:" + std::to_string(port);
+  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=4",
+                                          "--set", "coupling.processes[0].endpoint=\"" + endpoint + "\""},
+                         out.parent_path() / "stranger.txt");
+  ASSERT_NE(WaitForProcess("nonsmooth_solver " + kTiedDrop + " --out " + out.string()), -1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  zmq::context_t context;
+  zmq::socket_t stranger(context, zmq::socket_type::dealer);
+  stranger.set(zmq::sockopt::linger, 200);
+  stranger.connect(endpoint);
+  cosim::coupling::Envelope stop;
+  stop.set_protocol_version(cosim::coupling::PROTOCOL_VERSION_CURRENT);
+  stop.set_sender("smooth_solver");
+  stop.mutable_shutdown()->set_exit_code(0);
+  for (int i = 0; i < 5; ++i) {
+    (void)stranger.send(zmq::buffer(stop.SerializeAsString()), zmq::send_flags::dontwait);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  stranger.close();
+  EXPECT_EQ(run.Wait(60.0), 0) << Slurp(out.parent_path() / "stranger.txt");
+  EXPECT_NEAR(ReadSummary(out / "contacts").simulated_time(), 4.0, 1e-12);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <zmq.hpp>
 
 #include "coupling.pb.h"
+#include "interface/coupling/channel.h"
 #include "tests/integration/launch.h"
 
 namespace {
@@ -48,7 +49,11 @@ Outcome AgainstFakePeer(const std::string& name, const std::function<std::string
     outcome.output = Slurp(log);
   });
   zmq::message_t hello;
-  const bool got = peer.recv(hello).has_value();
+  bool got = peer.recv(hello).has_value();
+  cosim::coupling::Envelope first;
+  while (got && first.ParseFromArray(hello.data(), static_cast<int>(hello.size())) && first.has_heartbeat()) {
+    got = peer.recv(hello).has_value();  // the coordinator's heartbeats, if it took its time
+  }
   if (got) {
     const std::string reply = answer(hello.to_string());
     peer.send(zmq::buffer(reply), zmq::send_flags::none);
@@ -129,6 +134,51 @@ TEST(ProtocolFaults, AContactProcessRefusingItsPartStopsTheRunAtOnce) {
   EXPECT_NE(smooth.reason().find("contact process 'stops2' (penalty_solver) failed with exit code 2"), std::string::npos)
       << smooth.reason();
   EXPECT_NE(smooth.reason().find("numerics.penalty.stiffness"), std::string::npos) << smooth.reason();
+}
+
+}  // namespace
+
+namespace {
+
+TEST(ProtocolFaults, ABusyPeerKeepsTheCoordinatorWaitingThroughItsHeartbeats) {
+  // docs/protocol.md promises heartbeats from a side busy for longer than the timeout; nothing
+  // sent them, and a contact step longer than coupling.timeout ended the run as a dead peer.
+  // Here the contact process (a Channel in this test) takes 3 timeouts to answer the Hello;
+  // the coordinator waits (its heartbeat thread and ours keep both sides alive), sends its
+  // first StepBegin, and ends with the exit code the peer then reports (3) and its reason.
+  const fs::path out = TempDir("busy_peer");
+  const std::string endpoint = "ipc://" + (TestRoot() / "busy_peer.ipc").string();
+  zmq::context_t context;
+  cosim::interface::Channel peer(&context, {endpoint, true, "contacts", "smooth_solver", 1.0, 0.1});
+  const auto t0 = std::chrono::steady_clock::now();
+  int code = -1;
+  std::thread coordinator([&] {
+    const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
+                                "/scenarios/tied_drop.pbtxt --out " + (out / "run").string() +
+                                " --set coupling.processes[0].endpoint='\"" + endpoint +
+                                "\"' --set coupling.timeout=1 > " + (out / "stderr.txt").string() + " 2>&1";
+    const int status = std::system(command.c_str());
+    code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  });
+  const auto& hello = peer.Receive(cosim::coupling::Envelope::kHello, -1, -1).hello();
+  std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
+  std::this_thread::sleep_for(std::chrono::seconds(3));  // busy: three timeouts
+  auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
+  for (const auto& n : nodes) welcome->add_interface_nodes(n);
+  peer.Send();
+  std::this_thread::sleep_for(std::chrono::seconds(2));  // the coordinator waits for Kinematics meanwhile
+  const auto& begin = peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
+  EXPECT_TRUE(begin.has_step_begin());
+  auto* stop = peer.Outgoing(0, 0).mutable_shutdown();
+  stop->set_exit_code(3);
+  stop->set_reason("the test's contact step failed");
+  peer.Send();
+  coordinator.join();
+  EXPECT_GT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+  EXPECT_EQ(code, 3) << Slurp(out / "stderr.txt");
+  const cosim::run::RunSummary s = ReadSummary(out / "run");
+  EXPECT_EQ(s.exit_code(), 3);
+  EXPECT_NE(s.reason().find("the test's contact step failed"), std::string::npos) << s.reason();
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <thread>
 #include <unistd.h>
 #include <zmq.hpp>
+#include <cstdlib>
 
 #include "interface/run/errors.h"
 
@@ -131,6 +132,73 @@ TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
   // as a peer failure (4), and passes its reason on.
   ExpectCode(ExitCode::kNumericalFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
              "'contact' stopped (exit code 3) while this side waited for Kinematics of step 3, iteration 2: LCP failed");
+}
+
+TEST(Channel, ASendToAGonePeerGivesUpWithinTheTimeout) {
+  // A contact process whose coordinator is gone (none connected): its send used to block for
+  // ever. It ends with a PeerError after `timeout`.
+  zmq::context_t context;
+  Channel contact(&context, {"inproc://nobody", true, "contact", "smooth", 0.3, 0.05});
+  contact.Outgoing(1, 0).mutable_kinematics();
+  const auto t0 = std::chrono::steady_clock::now();
+  ExpectCode(ExitCode::kPeerFailure, [&] { contact.Send(); },
+             "could not send Kinematics to 'smooth' (inproc://nobody) for 0.3 s: the peer is gone");
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_GT(waited, 0.25);
+  EXPECT_LT(waited, 1.0);
+}
+
+// Two CURVE key pairs, as the launcher makes them for a run.
+CurveKeys RunKeys() {
+  char server_public[41], server_secret[41], client_public[41], client_secret[41];
+  EXPECT_EQ(zmq_curve_keypair(server_public, server_secret), 0);
+  EXPECT_EQ(zmq_curve_keypair(client_public, client_secret), 0);
+  return CurveKeys{server_public, server_secret, client_public, client_secret};
+}
+
+TEST(Channel, CurveAuthenticatesThePeersOfARun) {
+  // With the run's keys the exchange works as in the clear; a client with another key pair
+  // (someone who learnt the server's public key, but is not this run's coordinator) is refused
+  // at the handshake: its messages never arrive, and it hears nothing.
+  ASSERT_TRUE(zmq_has("curve")) << "libzmq without CURVE";
+  const CurveKeys keys = RunKeys();
+  const std::string endpoint = "ipc:///tmp/cosim_curve_test_" + std::to_string(getpid());
+  zmq::context_t server_context, client_context, intruder_context;
+  ChannelOptions server{endpoint, true, "contact", "smooth", 2.0, 0.05, keys};
+  Channel contact(&server_context, server);
+  CurveKeys intruder_keys = RunKeys();
+  intruder_keys.server_public = keys.server_public;
+  Channel intruder(&intruder_context, {endpoint, false, "intruder", "contact", 0.5, 0.05, intruder_keys});
+  intruder.Outgoing(-1, 0).mutable_shutdown()->set_reason("not yours");
+  intruder.Send();  // queued: the handshake never completes
+  Channel smooth(&client_context, {endpoint, false, "smooth", "contact", 2.0, 0.05, keys});
+  auto* hello = smooth.Outgoing(-1, 0).mutable_hello();
+  hello->set_scenario_name("curve");
+  smooth.Send();
+  const Envelope& got = contact.ReceiveAny();  // the intruder's Shutdown would come first if it got through
+  EXPECT_TRUE(got.has_hello());
+  EXPECT_EQ(got.sender(), "smooth");
+  contact.Outgoing(-1, 0).mutable_welcome();
+  contact.Send();
+  EXPECT_NO_THROW(smooth.Receive(Envelope::kWelcome, -1, -1));
+  ExpectCode(ExitCode::kPeerFailure, [&] { intruder.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
+  // A coordinator without keys cannot talk to a secured contact process either.
+  zmq::context_t plain_context;
+  Channel plain(&plain_context, {endpoint, false, "plain", "contact", 0.5, 0.05});
+  plain.Outgoing(-1, 0).mutable_hello();
+  plain.Send();
+  ExpectCode(ExitCode::kPeerFailure, [&] { plain.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
+}
+
+TEST(Channel, MissingOrMalformedKeysAreBadInput) {
+  zmq::context_t context;
+  CurveKeys partial;
+  partial.client_public = RunKeys().client_public;  // a server needs its secret key too
+  ExpectCode(ExitCode::kBadInput, [&] { Channel c(&context, {"inproc://keys", true, "contact", "smooth", 1.0, 0.5, partial}); },
+             "COSIM_CURVE_SERVER_SECRET is not set");
+  setenv(kCurveClientSecret, "not a key", 1);
+  ExpectCode(ExitCode::kBadInput, [] { CurveKeysFromEnvironment(); }, "COSIM_CURVE_CLIENT_SECRET is not a CURVE key");
+  unsetenv(kCurveClientSecret);
 }
 
 TEST(Channel, AnEndpointInUseIsReportedNamingIt) {

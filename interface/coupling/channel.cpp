@@ -308,10 +308,7 @@ const coupling::Envelope& Channel::Receive(coupling::Envelope::BodyCase expected
     // The peer's own failure is the run's: its bad input (2) or numerical failure (3) ends
     // this side with the same code; anything else is a peer failure.
     const int code = e.shutdown().exit_code();
-    const ExitCode exit = code == static_cast<int>(ExitCode::kBadInput)           ? ExitCode::kBadInput
-                          : code == static_cast<int>(ExitCode::kNumericalFailure) ? ExitCode::kNumericalFailure
-                                                                                  : ExitCode::kPeerFailure;
-    throw Error(exit, "coupling: '" + options_.peer + "' stopped (exit code " + std::to_string(code) +
+    ThrowAs(PeerOutcome(code), "coupling: '" + options_.peer + "' stopped (exit code " + std::to_string(code) +
                           ") while this side waited for " + awaiting + ": " + e.shutdown().reason());
   }
   if (e.body_case() != expected || (step >= 0 && e.step() != step) || (iteration >= 0 && e.iteration() != iteration)) {

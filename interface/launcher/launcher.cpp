@@ -81,6 +81,7 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLi
               "coupling.interface_nodes (or run the two parts as separate scenarios)");
   }
   const std::vector<ContactProcessPlan> processes = ReadCouplingPlan(file);
+  ReadChannelTiming(file);  // refused here once rather than by every process
   std::vector<std::string> common = arguments;
   for (const ContactProcessPlan& process : processes) {
     if (!process.endpoint.empty()) continue;

@@ -42,6 +42,13 @@ class PeerError : public Error {
   explicit PeerError(const std::string& what) : Error(ExitCode::kPeerFailure, what) {}
 };
 
+// The run's outcome when a peer process ended with `exit_code`: its bad input (2) or
+// numerical failure (3) is the run's; anything else (4, a signal, nonsense) a peer failure.
+ExitCode PeerOutcome(int exit_code);
+// Throws the Error class of `code` (InputError, NumericalError, PeerError), so that callers
+// that catch by class see a peer's failure as they would see their own.
+[[noreturn]] void ThrowAs(ExitCode code, const std::string& what);
+
 [[noreturn]] void AbortInvariant(const char* expr, const char* file, int line, const std::string& message);
 
 }  // namespace cosim

@@ -90,12 +90,9 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
   simulation_->RestoreStart();
   simulation_->SetExternalForces(external_);
   try {
-    simulation_->Step(t_, h_);
+    simulation_->StepTentatively(t_, h_);
   } catch (const Error& e) {
-    auto* stop = channel_->Outgoing(step, iteration).mutable_shutdown();
-    stop->set_exit_code(static_cast<int>(e.code()));
-    stop->set_reason(e.what());
-    channel_->Send();
+    StopOnFailure(e, step, iteration);
     throw;
   }
   ++tentative_;
@@ -109,6 +106,13 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
     }
     k->add_in_contact(simulation_->Impact(node) ? 1 : 0);
   }
+  channel_->Send();
+}
+
+void ContactServer::StopOnFailure(const Error& e, int64_t step, int iteration) {
+  auto* stop = channel_->Outgoing(step, iteration).mutable_shutdown();
+  stop->set_exit_code(static_cast<int>(e.code()));
+  stop->set_reason(e.what());
   channel_->Send();
 }
 
@@ -194,10 +198,7 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
       // The coordinator stopped the run: this process ends with the run's outcome (its exit
       // code when it is one of the contract's failures, else a peer failure).
       const int code = coordinator_exit_code_;
-      const ExitCode exit = code == static_cast<int>(ExitCode::kBadInput)         ? ExitCode::kBadInput
-                            : code == static_cast<int>(ExitCode::kNumericalFailure) ? ExitCode::kNumericalFailure
-                                                                                    : ExitCode::kPeerFailure;
-      throw Error(exit, "coupling: '" + channel_->options().peer + "' ended the run before step " +
+      ThrowAs(PeerOutcome(code), "coupling: '" + channel_->options().peer + "' ended the run before step " +
                             std::to_string(step) + " (exit code " + std::to_string(code) +
                             (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
     }
@@ -250,6 +251,12 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       }
       const bool accepted = e.step_end().accepted();
       if (accepted) {
+        try {
+          simulation_->CheckAccepted(t_ + h_);
+        } catch (const Error& failure) {
+          StopOnFailure(failure, e.step(), e.iteration());
+          throw;
+        }
         last_accepted_ = step_;
         ++accepted_;
         if (on_accept) on_accept(t_ + h_);

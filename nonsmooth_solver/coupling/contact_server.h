@@ -47,6 +47,7 @@ class ContactServer {
   enum class Outcome { kContinue, kAccepted, kShutdown };
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
   void TentativeStep(int64_t step, int iteration);
+  void StopOnFailure(const Error& e, int64_t step, int iteration);  // Shutdown with its code and reason
   // Checked, into external_ and the moving obstacles' end frames.
   void SetReactions(const coupling::Reactions& reactions, const char* where);
   BodyFrame ReadFrame(const coupling::Frame& frame, const std::string& where) const;  // checked

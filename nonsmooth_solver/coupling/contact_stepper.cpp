@@ -1,8 +1,48 @@
 #include "nonsmooth_solver/coupling/contact_stepper.h"
 
+#include <cmath>
+
+#include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {
+
+using interface::FormatNumber;
+
+void ContactStepper::Step(double t, double h) {
+  StepTentatively(t, h);
+  CheckAccepted(t + h);
+}
+
+void ContactStepper::StepTentatively(double t, double h) {
+  Advance(t, h);
+  const ContactModel& model = this->model();
+  const Eigen::VectorXd& q = positions();
+  const Eigen::VectorXd& v = velocities();
+  for (size_t n = 0; n < model.nodes.size(); ++n) {
+    const Eigen::Index i = 3 * static_cast<Eigen::Index>(n);
+    if (!q.segment<3>(i).allFinite() || !v.segment<3>(i).allFinite()) {
+      throw NumericalError("contact node '" + model.nodes[n].name + "' has a non-finite position or velocity after "
+                           "the step to t = " + FormatNumber(t + h) + " s (inputs too large for double precision, or "
+                           "the step too long)");
+    }
+  }
+}
+
+void ContactStepper::CheckAccepted(double t) const {
+  const ContactModel& model = this->model();
+  for (size_t c = 0; c < model.contacts.size(); ++c) {
+    const double gap = Gap(static_cast<int>(c));
+    if (gap < -model.max_penetration) {
+      const Contact& contact = model.contacts[c];
+      throw NumericalError("contact '" + model.nodes[static_cast<size_t>(contact.node)].name + "/" +
+                           model.obstacles[static_cast<size_t>(contact.obstacle)].name + "' is " + FormatNumber(-gap) +
+                           " m through its obstacle after the step to t = " + FormatNumber(t) +
+                           " s, more than numerics.nonsmooth.max_penetration = " + FormatNumber(model.max_penetration) +
+                           " m: the step is too long for the motion (or the contact too soft)");
+    }
+  }
+}
 
 std::vector<std::string> ContactStepper::ProbeNames() const {
   std::vector<std::string> names;

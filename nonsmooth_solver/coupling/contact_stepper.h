@@ -14,6 +14,15 @@ namespace cosim::nonsmooth {
 
 class ContactStepper : public interface::Simulation {
  public:
+  // One step of the method (Advance), then the checks every contact method's result must pass:
+  // a finite state (StepTentatively), and no contact deeper through its obstacle than
+  // numerics.nonsmooth.max_penetration (CheckAccepted). Throws NumericalError (exit 3) naming
+  // the node or the contact; the state is then the failed step's. A coupled run checks the
+  // depth only of the step the coordinator accepts: a coupling iteration's tentative step may
+  // go deep under a reaction that the iteration then corrects.
+  void Step(double t, double h) final;
+  void StepTentatively(double t, double h);
+  void CheckAccepted(double t) const;
   virtual const ContactModel& model() const = 0;
   // Checkpoint of the step's start, and back to it (every coupling iteration restarts there).
   virtual void SaveStart() = 0;
@@ -29,6 +38,9 @@ class ContactStepper : public interface::Simulation {
   virtual std::string SolverName() const = 0;  // for the Welcome
   virtual double Gap(int contact) const = 0;      // [m] at the current time
   virtual double Impulse(int contact) const = 0;  // [N s] over the last step
+
+  // The method's step from t to t + h (Moreau–Jean, the penalty law).
+  virtual void Advance(double t, double h) = 0;
 
   // The model's probes, from the state above (the same for every contact method).
   std::vector<std::string> ProbeNames() const override;

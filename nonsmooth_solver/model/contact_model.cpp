@@ -323,6 +323,7 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::s
   const sc::NonsmoothSettings& ns = s.numerics().nonsmooth();
   model.theta = checks.InRange("numerics.nonsmooth.theta", true, ns.theta(), 0.0, 1.0, /*lo_open=*/true);
   model.activation_gap = checks.NonNegative("numerics.nonsmooth.activation_gap", ns.activation_gap(), "m");
+  model.max_penetration = checks.Positive("numerics.nonsmooth.max_penetration", true, ns.max_penetration(), "m");
   model.split_independent_lcps = ns.split_independent_lcps();
   switch (ns.friction_model()) {
     case sc::NonsmoothSettings::POLYHEDRAL_LCP: model.friction_model = FrictionModel::kPolyhedralLcp; break;

@@ -130,6 +130,8 @@ struct ContactModel {
   double theta = 0.5;
   // Predicted gap [m] at or below which a contact enters the LCP.
   double activation_gap = 1e-10;
+  // Depth [m] through an obstacle after a step beyond which the step failed (exit 3).
+  double max_penetration = 0.1;
   // Solve the contacts of each NodeGroup in an LCP of its own (the same solution as one LCP).
   bool split_independent_lcps = true;
   FrictionModel friction_model = FrictionModel::kPolyhedralLcp;

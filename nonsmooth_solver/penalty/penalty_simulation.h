@@ -40,7 +40,7 @@ class PenaltySimulation : public ContactStepper {
   // numerics.penalty settings and for friction (this process is frictionless).
   explicit PenaltySimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
 
-  void Step(double t, double h) override;
+  void Advance(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
 
   const ContactModel& model() const override { return *model_; }

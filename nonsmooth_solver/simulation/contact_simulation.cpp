@@ -28,7 +28,7 @@ bool ContactSimulation::Impact(int node) const {
   return false;
 }
 
-void ContactSimulation::Step(double t, double h) {
+void ContactSimulation::Advance(double t, double h) {
   integrator_->Step(t, h);
   // Penetration is the constraint violation of a unilateral contact.
   for (size_t c = 0; c < model_->contacts.size(); ++c) {

@@ -16,7 +16,7 @@ class ContactSimulation : public ContactStepper {
   // `only_nodes`: see BuildContactModel (a coupled run's contact process with its own nodes).
   explicit ContactSimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes = nullptr);
 
-  void Step(double t, double h) override;
+  void Advance(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
 
   const ContactModel& model() const override { return *model_; }

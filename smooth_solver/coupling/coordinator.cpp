@@ -46,6 +46,10 @@ namespace {
 // `ahead` seconds at constant velocity and angular velocity ω = ½ Σ u_i × u̇_i.
 void FillFrame(int body, const DaeState& state, double ahead, coupling::Frame* frame) {
   const Eigen::Index o = kCoordinatesPerBody * body;
+  if (!state.q.segment<kCoordinatesPerBody>(o).allFinite() || !state.qdot.segment<kCoordinatesPerBody>(o).allFinite()) {
+    throw NumericalError("coupling: the frame of body " + std::to_string(body) +
+                         " (carrying a contact process's obstacle) is not finite");
+  }
   Eigen::Matrix3d R;
   Eigen::Vector3d omega = Eigen::Vector3d::Zero();
   for (int i = 0; i < 3; ++i) {
@@ -115,6 +119,14 @@ void Coordinator::ReceiveKinematics(int iteration) {
                        std::to_string(k.position_size()) + " positions and " + std::to_string(k.velocity_size()) +
                        " velocities; expected " + std::to_string(expected) + " of each");
     }
+    for (int i = 0; i < expected; ++i) {
+      if (!std::isfinite(k.position(i)) || !std::isfinite(k.velocity(i))) {
+        throw InputError("coupling: Kinematics from '" + peer.channel->options().peer + "' of step " +
+                         std::to_string(step_) + " has a non-finite value at index " + std::to_string(i) +
+                         " (position " + interface::FormatNumber(k.position(i)) + ", velocity " +
+                         interface::FormatNumber(k.velocity(i)) + "); expected finite numbers");
+      }
+    }
     for (int c : k.in_contact()) in_contact_ = in_contact_ || c != 0;
     for (size_t i = 0; i < peer.points.size(); ++i) {
       for (int j = 0; j < 3; ++j) {
@@ -179,6 +191,13 @@ int Coordinator::Step(double t, double h) {
       x_tilde_ = (1.0 - integrator_->gamma()) * filtered_start_ + integrator_->gamma() * filtered_end_;
     } else {
       x_tilde_ = lambda_end_;
+    }
+    if (!x_tilde_.allFinite()) {
+      // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
+      // for the peers to refuse.
+      throw NumericalError("coupling: the smooth model's reactions on the interface nodes are not finite after "
+                           "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
+                           interface::FormatNumber(t + h) + " s");
     }
     CouplingIterationRecord record;
     record.step = step_;

@@ -354,4 +354,79 @@ TEST(Hardening, AStrangerOnTheMachineCannotEndARun) {
   EXPECT_NEAR(ReadSummary(out / "contacts").simulated_time(), 4.0, 1e-12);
 }
 
+// Runs `arguments` through the launcher into a fresh folder; the summary.
+cosim::run::RunSummary RunTo(const std::string& name, const std::string& arguments, int expected_code) {
+  const fs::path out = TempDir(name);
+  const Result r = Launch(arguments + " --out " + out.string());
+  EXPECT_EQ(r.code, expected_code) << r.output;
+  return ReadSummary(out);
+}
+
+TEST(Hardening, ContactSolversRefuseNonsenseStates) {
+  // Silent nonsense, each ended "ok" with exit 0: a node driven to non-finite positions by
+  // finite but huge inputs (its history showed 1e303 m), and a step of 10 s that put the
+  // bouncing ball 489 m through the floor (energy −1460 J). Both contact programs now check
+  // their state after every step: finite, and no contact deeper than
+  // numerics.nonsmooth.max_penetration.
+  const fs::path dir = TempDir("nonsense_states");
+  std::ofstream(dir / "free_fall.pbtxt") << "name: \"free_fall\"\n"
+                                            "model { gravity: [0, 0, -1e308] contact_nodes { name: \"n\" mass: 1 "
+                                            "position: [0, 0, 0] } }\n"
+                                            "numerics { end_time: 10 step: 0.01 }\n";
+  cosim::run::RunSummary s = RunTo("free_fall", (dir / "free_fall.pbtxt").string(), 3);
+  EXPECT_NE(s.reason().find("contact node 'n' has a non-finite position or velocity"), std::string::npos) << s.reason();
+  EXPECT_NEAR(s.simulated_time(), 1.79, 1e-9);  // ½ g t² passes 1.8e308 m at t = 1.8 s
+  s = RunTo("ten_second_step", kBall + " --set numerics.step=10 --set numerics.end_time=100", 3);
+  EXPECT_NE(s.reason().find("contact 'ball/ground' is 489.5"), std::string::npos) << s.reason();
+  EXPECT_NE(s.reason().find("max_penetration = 0.1 m"), std::string::npos) << s.reason();
+  EXPECT_EQ(s.steps(), 0);
+  // The same scene at its own step stays well inside the limit (Moreau–Jean penetrates about
+  // |v| h θ at an impact: 4.4 m/s × 5 ms / 2).
+  s = RunTo("ball_ok", kBall, 0);
+  EXPECT_LT(s.max_constraint_violation(), 0.02);
+  EXPECT_GT(s.max_constraint_violation(), 0.0);
+}
+
+TEST(Hardening, PenaltySolverChecksItsStateToo) {
+  // The check sits in the contact stepper itself, below either method: the penalty program
+  // with a contact so soft that the ball settles about 1 m deep ((m g / K)^(2/3), K = 10)
+  // fails at 0.1 m.
+  const fs::path out = TempDir("penalty_nonsense");
+  const std::string command = std::string(COSIM_BIN_DIR) + "/penalty_solver " + kBall + " --out " + out.string() +
+                              " --set numerics.penalty.stiffness=10 > /dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 3);
+  EXPECT_NE(ReadSummary(out).reason().find("through its obstacle"), std::string::npos) << ReadSummary(out).reason();
+}
+
+TEST(Hardening, AContactProcesssNumericalFailureIsTheRunsExitThree) {
+  // The contact process's own numerical failure (exit 3) became exit 4 at the coordinator and
+  // in `cosim run`. Here its penetration limit is set below what the tied drop's impact
+  // penetrates (about 1 mm).
+  const cosim::run::RunSummary s =
+      RunTo("contact_exit_3", kTiedDrop + " --set numerics.nonsmooth.max_penetration=1e-6", 3);
+  EXPECT_EQ(s.exit_code(), 3);
+  EXPECT_NE(s.reason().find("'contacts' stopped (exit code 3)"), std::string::npos) << s.reason();
+  EXPECT_NE(s.reason().find("contact 'node/floor' is"), std::string::npos) << s.reason();
+  EXPECT_GT(s.steps(), 800);  // up to the impact at t = 0.83 s
+}
+
+TEST(Hardening, CoordinatorsNonFiniteReactionsAreItsOwnNumericalFailure) {
+  // A huge but finite load gives infinite multipliers: the coordinator sent them, the peer
+  // refused them, and the run ended as a peer failure. It is the coordinator's numerical
+  // failure. (Gravity would drive the contact node through the floor first: here the load is
+  // a force on the smooth body alone.)
+  const cosim::run::RunSummary s = RunTo(
+      "coordinator_inf",
+      kTiedDrop + " --set 'model.forces=[{ name: \"push\" load { body: \"body\" force: [{ constant: 0 }, { constant: 0 }, "
+                  "{ constant: -1.7e308 }] } }]'",
+      3);
+  // (CGα's Newton iteration cannot converge on it: that stops the step before the reactions
+  // are sent; the check on them stands behind it.)
+  EXPECT_EQ(s.exit_code(), 3);
+  EXPECT_EQ(s.reason().find("'contacts' stopped"), std::string::npos) << s.reason();
+  EXPECT_EQ(s.reason().find("coupling: Reactions"), std::string::npos) << s.reason();
+  EXPECT_NE(s.reason().find("step 1 from t = 0 s: CGα"), std::string::npos) << s.reason();
+}
+
 }  // namespace

@@ -124,6 +124,7 @@ void PrintTo(const BadInput& c, std::ostream* os) { *os << c.name; }
 const std::string kBall = kScenarios + "/bouncing_ball.pbtxt";
 const std::string kPendulum = std::string(COSIM_SOURCE_DIR) + "/tests/data/rigid_pendulum.pbtxt";
 const std::string kCantilever = kScenarios + "/cantilever_static.pbtxt";
+const std::string kTiedDrop = kScenarios + "/tied_drop.pbtxt";
 
 class BadInputTest : public ::testing::TestWithParam<BadInput> {};
 
@@ -222,7 +223,24 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"empty_name", kBall, "name: \"bouncing_ball\"", "name: \"\"", "", {"name: must not be empty"}},
         BadInput{"dot_dot_node", kBall, "name: \"ball\"", "name: \"..\"", "",
                  {"model.contact_nodes[0].name: '..' is not a name"}},
-        BadInput{"empty_out", kBall, "", "", "--out ''", {"--out is given an empty string"}}),
+        BadInput{"empty_out", kBall, "", "", "--out ''", {"--out is given an empty string"}},
+        // Timeouts beyond ZeroMQ's int milliseconds overflowed static_cast<int>(1000 * timeout)
+        // and ZeroMQ's option threw: both solvers aborted.
+        BadInput{"huge_timeout", kTiedDrop, "", "", "--set coupling.timeout=3e6",
+                 {"coupling.timeout", "must be in (0, 1e+06], got 3e+06"}},
+        BadInput{"heartbeat_past_timeout", kTiedDrop, "", "", "--set coupling.heartbeat=6",
+                 {"coupling.heartbeat", "must be in (0, 5], got 6"}},
+        // Endpoints: a port out of range bound another port; inproc:// between two processes
+        // waited out the timeout and ended as a peer failure.
+        BadInput{"tcp_port", kTiedDrop, "", "", "--set 'coupling.processes[0].endpoint=\"tcp://127.0.0.1:99999\"'",
+                 {"coupling.processes[0].endpoint", "the port '99999' is not a number in 1..65535"}},
+        BadInput{"inproc", kTiedDrop, "", "", "--set 'coupling.processes[0].endpoint=\"inproc://x\"'",
+                 {"coupling.processes[0].endpoint", "inproc:// joins threads of one process"}},
+        BadInput{"ipc_too_long", kTiedDrop, "", "",
+                 "--set 'coupling.processes[0].endpoint=\"ipc:///tmp/" + std::string(110, 'x') + "\"'",
+                 {"coupling.processes[0].endpoint", "a Unix socket's path holds at most 107"}},
+        BadInput{"dot_process", kTiedDrop, "", "", "--set coupling.processes[0].name=.",
+                 {"coupling.processes[0].name: '.' is not a name"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
 
 TEST(RunContract, ScriptPassesExitCodesOn) {

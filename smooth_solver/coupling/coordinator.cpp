@@ -23,6 +23,7 @@ Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std
   n_ = 3 * static_cast<int>(system.interface_points.size());
   x_ = Eigen::VectorXd::Zero(n_);
   x_tilde_ = x_;
+  previous_x_tilde_ = x_;
   x_next_ = x_;
   accepted_x_ = x_;
   previous_accepted_x_ = x_;
@@ -206,9 +207,19 @@ int Coordinator::Step(double t, double h) {
     record.displacement_change = iteration == 0 ? std::numeric_limits<double>::infinity()
                                                 : (position_ - previous_position_).lpNorm<Eigen::Infinity>();
     const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
-    converged = record.reaction_residual <= settings_.reaction_tolerance * scale &&
+    // Round-off: once the peers' kinematics no longer change beyond round-off, the smooth
+    // side's answer x̃ cannot settle closer than its own jitter between the last two iterations
+    // (a stiff tie turns 1e-17 m of position round-off into 1e-9 N of reaction): a residual
+    // within that jitter passes, whatever the reaction tolerance asks.
+    const double position_roundoff =
+        64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, position_.lpNorm<Eigen::Infinity>());
+    const bool at_roundoff = iteration > 0 && n_ > 0 && record.displacement_change <= position_roundoff &&
+                             record.reaction_residual <= (x_tilde_ - previous_x_tilde_).lpNorm<Eigen::Infinity>();
+    converged = (record.reaction_residual <= settings_.reaction_tolerance * scale || at_roundoff) &&
                 (iteration > 0 ? record.displacement_change <= settings_.displacement_tolerance
                                : record.reaction_residual == 0.0);
+    if (converged && at_roundoff && record.reaction_residual > settings_.reaction_tolerance * scale) ++at_roundoff_;
+    previous_x_tilde_ = x_tilde_;
     if (converged || iteration + 1 >= settings_.max_iterations) {
       record.relaxation_factor = 0.0;
       log_.push_back(record);

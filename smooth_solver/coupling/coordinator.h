@@ -7,7 +7,9 @@
 //   for i = 0, 1, ...:
 //     impose k_i on the interface points; CGα step from the step's start → multipliers → x̃_i
 //     converged if |x̃_i − x_i| <= reaction_tolerance · max(1 N, |x̃_i|) and (i > 0)
-//       |k_i − k_{i−1}| <= displacement_tolerance on the positions: accept the step
+//       |k_i − k_{i−1}| <= displacement_tolerance on the positions: accept the step; with the
+//       kinematics unchanged to round-off, |x̃_i − x_i| <= |x̃_i − x̃_{i−1}| passes too (the
+//       reaction's own round-off)
 //     else x_{i+1} = relaxation(x_i, x̃_i) → every peer: Reactions(i+1) → Kinematics k_{i+1}
 //   at the iteration limit: STOP (NumericalError, exit 3) or ACCEPT_AND_MARK (logged).
 // After a step in which a node's contact closed (an impact: its velocity jumped), the smooth
@@ -76,6 +78,8 @@ class Coordinator {
   const std::vector<CouplingIterationRecord>& log() const { return log_; }
   int last_newton_iterations() const { return newton_; }  // CGα iterations of the last step, all tries
   long long marked_steps() const { return marked_; }
+  // Steps accepted with the reaction residual at round-off but above the tolerance.
+  long long roundoff_steps() const { return at_roundoff_; }
 
  private:
   void Impose(double h);  // k → the interface rows' imposed coordinates
@@ -101,6 +105,8 @@ class Coordinator {
   std::vector<int> coupling_rows_;  // the interface points' constraint rows
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;
+  long long at_roundoff_ = 0;
+  Eigen::VectorXd previous_x_tilde_;  // x̃ of the previous iteration
   int newton_ = 0;
 };
 

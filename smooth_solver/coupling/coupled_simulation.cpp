@@ -156,6 +156,8 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
   simulation_->FillSummary(summary);
   coupling_.Fill(summary->mutable_coupling_iterations());
   summary->mutable_counters()->insert({"coupling_steps_marked", static_cast<double>(coordinator_->marked_steps())});
+  summary->mutable_counters()->insert(
+      {"coupling_steps_at_roundoff", static_cast<double>(coordinator_->roundoff_steps())});
 }
 
 void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {

@@ -35,6 +35,9 @@ Eigen::Matrix3d AlongAxis(const Eigen::Vector3d& axis) {
   return Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitX(), axis).toRotationMatrix();
 }
 
+// Hex27 elements per body: each keeps its 81 × 81 tangent and its Gauss-point data.
+constexpr double kMaxElements = 1e5;
+
 int PositiveCount(const Checks& checks, const std::string& path, bool has, int value, const std::string& what) {
   checks.Require(path, has, what);
   if (value < 1) checks.Fail(path, "must be at least 1, got " + std::to_string(value));
@@ -73,6 +76,13 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
       const int along = PositiveCount(checks, mesh_path + ".elements_along", b.has_elements_along(),
                                       b.elements_along(), "the number of elements along the beam");
       const int across = PositiveCount(checks, mesh_path + ".elements_across", true, b.elements_across(), "");
+      // Counted in double: along × across² overflows an int long before memory runs out.
+      const double elements = static_cast<double>(along) * across * across;
+      if (elements > kMaxElements) {
+        checks.Fail(mesh_path, "elements_along × elements_across² = " + interface::FormatNumber(elements) +
+                        " hex27 elements; at most " + interface::FormatNumber(kMaxElements) +
+                        " per body (each needs ~60 kB for its tangent: the mesh would not fit this kind of machine)");
+      }
       mesh = BeamMesh(length, chord, thickness, along, across, across, {b.twist().begin(), b.twist().end()});
       const Eigen::Vector3d root = checks.Vector3(mesh_path + ".root", b.root(), Eigen::Vector3d::Zero());
       const Eigen::Matrix3d R =
@@ -88,6 +98,11 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
       if (g.element_nodes_size() == 0 || g.element_nodes_size() % 27 != 0) {
         checks.Fail(mesh_path + ".element_nodes", "expected 27 node indices per element, got " +
                                                       std::to_string(g.element_nodes_size()) + " numbers");
+      }
+      if (g.element_nodes_size() / 27 > kMaxElements) {
+        checks.Fail(mesh_path + ".element_nodes", std::to_string(g.element_nodes_size() / 27) +
+                                                      " hex27 elements; at most " + interface::FormatNumber(kMaxElements) +
+                                                      " per body");
       }
       const int nodes = g.node_coordinates_size() / 3;
       mesh.nodes = Eigen::Map<const Eigen::Matrix3Xd>(g.node_coordinates().data(), 3, nodes);

@@ -13,6 +13,7 @@
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/sun_sparse.h"
 
 namespace cosim::smooth {
 
@@ -128,16 +129,7 @@ struct IdaReference::Impl {
     const Eigen::Index pattern_size = p->A.nonZeros();
     Fill(*p, t, cj, View(yv), View(ypv), &sink);
     COSIM_ASSERT(p->A.isCompressed() && p->A.nonZeros() == pattern_size, "IDA Jacobian left its pattern");
-    // Copy into IDA's compressed-sparse-column matrix (same pattern every time).
-    const Eigen::Index nnz = p->A.nonZeros();
-    sunindextype* colptrs = SM_INDEXPTRS_S(J);
-    sunindextype* rowvals = SM_INDEXVALS_S(J);
-    realtype* data_out = SM_DATA_S(J);
-    for (Eigen::Index c = 0; c <= p->A.outerSize(); ++c) colptrs[c] = p->A.outerIndexPtr()[c];
-    for (Eigen::Index k = 0; k < nnz; ++k) {
-      rowvals[k] = p->A.innerIndexPtr()[k];
-      data_out[k] = p->A.valuePtr()[k];
-    }
+    CopyToSunSparse(p->A, J);  // IDA's compressed-sparse-column matrix, the same pattern every time
     return 0;
   }
 };

@@ -3,13 +3,15 @@
 #include <kinsol/kinsol.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
-#include <sunlinsol/sunlinsol_dense.h>
-#include <sunmatrix/sunmatrix_dense.h>
+#include <sunlinsol/sunlinsol_klu.h>
+#include <sunmatrix/sunmatrix_sparse.h>
+
+#include <limits>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
-#include "smooth_solver/linear_algebra/dense_sink.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/sun_sparse.h"
 
 namespace cosim::smooth {
 
@@ -19,6 +21,7 @@ struct ClosureProblem {
   const MultibodySystem* system;
   double t0;
   int n, mc, mh;
+  Eigen::SparseMatrix<double> A;  // the Jacobian, its pattern fixed (KLU, not a dense N × N)
 };
 
 Eigen::Map<Eigen::VectorXd> View(N_Vector v) {
@@ -46,21 +49,42 @@ int Residual(N_Vector y, N_Vector f, void* data) {
   return F.allFinite() ? 0 : 1;
 }
 
+// The KKT matrix [I + Σ μ ∂²φ/∂q², Φ_qᵀ, H_qᵀ; Φ_q, −C, 0; H_q, 0, 0] (released rows: 1 on
+// the diagonal) into `sink`.
+void FillJacobian(const ClosureProblem& p, const Eigen::Ref<const Eigen::VectorXd>& Y, SparseSink* sink) {
+  const Eigen::VectorXd q = Y.head(p.n);
+  for (int i = 0; i < p.n; ++i) sink->Add(i, i, 1.0);
+  p.system->constraints.HessianTimesLambda(p.t0, Y.segment(p.n, p.mc), sink, 1.0);
+  p.system->holds.HessianTimesLambda(p.t0, Y.tail(p.mh), sink, 1.0);
+  p.system->constraints.Jacobian(q, p.t0, sink, p.n, 1.0);
+  p.system->constraints.JacobianTranspose(q, p.t0, sink, p.n, 1.0);
+  p.system->constraints.AddReleasedDiagonal(p.t0, sink, p.n);
+  p.system->constraints.AddComplianceDiagonal(sink, p.n, 1.0);
+  p.system->holds.Jacobian(q, p.t0, sink, p.n + p.mc, 1.0);
+  p.system->holds.JacobianTranspose(q, p.t0, sink, p.n + p.mc, 1.0);
+}
+
+// Every entry FillJacobian may touch (and the whole diagonal, for the released rows).
+Eigen::SparseMatrix<double> JacobianPattern(const ClosureProblem& p) {
+  const int N = p.n + p.mc + p.mh;
+  const double always = -std::numeric_limits<double>::infinity();
+  PatternSink pattern;
+  for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+  p.system->constraints.HessianPattern(&pattern);
+  p.system->holds.HessianPattern(&pattern);
+  p.system->constraints.Jacobian(p.system->q0, always, &pattern, p.n, 1.0);
+  p.system->constraints.JacobianTranspose(p.system->q0, always, &pattern, p.n, 1.0);
+  p.system->holds.Jacobian(p.system->q0, always, &pattern, p.n + p.mc, 1.0);
+  p.system->holds.JacobianTranspose(p.system->q0, always, &pattern, p.n + p.mc, 1.0);
+  return pattern.Build(N, N);
+}
+
 int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) {
-  const auto* p = static_cast<const ClosureProblem*>(data);
-  const auto Y = View(y);
-  const Eigen::VectorXd q = Y.head(p->n);
-  SUNMatZero(J);
-  SunDenseSink sink(J);
-  for (int i = 0; i < p->n; ++i) sink.Add(i, i, 1.0);
-  p->system->constraints.HessianTimesLambda(p->t0, Y.segment(p->n, p->mc), &sink, 1.0);
-  p->system->holds.HessianTimesLambda(p->t0, Y.tail(p->mh), &sink, 1.0);
-  p->system->constraints.Jacobian(q, p->t0, &sink, p->n, 1.0);
-  p->system->constraints.JacobianTranspose(q, p->t0, &sink, p->n, 1.0);
-  p->system->constraints.AddReleasedDiagonal(p->t0, &sink, p->n);
-  p->system->constraints.AddComplianceDiagonal(&sink, p->n, 1.0);
-  p->system->holds.Jacobian(q, p->t0, &sink, p->n + p->mc, 1.0);
-  p->system->holds.JacobianTranspose(q, p->t0, &sink, p->n + p->mc, 1.0);
+  auto* p = static_cast<ClosureProblem*>(data);
+  for (Eigen::Index k = 0; k < p->A.nonZeros(); ++k) p->A.valuePtr()[k] = 0.0;
+  MatrixSink sink(&p->A);
+  FillJacobian(*p, View(y), &sink);
+  CopyToSunSparse(p->A, J);
   return 0;
 }
 
@@ -116,20 +140,22 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
 DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report) {
   const int n = system.coordinates, mc = system.constraints.size(), mh = system.holds.size();
   const int N = n + mc + mh;
-  ClosureProblem problem{&system, t0, n, mc, mh};
+  ClosureProblem problem{&system, t0, n, mc, mh, {}};
+  problem.A = JacobianPattern(problem);
 
   SUNContext ctx = nullptr;
   SUNContext_Create(nullptr, &ctx);
   N_Vector y = N_VNew_Serial(N, ctx);
   N_Vector scale = N_VNew_Serial(N, ctx);
-  SUNMatrix J = SUNDenseMatrix(N, N, ctx);
-  SUNLinearSolver LS = SUNLinSol_Dense(y, J, ctx);
+  SUNMatrix J = SUNSparseMatrix(N, N, problem.A.nonZeros(), CSC_MAT, ctx);
+  SUNLinearSolver LS = SUNLinSol_KLU(y, J, ctx);
   void* kin = KINCreate(ctx);
   View(y).setZero();
   View(y).head(n) = system.q0;
   N_VConst(1.0, scale);
   KINInit(kin, Residual, y);
   KINSetUserData(kin, &problem);
+  KINSetErrHandlerFn(kin, [](int, const char*, const char*, char*, void*) {}, nullptr);  // reported below
   KINSetLinearSolver(kin, LS, J);
   KINSetJacFn(kin, Jacobian);
   KINSetFuncNormTol(kin, 1e-13);
@@ -149,6 +175,12 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   N_VDestroy(y);
   N_VDestroy(scale);
   SUNContext_Free(&ctx);
+  if (flag == KIN_LSETUP_FAIL || flag == KIN_LSOLVE_FAIL) {
+    throw InputError("model: the constraint equations are redundant: the loop-closure matrix is singular at the "
+                     "given poses (KINSOL flag " + std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
+                     "), e.g. a planar loop of revolute joints in 3D; make one joint less constraining (spherical, "
+                     "universal) or regularise the coupling rows that close a loop");
+  }
   if (flag < 0 || !(fnorm < 1e-8)) {
     throw InputError("model: the kinematic loops cannot be closed from the given poses (KINSOL flag " +
                      std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
@@ -174,7 +206,7 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
 void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state) {
   const Eigen::VectorXd reference = state->qdot;
   if (!SmallestVelocityChange(system, nullptr, t, state->q, reference, &state->qdot, /*mass_metric=*/true)) {
-    throw NumericalError("the velocity constraints are singular at t = " + std::to_string(t) +
+    throw NumericalError("the velocity constraints are singular at t = " + interface::FormatNumber(t) +
                          " s (redundant rows: regularise the coupling rows of a closed loop)");
   }
 }

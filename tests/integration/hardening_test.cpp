@@ -449,4 +449,22 @@ TEST(Hardening, ReactionToleranceBelowRoundOffDoesNotStallTheCoupling) {
   EXPECT_LT(worst, 1e-10);
 }
 
+TEST(Hardening, FiveThousandFreeBodiesNeedNoDenseMatrix) {
+  // The initial-state solve (KINSOL) used a dense N × N matrix: 5000 free rigid bodies made it
+  // 90000² doubles (65 GB) and the run crashed. It is sparse (KLU) now, like every other solve.
+  const fs::path dir = TempDir("many_bodies");
+  std::ofstream scene(dir / "many.pbtxt");
+  scene << "name: \"many_bodies\"\nmodel {\n  gravity: [0, 0, -9.81]\n";
+  for (int i = 0; i < 5000; ++i) {
+    scene << "  bodies { name: \"b" << i << "\" mass: 1 inertia: [0.01, 0.01, 0.01] position: [" << i << ", 0, 0] }\n";
+  }
+  scene << "}\nnumerics { end_time: 0.01 step: 0.005 }\n";
+  scene.close();
+  const auto t0 = Clock::now();
+  const Result r = Launch((dir / "many.pbtxt").string() + " --out " + (dir / "out").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_LT(SecondsSince(t0), 30.0);
+  EXPECT_EQ(ReadSummary(dir / "out").steps(), 2);
+}
+
 }  // namespace

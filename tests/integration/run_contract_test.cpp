@@ -239,6 +239,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"ipc_too_long", kTiedDrop, "", "",
                  "--set 'coupling.processes[0].endpoint=\"ipc:///tmp/" + std::string(110, 'x') + "\"'",
                  {"coupling.processes[0].endpoint", "a Unix socket's path holds at most 107"}},
+        // Legal but huge meshes: bad_alloc, or a signed overflow in the mesh builder and SIGSEGV.
+        BadInput{"huge_beam_along", kCantilever, "", "", "--set model.elastic_bodies[0].beam.elements_along=2147483647",
+                 {"model.elastic_bodies[0].beam: elements_along × elements_across² = 2147483647 hex27 elements; at most"}},
+        BadInput{"huge_beam_across", kCantilever, "", "", "--set model.elastic_bodies[0].beam.elements_across=46341",
+                 {"model.elastic_bodies[0].beam: elements_along × elements_across²", "at most 1e+05"}},
         BadInput{"dot_process", kTiedDrop, "", "", "--set coupling.processes[0].name=.",
                  {"coupling.processes[0].name: '.' is not a name"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });

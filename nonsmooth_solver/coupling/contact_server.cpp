@@ -8,6 +8,7 @@
 #include <set>
 
 #include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {
 
@@ -42,7 +43,7 @@ void ContactServer::Answer(const Envelope& e) {
     nodes_.push_back(found);
   }
   if (!(hello.step() > 0.0)) {
-    throw InputError("coupling: Hello.step from '" + peer + "' is " + std::to_string(hello.step()) +
+    throw InputError("coupling: Hello.step from '" + peer + "' is " + interface::FormatNumber(hello.step()) +
                      "; expected a positive step [s]");
   }
   // Obstacles attached to smooth bodies: the Hello lists them with their start frames, in
@@ -166,7 +167,7 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
       const double f = force.Get(3 * static_cast<int>(n) + i);
       if (!std::isfinite(f)) {
         throw InputError(std::string("coupling: ") + where + ".force[" + std::to_string(3 * n + static_cast<size_t>(i)) +
-                         "] from '" + channel_->options().peer + "' is " + std::to_string(f) + "; expected a finite force [N]");
+                         "] from '" + channel_->options().peer + "' is " + interface::FormatNumber(f) + "; expected a finite force [N]");
       }
       external_(3 * nodes_[n] + i) = f;
     }
@@ -187,9 +188,9 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
         (e.step() != step || std::abs(e.step_begin().time() - t) > 1e-9 * std::max(1.0, std::abs(t)) ||
          std::abs(e.step_begin().step() - h) > 1e-12 * std::max(1.0, h))) {
       throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
-                       std::to_string(e.step_begin().time()) + " s, h = " + std::to_string(e.step_begin().step()) +
+                       interface::FormatNumber(e.step_begin().time()) + " s, h = " + interface::FormatNumber(e.step_begin().step()) +
                        " s from '" + channel_->options().peer + "', expected step " + std::to_string(step) +
-                       " at t = " + std::to_string(t) + " s, h = " + std::to_string(h) +
+                       " at t = " + interface::FormatNumber(t) + " s, h = " + interface::FormatNumber(h) +
                        " s: both sides must read the same numerics");
     }
     const Outcome outcome = Handle(e);
@@ -219,7 +220,7 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
                          "', expected step " + std::to_string(last_accepted_ + 1));
       }
       if (!(e.step_begin().step() > 0.0)) {
-        throw InputError("coupling: StepBegin.step from '" + peer + "' is " + std::to_string(e.step_begin().step()) +
+        throw InputError("coupling: StepBegin.step from '" + peer + "' is " + interface::FormatNumber(e.step_begin().step()) +
                          "; expected a positive step [s]");
       }
       step_ = e.step();

@@ -14,6 +14,7 @@ extern "C" {
 }
 
 #include "nonsmooth_solver/lcp/siconos_options.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {
 
@@ -82,8 +83,8 @@ FrictionContactResult SolveFrictionContact(const Eigen::Ref<const Eigen::MatrixX
   if (!result.solved) {
     result.message = "Siconos fc3d NSGS (" + std::to_string(nc) + " contacts, info " +
                      std::to_string(result.siconos_info) + ", " + std::to_string(result.iterations) +
-                     " iterations): friction-contact error " + std::to_string(result.error) + " > tolerance " +
-                     std::to_string(tolerance);
+                     " iterations): friction-contact error " + interface::FormatNumber(result.error) + " > tolerance " +
+                     interface::FormatNumber(tolerance);
   }
   return result;
 }

@@ -15,6 +15,7 @@ extern "C" {
 }
 
 #include "nonsmooth_solver/lcp/siconos_options.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {
 
@@ -126,7 +127,7 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
     result.message = std::string(LcpAlgorithmName(algorithm)) + " (n = " + std::to_string(n) +
                      ", Siconos info " + std::to_string(result.siconos_info) + ", " +
                      std::to_string(result.iterations) + " iterations): complementarity error " +
-                     std::to_string(result.error) + " > tolerance " + std::to_string(options_.tolerance);
+                     interface::FormatNumber(result.error) + " > tolerance " + interface::FormatNumber(options_.tolerance);
   }
   return result;
 }

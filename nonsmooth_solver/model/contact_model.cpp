@@ -204,7 +204,11 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
     // the smooth model's quantities (constraint violation, reactions, joints...) are
     // smooth_solver's even without an entity.
     if (elsewhere.count(p.entity()) != 0) continue;
-    if (coupled && p.quantity() != sc::Probe::POSITION && p.quantity() != sc::Probe::VELOCITY &&
+    // A probe of one of this process's nodes or contacts is this process's whatever its
+    // quantity (smooth_solver leaves it alone): one it does not record is refused below, as in
+    // a contact-only run, never dropped.
+    const bool own_entity = node_names.Contains(p.entity()) || contact_index.count(p.entity()) != 0;
+    if (coupled && !own_entity && p.quantity() != sc::Probe::POSITION && p.quantity() != sc::Probe::VELOCITY &&
         p.quantity() != sc::Probe::GAP && p.quantity() != sc::Probe::IMPULSE && p.quantity() != sc::Probe::KINETIC_ENERGY &&
         p.quantity() != sc::Probe::POTENTIAL_ENERGY && p.quantity() != sc::Probe::TOTAL_ENERGY) {
       continue;

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::smooth {
 
@@ -210,7 +211,7 @@ StaticResult SolveStatic(const ElasticBody& body, const std::vector<int>& fixed,
     result.iterations = it;
     if (result.residual <= tolerance * scale) break;
     if (it == max_iterations) {
-      throw NumericalError("static solve: residual " + std::to_string(result.residual) + " N after " +
+      throw NumericalError("static solve: residual " + interface::FormatNumber(result.residual) + " N after " +
                            std::to_string(max_iterations) + " Newton iterations");
     }
     // Restrict K to the free degrees of freedom.

@@ -14,6 +14,7 @@
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/linear_algebra/sun_sparse.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::smooth {
 
@@ -191,7 +192,7 @@ int IdaReference::Step(double t, double h) {
     const int flag = IDASolve(p.ida, target, &reached, p.y, p.yp, IDA_NORMAL);
     if (flag < 0) {
       throw NumericalError("IDA failed with flag " + std::to_string(flag) + " on its way to t = " +
-                           std::to_string(target) + " s (reached " + std::to_string(reached) + " s)");
+                           interface::FormatNumber(target) + " s (reached " + interface::FormatNumber(reached) + " s)");
     }
     if (!std::isfinite(release)) break;
     // At the release time (possibly the end of this step): restart with the new equations.

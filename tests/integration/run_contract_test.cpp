@@ -244,6 +244,11 @@ INSTANTIATE_TEST_SUITE_P(
                  {"model.elastic_bodies[0].beam: elements_along × elements_across² = 2147483647 hex27 elements; at most"}},
         BadInput{"huge_beam_across", kCantilever, "", "", "--set model.elastic_bodies[0].beam.elements_across=46341",
                  {"model.elastic_bodies[0].beam: elements_along × elements_across²", "at most 1e+05"}},
+        // A probe on a contact node whose quantity the contact process does not record was
+        // dropped in a coupled run (exit 0, no column anywhere).
+        BadInput{"coupled_contact_probe", kTiedDrop, "", "",
+                 "--set 'output.probes=[{ name: \"node_acceleration\" quantity: ACCELERATION entity: \"node\" component: Z }]'",
+                 {"output.probes[0].quantity", "a contact process records POSITION", "got ACCELERATION"}},
         BadInput{"dot_process", kTiedDrop, "", "", "--set coupling.processes[0].name=.",
                  {"coupling.processes[0].name: '.' is not a name"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
@@ -303,6 +308,10 @@ TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(s.status(), "failed");
   EXPECT_NE(s.reason().find("LCP"), std::string::npos) << s.reason();
+  // Numbers in messages keep their digits (std::to_string(double) printed "complementarity
+  // error 0.000000 > tolerance 0.000000").
+  EXPECT_NE(s.reason().find("> tolerance 1e-14"), std::string::npos) << s.reason();
+  EXPECT_EQ(s.reason().find("0.000000"), std::string::npos) << s.reason();
   EXPECT_GT(s.steps(), 50);
   std::ifstream history(out / "history.csv");
   long rows = -1;

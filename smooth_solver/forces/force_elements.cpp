@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "interface/run/errors.h"
+
 namespace cosim::smooth {
 
 namespace {
@@ -138,6 +140,8 @@ void CoordinateSpring::Collect() {
   }
   std::sort(coordinates_.begin(), coordinates_.end());
   coordinates_.erase(std::unique(coordinates_.begin(), coordinates_.end()), coordinates_.end());
+  COSIM_ASSERT(static_cast<int>(coordinates_.size()) <= kMaxLocal,
+               "a coordinate spring spans more than two bodies' coordinates");
 }
 
 namespace {
@@ -145,8 +149,8 @@ namespace {
 // A·B with its gradient and (constant) Hessian over the local coordinates `index`.
 struct Bilinear {
   double value = 0.0;
-  Eigen::VectorXd gradient;
-  Eigen::MatrixXd hessian;
+  CoordinateSpring::LocalVector gradient;
+  CoordinateSpring::LocalMatrix hessian;
 };
 
 Bilinear LocalDot(const LinearVector& A, const LinearVector& B, const Eigen::VectorXd& q, const std::vector<int>& index) {
@@ -155,8 +159,8 @@ Bilinear LocalDot(const LinearVector& A, const LinearVector& B, const Eigen::Vec
     return static_cast<int>(std::lower_bound(index.begin(), index.end(), global) - index.begin());
   };
   Bilinear r;
-  r.gradient = Eigen::VectorXd::Zero(n);
-  r.hessian = Eigen::MatrixXd::Zero(n, n);
+  r.gradient.setZero(n);
+  r.hessian.setZero(n, n);
   const Eigen::Vector3d a = A.Value(q), b = B.Value(q);
   r.value = a.dot(b);
   for (const auto& ta : A.terms) {
@@ -193,15 +197,16 @@ CoordinateSpring::Local CoordinateSpring::Evaluate(const Eigen::VectorXd& q) con
   //   ∇²θ = (x∇²y − y∇²x + ∇y∇xᵀ − ∇x∇yᵀ)/r² − 2 (x∇y − y∇x)(x∇x + y∇y)ᵀ/r⁴   (symmetric).
   const Bilinear x = LocalDot(c_, a_, q, coordinates_), y = LocalDot(c_, b_, q, coordinates_);
   const double r2 = x.value * x.value + y.value * y.value;
-  const Eigen::VectorXd u = x.value * y.gradient - y.value * x.gradient;
-  const Eigen::VectorXd w = x.value * x.gradient + y.value * y.gradient;
+  const LocalVector u = x.value * y.gradient - y.value * x.gradient;
+  const LocalVector w = x.value * x.gradient + y.value * y.gradient;
   out.value = std::atan2(y.value, x.value);
   out.gradient = u / r2;
   out.hessian = (x.value * y.hessian - y.value * x.hessian + y.gradient * x.gradient.transpose() -
                  x.gradient * y.gradient.transpose()) /
                     r2 -
                 2.0 * u * w.transpose() / (r2 * r2);
-  out.hessian = 0.5 * (out.hessian + out.hessian.transpose()).eval();
+  const LocalMatrix symmetric = 0.5 * (out.hessian + out.hessian.transpose());
+  out.hessian = symmetric;
   return out;
 }
 
@@ -218,15 +223,16 @@ void CoordinateSpring::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorX
                                   double damping_scale, SparseSink* sink) const {
   const Local l = Evaluate(q);
   const int n = static_cast<int>(coordinates_.size());
-  Eigen::VectorXd v(n);
+  LocalVector v(n);
   for (int i = 0; i < n; ++i) v(i) = qdot(coordinates_[static_cast<size_t>(i)]);
   const double rate = l.gradient.dot(v);
   const double tau = k_ * (l.value - rest_) + damping_ * rate;
   // f = −τ ∇θ:  K = k ∇θ∇θᵀ + c ∇θ (∇²θ q̇)ᵀ + τ ∇²θ,  C = c ∇θ∇θᵀ.
-  const Eigen::MatrixXd K = k_ * l.gradient * l.gradient.transpose() +
-                            damping_ * l.gradient * (l.hessian * v).transpose() + tau * l.hessian;
-  const Eigen::MatrixXd C = damping_ * l.gradient * l.gradient.transpose();
-  const Eigen::MatrixXd T = stiffness_scale * K + damping_scale * C;
+  const LocalVector hv = l.hessian * v;
+  const LocalMatrix K = k_ * l.gradient * l.gradient.transpose() + damping_ * l.gradient * hv.transpose() +
+                        tau * l.hessian;
+  const LocalMatrix C = damping_ * l.gradient * l.gradient.transpose();
+  const LocalMatrix T = stiffness_scale * K + damping_scale * C;
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) sink->Add(coordinates_[static_cast<size_t>(i)], coordinates_[static_cast<size_t>(j)], T(i, j));
   }
@@ -287,15 +293,19 @@ void UnilateralContact::AddTangent(const Eigen::VectorXd& q, const Eigen::Vector
   const CoordinateSpring::Local& l = c.measure;
   const auto& index = measure_.coordinates();
   const int n = static_cast<int>(index.size());
-  Eigen::VectorXd v(n);
+  using LocalVector = CoordinateSpring::LocalVector;
+  using LocalMatrix = CoordinateSpring::LocalMatrix;
+  LocalVector v(n);
   for (int i = 0; i < n; ++i) v(i) = qdot(index[static_cast<size_t>(i)]);
   // δ = side (θ0 − θ): ∇δ = −side ∇θ, ∇²δ = −side ∇²θ, δ̇ = ∇δ·q̇.
-  const Eigen::VectorXd g = -side_ * l.gradient;
-  const Eigen::MatrixXd H = -side_ * l.hessian;
+  const LocalVector g = -side_ * l.gradient;
+  const LocalMatrix H = -side_ * l.hessian;
   // Q = −f ∇δ: −∂Q/∂q = ∇δ (f_δ ∇δ + f_δ̇ ∇²δ q̇)ᵀ + f ∇²δ =: K, −∂Q/∂q̇ = f_δ̇ ∇δ ∇δᵀ =: C.
-  const Eigen::MatrixXd K = g * (c.df_ddelta * g + c.df_drate * (H * v)).transpose() + c.f * H;
-  const Eigen::MatrixXd C = c.df_drate * g * g.transpose();
-  const Eigen::MatrixXd T = stiffness_scale * K + damping_scale * C;
+  const LocalVector Hv = H * v;
+  const LocalVector a = c.df_ddelta * g + c.df_drate * Hv;
+  const LocalMatrix K = g * a.transpose() + c.f * H;
+  const LocalMatrix C = c.df_drate * g * g.transpose();
+  const LocalMatrix T = stiffness_scale * K + damping_scale * C;
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) sink->Add(index[static_cast<size_t>(i)], index[static_cast<size_t>(j)], T(i, j));
   }

@@ -95,11 +95,16 @@ class CoordinateSpring : public ForceElement {
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 
+  // The local coordinates of an element between two bodies: at most 2 × 12. Vectors and
+  // matrices over them have that as their compile-time bound: no heap in the Newton loop.
+  static constexpr int kMaxLocal = 2 * 12;
+  using LocalVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxLocal, 1>;
+  using LocalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxLocal, kMaxLocal>;
   // θ, its gradient and Hessian over the element's local coordinates.
   struct Local {
     double value = 0.0;
-    Eigen::VectorXd gradient;
-    Eigen::MatrixXd hessian;
+    LocalVector gradient;
+    LocalMatrix hessian;
   };
   Local Evaluate(const Eigen::VectorXd& q) const;
   const std::vector<int>& coordinates() const { return coordinates_; }

@@ -100,6 +100,19 @@ pid_t WaitForProcess(const std::string& needle, double seconds = 10.0) {
   return -1;
 }
 
+// A long tied_drop run (1e4 s) through the launcher into `out`, its output in `out`.txt, with
+// `sets` (FIELD=VALUE) added; it is stopped by the test.
+Background StartLongTiedDrop(const fs::path& out, const std::vector<std::string>& sets = {}) {
+  std::vector<std::string> arguments{kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4"};
+  for (const std::string& set : sets) arguments.insert(arguments.end(), {"--set", set});
+  return Start("cosim_launch", arguments, out.string() + ".txt");
+}
+
+// The pid of the run's coordinator (smooth_solver) or contact process (nonsmooth_solver) once it runs.
+pid_t WaitForProgram(const std::string& program, const fs::path& out) {
+  return WaitForProcess("/" + program + " " + kTiedDrop + " --out " + out.string());
+}
+
 TEST(Hardening, ScenarioThatIsNotARegularFileIsRefusedWithoutBlocking) {
   // A FIFO without a writer blocked in open() for ever; /dev/zero was read until memory ran
   // out. Only regular files are read, with a size limit.
@@ -203,14 +216,13 @@ TEST(Hardening, LongProcessNameAndTheSocketFolder) {
   // While a run goes: mode 0700 whatever the umask (here 0777 masks everything).
   const fs::path out2 = TempDir("socket_folder_mode");
   const mode_t old_mask = umask(0777);
-  Background run = Start("cosim_launch", {kTiedDrop, "--out", out2.string(), "--set", "numerics.end_time=1e4"},
-                         out2.parent_path() / "socket_folder_mode.txt");
+  Background run = StartLongTiedDrop(out2);
   umask(old_mask);
-  ASSERT_NE(WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out2.string()), -1);
+  ASSERT_NE(WaitForProgram("smooth_solver", out2), -1);
   std::string running;
   for (int i = 0; i < 100 && SocketFolder(running).empty(); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    running = Slurp(out2.parent_path() / "socket_folder_mode.txt");
+    running = Slurp(out2.string() + ".txt");
   }
   struct stat info {};
   ASSERT_EQ(stat(SocketFolder(running).c_str(), &info), 0) << running;
@@ -225,10 +237,8 @@ TEST(Hardening, StoppedContactProcessDoesNotHangTheRun) {
   // exit 4, then the launcher sent SIGTERM to the stopped process and waited for ever. It now
   // escalates to SIGKILL after a grace period and writes the killed process's summary.
   const fs::path out = TempDir("stopped_contact");
-  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4",
-                                          "--set", "coupling.timeout=1"},
-                         out.parent_path() / "stopped_contact.txt");
-  const pid_t contact = WaitForProcess("nonsmooth_solver " + kTiedDrop + " --out " + out.string());
+  Background run = StartLongTiedDrop(out, {"coupling.timeout=1"});
+  const pid_t contact = WaitForProgram("nonsmooth_solver", out);
   ASSERT_NE(contact, -1);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const auto t0 = Clock::now();
@@ -247,10 +257,8 @@ TEST(Hardening, StoppedCoordinatorDoesNotHangTheRun) {
   // The mirror case: the contact process gives up after coupling.timeout; the launcher stops
   // the coordinator (SIGTERM, then SIGKILL) and writes the run's summary for it.
   const fs::path out = TempDir("stopped_coordinator");
-  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4",
-                                          "--set", "coupling.timeout=1"},
-                         out.parent_path() / "stopped_coordinator.txt");
-  const pid_t coordinator = WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out.string());
+  Background run = StartLongTiedDrop(out, {"coupling.timeout=1"});
+  const pid_t coordinator = WaitForProgram("smooth_solver", out);
   ASSERT_NE(coordinator, -1);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past its first flush of rows
   const auto t0 = Clock::now();
@@ -270,9 +278,8 @@ TEST(Hardening, SignalsToTheLauncherReachItsChildren) {
   // writing their summaries.
   for (const int signal : {SIGTERM, SIGKILL}) {
     const fs::path out = TempDir("launcher_signal_" + std::to_string(signal));
-    Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4"},
-                           out.parent_path() / ("launcher_signal_" + std::to_string(signal) + ".txt"));
-    ASSERT_NE(WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out.string()), -1);
+    Background run = StartLongTiedDrop(out);
+    ASSERT_NE(WaitForProgram("smooth_solver", out), -1);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     kill(run.pid, signal);
     const int code = run.Wait(10.0);
@@ -294,9 +301,8 @@ TEST(Hardening, KilledCoordinatorStillLeavesASummaryAndItsRecentRows) {
   // A coordinator killed by SIGKILL left no summary.json and lost up to 64 KiB of buffered
   // history rows. The launcher writes its summary; rows reach the disk at least every second.
   const fs::path out = TempDir("killed_coordinator");
-  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4"},
-                         out.parent_path() / "killed_coordinator.txt");
-  const pid_t coordinator = WaitForProcess("/smooth_solver " + kTiedDrop + " --out " + out.string());
+  Background run = StartLongTiedDrop(out);
+  const pid_t coordinator = WaitForProgram("smooth_solver", out);
   ASSERT_NE(coordinator, -1);
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));
   kill(coordinator, SIGKILL);
@@ -332,10 +338,8 @@ TEST(Hardening, AStrangerOnTheMachineCannotEndARun) {
   const fs::path out = TempDir("stranger");
   const int port = 20000 + getpid() % 20000;
   const std::string endpoint = "tcp://127.0.0.1:" + std::to_string(port);
-  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=4",
-                                          "--set", "coupling.processes[0].endpoint=\"" + endpoint + "\""},
-                         out.parent_path() / "stranger.txt");
-  ASSERT_NE(WaitForProcess("nonsmooth_solver " + kTiedDrop + " --out " + out.string()), -1);
+  Background run = StartLongTiedDrop(out, {"numerics.end_time=4", "coupling.processes[0].endpoint=\"" + endpoint + "\""});
+  ASSERT_NE(WaitForProgram("nonsmooth_solver", out), -1);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   zmq::context_t context;
   zmq::socket_t stranger(context, zmq::socket_type::dealer);
@@ -350,7 +354,7 @@ TEST(Hardening, AStrangerOnTheMachineCannotEndARun) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   stranger.close();
-  EXPECT_EQ(run.Wait(60.0), 0) << Slurp(out.parent_path() / "stranger.txt");
+  EXPECT_EQ(run.Wait(60.0), 0) << Slurp(out.string() + ".txt");
   EXPECT_NEAR(ReadSummary(out / "contacts").simulated_time(), 4.0, 1e-12);
 }
 

@@ -4,6 +4,7 @@
 // must refuse either at the handshake with exit code 2 and a message naming the peer and what
 // came, without a crash and without waiting out its timeout, and keep its outputs.
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <string>
 #include <thread>
@@ -179,6 +180,51 @@ TEST(ProtocolFaults, ABusyPeerKeepsTheCoordinatorWaitingThroughItsHeartbeats) {
   const cosim::run::RunSummary s = ReadSummary(out / "run");
   EXPECT_EQ(s.exit_code(), 3);
   EXPECT_NE(s.reason().find("the test's contact step failed"), std::string::npos) << s.reason();
+}
+
+}  // namespace
+
+namespace {
+
+TEST(ProtocolFaults, NonFiniteKinematicsAreThePeersBadMessage) {
+  // Coupling data were not checked for finiteness: a NaN position from a contact process gave
+  // exit 3 blaming the step size, a NaN velocity was accepted with exit 0. Either is refused now
+  // as the peer's bad message (exit 2), naming it.
+  for (const bool position : {true, false}) {
+    const std::string name = position ? "nan_position" : "nan_velocity";
+    const fs::path out = TempDir(name);
+    const std::string endpoint = "ipc://" + (TestRoot() / (name + ".ipc")).string();
+    zmq::context_t context;
+    cosim::interface::Channel peer(&context, {endpoint, true, "contacts", "smooth_solver", 5.0, 0.5});
+    int code = -1;
+    std::thread coordinator([&] {
+      const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
+                                  "/scenarios/tied_drop.pbtxt --out " + (out / "run").string() +
+                                  " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' > " +
+                                  (out / "stderr.txt").string() + " 2>&1";
+      const int status = std::system(command.c_str());
+      code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    });
+    const auto& hello = peer.Receive(cosim::coupling::Envelope::kHello, -1, -1).hello();
+    std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
+    auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
+    for (const auto& n : nodes) welcome->add_interface_nodes(n);
+    peer.Send();
+    peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
+    auto* k = peer.Outgoing(0, 0).mutable_kinematics();
+    for (int i = 0; i < 3; ++i) {
+      k->add_position(position && i == 2 ? std::nan("") : 0.5 * (i == 2));
+      k->add_velocity(!position && i == 2 ? std::nan("") : 0.0);
+    }
+    k->add_in_contact(0);
+    peer.Send();
+    coordinator.join();
+    EXPECT_EQ(code, 2) << Slurp(out / "stderr.txt");
+    const cosim::run::RunSummary s = ReadSummary(out / "run");
+    EXPECT_NE(s.reason().find("Kinematics from 'contacts' of step 0 has a non-finite value at index 2"),
+              std::string::npos)
+        << s.reason();
+  }
 }
 
 }  // namespace

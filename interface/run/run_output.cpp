@@ -82,6 +82,8 @@ RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& 
                      (why == EWOULDBLOCK ? std::string() : std::string(" (") + std::strerror(why) + ")") +
                      "; give each run its own folder");
   }
+  // An earlier run's summary would describe this run if it were killed before its own.
+  ::unlink((folder + "/summary.json").c_str());
   history_ = std::make_unique<OutputFile>(folder + "/history.csv");
   const std::string log_path = folder + "/log.txt";
   log_ = std::fopen(log_path.c_str(), "w");

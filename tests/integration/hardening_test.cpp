@@ -471,4 +471,19 @@ TEST(Hardening, FiveThousandFreeBodiesNeedNoDenseMatrix) {
   EXPECT_EQ(ReadSummary(dir / "out").steps(), 2);
 }
 
+TEST(Hardening, AnEarlierRunsSummaryDoesNotSpeakForAKilledOne) {
+  // A solver killed outside a launcher cannot write its summary; an earlier run's summary.json
+  // in the same folder then claimed "ok" for it. A run removes it when it starts.
+  const fs::path out = TempDir("stale_summary");
+  std::ofstream(out / "summary.json") << "{\"status\": \"ok\", \"reason\": \"an earlier run\"}";
+  Background run = Start("nonsmooth_solver", {kBall, "--out", out.string(), "--set", "numerics.end_time=1e6"},
+                         out.string() + ".txt");
+  ASSERT_NE(WaitForProcess("/nonsmooth_solver " + kBall + " --out " + out.string()), -1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(run.pid, SIGKILL);
+  EXPECT_EQ(run.Wait(10.0), -SIGKILL);
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+  EXPECT_GT(ReadHistory(out / "history.csv").size(), 0u);
+}
+
 }  // namespace

@@ -289,7 +289,7 @@ TEST(Hardening, SignalsToTheLauncherReachItsChildren) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     EXPECT_TRUE(FindProcesses(out.string()).empty()) << "children outlived the launcher (signal " << signal << ")";
-    for (const fs::path folder : {out, out / "contacts"}) {
+    for (const fs::path& folder : {out, out / "contacts"}) {
       const cosim::run::RunSummary s = ReadSummary(folder);
       EXPECT_EQ(s.exit_code(), 4) << folder;
       EXPECT_GT(s.steps(), 0) << folder;

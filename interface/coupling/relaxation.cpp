@@ -12,10 +12,10 @@ Relaxation::Relaxation(Method method, int size, double factor, int max_columns, 
       max_columns_(max_columns > 0 ? max_columns : std::max(size, 1)),
       reuse_steps_(std::max(reuse_steps, 0)) {
   stamp_.assign(static_cast<size_t>(max_columns_), 0);
-  r_.resize(size);
-  r_previous_.resize(size);
-  x_tilde_previous_.resize(size);
-  dr_.resize(size);
+  r_.setZero(size);
+  r_previous_.setZero(size);
+  x_tilde_previous_.setZero(size);
+  dr_.setZero(size);
   V_.resize(size, max_columns_);
   W_.resize(size, max_columns_);
   alpha_.resize(max_columns_);
@@ -38,9 +38,8 @@ void Relaxation::Forget() {
 void Relaxation::Next(const Eigen::VectorXd& x, const Eigen::VectorXd& x_tilde, Eigen::VectorXd* x_next) {
   r_ = x_tilde - x;
   const double r_norm = r_.norm();
-  if (r_norm == 0.0) {  // already a fixed point
+  if (r_norm == 0.0) {  // already a fixed point: no secant information, the next call starts afresh
     *x_next = x_tilde;
-    ++iteration_;
     return;
   }
   switch (method_) {

@@ -172,6 +172,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   // Whatever stops the run here (bad input, an endpoint that cannot be bound: exit 4, a model
   // too large for memory) ends it with its exit code and, given --out, a summary saying why.
   auto fail_before_start = [&](ExitCode code, const std::string& what) {
+    output.reset();  // (its lock released: the failure summary goes into the same folder)
     std::cerr << program << ": error: " << what << "\n";
     WriteFailureSummary(program, cli, code, what);
     return static_cast<int>(code);

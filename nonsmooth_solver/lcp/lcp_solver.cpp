@@ -97,15 +97,24 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
     result.message = "LCP data not finite";
     return result;
   }
+  // Extreme data (|q| or |M| beyond 2^±40: a node at 1e20 m/s) crash Siconos' Lemke (SIGSEGV
+  // found by fuzzing). The LCP is invariant under positive scaling: with M = a M', q = b q' it
+  // is solved as LCP(M', q') for z' = (a / b) z. Powers of two keep every other digit exact, and
+  // data in the ordinary range is passed untouched.
+  auto power_of_two = [](double norm) {
+    return norm > 0.0 && (norm > 0x1p40 || norm < 0x1p-40) ? std::ldexp(1.0, std::ilogb(norm)) : 1.0;
+  };
+  const double a = power_of_two(M.lpNorm<Eigen::Infinity>());
+  const double b = power_of_two(q.lpNorm<Eigen::Infinity>());
   // Siconos takes ownership of M's storage and q (freed by freeLinearComplementarityProblem).
   NumericsMatrix* matrix = NM_create(NM_DENSE, n, n);
   // Column-major copy that respects M's outer stride (M is often a corner of a larger workspace).
-  Eigen::Map<Eigen::MatrixXd>(matrix->matrix0, n, n) = M;
+  Eigen::Map<Eigen::MatrixXd>(matrix->matrix0, n, n) = M / a;
   LinearComplementarityProblem* lcp = newLCP();
   lcp->size = n;
   lcp->M = matrix;
   lcp->q = static_cast<double*>(std::malloc(sizeof(double) * static_cast<size_t>(n)));
-  std::memcpy(lcp->q, q.data(), sizeof(double) * static_cast<size_t>(n));
+  Eigen::Map<Eigen::VectorXd>(lcp->q, n) = q / b;
   // The enumerative solver caches work arrays sized by the first problem in its options:
   // a fresh options object per attempt keeps that safe for every algorithm.
   SolverOptions* so = solver_options_create(SiconosSolverId(algorithm));
@@ -114,6 +123,7 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
   w_.resize(n);
   z.setZero();
   result.siconos_info = linearComplementarity_driver(lcp, z.data(), w_.data(), so);
+  z *= b / a;
   result.iterations = so->iparam[SICONOS_IPARAM_ITER_DONE];
   FreeSolverOptions(so);
   freeLinearComplementarityProblem(lcp);

@@ -217,6 +217,8 @@ TEST_P(Fuzz, EveryMutationEndsByTheRunContract) {
     EXPECT_EQ(o.output.find("AddressSanitizer"), std::string::npos) << label << "\n" << o.output;
     EXPECT_EQ(o.output.find("runtime error:"), std::string::npos) << label << "\n" << o.output;  // UBSan
     EXPECT_EQ(o.output.find("internal error"), std::string::npos) << label << "\n" << o.output;
+    // (The launcher turns a child's signal into exit 4: the signal is in its output.)
+    EXPECT_EQ(o.output.find("was killed by signal"), std::string::npos) << label << "\n" << o.output;
     if (!HasFailure()) fs::remove_all(out);
   }
   std::printf("batch %d: exit 0: %d, 2: %d, 3: %d, 4: %d\n", GetParam(), codes[0], codes[2], codes[3], codes[4]);

@@ -486,4 +486,18 @@ TEST(Hardening, AnEarlierRunsSummaryDoesNotSpeakForAKilledOne) {
   EXPECT_GT(ReadHistory(out / "history.csv").size(), 0u);
 }
 
+TEST(Hardening, ExtremeLcpDataDoNotCrashSiconos) {
+  // Found by the fuzz test under AddressSanitizer: a sliding block at 1e20 m/s made Siconos'
+  // Lemke crash (SIGSEGV, which the launcher reported as exit 4). The LCP is now handed over
+  // scaled by powers of two when its data leave 2^±40, and the friction step runs.
+  for (const std::string speed : {"1e20", "1e300"}) {
+    const fs::path out = TempDir("extreme_lcp_" + speed);
+    const Result r = Launch(kScenarios + "/sliding_block.pbtxt --out " + out.string() +
+                            " --set 'model.contact_nodes[0].velocity=[" + speed + ", 0, 0]' --set numerics.end_time=0.05");
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(r.output.find("killed by signal"), std::string::npos) << r.output;
+    EXPECT_EQ(ReadSummary(out).steps(), 50);  // 0.05 s at h = 1 ms
+  }
+}
+
 }  // namespace

@@ -92,6 +92,7 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     body.angular_velocity = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
     model.bodies.push_back(body);
   }
+  AddBeams(checks, &body_names, &model);
   auto find_body = [&](const std::string& path, bool has, const std::string& name) {
     checks.Require(path, has, "a body name or \"ground\"");
     return name == "ground" ? -1 : body_names.Find(path, name);
@@ -174,6 +175,7 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     }
     model.joints.push_back(joint);
   }
+  AddBeamClamps(checks, &joint_names, &model);
   NameTable force_names(checks, "force element");
   for (int i = 0; i < m.forces_size(); ++i) {
     const sc::ForceElement& fe = m.forces(i);

@@ -11,6 +11,7 @@
 
 #include "interface/scenario/scenario_file.h"
 #include "interface/scenario/time_function.h"
+#include "smooth_solver/beam/beam_model.h"
 #include "smooth_solver/forces/force_elements.h"
 
 namespace cosim::smooth {
@@ -86,6 +87,8 @@ struct MultibodyModel {
   std::vector<int> hold_joints;  // joints whose coordinate and speed the initial state keeps
   std::vector<ForceSpec> forces;
   std::vector<InterfacePointSpec> interface_points;
+  // Beams: their nodes are bodies (with no mass of their own) among `bodies`.
+  std::vector<BeamModel> beams;
 };
 
 // Throws InputError naming the field for every inconsistency it finds.

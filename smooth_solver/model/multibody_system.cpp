@@ -234,6 +234,33 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       }
     }
   }
+  // Beams: each element's constant mass over its nodes' coordinates (slot x, d1, d2, d3 of each
+  // node, ⊗ I3), gravity as M g on the positions, and the internal force element.
+  for (const BeamModel& beam : model.beams) {
+    const int nn = beam.nodes_per_element;
+    for (const BeamElement& el : beam.elements) {
+      const Eigen::MatrixXd Ms = BeamElementMass(nn, el.s0, el.length, beam.table, beam.RotaryFloor(el));
+      for (int I = 0; I < nn; ++I) {
+        for (int sI = 0; sI < 4; ++sI) {
+          const int row = kCoordinatesPerBody * el.node[static_cast<size_t>(I)] + 3 * sI;
+          double gravity_weight = 0.0;  // Σ_J M(I sI, J x): the node slot's share of m g
+          for (int J = 0; J < nn; ++J) {
+            const int col0 = kCoordinatesPerBody * el.node[static_cast<size_t>(J)];
+            gravity_weight += Ms(4 * I + sI, 4 * J);
+            for (int sJ = 0; sJ < 4; ++sJ) {
+              const double v = Ms(4 * I + sI, 4 * J + sJ);
+              if (v == 0.0) continue;
+              for (int k = 0; k < 3; ++k) mass.emplace_back(row + k, col0 + 3 * sJ + k, v);
+            }
+          }
+          sys.constant_force.segment<3>(row) += gravity_weight * model.gravity;
+        }
+      }
+    }
+    auto force = std::make_unique<BeamForce>(beam.name, nn, beam.elements, beam.table, beam.retardation);
+    sys.beam_forces.push_back(force.get());
+    sys.forces.push_back(std::move(force));
+  }
   sys.mass.resize(n, n);
   sys.mass.setFromTriplets(mass.begin(), mass.end());
 

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "smooth_solver/beam/beam.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 #include "smooth_solver/elastic/elastic_force.h"
 #include "smooth_solver/elastic/elastic_model.h"
@@ -78,6 +79,8 @@ struct MultibodySystem {
   Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
     return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);
   }
+  // The beams' internal forces, in model.beams' order (also in `forces`).
+  std::vector<const BeamForce*> beam_forces;
   // The elastic bodies' internal forces (also in `forces`).
   std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;

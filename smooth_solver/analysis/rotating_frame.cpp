@@ -1,0 +1,191 @@
+#include "smooth_solver/analysis/rotating_frame.h"
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseLU>
+
+#include <algorithm>
+#include <cmath>
+
+#include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+
+namespace cosim::smooth {
+
+namespace {
+
+// Adds into a dense matrix (analysis only).
+class DenseSink : public SparseSink {
+ public:
+  explicit DenseSink(Eigen::MatrixXd* m, int row = 0, int col = 0) : m_(m), row_(row), col_(col) {}
+  void Add(int r, int c, double v) override { (*m_)(r + row_, c + col_) += v; }
+
+ private:
+  Eigen::MatrixXd* m_;
+  int row_, col_;
+};
+
+class TripletSink : public SparseSink {
+ public:
+  void Add(int r, int c, double v) override { t_.emplace_back(r, c, v); }
+  Eigen::SparseMatrix<double> Build(int n) const {
+    Eigen::SparseMatrix<double> m(n, n);
+    m.setFromTriplets(t_.begin(), t_.end());
+    m.makeCompressed();
+    return m;
+  }
+
+ private:
+  std::vector<Eigen::Triplet<double>> t_;
+};
+
+// Which coordinate triples are points (the rest are directions): each body's first triple and
+// every elastic-body node.
+std::vector<char> PointTriples(const MultibodySystem& system) {
+  const int triples = system.coordinates / 3;
+  const int rigid = system.elastic_offset.empty() ? system.coordinates : system.elastic_offset.front();
+  std::vector<char> point(static_cast<size_t>(triples), 1);
+  for (int k = 0; k < rigid / 3; ++k) point[static_cast<size_t>(k)] = (k % 4 == 0) ? 1 : 0;
+  return point;
+}
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& w) {
+  Eigen::Matrix3d S;
+  S << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+  return S;
+}
+
+// Block-diagonal I ⊗ A over all triples (sparse).
+Eigen::SparseMatrix<double> PerTriple(int n, const Eigen::Matrix3d& A) {
+  std::vector<Eigen::Triplet<double>> t;
+  for (int k = 0; k < n / 3; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        if (A(i, j) != 0.0) t.emplace_back(3 * k + i, 3 * k + j, A(i, j));
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> m(n, n);
+  m.setFromTriplets(t.begin(), t.end());
+  return m;
+}
+
+Eigen::VectorXd WithoutOrigin(const MultibodySystem& system, const Eigen::VectorXd& q, const Eigen::Vector3d& origin) {
+  const std::vector<char> point = PointTriples(system);
+  Eigen::VectorXd qh = q;
+  for (size_t k = 0; k < point.size(); ++k) {
+    if (point[k]) qh.segment<3>(3 * static_cast<Eigen::Index>(k)) -= origin;
+  }
+  return qh;
+}
+
+}  // namespace
+
+EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::VectorXd& q_guess,
+                               const SpinningFrame& frame, const EquilibriumOptions& options) {
+  const int n = system.coordinates, m = system.constraints.size(), N = n + m;
+  const Eigen::Matrix3d O = Skew(frame.omega);
+  const Eigen::SparseMatrix<double> MW2 = system.mass * PerTriple(n, O * O);
+  EquilibriumResult r;
+  r.q = q_guess;
+  r.lambda = Eigen::VectorXd::Zero(m);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  auto residual = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::VectorXd* R) {
+    R->resize(N);
+    Eigen::VectorXd f(n);
+    system.Force(q, zero, options.t, f);
+    R->head(n) = -f + MW2 * WithoutOrigin(system, q, frame.origin);
+    system.constraints.AddJacobianTransposeTimes(q, options.t, lambda, R->head(n));
+    system.constraints.Evaluate(q, options.t, R->tail(m));
+    for (int i = 0; i < m; ++i) {
+      if (!system.constraints.Active(static_cast<size_t>(i), options.t)) (*R)(n + i) = lambda(i);
+      else (*R)(n + i) -= system.constraints.Compliance(static_cast<size_t>(i)) * lambda(i);
+    }
+  };
+  Eigen::VectorXd R;
+  residual(r.q, r.lambda, &R);
+  for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
+    TripletSink sink;
+    system.AddForceTangent(r.q, zero, options.t, 1.0, 0.0, &sink);
+    AddSparse(MW2, 1.0, &sink);
+    system.constraints.HessianTimesLambda(options.t, r.lambda, &sink, 1.0);
+    system.constraints.JacobianTranspose(r.q, options.t, &sink, n, 1.0);
+    system.constraints.Jacobian(r.q, options.t, &sink, n, 1.0);
+    system.constraints.AddReleasedDiagonal(options.t, &sink, n);
+    system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
+    const Eigen::SparseMatrix<double> A = sink.Build(N);
+    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
+    if (lu.info() != Eigen::Success) break;
+    const Eigen::VectorXd delta = lu.solve(-R);
+    // Full Newton steps: a residual merit (forces in N beside constraint rows, an axial
+    // stiffness 1e7 times the directors' second-order stretch) rejects the steps that converge.
+    r.q += delta.head(n);
+    r.lambda += delta.tail(m);
+    residual(r.q, r.lambda, &R);
+    if (!R.allFinite()) break;
+    if (delta.head(n).lpNorm<Eigen::Infinity>() <= options.tolerance * (1.0 + r.q.lpNorm<Eigen::Infinity>())) {
+      r.converged = true;
+      ++r.iterations;
+      break;
+    }
+  }
+  r.residual = R.lpNorm<Eigen::Infinity>();
+  return r;
+}
+
+std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                              double t, const SpinningFrame& frame, int count, double zero_frequency) {
+  const int n = system.coordinates, m = system.constraints.size();
+  const Eigen::Matrix3d O = Skew(frame.omega);
+  const Eigen::MatrixXd M = Eigen::MatrixXd(system.mass);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd K = M * Eigen::MatrixXd(PerTriple(n, O * O)), C = 2.0 * M * Eigen::MatrixXd(PerTriple(n, O));
+  {
+    DenseSink k(&K), c(&C);
+    system.AddForceTangent(q, zero, t, 1.0, 0.0, &k);
+    system.AddForceTangent(q, zero, t, 0.0, 1.0, &c);
+    system.constraints.HessianTimesLambda(t, lambda, &k, 1.0);
+  }
+  // Rows that hold (active, not regularised: a regularised row is a spring, already in K via
+  // its multiplier's law only in time integration; here it is held rigid as well).
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m, n);
+  {
+    DenseSink g(&G);
+    system.constraints.Jacobian(q, t, &g, 0, 1.0);
+  }
+  for (int i = 0; i < m; ++i) {
+    if (!system.constraints.Active(static_cast<size_t>(i), t)) G.row(i).setZero();
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(G.transpose());
+  const int rank = static_cast<int>(qr.rank());
+  const Eigen::MatrixXd Q = qr.householderQ();
+  const Eigen::MatrixXd Z = Q.rightCols(n - rank);
+  const int k = n - rank;
+  const Eigen::MatrixXd Mr = Z.transpose() * M * Z, Kr = Z.transpose() * K * Z, Cr = Z.transpose() * C * Z;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(Mr);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * k, 2 * k);
+  A.topRightCorner(k, k).setIdentity();
+  A.bottomLeftCorner(k, k) = -ldlt.solve(Kr);
+  A.bottomRightCorner(k, k) = -ldlt.solve(Cr);
+  const Eigen::EigenSolver<Eigen::MatrixXd> es(A, true);
+  std::vector<Mode> modes;
+  for (int i = 0; i < 2 * k; ++i) {
+    const std::complex<double> lam = es.eigenvalues()(i);
+    if (lam.imag() <= 0.0 || std::abs(lam) < zero_frequency) continue;
+    Mode mode;
+    mode.eigenvalue = lam;
+    mode.frequency = std::abs(lam);
+    mode.damping = -lam.real() / std::abs(lam);
+    const Eigen::VectorXcd y = es.eigenvectors().col(i).head(k);
+    Eigen::VectorXcd dq = Z * y;
+    Eigen::Index big = 0;
+    dq.cwiseAbs().maxCoeff(&big);
+    dq /= dq(big);
+    mode.shape = dq.real();
+    modes.push_back(std::move(mode));
+  }
+  std::sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) { return a.frequency < b.frequency; });
+  if (static_cast<int>(modes.size()) > count) modes.resize(static_cast<size_t>(count));
+  return modes;
+}
+
+}  // namespace cosim::smooth

@@ -1,0 +1,61 @@
+#pragma once
+// Static equilibrium and linearised modes of a multibody system, in the global frame or in a
+// frame spinning steadily at Ω about an axis through `origin` (a rotor's fan plot).
+//
+// In natural coordinates every coordinate triple is a point or a direction, and the mass
+// matrix is a scalar matrix ⊗ I3, so it commutes with W = I ⊗ Ω̃ (Ω × on every triple). The
+// kinetic energy in the spinning frame, T = ½ (q̇ + W q̂)ᵀ M (q̇ + W q̂) with q̂ the coordinates
+// with the origin taken off the points, gives
+//   M q̈ + 2 M W q̇ + M W² q̂ + Φ_qᵀ λ = f(q, q̇),   Φ(q) = 0,                       (R1)
+// (M W² q̂ = −centrifugal force, 2 M W q̇ the Coriolis force). Statics: q̇ = 0; modes: the
+// linearisation of (R1) about that state on the null space of Φ_q.
+#include <Eigen/Core>
+
+#include <complex>
+#include <string>
+#include <vector>
+
+#include "smooth_solver/model/multibody_system.h"
+
+namespace cosim::smooth {
+
+struct SpinningFrame {
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();   // [rad/s], global components
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // a point of the spin axis [m]
+};
+
+struct EquilibriumOptions {
+  double t = 0.0;              // time at which loads and drives are taken
+  double tolerance = 1e-10;    // on |Δq|∞ relative to 1 + |q|∞
+  int max_iterations = 50;
+};
+
+struct EquilibriumResult {
+  Eigen::VectorXd q, lambda;
+  int iterations = 0;
+  bool converged = false;
+  double residual = 0.0;  // max norm of the force and constraint residual at the end
+};
+
+// Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t)] = 0 from `q_guess` (full steps: ramp large
+// loads, e.g. through the loads' time functions).
+EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::VectorXd& q_guess,
+                               const SpinningFrame& frame, const EquilibriumOptions& options);
+
+struct Mode {
+  double frequency = 0.0;  // [rad/s], |λ| (the undamped circular frequency of the pair)
+  double damping = 0.0;    // ratio −Re λ / |λ|
+  std::complex<double> eigenvalue;
+  Eigen::VectorXd shape;   // real part of the position part, in q (max-abs normalised)
+};
+
+// The constrained system's modes about the static state (q, λ) in the spinning frame: the
+// eigenvalues of the first-order form of
+//   Zᵀ M Z ÿ + Zᵀ (2 M W + C) Z ẏ + Zᵀ (K + M W² + Σ λ_i ∇²φ_i) Z y = 0,   δq = Z y,
+// with Z an orthonormal basis of the null space of Φ_q, K = −∂f/∂q, C = −∂f/∂q̇ (dense:
+// for analysis, not for the time loop). Sorted by frequency; rigid modes (|λ| below
+// `zero_frequency`) are left out; at most `count` are returned.
+std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                              double t, const SpinningFrame& frame, int count, double zero_frequency = 1e-6);
+
+}  // namespace cosim::smooth

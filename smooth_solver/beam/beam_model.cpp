@@ -1,0 +1,178 @@
+#include "smooth_solver/beam/beam_model.h"
+
+#include <cmath>
+
+#include "smooth_solver/model/multibody_model.h"
+
+namespace cosim::smooth {
+
+using interface::Checks;
+using interface::ElementPath;
+using interface::FormatNumber;
+namespace sc = cosim::scenario;
+
+namespace {
+
+BeamSection ReadStation(const Checks& checks, const std::string& path, const sc::BeamStation& st) {
+  BeamSection s;
+  s.ea = checks.Positive(path + ".ea", st.has_ea(), st.ea(), "N");
+  s.ga2 = st.has_ga_chord() ? checks.Positive(path + ".ga_chord", true, st.ga_chord(), "N") : s.ea;
+  s.ga3 = st.has_ga_flap() ? checks.Positive(path + ".ga_flap", true, st.ga_flap(), "N") : s.ea;
+  s.gj = checks.Positive(path + ".gj", st.has_gj(), st.gj(), "N m^2");
+  s.ei2 = checks.Positive(path + ".ei_flap", st.has_ei_flap(), st.ei_flap(), "N m^2");
+  s.ei3 = checks.Positive(path + ".ei_lag", st.has_ei_lag(), st.ei_lag(), "N m^2");
+  s.mass = checks.Positive(path + ".mass", st.has_mass(), st.mass(), "kg/m");
+  s.cg2 = st.cg_chord();
+  s.cg3 = st.cg_flap();
+  s.tension2 = st.tension_chord();
+  s.tension3 = st.tension_flap();
+  const double torsion = checks.NonNegative(path + ".inertia_torsion", st.inertia_torsion(), "kg m");
+  s.inertia2 = checks.NonNegative(path + ".inertia_flap", st.inertia_flap(), "kg m");
+  if (s.inertia2 > torsion) {
+    checks.Fail(path + ".inertia_flap", FormatNumber(s.inertia2) +
+                                            " kg m is more than inertia_torsion (" + FormatNumber(torsion) +
+                                            " kg m), of which it is the flapwise part");
+  }
+  s.inertia3 = torsion - s.inertia2;
+  s.twist = st.twist();
+  return s;
+}
+
+}  // namespace
+
+void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyModel* model) {
+  const sc::Model& m = checks.file().proto().model();
+  interface::NameTable beam_names(checks, "beam");
+  for (int i = 0; i < m.beams_size(); ++i) {
+    const sc::Beam& b = m.beams(i);
+    const std::string path = ElementPath("model.beams", i);
+    BeamModel beam;
+    beam.name = beam_names.Declare(path + ".name", b.has_name(), b.name());
+    if (b.name() == "ground") checks.Fail(path + ".name", "'ground' is the fixed frame; choose another name");
+
+    // Section table.
+    if (b.stations_size() < 1) checks.Fail(path + ".stations", "a beam needs at least one station of section data");
+    std::vector<double> s;
+    std::vector<BeamSection> sections;
+    for (int k = 0; k < b.stations_size(); ++k) {
+      const std::string spath = ElementPath(path + ".stations", k);
+      const sc::BeamStation& st = b.stations(k);
+      checks.Require(spath + ".s", st.has_s(), "the station's span coordinate in m");
+      if (!s.empty() && st.s() < s.back()) {
+        checks.Fail(spath + ".s", "station out of order: s = " + FormatNumber(st.s()) + " m comes after s = " +
+                                      FormatNumber(s.back()) + " m; stations must not decrease");
+      }
+      if (s.size() >= 2 && st.s() == s.back() && s[s.size() - 2] == st.s()) {
+        checks.Fail(spath + ".s", "a third station at s = " + FormatNumber(st.s()) +
+                                      " m; a step is two stations at the same s");
+      }
+      s.push_back(st.s());
+      sections.push_back(ReadStation(checks, spath, st));
+    }
+    beam.span_start = b.has_span_start() ? b.span_start() : s.front();
+    beam.span_end = b.has_span_end() ? b.span_end() : s.back();
+    if (beam.span_start < s.front() || beam.span_start > s.back()) {
+      checks.Fail(path + ".span_start", FormatNumber(beam.span_start) + " m is outside the stations' range [" +
+                                            FormatNumber(s.front()) + ", " + FormatNumber(s.back()) + "] m");
+    }
+    if (!(beam.span_end > beam.span_start) || beam.span_end > s.back()) {
+      checks.Fail(path + ".span_end", FormatNumber(beam.span_end) + " m: expected in (span_start = " +
+                                          FormatNumber(beam.span_start) + ", last station = " + FormatNumber(s.back()) +
+                                          "] m");
+    }
+    beam.table = BeamTable(s, sections);
+
+    // Discretisation.
+    checks.Require(path + ".elements", b.has_elements(), "the number of elements (>= 1)");
+    if (b.elements() < 1 || b.elements() > 10000) {
+      checks.Fail(path + ".elements", "expected 1 to 10000 elements, got " + std::to_string(b.elements()));
+    }
+    if (b.nodes_per_element() != 2 && b.nodes_per_element() != 3) {
+      checks.Fail(path + ".nodes_per_element", "expected 2 (linear) or 3 (quadratic), got " +
+                                                   std::to_string(b.nodes_per_element()));
+    }
+    beam.nodes_per_element = b.nodes_per_element();
+    beam.retardation = checks.NonNegative(path + ".retardation_time", b.retardation_time(), "s");
+
+    // Reference line and section frames.
+    const Eigen::Vector3d root = checks.Vector3(path + ".root", b.root(), std::nullopt);
+    const Eigen::Vector3d axis = checks.Direction(path + ".axis", b.axis());
+    const Eigen::Vector3d chord_given = checks.Direction(path + ".chord", b.chord());
+    const Eigen::Vector3d chord_normal = chord_given - chord_given.dot(axis) * axis;
+    if (chord_normal.norm() < 1e-6) checks.Fail(path + ".chord", "is parallel to axis; it must point across the span");
+    const Eigen::Vector3d d2_0 = chord_normal.normalized(), d3_0 = axis.cross(d2_0);
+    const Eigen::Vector3d v0 = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
+    const Eigen::Vector3d w0 = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
+
+    const int n = beam.nodes_per_element, ne = b.elements(), nodes = ne * (n - 1) + 1;
+    const double length = beam.span_end - beam.span_start, le = length / ne;
+    for (int k = 0; k < nodes; ++k) {
+      const double sk = beam.span_start + length * k / (nodes - 1);
+      const double twist = beam.table.At(sk).twist;
+      RigidBody node;
+      node.name = beam.name + ".n" + std::to_string(k);
+      body_names->Add(path + ".name", node.name);
+      node.position = root + (sk - beam.span_start) * axis;
+      Eigen::Matrix3d R;
+      R.col(0) = axis;
+      R.col(1) = std::cos(twist) * d2_0 + std::sin(twist) * d3_0;
+      R.col(2) = -std::sin(twist) * d2_0 + std::cos(twist) * d3_0;
+      node.orientation = Eigen::Quaterniond(R);
+      node.velocity = v0 + w0.cross(node.position - root);
+      node.angular_velocity = w0;
+      beam.node_bodies.push_back(static_cast<int>(model->bodies.size()));
+      model->bodies.push_back(node);
+    }
+    std::array<double, 2> xi{}, w{};
+    const int gauss = BeamGaussPoints(n, &xi, &w);
+    for (int e = 0; e < ne; ++e) {
+      BeamElement el;
+      el.s0 = beam.span_start + e * le;
+      el.length = le;
+      for (int I = 0; I < n; ++I) {
+        const int body = beam.node_bodies[static_cast<size_t>(e * (n - 1) + I)];
+        el.node[static_cast<size_t>(I)] = body;
+        const RigidBody& nb = model->bodies[static_cast<size_t>(body)];
+        const Eigen::Matrix3d R = nb.orientation.toRotationMatrix();
+        el.q_ref.segment<3>(kCoordinatesPerBody * I) = nb.position;
+        for (int a = 0; a < 3; ++a) el.q_ref.segment<3>(kCoordinatesPerBody * I + 3 + 3 * a) = R.col(a);
+      }
+      for (int g = 0; g < gauss; ++g) {
+        const double sg = el.s0 + 0.5 * (xi[static_cast<size_t>(g)] + 1.0) * le;
+        el.stiffness[static_cast<size_t>(g)] = SectionStiffness(beam.table.At(sg));
+      }
+      beam.elements.push_back(el);
+    }
+    model->beams.push_back(std::move(beam));
+  }
+}
+
+void AddBeamClamps(const Checks& checks, interface::NameTable* joint_names, MultibodyModel* model) {
+  const sc::Model& m = checks.file().proto().model();
+  for (int i = 0; i < m.beams_size(); ++i) {
+    const sc::Beam& b = m.beams(i);
+    if (!b.has_root_body()) continue;
+    const std::string path = ElementPath("model.beams", i) + ".root_body";
+    const BeamModel& beam = model->beams[static_cast<size_t>(i)];
+    int body = -1;
+    if (b.root_body() != "ground") {
+      std::string known;
+      for (size_t k = 0; k < model->bodies.size(); ++k) {
+        if (model->bodies[k].name == b.root_body()) body = static_cast<int>(k);
+        known += (known.empty() ? "" : ", ") + model->bodies[k].name;
+      }
+      if (body < 0) checks.Fail(path, "no body named '" + b.root_body() + "'; known: ground, " + known);
+      if (body == beam.node_bodies.front()) checks.Fail(path, "clamps the beam's root to itself");
+    }
+    Joint clamp;
+    clamp.name = beam.name + ".root_clamp";
+    joint_names->Add(path, clamp.name);
+    clamp.type = JointType::kFixed;
+    clamp.body1 = body;
+    clamp.body2 = beam.node_bodies.front();
+    clamp.point = model->bodies[static_cast<size_t>(clamp.body2)].position;
+    model->joints.push_back(clamp);
+  }
+}
+
+}  // namespace cosim::smooth

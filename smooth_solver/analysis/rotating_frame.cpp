@@ -161,15 +161,24 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
   const Eigen::MatrixXd Z = Q.rightCols(n - rank);
   const int k = n - rank;
   const Eigen::MatrixXd Mr = Z.transpose() * M * Z, Kr = Z.transpose() * K * Z, Cr = Z.transpose() * C * Z;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(Mr);
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * k, 2 * k);
-  A.topRightCorner(k, k).setIdentity();
-  A.bottomLeftCorner(k, k) = -ldlt.solve(Kr);
-  A.bottomRightCorner(k, k) = -ldlt.solve(Cr);
-  const Eigen::EigenSolver<Eigen::MatrixXd> es(A, true);
+  // First-order form E ż = F z, z = [y; ẏ], E = [I 0; 0 Mr], F = [0 I; −Kr −Cr]. The wanted modes
+  // are the slowest, and the stiffest (a section's rotation against its shear stiffness, ω ~
+  // 1e7 rad/s) would swamp them in a direct eigen-solve (absolute error ε |F|): shift and
+  // invert, T = (F − σE)⁻¹ E, whose largest eigenvalues μ = 1/(λ − σ) are the slow modes, each
+  // to a relative ε. σ = −1e-3 rad/s keeps T regular with rigid (λ = 0) modes present.
+  const double sigma = -1e-3;
+  Eigen::MatrixXd E = Eigen::MatrixXd::Identity(2 * k, 2 * k), F = Eigen::MatrixXd::Zero(2 * k, 2 * k);
+  E.bottomRightCorner(k, k) = Mr;
+  F.topRightCorner(k, k).setIdentity();
+  F.bottomLeftCorner(k, k) = -Kr;
+  F.bottomRightCorner(k, k) = -Cr;
+  const Eigen::MatrixXd T = (F - sigma * E).partialPivLu().solve(E);
+  const Eigen::EigenSolver<Eigen::MatrixXd> es(T, true);
   std::vector<Mode> modes;
   for (int i = 0; i < 2 * k; ++i) {
-    const std::complex<double> lam = es.eigenvalues()(i);
+    const std::complex<double> mu = es.eigenvalues()(i);
+    if (std::abs(mu) == 0.0) continue;  // an infinitely fast mode (a massless coordinate)
+    const std::complex<double> lam = sigma + 1.0 / mu;
     if (lam.imag() <= 0.0 || std::abs(lam) < zero_frequency) continue;
     Mode mode;
     mode.eigenvalue = lam;

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <numbers>
 
 #include "interface/run/errors.h"
@@ -153,6 +155,39 @@ TEST(Beam, RollsUpIntoAFullCircleUnderATipMoment) {
   const int mid = 16 * kCoordinatesPerBody;
   EXPECT_NEAR(r.q(mid), 0.0, 2e-3);
   EXPECT_NEAR(r.q(mid + 2), 1.0 / std::numbers::pi, 2e-3);
+}
+
+TEST(Beam, RotatingCantileverFrequenciesOfWrightEtAl) {
+  // Uniform cantilever (m = EI = L = 1, so λ = Ω) clamped at the spin axis, spinning about z:
+  // the first three flapwise (z) frequencies against Wright, Smith, Thresher & Wang (1982),
+  // ω̄ = ω √(m L⁴/EI), to 0.5 % (beams.md). Steady state and modes in the spinning frame; 10
+  // quadratic elements; EA = GA = 1e7 (inextensible in the reference).
+  const MultibodySystem sys = Build(Cantilever(10, 3, 1e7, 1.0));
+  const double expected[4][3] = {
+      {3.5160, 22.0345, 61.6972}, {5.5850, 24.2735, 63.9669}, {9.2569, 29.9959, 70.2936}, {13.1702, 37.6041, 79.6158}};
+  for (int c = 0; c < 4; ++c) {
+    const double lambda = 4.0 * c;
+    SpinningFrame frame;
+    frame.omega = Eigen::Vector3d(0, 0, lambda);
+    const EquilibriumResult st = StaticEquilibrium(sys, sys.q0, frame, EquilibriumOptions{});
+    ASSERT_TRUE(st.converged) << "λ = " << lambda;
+    const std::vector<Mode> modes = LinearModes(sys, st.q, st.lambda, 0.0, frame, 40);
+    std::vector<double> flap;
+    for (const Mode& m : modes) {
+      double z = 0.0, other = 0.0;  // motion of the node points out of and in the plane of rotation
+      for (int k = 0; k < sys.coordinates; k += kCoordinatesPerBody) {
+        z += m.shape(k + 2) * m.shape(k + 2);
+        other += m.shape(k) * m.shape(k) + m.shape(k + 1) * m.shape(k + 1);
+      }
+      if (std::getenv("COSIM_BEAM_DEBUG")) std::printf("λ %g ω %g z %g other %g\n", lambda, m.frequency, z, other);
+      if (z > 10.0 * other) flap.push_back(m.frequency);
+    }
+    ASSERT_GE(flap.size(), 3u) << "λ = " << lambda;
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(flap[static_cast<size_t>(k)] / expected[c][k], 1.0, 0.005)
+          << "λ = " << lambda << ", flap mode " << k + 1 << ": " << flap[static_cast<size_t>(k)];
+    }
+  }
 }
 
 }  // namespace

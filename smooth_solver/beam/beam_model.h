@@ -24,7 +24,7 @@ struct BeamModel {
   // Floor on every director's second moment, as a fraction of m L_e² (BeamElementMass): keeps
   // each node's rotation inertial where the data give no rotary inertia (d1 never has any).
   // 1e-6 is a radius of gyration of L_e/1000 — below any real section's.
-  static constexpr double kRotaryFloor = 1e-6;
+  static constexpr double kRotaryFloor = 3e-3;
   double RotaryFloor(const BeamElement& e) const { return kRotaryFloor * e.length * e.length; }
 };
 

@@ -105,12 +105,10 @@ int BeamGaussPoints(int n, std::array<double, 2>* xi, std::array<double, 2>* wei
   return 2;
 }
 
-BeamForce::BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, BeamTable table,
-                     double retardation)
+BeamForce::BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, double retardation)
     : name_(std::move(name)),
       n_(nodes_per_element),
       elements_(std::move(elements)),
-      table_(std::move(table)),
       retardation_(retardation) {
   COSIM_ASSERT(n_ == 2 || n_ == 3, "beam elements have 2 or 3 nodes");
   gauss_ = BeamGaussPoints(n_, &xi_, &w_);
@@ -293,12 +291,20 @@ Vector6d BeamForce::SectionForces(const Eigen::VectorXd& q, double s) const {
   const double xi = std::clamp(2.0 * (s - e.s0) / e.length - 1.0, -1.0, 1.0);
   Local ql;
   Gather(e, q, &ql);
-  const int nl = kCoordinatesPerBody * n_;
-  StrainGradient B(6, nl);
-  Vector6d eps, eps0;
-  Strains(e, ql, xi, &eps, &B);
-  Strains(e, e.q_ref.head(nl), xi, &eps0, &B);
-  return SectionStiffness(table_.At(s)) * (eps - eps0);
+  // Recovered from the Gauss points, where reduced integration samples the strains (elsewhere
+  // the interpolated shear strain of a nearly shear-rigid section is noise times GA): constant
+  // over a 2-node element, linear through the two points of a 3-node one.
+  StrainGradient B(6, kCoordinatesPerBody * n_);
+  std::array<Vector6d, 2> sigma;
+  for (int g = 0; g < gauss_; ++g) {
+    const size_t gi = static_cast<size_t>(g);
+    Vector6d eps;
+    Strains(e, ql, xi_[gi], &eps, &B);
+    sigma[gi] = e.stiffness[gi] * (eps - e.reference[gi]);
+  }
+  if (gauss_ == 1) return sigma[0];
+  const double t = (xi - xi_[0]) / (xi_[1] - xi_[0]);
+  return sigma[0] + t * (sigma[1] - sigma[0]);
 }
 
 Eigen::MatrixXd BeamElementMass(int n, double s0, double length, const BeamTable& table, double rotary_floor) {

@@ -102,9 +102,7 @@ Eigen::MatrixXd BeamElementMass(int n, double s0, double length, const BeamTable
 // force element over all its elements (an end-point force for every integrator).
 class BeamForce : public ForceElement {
  public:
-  // `table` gives C at the span coordinate of a section-force probe.
-  BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, BeamTable table,
-            double retardation);
+  BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, double retardation);
   void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
@@ -113,7 +111,8 @@ class BeamForce : public ForceElement {
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 
   // Section forces and moments σ = C ε = [N, V2, V3, T, M2, M3] (section frame) at span
-  // coordinate s, from the element containing it (its strains interpolated there).
+  // coordinate s, from the Gauss points of the element containing it (constant over a 2-node
+  // element, linear through a 3-node element's two points).
   Vector6d SectionForces(const Eigen::VectorXd& q, double s) const;
   const std::vector<BeamElement>& elements() const { return elements_; }
   int nodes_per_element() const { return n_; }
@@ -135,7 +134,6 @@ class BeamForce : public ForceElement {
   std::string name_;
   int n_;
   std::vector<BeamElement> elements_;
-  BeamTable table_;
   double retardation_;
   std::array<double, 2> xi_{}, w_{};
   int gauss_ = 1;

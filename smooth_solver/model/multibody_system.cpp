@@ -257,7 +257,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         }
       }
     }
-    auto force = std::make_unique<BeamForce>(beam.name, nn, beam.elements, beam.table, beam.retardation);
+    auto force = std::make_unique<BeamForce>(beam.name, nn, beam.elements, beam.retardation);
     sys.beam_forces.push_back(force.get());
     sys.forces.push_back(std::move(force));
   }

@@ -86,6 +86,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   std::map<std::string, int> body_index, joint_index;
   for (size_t b = 0; b < model_.bodies.size(); ++b) body_index[model_.bodies[b].name] = static_cast<int>(b);
   for (size_t j = 0; j < model_.joints.size(); ++j) joint_index[model_.joints[j].name] = static_cast<int>(j);
+  std::map<std::string, int> beam_index;
+  for (size_t b = 0; b < model_.beams.size(); ++b) beam_index[model_.beams[b].name] = static_cast<int>(b);
   interface::NameTable probe_names(checks, "probe");
   const sc::Output& output = file.proto().output();
   // In a coupled run, probes of contact nodes and contacts are the contact process's.
@@ -128,20 +130,68 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       case sc::Probe::CONSTRAINT_VIOLATION: spec.kind = Kind::kViolation; break;
       case sc::Probe::DISPLACEMENT: spec.kind = Kind::kDisplacement; break;
       case sc::Probe::STRAIN_ENERGY: spec.kind = Kind::kStrainEnergy; break;
+      case sc::Probe::ROTATION: spec.kind = Kind::kRotation; break;
+      case sc::Probe::SECTION_FORCE: spec.kind = Kind::kSectionForce; break;
+      case sc::Probe::SECTION_MOMENT: spec.kind = Kind::kSectionMoment; break;
       default:
         checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
                                         "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
                                         "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY or CONSTRAINT_VIOLATION, got " +
                                             sc::Probe::Quantity_Name(p.quantity()));
     }
+    if (p.has_frame()) {
+      const bool vector = p.quantity() == sc::Probe::POSITION || p.quantity() == sc::Probe::VELOCITY ||
+                          p.quantity() == sc::Probe::ACCELERATION || p.quantity() == sc::Probe::ANGULAR_VELOCITY ||
+                          p.quantity() == sc::Probe::DISPLACEMENT || p.quantity() == sc::Probe::ROTATION;
+      if (!vector) {
+        checks.Fail(path + ".frame", "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, DISPLACEMENT and "
+                                     "ROTATION of a body can be expressed in a body's frame");
+      }
+      if (p.frame() != "ground") {
+        auto it = body_index.find(p.frame());
+        if (it == body_index.end()) checks.Fail(path + ".frame", "no body named '" + p.frame() + "'");
+        spec.frame = it->second;
+      }
+    }
+    if (p.has_station() && spec.kind != Kind::kSectionForce && spec.kind != Kind::kSectionMoment) {
+      checks.Fail(path + ".station", "only SECTION_FORCE and SECTION_MOMENT probes take a station");
+    }
+    // DISPLACEMENT of a body (a beam node, a rigid body): from its initial position.
+    if (spec.kind == Kind::kDisplacement && elastic_index.count(p.entity()) == 0 && body_index.count(p.entity()) != 0) {
+      spec.kind = Kind::kBodyDisplacement;
+    }
+    if (spec.kind == Kind::kStrainEnergy && beam_index.count(p.entity()) != 0) spec.kind = Kind::kBeamStrainEnergy;
+    if (spec.frame >= 0 && (spec.kind == Kind::kDisplacement)) {
+      checks.Fail(path + ".frame", "an elastic body's node displacement is global; probe a beam node or body instead");
+    }
     switch (spec.kind) {
       case Kind::kPosition:
       case Kind::kVelocity:
       case Kind::kAcceleration:
       case Kind::kAngularVelocity:
+      case Kind::kBodyDisplacement:
+      case Kind::kRotation:
         spec.index = find(body_index, "body");
         spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
+      case Kind::kBeamStrainEnergy:
+        spec.index = beam_index.at(p.entity());
+        spec.component = interface::ProbeComponent(checks, path, p, false);
+        break;
+      case Kind::kSectionForce:
+      case Kind::kSectionMoment: {
+        spec.index = find(beam_index, "beam");
+        const BeamModel& beam = model_.beams[static_cast<size_t>(spec.index)];
+        checks.Require(path + ".station", p.has_station(), "the section's span coordinate in m");
+        if (p.station() < beam.span_start || p.station() > beam.span_end) {
+          checks.Fail(path + ".station", interface::FormatNumber(p.station()) + " m is outside beam '" + beam.name +
+                                             "' (span " + interface::FormatNumber(beam.span_start) + " to " +
+                                             interface::FormatNumber(beam.span_end) + " m)");
+        }
+        spec.station = p.station();
+        spec.component = interface::ProbeComponent(checks, path, p, true);
+        break;
+      }
       case Kind::kJointCoordinate:
       case Kind::kJointSpeed: {
         spec.index = find(joint_index, "joint");
@@ -202,6 +252,21 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_, &elastic));
   time_ = numerics_.start_time();
   const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
+  for (ProbeSpec& p : probes_) {
+    if (p.kind != Kind::kBodyDisplacement && p.kind != Kind::kRotation) continue;
+    const Eigen::VectorXd& q = initial.q;
+    const int o = kCoordinatesPerBody * p.index;
+    Eigen::Matrix3d B, F = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d xF = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) B.col(k) = q.segment<3>(o + 3 + 3 * k);
+    if (p.frame >= 0) {
+      const int f = kCoordinatesPerBody * p.frame;
+      xF = q.segment<3>(f);
+      for (int k = 0; k < 3; ++k) F.col(k) = q.segment<3>(f + 3 + 3 * k);
+    }
+    p.initial_position = F.transpose() * (Eigen::Vector3d(q.segment<3>(o)) - xF);
+    p.initial_orientation = F.transpose() * B;
+  }
   if (ida_) {
     integrator_ = std::make_unique<IdaReference>(*system_, ida, initial, time_);
   } else if (s.integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
@@ -228,21 +293,69 @@ std::vector<std::string> MultibodySimulation::ProbeNames() const {
   return names;
 }
 
+Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
+  const DaeState& s = integrator_->state();
+  const int o = kCoordinatesPerBody * p.index;
+  // ω = ½ Σ_k e_k × ė_k and ω̇ = ½ Σ_k e_k × ë_k for orthonormal axes e_k.
+  auto omega = [&](int at, const Eigen::VectorXd& rate) {
+    Eigen::Vector3d w = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) w += 0.5 * s.q.segment<3>(at + 3 + 3 * k).cross(rate.segment<3>(at + 3 + 3 * k));
+    return w;
+  };
+  Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d xF = Eigen::Vector3d::Zero(), vF = xF, aF = xF, wF = xF, alphaF = xF;
+  if (p.frame >= 0) {
+    const int f = kCoordinatesPerBody * p.frame;
+    for (int k = 0; k < 3; ++k) F.col(k) = s.q.segment<3>(f + 3 + 3 * k);
+    xF = s.q.segment<3>(f);
+    vF = s.qdot.segment<3>(f);
+    aF = s.qddot.segment<3>(f);
+    wF = omega(f, s.qdot);
+    alphaF = omega(f, s.qddot);
+  }
+  const Eigen::Vector3d r = s.q.segment<3>(o) - xF;
+  // Velocity and acceleration as seen from the moving frame (relative kinematics).
+  const Eigen::Vector3d v_rel = s.qdot.segment<3>(o) - vF - wF.cross(r);
+  switch (p.kind) {
+    case Kind::kPosition: return F.transpose() * r;
+    case Kind::kVelocity: return F.transpose() * v_rel;
+    case Kind::kAcceleration:
+      return F.transpose() * (Eigen::Vector3d(s.qddot.segment<3>(o)) - aF - alphaF.cross(r) - wF.cross(wF.cross(r)) -
+                              2.0 * wF.cross(v_rel));
+    case Kind::kAngularVelocity: return F.transpose() * (omega(o, s.qdot) - wF);
+    case Kind::kBodyDisplacement: return F.transpose() * r - p.initial_position;
+    case Kind::kRotation: {
+      Eigen::Matrix3d B;
+      for (int k = 0; k < 3; ++k) B.col(k) = s.q.segment<3>(o + 3 + 3 * k);
+      // Rotation from the initial relative orientation to the present one, in the frame's axes.
+      const Eigen::AngleAxisd aa(Eigen::Quaterniond(F.transpose() * B * p.initial_orientation.transpose()).normalized());
+      return aa.angle() * aa.axis();
+    }
+    default: return Eigen::Vector3d::Zero();
+  }
+}
+
 void MultibodySimulation::Probe(std::vector<double>* values) const {
   const DaeState& s = integrator_->state();
   for (size_t i = 0; i < probes_.size(); ++i) {
     const ProbeSpec& p = probes_[i];
-    const int o = kCoordinatesPerBody * std::max(p.index, 0);
     double value = 0.0;
     switch (p.kind) {
-      case Kind::kPosition: value = interface::PickComponent(s.q.segment<3>(o), p.component); break;
-      case Kind::kVelocity: value = interface::PickComponent(s.qdot.segment<3>(o), p.component); break;
-      case Kind::kAcceleration: value = interface::PickComponent(s.qddot.segment<3>(o), p.component); break;
-      case Kind::kAngularVelocity: {
-        // ω = ½ Σ_k e_k × ė_k for the orthonormal body axes e_k.
-        Eigen::Vector3d w = Eigen::Vector3d::Zero();
-        for (int k = 0; k < 3; ++k) w += 0.5 * s.q.segment<3>(o + 3 + 3 * k).cross(s.qdot.segment<3>(o + 3 + 3 * k));
-        value = interface::PickComponent(w, p.component);
+      case Kind::kPosition:
+      case Kind::kVelocity:
+      case Kind::kAcceleration:
+      case Kind::kAngularVelocity:
+      case Kind::kBodyDisplacement:
+      case Kind::kRotation: value = interface::PickComponent(BodyVector(p), p.component); break;
+      case Kind::kBeamStrainEnergy:
+        value = system_->beam_forces[static_cast<size_t>(p.index)]->PotentialEnergy(s.q);
+        break;
+      case Kind::kSectionForce:
+      case Kind::kSectionMoment: {
+        const Vector6d sigma = system_->beam_forces[static_cast<size_t>(p.index)]->SectionForces(s.q, p.station);
+        value = interface::PickComponent(p.kind == Kind::kSectionForce ? Eigen::Vector3d(sigma.head<3>())
+                                                                       : Eigen::Vector3d(sigma.tail<3>()),
+                                         p.component);
         break;
       }
       case Kind::kJointCoordinate:

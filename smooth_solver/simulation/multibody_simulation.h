@@ -34,14 +34,23 @@ class MultibodySimulation : public interface::Simulation {
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
                     kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation,
-                    kDisplacement, kStrainEnergy, kClampForce, kClampMoment };
+                    kDisplacement, kStrainEnergy, kClampForce, kClampMoment, kBodyDisplacement, kRotation,
+                    kBeamStrainEnergy, kSectionForce, kSectionMoment };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;
     int index = -1;
     int component = 0;  // 0-2 x, y, z; 3 norm
     int node = 0;       // elastic-body probes
+    int frame = -1;     // body whose frame vectors are expressed in (−1: global)
+    double station = 0.0;  // section probes: span coordinate
+    // Initial position (relative to the frame, in its axes) and orientation (relative to the
+    // frame) of the body: displacement and rotation are measured from them.
+    Eigen::Vector3d initial_position = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d initial_orientation = Eigen::Matrix3d::Identity();
   };
+  // A body's vector quantity (kind), in the probe's frame.
+  Eigen::Vector3d BodyVector(const ProbeSpec& p) const;
 
   MultibodyModel model_;
   std::unique_ptr<const MultibodySystem> system_;

@@ -115,6 +115,7 @@ int main() {
   }
   hub += "\n    }\n    numerics { end_time: 0.1 step: 0.002 }\n";
   const int steps = 50;
+  double hex_step = 0.0;
   for (const char* integrator : {"CGALPHA", "IDA"}) {
     const auto file = cosim::interface::ScenarioFile::Parse(hub, "four_blade_hub.pbtxt",
                                                             {std::string("numerics.smooth.integrator=") + integrator});
@@ -135,6 +136,7 @@ int main() {
         for (const ElasticForce* e : sys.elastic_forces) e->AddMidpoint(q, q, 0.45, f, &sink, 1.0);
       });
       const double iterations = static_cast<double>(sim.newton_iterations()) / steps;
+      hex_step = per_step;
       std::printf("\nfour-blade hub (4 × 10 elements, %d coordinates, %d constraints), h = 2 ms:\n", sys.coordinates,
                   sys.constraints.size());
       std::printf("  CGα: %.2f ms per step, %.2f Newton iterations per step; one elastic force+tangent %.2f ms "
@@ -143,6 +145,36 @@ int main() {
     } else {
       std::printf("  IDA (tolerances 1e-6): %.2f ms per output step (%ld internal steps in all)\n", 1e3 * per_step,
                   sim.ida_internal_steps());
+    }
+  }
+  // Issue 14: the research Puma's articulated rotor with beam blades (scenarios/puma/
+  // rotor_no_air.pbtxt: lag and flap hinges, beams clamped at the pitch bearing, lag dampers,
+  // gravity, no air) at h = 1e-4 s, against the hex27 hub's CGα step above.
+  std::printf("\nPuma rotor, 4 beam blades, CGα at h = 1e-4 s (200 steps from steady spin):\n");
+  std::printf("%10s %6s %12s %14s %16s %12s %14s\n", "elements", "nodes", "coordinates", "us per step",
+              "us per element", "Newton/step", "hex27 hub / this");
+  for (int nodes : {2, 3}) {
+    for (int elements : {5, 10, 20}) {
+      std::vector<std::string> sets;
+      for (int b = 0; b < 4; ++b) {
+        const std::string beam = "model.beams[" + std::to_string(b) + "].";
+        sets.push_back(beam + "elements=" + std::to_string(elements));
+        sets.push_back(beam + "nodes_per_element=" + std::to_string(nodes));
+      }
+      sets.push_back("output.probes=[]");
+      const auto file =
+          cosim::interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_no_air.pbtxt", sets);
+      MultibodySimulation sim(file);
+      const int n = 200;
+      const double h = 1e-4;
+      sim.Step(0.0, h);  // the start-up step out of the timing
+      const long long before = sim.newton_iterations();
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int k = 1; k <= n; ++k) sim.Step(k * h, h);
+      const double per_step = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+      std::printf("%10d %6d %12d %14.0f %16.1f %12.2f %14.1f\n", 4 * elements, nodes, sim.system().coordinates,
+                  1e6 * per_step, 1e6 * per_step / (4 * elements),
+                  static_cast<double>(sim.newton_iterations() - before) / n, hex_step / per_step);
     }
   }
   return 0;

@@ -2,6 +2,7 @@
 // A beam as given in the scenario (model.beams), validated: its node bodies, elements and
 // section table. The nodes become bodies of the MultibodyModel ("<beam>.n<k>") before the joints
 // are read, so that joints, loads, probes and interface nodes can name them.
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -21,11 +22,19 @@ struct BeamModel {
   BeamTable table;
   double retardation = 0.0;
   double span_start = 0.0, span_end = 0.0;
-  // Floor on every director's second moment, as a fraction of m L_e² (BeamElementMass): keeps
-  // each node's rotation inertial where the data give no rotary inertia (d1 never has any).
-  // 1e-6 is a radius of gyration of L_e/1000 — below any real section's.
+  // Floor on every director's second moment, kRotaryFloor · m · ℓ² with ℓ = max(L_e, L/10)
+  // (BeamElementMass): keeps each node's rotation inertial where the data give no rotary
+  // inertia (d1 never has any: a section has no thickness along the span). A radius of gyration
+  // of 5.5 % of ℓ — for the Puma's 7 m blade 4 cm, below its sections' own (≈ 6 cm thick). Without
+  // it the section rotations against GA vibrate at ωh ~ 1e3 at h = 1e-4 s, their director rates
+  // tilt the velocity rows of CGα's matrix and the position projection stalls; ℓ stops shrinking
+  // at L/10 because a floor vanishing under refinement brings that back (20 quadratic elements
+  // per Puma blade failed with ℓ = L_e).
   static constexpr double kRotaryFloor = 3e-3;
-  double RotaryFloor(const BeamElement& e) const { return kRotaryFloor * e.length * e.length; }
+  double RotaryFloor(const BeamElement& e) const {
+    const double l = std::max(e.length, 0.1 * (span_end - span_start));
+    return kRotaryFloor * l * l;
+  }
 };
 
 // Reads model.beams: appends their node bodies to model->bodies (declared in `body_names`) and

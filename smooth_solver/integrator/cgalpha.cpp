@@ -221,7 +221,11 @@ void CgAlpha::ProjectPositions(double t1) {
     for (int i = 0; i < m; ++i) rhs(i) = velocity_row_[static_cast<size_t>(i)] != 0 ? -phi_(i) : 0.0;
     const double violation = rhs.lpNorm<Eigen::Infinity>();
     if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return;
-    if (k == 10 || !std::isfinite(violation)) {
+    // A slow but steady contraction (the velocity rows of the matrix lean by |ω| βh/γ from Φ_q,
+    // and a beam's section rotations can spin fast in its stiff modes) is accepted once within
+    // the Newton tolerance after 10 solves.
+    if (k >= 10 && violation <= settings_.tolerance) return;
+    if (k == 30 || !std::isfinite(violation)) {
       throw NumericalError("CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) +
                            " s (|Φ| = " + interface::FormatNumber(violation) + " after " + std::to_string(k) +
                            " solves); reduce the step");

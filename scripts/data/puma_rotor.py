@@ -4,6 +4,7 @@
 steadily at Ω100% — the scene of issue 14's speed goal. The blade written once here, placed at
 four azimuths (the scenario's own pattern construct is issue 16's).
 Usage: puma_rotor.py [ELEMENTS] [NODES_PER_ELEMENT] > FILE
+       puma_rotor.py --fan-plot > scenarios/puma/blade_fan_plot.pbtxt  (one blade, MODES analysis)
 """
 import math
 import os
@@ -11,8 +12,11 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ELEMENTS = int(sys.argv[1]) if len(sys.argv) > 1 else 10
-NODES = int(sys.argv[2]) if len(sys.argv) > 2 else 3
+FAN = "--fan-plot" in sys.argv[1:]
+ARGS = [a for a in sys.argv[1:] if a != "--fan-plot"]
+ELEMENTS = int(ARGS[0]) if len(ARGS) > 0 else 10
+NODES = int(ARGS[1]) if len(ARGS) > 1 else 3
+BLADES = 1 if FAN else 4
 OMEGA = 28.0  # Ω100% [rad/s]; the rotor turns clockwise seen from above: −Ω about +z
 STATIONS = subprocess.run([os.path.join(HERE, "puma_blade_stations.py"), "--clockwise", "6"], check=True,
                           capture_output=True, text=True).stdout.rstrip()
@@ -40,14 +44,14 @@ out = [f"""# The research Puma's articulated rotor (SA330, ../shared/reference/p
 #   leading edge, so the flapwise axis d3 points down and the tables' nose-up twist is negated;
 # - start: spinning steadily at Ω100% (every body and beam given the hub's angular velocity; the
 #   solver makes it consistent), blades flat, gravity from t = 0.
-name: "puma_rotor_no_air"
-description: "SA330 research Puma rotor, 4 articulated beam blades, lag dampers, gravity, no air, at 28 rad/s"
+name: "{'puma_blade_fan_plot' if FAN else 'puma_rotor_no_air'}"
+description: "SA330 research Puma rotor, {BLADES} articulated beam blade(s), lag dampers, {'no gravity, MODES analysis' if FAN else 'gravity, no air, at 28 rad/s'}"
 model {{
-  gravity: [0, 0, -9.81]
+  gravity: {'[0, 0, 0]' if FAN else '[0, 0, -9.81]'}
   bodies {{ name: "hub" mass: 50 inertia: [5, 5, 10] position: [0, 0, 0] angular_velocity: [0, 0, {-OMEGA}] }}
   joints {{ name: "shaft" type: REVOLUTE body1: "ground" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
            drive {{ quantity: ANGULAR_SPEED function {{ constant: {-OMEGA} }} }} }}"""]
-for k in range(4):
+for k in range(BLADES):
     psi = k * math.pi / 2
     er = (math.cos(psi), math.sin(psi), 0.0)
     et = (-math.sin(psi), math.cos(psi), 0.0)
@@ -69,6 +73,20 @@ for k in range(4):
 {STATIONS}
   }}""")
 tip = (NODES - 1) * ELEMENTS
+if FAN:
+    out.append("""}
+# The fan plot (scripts/cosim study modes scenarios/puma/blade_fan_plot.pbtxt): modes about the
+# steady state in the frame spinning with the hub, clockwise (axis −z), from 0.1 Ω100% to 1.2
+# Ω100%; no gravity (an articulated blade has no static equilibrium under gravity at rest).
+numerics {
+  start_time: 2.8
+  end_time: 33.6
+  step: 2.8
+  smooth { analysis: MODES modes { axis: [0, 0, -1] count: 8 } }
+}""")
+    print("\n".join(out))
+    sys.exit(0)
+
 out.append(f"""}}
 numerics {{
   end_time: 0.05

@@ -44,6 +44,14 @@ TEST(Allocation, CgAlphaStepsOfRigidAndElasticBodiesDoNotAllocate) {
   EXPECT_EQ(four_bar, 0);
 }
 
+TEST(Allocation, BeamRotorStepsDoNotAllocate) {
+  // The Puma rotor with beam blades (issue 14's speed scene): element kernels on bounded local
+  // Eigen types, section stiffness and reference strains stored per Gauss point.
+  const long rotor = AllocationsInFiveSteps("/scenarios/puma/rotor_no_air.pbtxt", {}, 1e-4);
+  std::printf("heap allocations in five CGα steps of the Puma beam rotor: %ld\n", rotor);
+  EXPECT_EQ(rotor, 0);
+}
+
 TEST(Allocation, RotorStopForceElementsDoNotAllocate) {
   // Joint springs, joint stops and continuous contacts (the rotor stops' force elements)
   // evaluated their measure with dynamic Eigen objects: 45 allocations in five steps of

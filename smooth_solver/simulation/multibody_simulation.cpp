@@ -161,9 +161,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       spec.kind = Kind::kBodyDisplacement;
     }
     if (spec.kind == Kind::kStrainEnergy && beam_index.count(p.entity()) != 0) spec.kind = Kind::kBeamStrainEnergy;
-    if (spec.frame >= 0 && (spec.kind == Kind::kDisplacement)) {
-      checks.Fail(path + ".frame", "an elastic body's node displacement is global; probe a beam node or body instead");
-    }
     switch (spec.kind) {
       case Kind::kPosition:
       case Kind::kVelocity:
@@ -253,19 +250,24 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   time_ = numerics_.start_time();
   const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
   for (ProbeSpec& p : probes_) {
-    if (p.kind != Kind::kBodyDisplacement && p.kind != Kind::kRotation) continue;
+    if (p.kind != Kind::kBodyDisplacement && p.kind != Kind::kRotation && p.kind != Kind::kDisplacement) continue;
     const Eigen::VectorXd& q = initial.q;
-    const int o = kCoordinatesPerBody * p.index;
+    // The point: a body's origin, or an elastic body's node.
+    const int o = p.kind == Kind::kDisplacement ? system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node
+                                                : kCoordinatesPerBody * p.index;
     Eigen::Matrix3d B, F = Eigen::Matrix3d::Identity();
     Eigen::Vector3d xF = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k) B.col(k) = q.segment<3>(o + 3 + 3 * k);
+    B.setIdentity();
+    if (p.kind != Kind::kDisplacement) {
+      for (int k = 0; k < 3; ++k) B.col(k) = q.segment<3>(o + 3 + 3 * k);
+    }
     if (p.frame >= 0) {
       const int f = kCoordinatesPerBody * p.frame;
       xF = q.segment<3>(f);
       for (int k = 0; k < 3; ++k) F.col(k) = q.segment<3>(f + 3 + 3 * k);
     }
     p.initial_position = F.transpose() * (Eigen::Vector3d(q.segment<3>(o)) - xF);
-    p.initial_orientation = F.transpose() * B;
+    if (p.kind != Kind::kDisplacement) p.initial_orientation = F.transpose() * B;
   }
   if (ida_) {
     integrator_ = std::make_unique<IdaReference>(*system_, ida, initial, time_);
@@ -373,8 +375,16 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kViolation: value = integrator_->ConstraintViolation(time_); break;
       case Kind::kDisplacement: {
         const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
-        const Eigen::Vector3d X = system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
-        value = interface::PickComponent(Eigen::Vector3d(s.q.segment<3>(at)) - X, p.component);
+        Eigen::Vector3d d;
+        if (p.frame >= 0) {  // relative to the frame, in its axes, from the initial relative position
+          const int f = kCoordinatesPerBody * p.frame;
+          Eigen::Matrix3d F;
+          for (int k = 0; k < 3; ++k) F.col(k) = s.q.segment<3>(f + 3 + 3 * k);
+          d = F.transpose() * (Eigen::Vector3d(s.q.segment<3>(at)) - Eigen::Vector3d(s.q.segment<3>(f))) - p.initial_position;
+        } else {
+          d = Eigen::Vector3d(s.q.segment<3>(at)) - system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
+        }
+        value = interface::PickComponent(d, p.component);
         break;
       }
       case Kind::kClampForce:

@@ -104,6 +104,10 @@ void ModalSimulation::Probe(std::vector<double>* values) const {
 
 void ModalSimulation::Step(double t, double h) {
   Solve(t + h);
+  WritePending();
+}
+
+void ModalSimulation::WritePending() {
   if (csv_ == nullptr) return;
   for (size_t s = 0; s < pending_.size(); ++s) {
     for (size_t k = 0; k < pending_[s].size(); ++k) {
@@ -127,17 +131,7 @@ void ModalSimulation::BeginOutput(const std::string& folder) {
 
 void ModalSimulation::EndOutput() {
   if (csv_ == nullptr) return;
-  if (!pending_.empty()) {
-    for (size_t s = 0; s < pending_.size(); ++s) {
-      for (size_t k = 0; k < pending_[s].size(); ++k) {
-        const Classified& c = pending_[s][k];
-        const double omega = pending_speed_[s];
-        std::fprintf(csv_->get(), "%.17g,%zu,%.17g,%.17g,%.17g,%.6f,%.6f,%.6f\n", omega, k + 1, c.mode.frequency,
-                     c.mode.damping, omega > 0.0 ? c.mode.frequency / omega : std::nan(""), c.flap, c.lag, c.radial);
-      }
-    }
-    pending_.clear();
-  }
+  WritePending();  // a run of one speed has taken no step
   const bool ok = csv_->Flush();
   const std::string error = csv_->error();
   csv_.reset();

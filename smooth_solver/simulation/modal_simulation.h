@@ -32,6 +32,7 @@ class ModalSimulation : public interface::Simulation {
 
  private:
   void Solve(double omega);
+  void WritePending();  // the solved speeds' modes into modes.csv, once it is open
   MultibodyModel model_;
   std::unique_ptr<const MultibodySystem> system_;
   scenario::Numerics numerics_;

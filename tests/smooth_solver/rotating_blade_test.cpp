@@ -30,8 +30,9 @@ SpinRun RunSpinningBlade(double omega) {
   MultibodySimulation sim(interface::ScenarioFile::Load(
       std::string(COSIM_SOURCE_DIR) + "/scenarios/spinning_blade.pbtxt",
       {"model.joints[0].drive.function.cosine_ramp.final_value=" + std::to_string(omega)}));
-  // Probes: hub_angle, tip_x, tip_y, tip_z, root_force_x, root_force_y, strain_energy, violation.
-  std::vector<double> v(8);
+  // Probes: hub_angle, tip_x, tip_y, tip_z, root_force_x, root_force_y, strain_energy, violation,
+  // then the hub-frame ones.
+  std::vector<double> v(sim.ProbeNames().size());
   SpinRun run;
   const double h = 0.002;
   int samples = 0;

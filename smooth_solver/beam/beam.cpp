@@ -112,23 +112,27 @@ BeamForce::BeamForce(std::string name, int nodes_per_element, std::vector<BeamEl
       retardation_(retardation) {
   COSIM_ASSERT(n_ == 2 || n_ == 3, "beam elements have 2 or 3 nodes");
   gauss_ = BeamGaussPoints(n_, &xi_, &w_);
+  for (int g = 0; g < gauss_; ++g) {
+    const size_t gi = static_cast<size_t>(g);
+    BeamShape(n_, xi_[gi], shape_[gi].data(), shape_xi_[gi].data());
+  }
   // Reference strains: those of the initial configuration, so that it is stress-free.
   for (BeamElement& e : elements_) {
     const Local ql = e.q_ref.head(kCoordinatesPerBody * n_);
     StrainGradient B(6, kCoordinatesPerBody * n_);
-    for (int g = 0; g < gauss_; ++g) Strains(e, ql, xi_[static_cast<size_t>(g)], &e.reference[static_cast<size_t>(g)], &B);
+    for (int g = 0; g < gauss_; ++g) Strains(e, ql, g, &e.reference[static_cast<size_t>(g)], &B);
   }
 }
 
-void BeamForce::Strains(const BeamElement& e, const Local& ql, double xi, Vector6d* eps, StrainGradient* B) const {
-  double N[3], dN[3];
-  BeamShape(n_, xi, N, dN);
+void BeamForce::Strains(const BeamElement& e, const Local& ql, int g, Vector6d* eps, StrainGradient* B) const {
+  const double* N = shape_[static_cast<size_t>(g)].data();
+  double dN[3];
   const double to_s = 2.0 / e.length;  // dξ/ds
   Eigen::Vector3d rp = Eigen::Vector3d::Zero();
   Eigen::Vector3d d[3], dp[3];
   for (int a = 0; a < 3; ++a) d[a].setZero(), dp[a].setZero();
   for (int I = 0; I < n_; ++I) {
-    dN[I] *= to_s;
+    dN[I] = to_s * shape_xi_[static_cast<size_t>(g)][static_cast<size_t>(I)];
     rp += dN[I] * ql.segment<3>(Slot(I, 0));
     for (int a = 0; a < 3; ++a) {
       d[a] += N[I] * ql.segment<3>(Slot(I, a + 1));
@@ -170,7 +174,7 @@ void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, 
   for (int g = 0; g < gauss_; ++g) {
     const size_t gi = static_cast<size_t>(g);
     const double wJ = w_[gi] * 0.5 * e.length;
-    Strains(e, ql, xi_[gi], &eps, &B);
+    Strains(e, ql, g, &eps, &B);
     eps -= e.reference[gi];
     const Matrix6d& D = e.stiffness[gi];
     Vector6d sigma = D * eps;
@@ -188,15 +192,15 @@ void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, 
     K->noalias() += wJ * (B.transpose() * DB);
     if (damped) {
       Vector6d unused;
-      Strains(e, vl, xi_[gi], &unused, &Bv);
+      Strains(e, vl, g, &unused, &Bv);
       K->noalias() += (wJ * retardation_) * (B.transpose() * (D * Bv));
       if (C != nullptr) C->noalias() += (wJ * retardation_) * (B.transpose() * DB);
     }
     // Geometric part Σ_k σ_k H_k (constant Hessians, scalar on slots ⊗ I3): with P_IJ = N_I N_J′,
     // Γ_a = Σ P_IJ d_aI · x_J and κ = Σ ½(P_IJ − P_JI) d_bI · d_cJ.
-    double N[3], dN[3];
-    BeamShape(n_, xi_[gi], N, dN);
-    for (int I = 0; I < n_; ++I) dN[I] *= 2.0 / e.length;
+    const double* N = shape_[gi].data();
+    double dN[3];
+    for (int I = 0; I < n_; ++I) dN[I] = shape_xi_[gi][static_cast<size_t>(I)] * 2.0 / e.length;
     static constexpr int kB[3] = {2, 0, 1}, kC[3] = {1, 2, 0};
     auto add = [&](int row, int col, double v) {
       for (int k = 0; k < 3; ++k) (*K)(row + k, col + k) += v;
@@ -299,7 +303,7 @@ Vector6d BeamForce::SectionForces(const Eigen::VectorXd& q, double s) const {
   for (int g = 0; g < gauss_; ++g) {
     const size_t gi = static_cast<size_t>(g);
     Vector6d eps;
-    Strains(e, ql, xi_[gi], &eps, &B);
+    Strains(e, ql, g, &eps, &B);
     sigma[gi] = e.stiffness[gi] * (eps - e.reference[gi]);
   }
   if (gauss_ == 1) return sigma[0];

@@ -122,8 +122,9 @@ class BeamForce : public ForceElement {
   using LocalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxLocal, kMaxLocal>;
   using StrainGradient = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor, 6, kMaxLocal>;
 
-  // The element's strains at ξ from its local coordinates ql (12 per node), and their gradient.
-  void Strains(const BeamElement& e, const Local& ql, double xi, Vector6d* eps, StrainGradient* B) const;
+  // The element's strains at its Gauss point g from its local coordinates ql (12 per node), and
+  // their gradient.
+  void Strains(const BeamElement& e, const Local& ql, int g, Vector6d* eps, StrainGradient* B) const;
 
  private:
   void Gather(const BeamElement& e, const Eigen::VectorXd& q, Local* ql) const;
@@ -136,6 +137,8 @@ class BeamForce : public ForceElement {
   std::vector<BeamElement> elements_;
   double retardation_;
   std::array<double, 2> xi_{}, w_{};
+  // Shape functions N_I and dN_I/dξ at each Gauss point (computed once).
+  std::array<std::array<double, 3>, 2> shape_{}, shape_xi_{};
   int gauss_ = 1;
 };
 

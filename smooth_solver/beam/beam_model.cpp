@@ -147,23 +147,16 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
   }
 }
 
-void AddBeamClamps(const Checks& checks, interface::NameTable* joint_names, MultibodyModel* model) {
+void AddBeamClamps(const Checks& checks, const interface::NameTable& body_names, interface::NameTable* joint_names,
+                   MultibodyModel* model) {
   const sc::Model& m = checks.file().proto().model();
   for (int i = 0; i < m.beams_size(); ++i) {
     const sc::Beam& b = m.beams(i);
     if (!b.has_root_body()) continue;
     const std::string path = ElementPath("model.beams", i) + ".root_body";
     const BeamModel& beam = model->beams[static_cast<size_t>(i)];
-    int body = -1;
-    if (b.root_body() != "ground") {
-      std::string known;
-      for (size_t k = 0; k < model->bodies.size(); ++k) {
-        if (model->bodies[k].name == b.root_body()) body = static_cast<int>(k);
-        known += (known.empty() ? "" : ", ") + model->bodies[k].name;
-      }
-      if (body < 0) checks.Fail(path, "no body named '" + b.root_body() + "'; known: ground, " + known);
-      if (body == beam.node_bodies.front()) checks.Fail(path, "clamps the beam's root to itself");
-    }
+    const int body = b.root_body() == "ground" ? -1 : body_names.Find(path, b.root_body());
+    if (body == beam.node_bodies.front()) checks.Fail(path, "clamps the beam's root to itself");
     Joint clamp;
     clamp.name = beam.name + ".root_clamp";
     joint_names->Add(path, clamp.name);

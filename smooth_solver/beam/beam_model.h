@@ -41,7 +41,8 @@ struct BeamModel {
 // the beams to model->beams.
 void AddBeams(const interface::Checks& checks, interface::NameTable* body_names, MultibodyModel* model);
 // After the scenario's joints: the FIXED joints of the beams' root_body clamps, declared in
-// `joint_names`.
-void AddBeamClamps(const interface::Checks& checks, interface::NameTable* joint_names, MultibodyModel* model);
+// `joint_names`; root bodies looked up in `body_names`.
+void AddBeamClamps(const interface::Checks& checks, const interface::NameTable& body_names,
+                   interface::NameTable* joint_names, MultibodyModel* model);
 
 }  // namespace cosim::smooth

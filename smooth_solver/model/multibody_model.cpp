@@ -175,7 +175,7 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     }
     model.joints.push_back(joint);
   }
-  AddBeamClamps(checks, &joint_names, &model);
+  AddBeamClamps(checks, body_names, &joint_names, &model);
   NameTable force_names(checks, "force element");
   for (int i = 0; i < m.forces_size(); ++i) {
     const sc::ForceElement& fe = m.forces(i);

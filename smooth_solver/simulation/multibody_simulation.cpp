@@ -255,9 +255,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     // The point: a body's origin, or an elastic body's node.
     const int o = p.kind == Kind::kDisplacement ? system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node
                                                 : kCoordinatesPerBody * p.index;
-    Eigen::Matrix3d B, F = Eigen::Matrix3d::Identity();
+    Eigen::Matrix3d B = Eigen::Matrix3d::Identity(), F = Eigen::Matrix3d::Identity();
     Eigen::Vector3d xF = Eigen::Vector3d::Zero();
-    B.setIdentity();
     if (p.kind != Kind::kDisplacement) {
       for (int k = 0; k < 3; ++k) B.col(k) = q.segment<3>(o + 3 + 3 * k);
     }

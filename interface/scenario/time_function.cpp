@@ -28,6 +28,15 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       f.start_time_ = r.start_time();
       break;
     }
+    case scenario::TimeFunction::kCosinePulse: {
+      const auto& r = proto.cosine_pulse();
+      f.kind_ = Kind::kCosinePulse;
+      checks.Require(path + ".cosine_pulse.peak", r.has_peak(), "the pulse's peak value");
+      f.final_value_ = r.peak();
+      f.ramp_time_ = checks.Positive(path + ".cosine_pulse.duration", r.has_duration(), r.duration(), "s");
+      f.start_time_ = r.start_time();
+      break;
+    }
     case scenario::TimeFunction::kTable: {
       const auto& table = proto.table();
       f.kind_ = Kind::kTable;
@@ -48,7 +57,7 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       break;
     }
     case scenario::TimeFunction::KIND_NOT_SET:
-      checks.Fail(path, "empty function; give constant, cosine_ramp { ... } or table { ... }");
+      checks.Fail(path, "empty function; give constant, cosine_ramp { ... }, cosine_pulse { ... } or table { ... }");
   }
   return f;
 }
@@ -62,6 +71,12 @@ double TimeFunction::Value(double t) const {
       if (tau <= 0.0) return 0.0;
       if (tau >= ramp_time_) return final_value_;
       return 0.5 * (1.0 - std::cos(std::numbers::pi * tau / ramp_time_)) * final_value_;
+    }
+    case Kind::kCosinePulse: {
+      // ½ (1 − cos(2π τ / T)) peak for 0 <= τ <= T, 0 outside.
+      const double tau = t - start_time_;
+      if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
+      return 0.5 * (1.0 - std::cos(2.0 * std::numbers::pi * tau / ramp_time_)) * final_value_;
     }
     case Kind::kTable: {
       if (t <= time_.front()) return value_.front();
@@ -82,6 +97,11 @@ double TimeFunction::Derivative(double t) const {
       if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
       return 0.5 * std::numbers::pi / ramp_time_ * std::sin(std::numbers::pi * tau / ramp_time_) * final_value_;
     }
+    case Kind::kCosinePulse: {
+      const double tau = t - start_time_;
+      if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
+      return std::numbers::pi / ramp_time_ * std::sin(2.0 * std::numbers::pi * tau / ramp_time_) * final_value_;
+    }
     case Kind::kTable: {
       if (t < time_.front() || t >= time_.back() || time_.size() < 2) return 0.0;
       const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin());
@@ -92,10 +112,11 @@ double TimeFunction::Derivative(double t) const {
 }
 
 double TimeFunction::SecondDerivative(double t) const {
-  if (kind_ != Kind::kCosineRamp) return 0.0;
+  if (kind_ != Kind::kCosineRamp && kind_ != Kind::kCosinePulse) return 0.0;
   const double tau = t - start_time_;
   if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
-  const double w = std::numbers::pi / ramp_time_;
+  const double w = (kind_ == Kind::kCosinePulse ? 2.0 : 1.0) * std::numbers::pi / ramp_time_;
+  if (kind_ == Kind::kCosinePulse) return w * w * std::cos(w * tau) * final_value_;
   return 0.5 * w * w * std::cos(w * tau) * final_value_;
 }
 
@@ -108,6 +129,10 @@ double TimeFunction::Integral(double t) const {
       double value = 0.5 * final_value_ * (tau - ramp_time_ / std::numbers::pi * std::sin(std::numbers::pi * tau / ramp_time_));
       if (t - start_time_ > ramp_time_) value += final_value_ * (t - start_time_ - ramp_time_);
       return value;
+    }
+    case Kind::kCosinePulse: {
+      const double tau = std::min(std::max(t - start_time_, 0.0), ramp_time_), w = 2.0 * std::numbers::pi / ramp_time_;
+      return 0.5 * final_value_ * (tau - std::sin(w * tau) / w);
     }
     case Kind::kTable: {
       // Trapezoids between the table's times, constant values outside it.

@@ -249,7 +249,7 @@ double CoordinateSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
   return 0.5 * k_ * s * s;
 }
 
-void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double /*t*/) const {
   const State s = Evaluate(q, qdot);
   if (s.delta <= 0.0) impact_speed_ = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
 }

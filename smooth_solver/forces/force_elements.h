@@ -36,7 +36,7 @@ class ForceElement {
   virtual bool Passive() const { return true; }
   // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it
   // (the contact laws' impact speed). Called by the simulation, never inside Newton.
-  virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/) const {}
+  virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/, double /*t*/) const {}
 };
 
 // A force F(t) at a body point s and a torque T(t) on the body, both global. In natural
@@ -134,7 +134,7 @@ class UnilateralContact : public ForceElement {
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
-  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const override;
   // The law's elastic part stores K δⁿ⁺¹/(n + 1); its damping part only dissipates.
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 

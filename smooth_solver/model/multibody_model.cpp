@@ -1,5 +1,7 @@
 #include "smooth_solver/model/multibody_model.h"
 
+#include "smooth_solver/aero/aero_model.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <cmath>
@@ -176,6 +178,7 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     model.joints.push_back(joint);
   }
   AddBeamClamps(checks, body_names, &joint_names, &model);
+  AddAero(checks, body_names, &model);
   NameTable force_names(checks, "force element");
   for (int i = 0; i < m.forces_size(); ++i) {
     const sc::ForceElement& fe = m.forces(i);

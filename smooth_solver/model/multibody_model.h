@@ -11,6 +11,7 @@
 
 #include "interface/scenario/scenario_file.h"
 #include "interface/scenario/time_function.h"
+#include "smooth_solver/aero/air_loads.h"
 #include "smooth_solver/beam/beam_model.h"
 #include "smooth_solver/forces/force_elements.h"
 
@@ -89,6 +90,8 @@ struct MultibodyModel {
   std::vector<InterfacePointSpec> interface_points;
   // Beams: their nodes are bodies (with no mass of their own) among `bodies`.
   std::vector<BeamModel> beams;
+  // Air loads (model.air); empty: none.
+  AeroModel aero;
 };
 
 // Throws InputError naming the field for every inconsistency it finds.

@@ -80,8 +80,8 @@ void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::Vec
   }
 }
 
-void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
-  for (const auto& element : forces) element->AcceptStep(q, qdot);
+void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const {
+  for (const auto& element : forces) element->AcceptStep(q, qdot, t);
 }
 
 void MultibodySystem::ForcePattern(SparseSink* sink) const {
@@ -263,6 +263,11 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   }
   sys.mass.resize(n, n);
   sys.mass.setFromTriplets(mass.begin(), mass.end());
+  if (!model.aero.empty()) {
+    auto air = std::make_unique<AirLoads>(model.aero);
+    sys.air_loads = air.get();
+    sys.forces.push_back(std::move(air));
+  }
 
   for (size_t ji = 0; ji < model.joints.size(); ++ji) {
     const Joint& j = model.joints[ji];

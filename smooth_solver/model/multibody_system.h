@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "smooth_solver/aero/air_loads.h"
 #include "smooth_solver/beam/beam.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 #include "smooth_solver/elastic/elastic_force.h"
@@ -81,11 +82,13 @@ struct MultibodySystem {
   }
   // The beams' internal forces, in model.beams' order (also in `forces`).
   std::vector<const BeamForce*> beam_forces;
+  // The air loads (also in `forces`), or null.
+  const AirLoads* air_loads = nullptr;
   // The elastic bodies' internal forces (also in `forces`).
   std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;
   // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it.
-  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const;
 
   // Joint coordinate [rad or m] and its rate.
   double JointCoordinate(int joint, const Eigen::VectorXd& q) const;

@@ -248,7 +248,11 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
 
   system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_, &elastic));
   time_ = numerics_.start_time();
+  // Elements with a memory (contact laws' onset speed, rotor inflow) start from the user's
+  // guess, so the consistent state's accelerations see an inflow, then from that state.
+  system_->AcceptStep(system_->q0, system_->qdot0, time_);
   const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
+  system_->AcceptStep(initial.q, initial.qdot, time_);
   for (ProbeSpec& p : probes_) {
     if (p.kind != Kind::kBodyDisplacement && p.kind != Kind::kRotation && p.kind != Kind::kDisplacement) continue;
     const Eigen::VectorXd& q = initial.q;
@@ -275,7 +279,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   } else {
     integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
   }
-  system_->AcceptStep(initial.q, initial.qdot);  // the contact laws' memory starts here
   watchdog.energy = w.energy_check() == sc::Watchdog::ON || (w.energy_check() == sc::Watchdog::AUTO && PassiveSystem(*system_));
   std::vector<std::string> body_names;
   for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
@@ -410,7 +413,7 @@ void MultibodySimulation::Step(double t, double h) { Record(t + h, integrator_->
 CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
 
 void MultibodySimulation::Record(double t1, int iterations) {
-  system_->AcceptStep(integrator_->state().q, integrator_->state().qdot);
+  system_->AcceptStep(integrator_->state().q, integrator_->state().qdot, t1);
   if (ida_) {
     ida_steps_ += iterations;  // IDA's internal steps
   } else {

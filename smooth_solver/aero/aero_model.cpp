@@ -1,0 +1,188 @@
+#include "smooth_solver/aero/aero_model.h"
+
+#include <filesystem>
+
+#include "smooth_solver/model/multibody_model.h"
+
+namespace cosim::smooth {
+
+namespace sc = cosim::scenario;
+using interface::Checks;
+using interface::ElementPath;
+using interface::FormatNumber;
+
+void AddAero(const Checks& checks, const interface::NameTable& body_names, MultibodyModel* model) {
+  const sc::Model& m = checks.file().proto().model();
+  if (!m.has_air()) return;
+  const sc::Air& a = m.air();
+  AeroModel aero;
+  AirModel& air = aero.air;
+  air.density = checks.Positive("model.air.density", true, a.density(), "kg/m^3");
+  air.speed_of_sound = checks.Positive("model.air.speed_of_sound", true, a.speed_of_sound(), "m/s");
+  air.guard_speed = checks.Positive("model.air.guard_speed", true, a.guard_speed(), "m/s");
+  if (a.has_wind_x()) air.wind[0] = interface::TimeFunction::Build(checks, "model.air.wind_x", a.wind_x());
+  if (a.has_wind_y()) air.wind[1] = interface::TimeFunction::Build(checks, "model.air.wind_y", a.wind_y());
+  if (a.has_wind_z()) air.wind[2] = interface::TimeFunction::Build(checks, "model.air.wind_z", a.wind_z());
+  for (int i = 0; i < a.gusts_size(); ++i) {
+    const sc::Gust& g = a.gusts(i);
+    const std::string path = ElementPath("model.air.gusts", i);
+    GustFront front;
+    front.front_direction = checks.Direction(path + ".front_direction", g.front_direction());
+    front.direction = checks.Direction(path + ".direction", g.direction());
+    front.front_speed = checks.Positive(path + ".front_speed", g.has_front_speed(), g.front_speed(), "m/s");
+    front.origin = checks.Vector3(path + ".front_origin", g.front_origin(), Eigen::Vector3d::Zero());
+    checks.Require(path + ".profile", g.has_profile(), "the gust speed [m/s] against the distance travelled [m]");
+    front.profile = interface::TimeFunction::Build(checks, path + ".profile", g.profile());
+    air.gusts.push_back(std::move(front));
+  }
+  // Airfoils: the built-in NACA 0012 first, then the tables.
+  interface::NameTable airfoil_names(checks, "airfoil");
+  airfoil_names.Add("(built in)", "naca0012");
+  aero.airfoils.push_back(std::make_shared<BuiltinNaca0012>());
+  aero.airfoil_names.push_back("naca0012");
+  const std::filesystem::path folder = std::filesystem::path(checks.file().path()).parent_path();
+  for (int i = 0; i < a.airfoils_size(); ++i) {
+    const sc::Airfoil& f = a.airfoils(i);
+    const std::string path = ElementPath("model.air.airfoils", i);
+    const std::string name = airfoil_names.Declare(path + ".name", f.has_name(), f.name());
+    checks.Require(path + ".c81_file", f.has_c81_file(), "a C81 table file (path relative to the scenario)");
+    std::filesystem::path file(f.c81_file());
+    if (file.is_relative()) file = folder / file;
+    if (!std::filesystem::is_regular_file(file)) {
+      checks.Fail(path + ".c81_file", "'" + file.string() + "' is not a readable file");
+    }
+    aero.airfoils.push_back(C81Airfoil::Read(file.string(), name));
+    aero.airfoil_names.push_back(name);
+  }
+  // Surfaces.
+  interface::NameTable surface_names(checks, "aero surface");
+  interface::NameTable beam_names(checks, "beam");
+  for (size_t b = 0; b < model->beams.size(); ++b) beam_names.Add(ElementPath("model.beams", static_cast<int>(b)), model->beams[b].name);
+  for (int i = 0; i < a.surfaces_size(); ++i) {
+    const sc::AeroSurface& s = a.surfaces(i);
+    const std::string path = ElementPath("model.air.surfaces", i);
+    AeroSurfaceSpec sf;
+    sf.name = surface_names.Declare(path + ".name", s.has_name(), s.name());
+    const Eigen::Vector3d upper = checks.Direction(path + ".upper", s.upper());
+    sf.gauss_points = static_cast<int>(checks.InRange(path + ".gauss_points", true, s.gauss_points(), 1, 6));
+    Eigen::Vector3d normal_ref = Eigen::Vector3d::Zero();  // the untwisted section's flapwise axis, initial configuration
+    double s_lo = 0.0, s_hi = 0.0;
+    switch (s.carrier_case()) {
+      case sc::AeroSurface::kBeam: {
+        const int b = beam_names.Find(path + ".beam", s.beam());
+        sf.on_beam = true;
+        sf.beam = model->beams[static_cast<size_t>(b)];
+        // The beam's untwisted section axes, as AddBeams builds them.
+        const sc::Beam& pb = m.beams(b);
+        const Eigen::Vector3d axis = Eigen::Vector3d(pb.axis(0), pb.axis(1), pb.axis(2)).normalized();
+        const Eigen::Vector3d chord(pb.chord(0), pb.chord(1), pb.chord(2));
+        sf.d2_0 = (chord - chord.dot(axis) * axis).normalized();
+        sf.d3_0 = axis.cross(sf.d2_0);
+        normal_ref = sf.d3_0;
+        s_lo = sf.beam.span_start;
+        s_hi = sf.beam.span_end;
+        for (const char* f : {"root", "axis", "chord"}) {
+          const bool given = f[0] == 'r' ? s.root_size() > 0 : f[0] == 'a' ? s.axis_size() > 0 : s.chord_size() > 0;
+          if (given) checks.Fail(path + "." + f, "is the beam's own on a beam surface; remove it");
+        }
+        if (s.has_segments()) checks.Fail(path + ".segments", "a beam surface integrates over the beam's elements; remove it");
+        break;
+      }
+      case sc::AeroSurface::kBody: {
+        const int b = body_names.Find(path + ".body", s.body());
+        if (b < 0 || static_cast<size_t>(b) >= model->bodies.size()) checks.Fail(path + ".body", "is not a rigid body");
+        const RigidBody& body = model->bodies[static_cast<size_t>(b)];
+        for (const BeamModel& beam : model->beams) {
+          for (int node : beam.node_bodies) {
+            if (node == b) checks.Fail(path + ".body", "'" + s.body() + "' is a beam node; use `beam: \"" + beam.name + "\"`");
+          }
+        }
+        sf.body = b;
+        const Eigen::Matrix3d R = body.orientation.toRotationMatrix();
+        const Eigen::Vector3d root = checks.Vector3(path + ".root", s.root(), std::nullopt);
+        const Eigen::Vector3d axis = checks.Direction(path + ".axis", s.axis());
+        const Eigen::Vector3d chord_given = checks.Direction(path + ".chord", s.chord());
+        const Eigen::Vector3d chord = chord_given - chord_given.dot(axis) * axis;
+        if (chord.norm() < 1e-6) checks.Fail(path + ".chord", "is parallel to axis; it must point across the span");
+        sf.root_b = R.transpose() * (root - body.position);
+        sf.axis_b = R.transpose() * axis;
+        sf.chord_b = R.transpose() * chord.normalized();
+        normal_ref = axis.cross(chord.normalized());
+        sf.segments = static_cast<int>(checks.InRange(path + ".segments", true, s.segments(), 1, 10000));
+        s_lo = -1e300;
+        s_hi = 1e300;
+        break;
+      }
+      case sc::AeroSurface::CARRIER_NOT_SET:
+        checks.Fail(path, "names no carrier; give `beam: NAME` or `body: NAME`");
+    }
+    const double side = upper.dot(normal_ref);
+    if (std::abs(side) < 1e-3) {
+      checks.Fail(path + ".upper", "lies in the chord plane; it must point to the side of the upper surface");
+    }
+    sf.upper_sign = side > 0.0 ? 1.0 : -1.0;
+    if (s.stations_size() < 2) checks.Fail(path + ".stations", "needs at least two stations (root and tip of the loaded span)");
+    for (int k = 0; k < s.stations_size(); ++k) {
+      const sc::AeroStation& st = s.stations(k);
+      const std::string sp = ElementPath(path + ".stations", k);
+      AeroStationSpec spec;
+      checks.Require(sp + ".s", st.has_s(), "the span coordinate [m]");
+      spec.s = st.s();
+      if (k > 0 && spec.s < sf.stations.back().s) {
+        checks.Fail(sp + ".s", FormatNumber(spec.s) + " is below the previous station's " +
+                                   FormatNumber(sf.stations.back().s) + "; stations must not decrease");
+      }
+      if (spec.s < s_lo - 1e-9 || spec.s > s_hi + 1e-9) {
+        checks.Fail(sp + ".s", FormatNumber(spec.s) + " lies outside the beam's span " + FormatNumber(s_lo) + " … " +
+                                   FormatNumber(s_hi));
+      }
+      if (!sf.on_beam && spec.s < 0.0) checks.Fail(sp + ".s", "is negative; s is the distance from `root`");
+      spec.chord = checks.Positive(sp + ".chord", st.has_chord(), st.chord(), "m");
+      spec.twist = st.twist();
+      spec.quarter_chord = st.quarter_chord();
+      checks.Require(sp + ".airfoil", st.has_airfoil(), "an airfoil name (\"naca0012\" is built in)");
+      spec.airfoil = airfoil_names.Find(sp + ".airfoil", st.airfoil());
+      sf.stations.push_back(spec);
+    }
+    if (!(sf.stations.back().s > sf.stations.front().s)) {
+      checks.Fail(path + ".stations", "span no length; the last station's s must exceed the first's");
+    }
+    aero.surfaces.push_back(std::move(sf));
+  }
+  // Rotors.
+  interface::NameTable rotor_names(checks, "rotor");
+  for (int i = 0; i < a.rotors_size(); ++i) {
+    const sc::Rotor& r = a.rotors(i);
+    const std::string path = ElementPath("model.air.rotors", i);
+    RotorSpec rs;
+    rs.name = rotor_names.Declare(path + ".name", r.has_name(), r.name());
+    checks.Require(path + ".hub", r.has_hub(), "the body carrying the blades");
+    rs.hub = body_names.Find(path + ".hub", r.hub());
+    if (rs.hub < 0) checks.Fail(path + ".hub", "the ground cannot be a hub; name the body that turns");
+    const Eigen::Matrix3d R = model->bodies[static_cast<size_t>(rs.hub)].orientation.toRotationMatrix();
+    rs.axis_b = R.transpose() * checks.Direction(path + ".axis", r.axis());
+    rs.radius = checks.Positive(path + ".radius", r.has_radius(), r.radius(), "m");
+    rs.guard_tip_speed = checks.Positive(path + ".guard_tip_speed", true, r.guard_tip_speed(), "m/s");
+    switch (r.inflow()) {
+      case sc::Rotor::NONE: rs.inflow = RotorSpec::Inflow::kNone; break;
+      case sc::Rotor::UNIFORM: rs.inflow = RotorSpec::Inflow::kUniform; break;
+      case sc::Rotor::PITT_PETERS: rs.inflow = RotorSpec::Inflow::kPittPeters; break;
+      default: checks.Fail(path + ".inflow", "give NONE, UNIFORM or PITT_PETERS");
+    }
+    if (r.surfaces_size() == 0) checks.Fail(path + ".surfaces", "lists no aero surface; name the rotor's blades");
+    for (int k = 0; k < r.surfaces_size(); ++k) {
+      const std::string sp = path + ".surfaces[" + std::to_string(k) + "]";
+      const int s = surface_names.Find(sp, r.surfaces(k));
+      AeroSurfaceSpec& sf = aero.surfaces[static_cast<size_t>(s)];
+      if (sf.rotor >= 0) {
+        checks.Fail(sp, "'" + r.surfaces(k) + "' already belongs to rotor '" + aero.rotors[static_cast<size_t>(sf.rotor)].name + "'");
+      }
+      sf.rotor = i;
+      rs.surfaces.push_back(s);
+    }
+    aero.rotors.push_back(std::move(rs));
+  }
+  model->aero = std::move(aero);
+}
+
+}  // namespace cosim::smooth

@@ -1,0 +1,159 @@
+#pragma once
+// Quasi-steady strip theory with rotor inflow (docs/design.md "Blade aerodynamics";
+// reference/aero.md). Every section's kinematics are linear in the natural coordinates: its
+// quarter-chord point a, three-quarter-chord point p, chordwise axis e1 (towards the leading
+// edge) and upper normal e2 are fixed combinations Σ_k w_k q_k of 3-vector slots q_k of q (a
+// rigid body's x, u, v, w; a beam node's x, d2, d3 weighted by the shape functions). Then, with
+// the air velocity u(x, t) (wind + gusts − induced velocity along the rotor axis),
+//   v = ṗ − u,  v_i = e_i · v (e3 = e1 × e2),  α = atan2(−v2, v1),  M = √(v1² + v2²)/a_s,
+//   f1 = −φ (C_l v2 + C_d v1),  f2 = φ (C_l v1 − C_d v2),  f3 = −φ C_d0 v3,  φ = ½ ρ c v_p²/v_r,
+//   m = ½ ρ c² v_p² C_m  (about the quarter chord, a couple along e3),
+// with v_p² = v1² + v2² and the regularised v_r = √(v_p² + ε²) (the loads vanish like v_p at a
+// still section). The force F = Σ f_i e_i acts at a; the couple m e3 is the virtual work of
+// (m/c) e2 at a ± (c/2) e1, i.e. the generalised force Eᵀ (m e2) on e1's slots.
+// Newton matrix: exact derivatives with respect to q̇ (through ṗ) and q (through the section
+// frame e1, e2); the air velocity's dependence on position (a gust front's gradient, the
+// induced velocity's linear part) and the rotor's inflow state are held over the step.
+#include <Eigen/Core>
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "interface/scenario/time_function.h"
+#include "smooth_solver/aero/airfoil.h"
+#include "smooth_solver/beam/beam_model.h"
+#include "smooth_solver/forces/force_elements.h"
+
+namespace cosim::smooth {
+
+struct GustFront {
+  Eigen::Vector3d front_direction = Eigen::Vector3d::UnitX(), direction = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  double front_speed = 1.0;
+  interface::TimeFunction profile;  // gust speed against the distance travelled past x
+};
+
+struct AirModel {
+  double density = 1.225, speed_of_sound = 340.0, guard_speed = 0.1;
+  std::array<interface::TimeFunction, 3> wind;
+  std::vector<GustFront> gusts;
+  // Velocity of the air at x, t (without induced velocity).
+  Eigen::Vector3d Velocity(const Eigen::Vector3d& x, double t) const;
+};
+
+struct AeroStationSpec {
+  double s = 0.0, chord = 0.0, twist = 0.0, quarter_chord = 0.0;
+  int airfoil = -1;  // index into AeroModel::airfoils
+};
+
+// A surface as validated from the scenario; sections are built from it (AirLoads::Section).
+struct AeroSurfaceSpec {
+  std::string name;
+  bool on_beam = false;
+  BeamModel beam;  // on_beam: a copy of the carrying beam (elements, table)
+  // Beam: the untwisted section axes (d2, d3 at zero twist). Body: body index, its reference
+  // frame, and the reference line (root, axis, chord towards the leading edge) in body coordinates.
+  Eigen::Vector3d d2_0 = Eigen::Vector3d::UnitY(), d3_0 = Eigen::Vector3d::UnitZ();
+  int body = -1;
+  Eigen::Vector3d root_b = Eigen::Vector3d::Zero(), axis_b = Eigen::Vector3d::UnitX(),
+                  chord_b = Eigen::Vector3d::UnitY();
+  double upper_sign = 1.0;  // e2 = upper_sign · (rotated d3, or axis × chord)
+  std::vector<AeroStationSpec> stations;
+  int gauss_points = 2, segments = 10;
+  int rotor = -1;
+};
+
+struct RotorSpec {
+  enum class Inflow { kNone, kUniform, kPittPeters };
+  std::string name;
+  int hub = -1;
+  Eigen::Vector3d axis_b = Eigen::Vector3d::UnitZ();  // thrust direction in hub coordinates
+  double radius = 1.0, guard_tip_speed = 10.0;
+  Inflow inflow = Inflow::kUniform;
+  std::vector<int> surfaces;
+};
+
+struct AeroModel {
+  AirModel air;
+  std::vector<std::shared_ptr<const Airfoil>> airfoils;
+  std::vector<std::string> airfoil_names;
+  std::vector<AeroSurfaceSpec> surfaces;
+  std::vector<RotorSpec> rotors;
+  bool empty() const { return surfaces.empty(); }
+};
+
+// One integration point or probe station of a surface.
+struct AeroSection {
+  static constexpr int kMaxSlots = 12;
+  int slots = 0;
+  std::array<int, kMaxSlots> slot{};  // first coordinate of a 3-vector slot of q
+  // Weights of each slot in a (quarter chord), p (three-quarter chord), e1 and e2.
+  std::array<double, kMaxSlots> wa{}, wp{}, we{}, wn{};
+  double s = 0.0, weight = 0.0, chord = 0.0, cd0 = 0.0;
+  std::array<const Airfoil*, 2> airfoil{nullptr, nullptr};
+  double blend = 0.0;  // weight of airfoil[1]
+  int rotor = -1;
+};
+
+class AirLoads : public ForceElement {
+ public:
+  explicit AirLoads(AeroModel model);
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
+                  double damping_scale, SparseSink* sink) const override;
+  void Pattern(SparseSink* sink) const override;
+  bool Passive() const override { return false; }
+  // Advances the rotors' inflow to the accepted state (uniform: solved anew; Pitt–Peters: one
+  // implicit Euler step of its states over t − t_previous).
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const override;
+
+  const AeroModel& model() const { return model_; }
+  // A section of surface `surface` at span coordinate s (weight 1), for probes.
+  AeroSection Section(int surface, double s, double weight) const;
+  struct SectionResult {
+    double alpha = 0.0, mach = 0.0, moment = 0.0;  // moment per span about the quarter chord
+    Eigen::Vector3d force_local = Eigen::Vector3d::Zero();  // per span, section frame
+    Eigen::Vector3d force = Eigen::Vector3d::Zero(), point = Eigen::Vector3d::Zero();  // global, at a
+    Eigen::Vector3d e3 = Eigen::Vector3d::Zero();
+  };
+  SectionResult Evaluate(const AeroSection& section, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                         double t) const;
+  struct RotorResult {
+    double thrust = 0.0, torque = 0.0, moment_x = 0.0, moment_y = 0.0;  // moments: first moments of thrust
+    double inflow_ratio = 0.0, induced = 0.0, tip_speed = 0.0;
+  };
+  // Loads of rotor r's blades at (q, q̇, t) under its current inflow.
+  RotorResult Rotor(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const;
+  size_t section_count() const { return sections_.size(); }
+
+ private:
+  // The rotor's frame and inflow, fixed over a step.
+  struct RotorState {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::UnitZ();
+    Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY();
+    double v_normal = 0.0;  // V_⊥: free stream into the disk against n [m/s]
+    double v_parallel = 0.0;
+    Eigen::Vector3d downstream = Eigen::Vector3d::UnitX();  // in-plane free-stream direction
+    double tip_speed = 0.0, fade = 0.0;
+    Eigen::Vector3d nu = Eigen::Vector3d::Zero();  // ν0, ν_x, ν_y [m/s] (applied)
+    double t = 0.0;
+    bool started = false;
+  };
+  void UpdateFrame(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, RotorState* s) const;
+  RotorResult RotorLoads(int r, const RotorState& state, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                         double t) const;
+
+  struct Local;
+  void Compute(const AeroSection& s, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+               const RotorState* rotor, bool derivatives, Local* out) const;
+
+  AeroModel model_;
+  std::vector<AeroSection> sections_;
+  std::vector<std::vector<int>> rotor_sections_;
+  mutable std::vector<RotorState> rotor_state_;
+};
+
+}  // namespace cosim::smooth

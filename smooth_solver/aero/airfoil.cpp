@@ -250,6 +250,10 @@ std::string WriteC81(const Airfoil& airfoil, const std::string& title, const std
   t.resize(30, ' ');
   out += t;
   const int nm = static_cast<int>(mach.size()), na = static_cast<int>(alpha_deg.size());
+  if (nm < 1 || nm > 99 || na < 2 || na > 99) {
+    throw InputError("WriteC81: " + std::to_string(na) + " angles and " + std::to_string(nm) +
+                     " Mach numbers; the C81 header's 2-column counts allow 2..99 and 1..99");
+  }
   for (int c = 0; c < 3; ++c) {
     std::snprintf(buf, sizeof buf, "%2d%2d", nm, na);
     out += buf;

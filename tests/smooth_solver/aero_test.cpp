@@ -1,0 +1,483 @@
+// Blade aerodynamics (smooth_solver/aero): the polars, the C81 reader, exact Newton matrices of
+// the strip loads, and the checks of reference/aero.md — hover thrust against blade-element
+// momentum theory, a flapping blade's aerodynamic damping and coning, a still rotor in a
+// crosswind, and the Pitt–Peters inflow's response.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <string>
+
+#include "interface/run/errors.h"
+#include "smooth_solver/aero/air_loads.h"
+#include "smooth_solver/aero/airfoil.h"
+#include "smooth_solver/model/multibody_model.h"
+#include "smooth_solver/model/multibody_system.h"
+#include "smooth_solver/simulation/multibody_simulation.h"
+
+namespace cosim::smooth {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kDeg = kPi / 180.0;
+
+class DenseCollector : public SparseSink {
+ public:
+  explicit DenseCollector(int n) : m(Eigen::MatrixXd::Zero(n, n)) {}
+  void Add(int row, int column, double value) override { m(row, column) += value; }
+  Eigen::MatrixXd m;
+};
+
+// An "ideal" airfoil: C_l = a α over the whole range, no drag, no moment (the assumptions of the
+// closed-form blade-element momentum theory). Linear, so a C81 table of it is exact.
+class IdealAirfoil : public Airfoil {
+ public:
+  PolarValue Evaluate(double alpha, double) const override {
+    PolarValue p;
+    p.cl = 5.73 * WrapAngle(alpha);
+    p.cl_alpha = 5.73;
+    return p;
+  }
+  const std::string& name() const override { return name_; }
+
+ private:
+  std::string name_ = "ideal";
+};
+
+std::string WriteFile(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string IdealTable() {
+  return WriteFile("ideal.c81", WriteC81(IdealAirfoil(), "IDEAL", {-180, -90, 0, 90, 180}, {0.0}));
+}
+
+TEST(Airfoil, BuiltinNaca0012MatchesTheFitAndThePostStallFigures) {
+  // puma.md: attached C_l = 5.7296 α/√(1 − M²), C_d = 0.006 + 0.13131 α²; C_l ≈ ±1.18 near
+  // ±45°, C_d ≈ 2.0 at 90°, C_l = 0 and C_d ≈ 0.02 at 180°; odd C_l and C_m, even C_d.
+  const BuiltinNaca0012 f;
+  const PolarValue p = f.Evaluate(5 * kDeg, 0.3);
+  EXPECT_NEAR(p.cl, 5.7296 * 5 * kDeg / std::sqrt(1 - 0.09), 1e-12);
+  EXPECT_NEAR(p.cd, 0.006 + 0.13131 * std::pow(5 * kDeg, 2), 1e-12);
+  EXPECT_EQ(p.cm, 0.0);
+  EXPECT_NEAR(f.Evaluate(45 * kDeg, 0.1).cl, 1.18, 1e-9);
+  EXPECT_NEAR(f.Evaluate(90 * kDeg, 0.1).cd, 2.0, 1e-9);
+  EXPECT_NEAR(f.Evaluate(kPi, 0.1).cl, 0.0, 1e-9);
+  EXPECT_NEAR(f.Evaluate(kPi, 0.1).cd, 0.02, 1e-9);
+  EXPECT_NEAR(f.Evaluate(13 * kDeg, 0.0).cl, 1.30, 0.01);  // C_l,max ≈ 1.33 at 13°
+  for (double a : {0.1, 0.5, 2.0, 3.0}) {
+    const PolarValue pos = f.Evaluate(a, 0.2), neg = f.Evaluate(-a, 0.2);
+    EXPECT_DOUBLE_EQ(pos.cl, -neg.cl);
+    EXPECT_DOUBLE_EQ(pos.cd, neg.cd);
+    EXPECT_DOUBLE_EQ(pos.cm, -neg.cm);
+  }
+  // Derivatives against central differences, over the whole range and through the stall blend.
+  for (double a = -3.1; a < 3.1; a += 0.0731) {
+    for (double m : {0.0, 0.3, 0.6}) {
+      const double d = 1e-6;
+      const PolarValue p0 = f.Evaluate(a, m), pa = f.Evaluate(a + d, m), pb = f.Evaluate(a - d, m);
+      const PolarValue pm = f.Evaluate(a, m + d), pn = f.Evaluate(a, std::max(m - d, 0.0));
+      const double dm = m > 0 ? 2 * d : d;
+      EXPECT_NEAR(p0.cl_alpha, (pa.cl - pb.cl) / (2 * d), 1e-5) << a << " " << m;
+      EXPECT_NEAR(p0.cd_alpha, (pa.cd - pb.cd) / (2 * d), 1e-5) << a << " " << m;
+      EXPECT_NEAR(p0.cm_alpha, (pa.cm - pb.cm) / (2 * d), 1e-5) << a << " " << m;
+      EXPECT_NEAR(p0.cl_mach, (pm.cl - pn.cl) / dm, 1e-4) << a << " " << m;
+      EXPECT_NEAR(p0.cd_mach, (pm.cd - pn.cd) / dm, 1e-4) << a << " " << m;
+    }
+  }
+}
+
+TEST(Airfoil, C81TableReadsBackWhatWasWrittenAndInterpolatesBilinearly) {
+  const BuiltinNaca0012 f;
+  std::vector<double> alpha;
+  for (double a = -180; a <= 180; a += 5) alpha.push_back(a);  // 73 rows: C81 counts have 2 columns
+  const std::vector<double> mach = {0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9};  // 10: a continuation line
+  const std::string text = WriteC81(f, "NACA 0012 (built-in sampled)", alpha, mach);
+  const auto table = C81Airfoil::Parse(text, "test.c81", "t");
+  EXPECT_EQ(table->title().substr(0, 9), "NACA 0012");
+  // At the grid: the written values (4 decimals).
+  for (double a : {-180.0, -45.0, 0.0, 5.0, 15.0, 90.0, 180.0}) {
+    for (double m : {0.0, 0.4, 0.85, 0.9}) {
+      const PolarValue t = table->Evaluate(a * kDeg, m), b = f.Evaluate(a * kDeg, m);
+      EXPECT_NEAR(t.cl, b.cl, 6e-5) << a << " " << m;
+      EXPECT_NEAR(t.cd, b.cd, 6e-5) << a << " " << m;
+      EXPECT_NEAR(t.cm, b.cm, 6e-5) << a << " " << m;
+    }
+  }
+  // Between grid points: bilinear, with the slope of the interval.
+  const PolarValue lo = table->Evaluate(5 * kDeg, 0.2), hi = table->Evaluate(10 * kDeg, 0.2);
+  const PolarValue mid = table->Evaluate(7.5 * kDeg, 0.2);
+  EXPECT_NEAR(mid.cl, 0.5 * (lo.cl + hi.cl), 1e-12);
+  EXPECT_NEAR(mid.cl_alpha, (hi.cl - lo.cl) / (5 * kDeg), 1e-9);
+  const PolarValue m1 = table->Evaluate(5 * kDeg, 0.45);
+  EXPECT_NEAR(m1.cl, 0.5 * (table->Evaluate(5 * kDeg, 0.4).cl + table->Evaluate(5 * kDeg, 0.5).cl), 1e-12);
+  // Beyond the Mach range: constant.
+  EXPECT_EQ(table->Evaluate(5 * kDeg, 0.95).cl, table->Evaluate(5 * kDeg, 0.9).cl);
+  EXPECT_EQ(table->Evaluate(5 * kDeg, 0.95).cl_mach, 0.0);
+}
+
+TEST(Airfoil, MalformedC81TablesAreRejectedWithTheLine) {
+  const std::string good = WriteC81(BuiltinNaca0012(), "T", {-180, 0, 180}, {0.0, 0.5});
+  auto expect_error = [](const std::string& text, const std::string& fragment) {
+    try {
+      C81Airfoil::Parse(text, "bad.c81", "x");
+      ADD_FAILURE() << "accepted: " << fragment;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  std::string t = good;
+  t.replace(30, 2, " 0");  // ML = 0
+  expect_error(t, "bad.c81:1: ML (lift Mach count)");
+  t = good;
+  t.replace(32, 2, " x");
+  expect_error(t, "NL (lift alpha count)");
+  // α not increasing (the second row of the lift table is line 4).
+  t = good;
+  const size_t row2 = t.find("\n", t.find("\n", t.find("\n") + 1) + 1) + 1;
+  t.replace(row2, 7, "-190.00");
+  expect_error(t, "bad.c81:4: lift angle of attack -190 deg does not increase");
+  // A range that does not reach ±180°.
+  expect_error(WriteC81(BuiltinNaca0012(), "T", {-20, 0, 20}, {0.0}), "must cover -180");
+  // Not a number; truncated; trailing text.
+  t = good;
+  t.replace(row2 + 7, 7, "  1.2.3");
+  expect_error(t, "hold '1.2.3'; expected a number");
+  expect_error(good.substr(0, good.size() / 2), "the table ends before");
+  expect_error(good + "  extra\n", "text after the moment table");
+}
+
+// A rigid hub spinning at Ω about z carrying `blades` straight blades as aero surfaces on the
+// hub itself (a rigid rotor), radius R = 7.49 m, chord 0.537 m: the research Puma's σ = 0.09129.
+std::string RigidRotor(const std::string& airfoil_block, const std::string& airfoil, double theta75, double twist,
+                       double omega, const std::string& inflow, const std::string& extra_air = "",
+                       bool clockwise = false, int blades = 4) {
+  const double R = 7.49;
+  std::string s = "model { bodies { name: \"hub\" mass: 100 inertia: [10, 10, 20] angular_velocity: [0, 0, " +
+                  std::to_string(omega) + "] }\n"
+                  "joints { name: \"shaft\" type: REVOLUTE body1: \"ground\" body2: \"hub\" point: [0, 0, 0] axis: [0, 0, 1] "
+                  "drive { quantity: ANGULAR_SPEED function { constant: " + std::to_string(omega) + " } } }\n"
+                  "air { speed_of_sound: 1e9 " + airfoil_block + extra_air + "\n";
+  std::string names;
+  for (int k = 0; k < blades; ++k) {
+    const double psi = 2 * kPi * k / blades;
+    const double ax = std::cos(psi), ay = std::sin(psi);
+    // Leading edge in the direction of motion.
+    const double sign = clockwise ? -1.0 : 1.0;
+    const double cx = -ay * sign, cy = ax * sign;
+    char buf[1024];
+    std::snprintf(buf, sizeof buf,
+                  "surfaces { name: \"b%d\" body: \"hub\" root: [0, 0, 0] axis: [%.17g, %.17g, 0] chord: [%.17g, %.17g, 0] "
+                  "upper: [0, 0, 1] segments: 20 gauss_points: 4 "
+                  "stations { s: 0 chord: 0.537 twist: %.17g airfoil: \"%s\" } "
+                  "stations { s: %.17g chord: 0.537 twist: %.17g airfoil: \"%s\" } }\n",
+                  k + 1, ax, ay, cx, cy, theta75 - 0.75 * twist, airfoil.c_str(), R, theta75 + 0.25 * twist,
+                  airfoil.c_str());
+    s += buf;
+    names += "\"b" + std::to_string(k + 1) + "\"" + (k + 1 < blades ? ", " : "");
+  }
+  if (!inflow.empty()) {
+    s += "rotors { name: \"main\" hub: \"hub\" axis: [0, 0, 1] radius: 7.49 inflow: " + inflow + " surfaces: [" + names + "] }\n";
+  }
+  s += "} } numerics { end_time: 1 step: 1e-3 }";
+  return s;
+}
+
+MultibodySystem Build(const std::string& text, const std::vector<std::string>& sets = {}) {
+  return BuildMultibodySystem(BuildMultibodyModel(interface::ScenarioFile::Parse(text, "aero.pbtxt", sets)));
+}
+
+TEST(AirLoads, TangentsMatchFiniteDifferences) {
+  // Off the manifold (perturbed frames) and in a wind, on a rigid wing and on a twisted beam:
+  // every term of K = −∂f/∂q and C = −∂f/∂q̇ (no rotor: the air velocity does not depend on q).
+  const std::string beam_station = "ea: 1e6 gj: 1e3 ei_flap: 1e3 ei_lag: 1e4 mass: 2 inertia_torsion: 1e-3";
+  const std::string text =
+      "model { bodies { name: \"wing\" mass: 1 inertia: [1, 1, 1] rotation: [0.1, -0.2, 0.3] }\n"
+      "beams { name: \"blade\" root: [0, 0, 1] axis: [1, 0, 0] chord: [0, -1, 0] elements: 2 nodes_per_element: 3 "
+      "root_body: \"ground\" stations { s: 0 " + beam_station + " twist: 0.1 } stations { s: 3 " + beam_station +
+      " twist: -0.1 } }\n"
+      "air { wind_x { constant: 3 } wind_y { constant: -40 } wind_z { constant: 5 }\n"
+      "surfaces { name: \"w\" body: \"wing\" root: [0, 0, 0] axis: [0, 1, 0] chord: [1, 0, 0] upper: [0, 0, 1] "
+      "segments: 3 stations { s: 0 chord: 0.5 twist: 0.1 airfoil: \"naca0012\" quarter_chord: 0.02 } "
+      "stations { s: 2 chord: 0.3 twist: -0.2 airfoil: \"naca0012\" } }\n"
+      "surfaces { name: \"b\" beam: \"blade\" upper: [0, 0, -1] gauss_points: 3 "
+      "stations { s: 0.5 chord: 0.4 twist: 0.05 airfoil: \"naca0012\" quarter_chord: -0.01 } "
+      "stations { s: 3 chord: 0.3 airfoil: \"naca0012\" } } } }\n"
+      "numerics { end_time: 1 step: 1e-3 }";
+  const MultibodySystem sys = Build(text);
+  ASSERT_NE(sys.air_loads, nullptr);
+  const AirLoads& air = *sys.air_loads;
+  const int n = sys.coordinates;
+  Eigen::VectorXd q = sys.q0, qdot(n);
+  for (int i = 0; i < n; ++i) {
+    q(i) += 0.05 * std::sin(0.7 * i + 0.2);
+    qdot(i) = 8.0 * std::cos(1.3 * i);
+  }
+  DenseCollector K(n), C(n);
+  air.AddTangent(q, qdot, 0.3, 1.0, 0.0, &K);
+  air.AddTangent(q, qdot, 0.3, 0.0, 1.0, &C);
+  auto force = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv) {
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(n);
+    air.AddForce(qq, vv, 0.3, f);
+    return f;
+  };
+  Eigen::MatrixXd Kfd(n, n), Cfd(n, n);
+  const double d = 1e-6;
+  for (int j = 0; j < n; ++j) {
+    Eigen::VectorXd qp = q, qm = q, vp = qdot, vm = qdot;
+    qp(j) += d;
+    qm(j) -= d;
+    vp(j) += d;
+    vm(j) -= d;
+    Kfd.col(j) = -(force(qp, qdot) - force(qm, qdot)) / (2 * d);
+    Cfd.col(j) = -(force(q, vp) - force(q, vm)) / (2 * d);
+  }
+  EXPECT_GT(Kfd.norm(), 1.0);
+  EXPECT_GT(Cfd.norm(), 1.0);
+  EXPECT_LT((K.m - Kfd).norm(), 1e-6 * Kfd.norm()) << (K.m - Kfd).cwiseAbs().maxCoeff();
+  EXPECT_LT((C.m - Cfd).norm(), 1e-6 * Cfd.norm()) << (C.m - Cfd).cwiseAbs().maxCoeff();
+  // And the pattern covers every entry the tangent touches.
+  struct Marker : SparseSink {
+    explicit Marker(int n) : m(Eigen::MatrixXi::Zero(n, n)) {}
+    void Add(int r, int c, double) override { m(r, c) = 1; }
+    Eigen::MatrixXi m;
+  } pattern(n);
+  air.Pattern(&pattern);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      if (K.m(i, j) != 0.0 || C.m(i, j) != 0.0) {
+        EXPECT_EQ(pattern.m(i, j), 1) << i << "," << j;
+      }
+    }
+  }
+}
+
+// Thrust of N blades of the rigid rotor in hover under a uniform induced velocity ν, by
+// an independent quadrature of the same strip theory (no small angles): per span
+// dT = ½ ρ c a (θ − φ) (U_T² + ν²) cos φ with U_T = Ω r, φ = atan(ν/U_T), no drag.
+double StripThrust(double nu, double omega, double theta75, double twist) {
+  const double R = 7.49, c = 0.537, rho = 1.225, a = 5.73;
+  const int n = 20000;
+  double T = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double r = (i + 0.5) * R / n;
+    const double ut = omega * r, phi = std::atan2(nu, ut);
+    const double theta = theta75 + twist * (r / R - 0.75);
+    T += 0.5 * rho * c * a * (theta - phi) * (ut * ut + nu * nu) * std::cos(phi) * R / n;
+  }
+  return 4 * T;
+}
+
+TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
+  // reference/aero.md: the ideal rotor (constant chord, linear twist, no cut-out, no tip loss,
+  // constant lift slope, uniform inflow) gives C_T = 0.002755 at θ75 = 5° and 0.007310 at 10°.
+  // The strip loads make their own thrust; the rotor solves Glauert's 2 ρ A ν² = T. Against an
+  // independent quadrature of the exact strip theory: quadrature error; against the closed
+  // form: the small-angle approximations it makes (U ≈ U_T, cos φ ≈ 1).
+  const std::string table = IdealTable();
+  const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225;
+  for (const auto& [theta_deg, ct_closed] : std::vector<std::pair<double, double>>{{5.0, 0.002755}, {10.0, 0.007310}}) {
+    const double theta = theta_deg * kDeg, twist = -8 * kDeg;
+    const MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
+                                                 theta, twist, omega, "UNIFORM"));
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
+    const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
+    const double ct = r.thrust / (rho * A * std::pow(omega * R, 2));
+    // Independent: ν from 2 ρ A ν² = T_strip(ν) by bisection.
+    double lo = 0.0, hi = 50.0;
+    for (int it = 0; it < 200; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (2 * rho * A * mid * mid - StripThrust(mid, omega, theta, twist) > 0 ? hi : lo) = mid;
+    }
+    const double ct_strip = StripThrust(lo, omega, theta, twist) / (rho * A * std::pow(omega * R, 2));
+    std::printf("hover θ75 = %.0f°: C_T %.6f (T = %.1f N, ν = %.4f m/s, λ = %.5f); strip quadrature %.6f "
+                "(%.1e); closed form %.6f (%.2f %%)\n",
+                theta_deg, ct, r.thrust, r.induced, r.inflow_ratio, ct_strip, std::abs(ct / ct_strip - 1), ct_closed,
+                100 * (ct / ct_closed - 1));
+    // The table holds C_l to 4 decimals (a π/2 = 9.00066 is 9.0007): 4e-6 of the lift.
+    EXPECT_NEAR(ct / ct_strip, 1.0, 1e-5);
+    EXPECT_NEAR(r.induced / lo, 1.0, 1e-5);
+    EXPECT_NEAR(ct / ct_closed, 1.0, 0.01);
+    EXPECT_NEAR(r.inflow_ratio, std::sqrt(ct / 2), 1e-6);  // hover: λ = √(C_T/2)
+  }
+}
+
+TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
+  // reference/aero.md, puma.md: hub still, collective 10°, air along +y, blade 1 along +x with
+  // its leading edge towards −y (a clockwise rotor): blade 1 sees the wind on its leading edge
+  // at +10° and lifts; blade 3 (along −x) sees it from its trailing edge (α ≈ −170°) and is
+  // pushed down; blades 2 and 4 see it along their span and feel almost nothing. The induced
+  // velocity is held at zero (still rotor).
+  const MultibodySystem sys =
+      Build(RigidRotor("", "naca0012", 10 * kDeg, 0.0, 0.0, "UNIFORM", "wind_y { constant: 25 }", true));
+  const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(sys.coordinates);
+  sys.AcceptStep(sys.q0, qdot, 0.0);
+  const AirLoads& air = *sys.air_loads;
+  double lift[4], alpha[4];
+  for (int b = 0; b < 4; ++b) {
+    const AirLoads::SectionResult s = air.Evaluate(air.Section(b, 5.0, 1.0), sys.q0, qdot, 0.0);
+    lift[b] = s.force.z();
+    alpha[b] = s.alpha / kDeg;
+  }
+  std::printf("crosswind 25 m/s at r = 5 m: normal force per span %.1f, %.2f, %.1f, %.2f N/m; α %.1f, %.1f, %.1f, %.1f deg\n",
+              lift[0], lift[1], lift[2], lift[3], alpha[0], alpha[1], alpha[2], alpha[3]);
+  EXPECT_NEAR(alpha[0], 10.0, 1e-9);
+  EXPECT_NEAR(alpha[2], -170.0, 1e-9);
+  const double q = 0.5 * 1.225 * 0.537 * 25 * 25;
+  EXPECT_GT(lift[0], 0.5 * q);  // C_l(10°) ≈ 1.0
+  EXPECT_LT(lift[2], -0.2 * q);
+  EXPECT_LT(std::abs(lift[1]), 0.01 * lift[0]);
+  EXPECT_LT(std::abs(lift[3]), 0.01 * lift[0]);
+  const AirLoads::RotorResult r = air.Rotor(0, sys.q0, qdot, 0.0);
+  EXPECT_EQ(r.induced, 0.0);
+}
+
+TEST(AirLoads, GustFrontTravelsWithItsProfile) {
+  // A 1 − cos pulse 100 m long, peak 25 m/s along +y, front moving along +y at 20 m/s: a point
+  // at y = 40 m sees the front after 2 s and the peak after 4.5 s (distance travelled 50 m).
+  AirModel air;
+  GustFront g;
+  g.front_direction = Eigen::Vector3d::UnitY();
+  g.direction = Eigen::Vector3d::UnitY();
+  g.front_speed = 20.0;
+  scenario::TimeFunction pulse;
+  pulse.mutable_cosine_pulse()->set_peak(25.0);
+  pulse.mutable_cosine_pulse()->set_duration(100.0);
+  const interface::ScenarioFile file = interface::ScenarioFile::Parse("", "g.pbtxt", {});
+  g.profile = interface::TimeFunction::Build(interface::Checks(file), "profile", pulse);
+  air.gusts.push_back(g);
+  const Eigen::Vector3d x(3.0, 40.0, 1.0);
+  EXPECT_EQ(air.Velocity(x, 1.9).norm(), 0.0);
+  EXPECT_NEAR(air.Velocity(x, 4.5).y(), 25.0, 1e-12);
+  EXPECT_NEAR(air.Velocity(x, 3.25).y(), 12.5, 1e-12);
+  EXPECT_EQ(air.Velocity(x, 7.1).norm(), 0.0);
+}
+
+TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
+  // reference/aero.md: a rigid blade hinged on the shaft (e = 0) in hover with full-span air,
+  // β'' + (γ/8) β' + ν_β² β = (γ/8) θ0 − g S_β/(I_β Ω²) in ψ = Ω t (λ = 0: no rotor inflow), so
+  // the flap mode's damping ratio is γ/(16 ν_β) and the steady coning β0 = (γ/8) θ0/ν_β² −
+  // g S_β/(I_β Ω² ν_β²). A uniform rod of R = 7.49 m and chord 0.537 m whose mass gives γ = 2
+  // (ζ = 0.125: a clean decay to measure), θ0 = 8°, released at β = 0 at full speed; the
+  // built-in NACA 0012 without compressibility (a = 5.7296). CGα at h = 1e-3 s, ρ∞ = 0.9.
+  const double R = 7.49, c = 0.537, rho = 1.225, a = 5.7296, omega = 28.0, theta = 8 * kDeg, g = 9.81;
+  const double gamma = 2.0, I = rho * a * c * std::pow(R, 4) / gamma, m = 3 * I / (R * R);
+  char text[4096];
+  std::snprintf(text, sizeof text, R"(
+    model {
+      gravity: [0, 0, -9.81]
+      bodies { name: "hub" mass: 100 inertia: [10, 10, 20] angular_velocity: [0, 0, 28] }
+      bodies { name: "blade" mass: %.17g inertia: [1e-3, %.17g, %.17g] position: [%.17g, 0, 0]
+               velocity: [0, %.17g, 0] angular_velocity: [0, 0, 28] }
+      joints { name: "shaft" type: REVOLUTE body1: "ground" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
+               drive { quantity: ANGULAR_SPEED function { constant: 28 } } }
+      joints { name: "flap" type: REVOLUTE body1: "hub" body2: "blade" point: [0, 0, 0] axis: [0, -1, 0] }
+      air { speed_of_sound: 1e9
+        surfaces { name: "b" body: "blade" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1]
+                   segments: 10 gauss_points: 3
+                   stations { s: 0 chord: 0.537 twist: %.17g airfoil: "naca0012" }
+                   stations { s: 7.49 chord: 0.537 twist: %.17g airfoil: "naca0012" } } }
+    }
+    numerics { end_time: 2.5 step: 1e-3 smooth { rho_inf: 0.9 } }
+    output { probes { name: "beta" quantity: JOINT_COORDINATE entity: "flap" } })",
+                m, m * R * R / 12, m * R * R / 12, R / 2, omega * R / 2, theta, theta);
+  MultibodySimulation sim(interface::ScenarioFile::Parse(text, "flap.pbtxt", {}));
+  const double h = 1e-3;
+  std::vector<double> beta, v(1);
+  for (int k = 0; k < 2500; ++k) {
+    sim.Step(k * h, h);
+    sim.Probe(&v);
+    beta.push_back(v[0]);
+  }
+  double beta0 = 0.0;
+  for (size_t k = 2200; k < 2500; ++k) beta0 += beta[k] / 300.0;
+  // The closed forms take the air at the blade's reference line; strip theory takes the normal
+  // velocity at the three-quarter chord, c/2 behind it, which on a coned blade moves with
+  // −Ω (c/2) sin β across the section: Δα = c β/(2r), a flap moment (γ/8)(2c/(3R)) β in the
+  // equation above — a negative spring, ν_β² = 1 − γ c/(12 R) (1.2 % of coning here).
+  const double nu_rod = 1.0;  // e = 0, a thin rod
+  const double nu = std::sqrt(nu_rod * nu_rod - gamma * c / (12 * R));
+  const double beta0_closed = gamma / 8 * theta / (nu * nu) - g * m * R / 2 / (I * omega * omega * nu * nu);
+  const double beta0_reference_line = gamma / 8 * theta - g * m * R / 2 / (I * omega * omega);
+  // Extrema of β − β0 and the logarithmic decrement between successive ones (half periods).
+  std::vector<std::pair<double, double>> extrema;
+  for (size_t k = 1; k + 1 < 1500; ++k) {
+    const double d0 = beta[k - 1] - beta0, d1 = beta[k] - beta0, d2 = beta[k + 1] - beta0;
+    if ((d1 > d0 && d1 >= d2) || (d1 < d0 && d1 <= d2)) extrema.emplace_back(static_cast<double>(k + 1) * h, d1);
+  }
+  ASSERT_GE(extrema.size(), 4u);
+  const double delta = std::log(std::abs(extrema[0].second / extrema[2].second)) / 2;  // per half period
+  const double zeta = delta / std::sqrt(kPi * kPi + delta * delta);
+  const double wd = kPi * 2 / (extrema[2].first - extrema[0].first);
+  const double wn = wd / std::sqrt(1 - zeta * zeta);
+  std::printf("flapping blade γ = %.2f: ζ = %.4f (γ/16ν_β = %.4f, %.2f %%), ω_n = %.4f/rev (ν_β %.4f); coning %.5f rad "
+              "(closed form %.5f, %.2f %%; with the air at the reference line %.5f)\n",
+              gamma, zeta, gamma / (16 * nu), 100 * (zeta / (gamma / (16 * nu)) - 1), wn / omega, nu, beta0,
+              beta0_closed, 100 * (beta0 / beta0_closed - 1), beta0_reference_line);
+  EXPECT_NEAR(zeta / (gamma / (16 * nu)), 1.0, 0.01);
+  EXPECT_NEAR(wn / omega, nu, 0.005);
+  EXPECT_NEAR(beta0 / beta0_closed, 1.0, 0.002);
+}
+
+TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
+  // The rigid ideal rotor of the hover test is brought to Ω at t = 0 with no inflow: the
+  // Pitt–Peters mean inflow then obeys (128/75π) R ν̇0 + 2 V_T ν0 = T(ν0)/(ρA) (dimensional form
+  // of reference/aero.md's λ0 equation, V_T = ν0 in hover). Against an independent RK4
+  // integration of that equation with the strip-theory thrust, and its time constant near the
+  // end state against the linearised τ = M R / (4 ν̄ − dT/dν/(ρA)) (the mass flow follows ν0 and
+  // the thrust falls as ν0 grows). aero.md's 0.543/(2λΩ) is the constant with both held.
+  const std::string table = IdealTable();
+  const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225, theta = 5 * kDeg, twist = -8 * kDeg;
+  const double M = 128.0 / (75.0 * kPi);
+  const MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
+                                               theta, twist, omega, "PITT_PETERS"));
+  const Eigen::VectorXd still = Eigen::VectorXd::Zero(sys.coordinates);
+  sys.AcceptStep(sys.q0, still, 0.0);
+  const double h = 2e-4;
+  const int steps = 5000;
+  std::vector<double> nu(steps + 1, 0.0);
+  for (int k = 1; k <= steps; ++k) {
+    sys.AcceptStep(sys.q0, sys.qdot0, k * h);
+    nu[static_cast<size_t>(k)] = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, k * h).induced;
+  }
+  // Independent RK4 of the same equation.
+  auto rate = [&](double n) { return (StripThrust(n, omega, theta, twist) / (rho * A) - 2 * std::abs(n) * n) / (M * R); };
+  double x = 0.0, worst = 0.0;
+  const double H = 1e-3;
+  for (int k = 1; k <= 400; ++k) {
+    const double k1 = rate(x), k2 = rate(x + 0.5 * H * k1), k3 = rate(x + 0.5 * H * k2), k4 = rate(x + H * k3);
+    x += H / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+    if (k % 5 == 0) worst = std::max(worst, std::abs(nu[static_cast<size_t>(5 * k)] - x));
+  }
+  double lo = 0.0, hi = 50.0;  // the end state: 2 ρ A ν² = T(ν)
+  for (int it = 0; it < 200; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (2 * rho * A * mid * mid - StripThrust(mid, omega, theta, twist) > 0 ? hi : lo) = mid;
+  }
+  const double end = lo;
+  // e-folding time from the approach between 10 % and 1 % of the end state.
+  double t10 = 0, t1 = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const double gap = (end - nu[static_cast<size_t>(k)]) / end;
+    if (t10 == 0 && gap < 0.1) t10 = k * h;
+    if (t1 == 0 && gap < 0.01) t1 = k * h;
+  }
+  const double tau = (t1 - t10) / std::log(10.0);
+  const double dT = (StripThrust(end * 1.001, omega, theta, twist) - StripThrust(end * 0.999, omega, theta, twist)) /
+                    (0.002 * end) / (rho * A);
+  const double tau_linear = M * R / (4 * end - dT);
+  const double lambda = end / (omega * R);
+  std::printf("Pitt–Peters hover: ν0 → %.4f m/s (momentum %.4f), largest gap to RK4 %.2e m/s; e-folding %.4f s "
+              "(linearised %.4f s, %.2f %%); aero.md's 0.543/(2λΩ) = %.4f s with mass flow and thrust held\n",
+              nu.back(), end, worst, tau, tau_linear, 100 * (tau / tau_linear - 1), M / (2 * lambda * omega));
+  EXPECT_NEAR(nu.back() / end, 1.0, 1e-4);
+  EXPECT_LT(worst, 0.01 * end);
+  EXPECT_NEAR(tau / tau_linear, 1.0, 0.03);
+}
+
+}  // namespace
+}  // namespace cosim::smooth

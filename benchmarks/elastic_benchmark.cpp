@@ -7,6 +7,7 @@
 //  4. A four-blade hub (rigid hub on a driven shaft, four blades of ten elements clamped to it,
 //     spinning up): cost per CGα step, Newton iterations per step, the share of one elastic
 //     force+tangent evaluation in it, and the same run with IDA (tolerances 1e-6) as the peer.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -176,6 +177,62 @@ int main() {
                   1e6 * per_step, 1e6 * per_step / (4 * elements),
                   static_cast<double>(sim.newton_iterations() - before) / n, hex_step / per_step);
     }
+  }
+  // Issue 15: the cost of the air loads on the same rotor (scenarios/puma/rotor_air.pbtxt, strip
+  // theory on the four beams with uniform inflow) against the rotor without them, 10 quadratic
+  // elements per blade; runs alternated, the median of five of each (the machine is noisy).
+  std::printf("\nPuma rotor with and without air (10 × 3-node elements per blade, h = 1e-4 s, 200 steps):\n");
+  auto time_rotor = [&](const char* scenario, double* iterations) {
+    const auto file = cosim::interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + scenario, {"output.probes=[]"});
+    MultibodySimulation sim(file);
+    const int n = 200;
+    const double h = 1e-4;
+    sim.Step(0.0, h);
+    const long long before = sim.newton_iterations();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 1; k <= n; ++k) sim.Step(k * h, h);
+    *iterations = static_cast<double>(sim.newton_iterations() - before) / n;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+  };
+  std::vector<double> with_air, without_air;
+  double it_air = 0.0, it_dry = 0.0;
+  for (int r = 0; r < 5; ++r) {
+    without_air.push_back(time_rotor("/scenarios/puma/rotor_no_air.pbtxt", &it_dry));
+    with_air.push_back(time_rotor("/scenarios/puma/rotor_air.pbtxt", &it_air));
+  }
+  std::sort(with_air.begin(), with_air.end());
+  std::sort(without_air.begin(), without_air.end());
+  const double wet = with_air[2], dry = without_air[2];
+  std::printf("  without air %.0f us per step (%.2f Newton/step), with air %.0f us per step (%.2f Newton/step): "
+              "+%.1f %% (goal: at most +20 %%)\n",
+              1e6 * dry, it_dry, 1e6 * wet, it_air, 100.0 * (wet / dry - 1.0));
+  {
+    const auto file = cosim::interface::ScenarioFile::Load(
+        std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_air.pbtxt", {"output.probes=[]"});
+    MultibodySimulation sim(file);
+    sim.Step(0.0, 1e-4);
+    const MultibodySystem& sys = sim.system();
+    const AirLoads& air = *sys.air_loads;
+    const Eigen::VectorXd& q = sim.integrator().state().q;
+    const Eigen::VectorXd& qdot = sim.integrator().state().qdot;
+    Eigen::VectorXd f = Eigen::VectorXd::Zero(sys.coordinates);
+    struct Null : cosim::smooth::SparseSink {
+      void Add(int, int, double v) override { sum += v; }
+      double sum = 0.0;
+    } sink;
+    const int reps = 2000;
+    auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps; ++k) air.AddForce(q, qdot, 0.0, f);
+    const double force = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps; ++k) air.AddTangent(q, qdot, 0.0, 1.0, 0.5, &sink);
+    const double tangent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+    t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < reps / 10; ++k) air.AcceptStep(q, qdot, 1e-4 * (k + 2));
+    const double accept = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / (reps / 10);
+    std::printf("  air loads: %zu sections; force %.1f us, force + tangent %.1f us, inflow update %.1f us per call "
+                "(checksum %.3g)\n",
+                air.section_count(), 1e6 * force, 1e6 * tangent, 1e6 * accept, f.sum() + sink.sum);
   }
   return 0;
 }

@@ -88,6 +88,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   for (size_t j = 0; j < model_.joints.size(); ++j) joint_index[model_.joints[j].name] = static_cast<int>(j);
   std::map<std::string, int> beam_index;
   for (size_t b = 0; b < model_.beams.size(); ++b) beam_index[model_.beams[b].name] = static_cast<int>(b);
+  std::map<std::string, int> surface_index, rotor_index;
+  for (size_t k = 0; k < model_.aero.surfaces.size(); ++k) surface_index[model_.aero.surfaces[k].name] = static_cast<int>(k);
+  for (size_t k = 0; k < model_.aero.rotors.size(); ++k) rotor_index[model_.aero.rotors[k].name] = static_cast<int>(k);
   interface::NameTable probe_names(checks, "probe");
   const sc::Output& output = file.proto().output();
   // In a coupled run, probes of contact nodes and contacts are the contact process's.
@@ -133,10 +136,21 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       case sc::Probe::ROTATION: spec.kind = Kind::kRotation; break;
       case sc::Probe::SECTION_FORCE: spec.kind = Kind::kSectionForce; break;
       case sc::Probe::SECTION_MOMENT: spec.kind = Kind::kSectionMoment; break;
+      case sc::Probe::AERO_ANGLE_OF_ATTACK: spec.kind = Kind::kAeroAlpha; break;
+      case sc::Probe::AERO_FORCE: spec.kind = Kind::kAeroForce; break;
+      case sc::Probe::AERO_MOMENT: spec.kind = Kind::kAeroMoment; break;
+      case sc::Probe::AERO_MACH: spec.kind = Kind::kAeroMach; break;
+      case sc::Probe::ROTOR_THRUST: spec.kind = Kind::kRotorThrust; break;
+      case sc::Probe::ROTOR_TORQUE: spec.kind = Kind::kRotorTorque; break;
+      case sc::Probe::INFLOW_RATIO: spec.kind = Kind::kInflowRatio; break;
+      case sc::Probe::INDUCED_VELOCITY: spec.kind = Kind::kInducedVelocity; break;
       default:
         checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
                                         "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
-                                        "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY or CONSTRAINT_VIOLATION, got " +
+                                        "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY, CONSTRAINT_VIOLATION, DISPLACEMENT, "
+                                        "STRAIN_ENERGY, ROTATION, SECTION_FORCE, SECTION_MOMENT, AERO_ANGLE_OF_ATTACK, "
+                                        "AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, INFLOW_RATIO or "
+                                        "INDUCED_VELOCITY, got " +
                                             sc::Probe::Quantity_Name(p.quantity()));
     }
     if (p.has_frame()) {
@@ -153,8 +167,10 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
         spec.frame = it->second;
       }
     }
-    if (p.has_station() && spec.kind != Kind::kSectionForce && spec.kind != Kind::kSectionMoment) {
-      checks.Fail(path + ".station", "only SECTION_FORCE and SECTION_MOMENT probes take a station");
+    const bool aero_section = spec.kind == Kind::kAeroAlpha || spec.kind == Kind::kAeroForce ||
+                              spec.kind == Kind::kAeroMoment || spec.kind == Kind::kAeroMach;
+    if (p.has_station() && spec.kind != Kind::kSectionForce && spec.kind != Kind::kSectionMoment && !aero_section) {
+      checks.Fail(path + ".station", "only SECTION_FORCE, SECTION_MOMENT and AERO_* probes take a station");
     }
     // DISPLACEMENT of a body (a beam node, a rigid body): from its initial position.
     if (spec.kind == Kind::kDisplacement && elastic_index.count(p.entity()) == 0 && body_index.count(p.entity()) != 0) {
@@ -189,6 +205,29 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
         spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
       }
+      case Kind::kAeroAlpha:
+      case Kind::kAeroForce:
+      case Kind::kAeroMoment:
+      case Kind::kAeroMach: {
+        spec.index = find(surface_index, "aero surface");
+        const auto& st = model_.aero.surfaces[static_cast<size_t>(spec.index)].stations;
+        checks.Require(path + ".station", p.has_station(), "the section's span coordinate in m");
+        if (p.station() < st.front().s || p.station() > st.back().s) {
+          checks.Fail(path + ".station", interface::FormatNumber(p.station()) + " m is outside the loaded span of '" +
+                                             p.entity() + "' (" + interface::FormatNumber(st.front().s) + " to " +
+                                             interface::FormatNumber(st.back().s) + " m)");
+        }
+        spec.station = p.station();
+        spec.component = interface::ProbeComponent(checks, path, p, spec.kind == Kind::kAeroForce);
+        break;
+      }
+      case Kind::kRotorThrust:
+      case Kind::kRotorTorque:
+      case Kind::kInflowRatio:
+      case Kind::kInducedVelocity:
+        spec.index = find(rotor_index, "rotor");
+        spec.component = interface::ProbeComponent(checks, path, p, false);
+        break;
       case Kind::kJointCoordinate:
       case Kind::kJointSpeed: {
         spec.index = find(joint_index, "joint");
@@ -360,6 +399,29 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         value = interface::PickComponent(p.kind == Kind::kSectionForce ? Eigen::Vector3d(sigma.head<3>())
                                                                        : Eigen::Vector3d(sigma.tail<3>()),
                                          p.component);
+        break;
+      }
+      case Kind::kAeroAlpha:
+      case Kind::kAeroForce:
+      case Kind::kAeroMoment:
+      case Kind::kAeroMach: {
+        const AirLoads& air = *system_->air_loads;
+        const AirLoads::SectionResult r = air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, time_);
+        value = p.kind == Kind::kAeroAlpha    ? r.alpha
+                : p.kind == Kind::kAeroMoment ? r.moment
+                : p.kind == Kind::kAeroMach   ? r.mach
+                                              : interface::PickComponent(r.force_local, p.component);
+        break;
+      }
+      case Kind::kRotorThrust:
+      case Kind::kRotorTorque:
+      case Kind::kInflowRatio:
+      case Kind::kInducedVelocity: {
+        const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, time_);
+        value = p.kind == Kind::kRotorThrust   ? r.thrust
+                : p.kind == Kind::kRotorTorque ? r.torque
+                : p.kind == Kind::kInflowRatio ? r.inflow_ratio
+                                               : r.induced;
         break;
       }
       case Kind::kJointCoordinate:

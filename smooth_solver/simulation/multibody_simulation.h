@@ -35,7 +35,8 @@ class MultibodySimulation : public interface::Simulation {
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
                     kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation,
                     kDisplacement, kStrainEnergy, kClampForce, kClampMoment, kBodyDisplacement, kRotation,
-                    kBeamStrainEnergy, kSectionForce, kSectionMoment };
+                    kBeamStrainEnergy, kSectionForce, kSectionMoment, kAeroAlpha, kAeroForce, kAeroMoment,
+                    kAeroMach, kRotorThrust, kRotorTorque, kInflowRatio, kInducedVelocity };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;

@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/model/multibody_model.h"
 
 namespace cosim::smooth {
@@ -58,6 +59,7 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
   interface::NameTable surface_names(checks, "aero surface");
   interface::NameTable beam_names(checks, "beam");
   for (size_t b = 0; b < model->beams.size(); ++b) beam_names.Add(ElementPath("model.beams", static_cast<int>(b)), model->beams[b].name);
+  std::vector<ElasticMesh> elastic_meshes;  // built once, when a surface needs them
   for (int i = 0; i < a.surfaces_size(); ++i) {
     const sc::AeroSurface& s = a.surfaces(i);
     const std::string path = ElementPath("model.air.surfaces", i);
@@ -81,7 +83,7 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         normal_ref = sf.d3_0;
         s_lo = sf.beam.span_start;
         s_hi = sf.beam.span_end;
-        for (const char* f : {"root", "axis", "chord"}) {
+        for (const char* f : {"root", "axis", "chord"}) {  // the beam's own
           const bool given = f[0] == 'r' ? s.root_size() > 0 : f[0] == 'a' ? s.axis_size() > 0 : s.chord_size() > 0;
           if (given) checks.Fail(path + "." + f, "is the beam's own on a beam surface; remove it");
         }
@@ -113,8 +115,39 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         s_hi = 1e300;
         break;
       }
+      case sc::AeroSurface::kElasticBody: {
+        int e = -1;
+        for (int k = 0; k < m.elastic_bodies_size(); ++k) {
+          if (m.elastic_bodies(k).name() == s.elastic_body()) e = k;
+        }
+        if (e < 0) {
+          std::string known;
+          for (const auto& eb : m.elastic_bodies()) known += (known.empty() ? "" : ", ") + eb.name();
+          checks.Fail(path + ".elastic_body", "no elastic body named '" + s.elastic_body() + "'" +
+                                                  (known.empty() ? "" : "; known: " + known));
+        }
+        if (elastic_meshes.empty()) {
+          for (const ElasticBodySpec& spec : BuildElasticBodies(checks, m, model->bodies)) {
+            elastic_meshes.push_back(spec.body.mesh());
+          }
+        }
+        sf.elastic = e;
+        sf.mesh = elastic_meshes[static_cast<size_t>(e)];
+        const Eigen::Vector3d axis = checks.Direction(path + ".axis", s.axis());
+        const Eigen::Vector3d chord_given = checks.Direction(path + ".chord", s.chord());
+        const Eigen::Vector3d chord = chord_given - chord_given.dot(axis) * axis;
+        if (chord.norm() < 1e-6) checks.Fail(path + ".chord", "is parallel to axis; it must point across the span");
+        sf.root_b = checks.Vector3(path + ".root", s.root(), std::nullopt);
+        sf.axis_b = axis;
+        sf.chord_b = chord.normalized();
+        normal_ref = axis.cross(sf.chord_b);
+        sf.segments = static_cast<int>(checks.InRange(path + ".segments", true, s.segments(), 1, 10000));
+        s_lo = 0.0;
+        s_hi = 1e300;
+        break;
+      }
       case sc::AeroSurface::CARRIER_NOT_SET:
-        checks.Fail(path, "names no carrier; give `beam: NAME` or `body: NAME`");
+        checks.Fail(path, "names no carrier; give `beam: NAME`, `body: NAME` or `elastic_body: NAME`");
     }
     const double side = upper.dot(normal_ref);
     if (std::abs(side) < 1e-3) {
@@ -146,6 +179,16 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
     }
     if (!(sf.stations.back().s > sf.stations.front().s)) {
       checks.Fail(path + ".stations", "span no length; the last station's s must exceed the first's");
+    }
+    if (sf.elastic >= 0) {  // the loaded span inside the mesh (ends and a few points between)
+      MeshPoint at;
+      for (int k = 0; k <= 20; ++k) {
+        const double sk = sf.stations.front().s + (sf.stations.back().s - sf.stations.front().s) * k / 20.0;
+        if (!LocateInMesh(sf.mesh, sf.root_b + sk * sf.axis_b, &at)) {
+          checks.Fail(path + ".stations", "the reference line at s = " + FormatNumber(sk) + " m lies outside elastic body '" +
+                                              s.elastic_body() + "'; stations must stay inside its mesh");
+        }
+      }
     }
     aero.surfaces.push_back(std::move(sf));
   }

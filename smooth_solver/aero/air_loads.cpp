@@ -6,7 +6,9 @@
 
 #include <Eigen/Dense>
 
+#include "interface/run/errors.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/elastic/hex27.h"
 
 namespace cosim::smooth {
 
@@ -71,7 +73,55 @@ struct AirLoads::Local {
   Vector3d F = Vector3d::Zero();  // global force per span
 };
 
-AirLoads::AirLoads(AeroModel model) : model_(std::move(model)) {
+bool LocateInMesh(const ElasticMesh& mesh, const Vector3d& X, MeshPoint* at) {
+  for (size_t e = 0; e < mesh.elements.size(); ++e) {
+    const auto& nodes = mesh.elements[e];
+    Eigen::Matrix<double, 3, 27> P;
+    for (int a = 0; a < 27; ++a) P.col(a) = mesh.nodes.col(nodes[static_cast<size_t>(a)]);
+    const Vector3d lo = P.rowwise().minCoeff(), hi = P.rowwise().maxCoeff();
+    const double pad = 1e-9 * (1.0 + (hi - lo).norm());
+    if ((X.array() < lo.array() - pad).any() || (X.array() > hi.array() + pad).any()) continue;
+    // Newton on the isoparametric map X(ξ) = Σ N_a(ξ) X_a from the element's centre.
+    Vector3d xi = Vector3d::Zero();
+    std::array<double, 27> N{};
+    std::array<Vector3d, 27> dN{};
+    Matrix3d J = Matrix3d::Identity();
+    for (int it = 0; it < 30; ++it) {
+      const auto s0 = Hex27::Shape1D(xi(0)), s1 = Hex27::Shape1D(xi(1)), s2 = Hex27::Shape1D(xi(2));
+      const auto d0 = Hex27::Shape1DDerivative(xi(0)), d1 = Hex27::Shape1DDerivative(xi(1)),
+                 d2 = Hex27::Shape1DDerivative(xi(2));
+      Vector3d x = Vector3d::Zero();
+      J.setZero();
+      for (int k = 0; k < 3; ++k) {
+        for (int j = 0; j < 3; ++j) {
+          for (int i = 0; i < 3; ++i) {
+            const size_t a = static_cast<size_t>(i + 3 * j + 9 * k);
+            N[a] = s0[static_cast<size_t>(i)] * s1[static_cast<size_t>(j)] * s2[static_cast<size_t>(k)];
+            dN[a] = Vector3d(d0[static_cast<size_t>(i)] * s1[static_cast<size_t>(j)] * s2[static_cast<size_t>(k)],
+                             s0[static_cast<size_t>(i)] * d1[static_cast<size_t>(j)] * s2[static_cast<size_t>(k)],
+                             s0[static_cast<size_t>(i)] * s1[static_cast<size_t>(j)] * d2[static_cast<size_t>(k)]);
+            x += N[a] * P.col(static_cast<int>(a));
+            J += P.col(static_cast<int>(a)) * dN[a].transpose();
+          }
+        }
+      }
+      const Vector3d step = J.partialPivLu().solve(X - x);
+      xi += step;
+      if (step.norm() < 1e-13) break;
+      if (xi.cwiseAbs().maxCoeff() > 3.0) break;  // far outside: not this element
+    }
+    if (xi.cwiseAbs().maxCoeff() > 1.0 + 1e-9) continue;
+    at->element = static_cast<int>(e);
+    at->N = N;
+    const Matrix3d Jinv_t = J.inverse().transpose();
+    for (size_t a = 0; a < 27; ++a) at->grad[a] = Jinv_t * dN[a];
+    return true;
+  }
+  return false;
+}
+
+AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset)
+    : model_(std::move(model)), elastic_offset_(std::move(elastic_offset)) {
   rotor_sections_.resize(model_.rotors.size());
   rotor_state_.resize(model_.rotors.size());
   std::vector<double> gx, gw;
@@ -96,6 +146,28 @@ AirLoads::AirLoads(AeroModel model) : model_(std::move(model)) {
         const double s = 0.5 * (lo + hi) + 0.5 * (hi - lo) * gx[g];
         sections_.push_back(Section(static_cast<int>(si), s, 0.5 * (hi - lo) * gw[g]));
         if (sf.rotor >= 0) rotor_sections_[static_cast<size_t>(sf.rotor)].push_back(static_cast<int>(sections_.size() - 1));
+      }
+    }
+  }
+  for (size_t k = 0; k < sections_.size(); ++k) {
+    const AeroSection& s = sections_[k];
+    const AeroSection* previous = groups_.empty() ? nullptr : &sections_[static_cast<size_t>(groups_.back().first)];
+    const bool same = previous != nullptr && previous->slots == s.slots &&
+                      std::equal(s.slot.begin(), s.slot.begin() + s.slots, previous->slot.begin());
+    if (!same) {
+      Group g;
+      g.first = static_cast<int>(k);
+      g.mask.assign(static_cast<size_t>(s.slots * s.slots), 0);
+      groups_.push_back(std::move(g));
+    }
+    Group& g = groups_.back();
+    g.last = static_cast<int>(k + 1);
+    for (int i = 0; i < s.slots; ++i) {
+      const size_t ii = static_cast<size_t>(i);
+      if (s.wa[ii] == 0.0 && s.we[ii] == 0.0) continue;
+      for (int j = 0; j < s.slots; ++j) {
+        const size_t jj = static_cast<size_t>(j);
+        if (s.wp[jj] != 0.0 || s.we[jj] != 0.0 || s.wn[jj] != 0.0) g.mask[static_cast<size_t>(i * s.slots + j)] = 1;
       }
     }
   }
@@ -174,6 +246,20 @@ AeroSection AirLoads::Section(int surface, double s, double weight) const {
       add(base, N[I], 0.0, 0.0);
       add(base + 6, x_qc * N[I] * e_d2, N[I] * e_d2, N[I] * n_d2);
       add(base + 9, x_qc * N[I] * e_d3, N[I] * e_d3, N[I] * n_d3);
+    }
+  } else if (sf.elastic >= 0) {
+    // The material point of the reference line and the reference chord and normal, carried by
+    // the deformation gradient: e1 = F c = Σ_a x_a (∇N_a · c), e2 = F n.
+    const Vector3d c = sf.chord_b, n = sf.upper_sign * sf.axis_b.cross(sf.chord_b);
+    const Vector3d c1 = ct * c + stw * n, n1 = -stw * c + ct * n;
+    MeshPoint at;
+    const bool inside = LocateInMesh(sf.mesh, sf.root_b + s * sf.axis_b, &at);
+    COSIM_ASSERT(inside, "an aero section outside its elastic body (AddAero checks the stations)");
+    const int offset = elastic_offset_[static_cast<size_t>(sf.elastic)];
+    const auto& nodes = sf.mesh.elements[static_cast<size_t>(at.element)];
+    for (size_t a = 0; a < 27; ++a) {
+      const double we = at.grad[a].dot(c1), wn = at.grad[a].dot(n1);
+      add(offset + 3 * nodes[a], at.N[a] + x_qc * we, we, wn);
     }
   } else {
     const Vector3d point = sf.root_b + s * sf.axis_b;
@@ -289,57 +375,69 @@ void AirLoads::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, d
 
 void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                           double damping_scale, SparseSink* sink) const {
+  constexpr int kMax = 3 * AeroSection::kMaxSlots;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMax, kMax> L;
   Local o;
-  for (const AeroSection& s : sections_) {
-    const RotorState* r = s.rotor >= 0 ? &rotor_state_[static_cast<size_t>(s.rotor)] : nullptr;
-    Compute(s, q, qdot, t, r, true, &o);
-    Matrix3d R;
-    R << o.e1, o.e2, o.e3;
-    const Eigen::Matrix3d DF = o.D.topRows<3>();
-    const Eigen::RowVector3d Dm = o.D.row(3);
-    // ∂v_local/∂e1 and ∂v_local/∂e2 (rows v1, v2, v3).
-    Matrix3d SE, SN;
-    SE.row(0) = o.v.transpose();
-    SE.row(1).setZero();
-    SE.row(2) = o.e2.cross(o.v).transpose();
-    SN.row(0).setZero();
-    SN.row(1) = o.v.transpose();
-    SN.row(2) = o.v.cross(o.e1).transpose();
-    const Matrix3d G = R * DF * R.transpose();                 // ∂F/∂ṗ
-    const Matrix3d Gm = o.e2 * (Dm * R.transpose());           // ∂(m e2)/∂ṗ
-    const Matrix3d KE = R * DF * SE + o.f(0) * Matrix3d::Identity() - o.f(2) * Skew(o.e2);  // ∂F/∂e1
-    const Matrix3d KN = R * DF * SN + o.f(1) * Matrix3d::Identity() + o.f(2) * Skew(o.e1);  // ∂F/∂e2
-    const Matrix3d ME = o.e2 * (Dm * SE);                                                   // ∂(m e2)/∂e1
-    const Matrix3d MN = o.e2 * (Dm * SN) + o.m * Matrix3d::Identity();                      // ∂(m e2)/∂e2
-    const double w = s.weight;
-    for (int i = 0; i < s.slots; ++i) {
-      const size_t ii = static_cast<size_t>(i);
-      if (s.wa[ii] == 0.0 && s.we[ii] == 0.0) continue;
-      for (int j = 0; j < s.slots; ++j) {
-        const size_t jj = static_cast<size_t>(j);
-        if (s.wp[jj] == 0.0 && s.we[jj] == 0.0 && s.wn[jj] == 0.0) continue;
-        // K = −∂f/∂q, C = −∂f/∂q̇ for the slot pair.
-        const Matrix3d C = -w * s.wp[jj] * (s.wa[ii] * G + s.we[ii] * Gm);
-        const Matrix3d K = -w * (s.wa[ii] * (s.we[jj] * KE + s.wn[jj] * KN) + s.we[ii] * (s.we[jj] * ME + s.wn[jj] * MN));
-        const Matrix3d B = stiffness_scale * K + damping_scale * C;
-        for (int a = 0; a < 3; ++a) {
-          for (int b = 0; b < 3; ++b) sink->Add(s.slot[ii] + a, s.slot[jj] + b, B(a, b));
+  for (const Group& group : groups_) {
+    const int slots = sections_[static_cast<size_t>(group.first)].slots;
+    L.setZero(3 * slots, 3 * slots);
+    for (int k = group.first; k < group.last; ++k) {
+      const AeroSection& s = sections_[static_cast<size_t>(k)];
+      const RotorState* r = s.rotor >= 0 ? &rotor_state_[static_cast<size_t>(s.rotor)] : nullptr;
+      Compute(s, q, qdot, t, r, true, &o);
+      Matrix3d R;
+      R << o.e1, o.e2, o.e3;
+      const Eigen::Matrix3d DF = o.D.topRows<3>();
+      const Eigen::RowVector3d Dm = o.D.row(3);
+      // ∂v_local/∂e1 and ∂v_local/∂e2 (rows v1, v2, v3).
+      Matrix3d SE, SN;
+      SE.row(0) = o.v.transpose();
+      SE.row(1).setZero();
+      SE.row(2) = o.e2.cross(o.v).transpose();
+      SN.row(0).setZero();
+      SN.row(1) = o.v.transpose();
+      SN.row(2) = o.v.cross(o.e1).transpose();
+      const double w = s.weight;
+      // Scaled by −w and by the integrator's factors: B_ij = ks K_ij + ds C_ij.
+      const Matrix3d G = -w * damping_scale * (R * DF * R.transpose());       // ∂F/∂ṗ
+      const Matrix3d Gm = -w * damping_scale * (o.e2 * (Dm * R.transpose()));  // ∂(m e2)/∂ṗ
+      const Matrix3d KE = -w * stiffness_scale *
+                          (R * DF * SE + o.f(0) * Matrix3d::Identity() - o.f(2) * Skew(o.e2));  // ∂F/∂e1
+      const Matrix3d KN = -w * stiffness_scale *
+                          (R * DF * SN + o.f(1) * Matrix3d::Identity() + o.f(2) * Skew(o.e1));  // ∂F/∂e2
+      const Matrix3d ME = -w * stiffness_scale * (o.e2 * (Dm * SE));                            // ∂(m e2)/∂e1
+      const Matrix3d MN = -w * stiffness_scale * (o.e2 * (Dm * SN) + o.m * Matrix3d::Identity());  // ∂(m e2)/∂e2
+      for (int i = 0; i < slots; ++i) {
+        const size_t ii = static_cast<size_t>(i);
+        const double wa = s.wa[ii], we = s.we[ii];
+        if (wa == 0.0 && we == 0.0) continue;
+        const Matrix3d rowC = wa * G + we * Gm;
+        for (int j = 0; j < slots; ++j) {
+          const size_t jj = static_cast<size_t>(j);
+          if (s.wp[jj] == 0.0 && s.we[jj] == 0.0 && s.wn[jj] == 0.0) continue;
+          L.block<3, 3>(3 * i, 3 * j) += s.wp[jj] * rowC + wa * (s.we[jj] * KE + s.wn[jj] * KN) +
+                                         we * (s.we[jj] * ME + s.wn[jj] * MN);
         }
+      }
+    }
+    const AeroSection& s = sections_[static_cast<size_t>(group.first)];
+    for (int i = 0; i < slots; ++i) {
+      for (int j = 0; j < slots; ++j) {
+        if (group.mask[static_cast<size_t>(i * slots + j)] == 0) continue;
+        sink->AddBlock3(s.slot[static_cast<size_t>(i)], s.slot[static_cast<size_t>(j)], L.block<3, 3>(3 * i, 3 * j));
       }
     }
   }
 }
 
 void AirLoads::Pattern(SparseSink* sink) const {
-  for (const AeroSection& s : sections_) {
+  for (const Group& group : groups_) {
+    const AeroSection& s = sections_[static_cast<size_t>(group.first)];
     for (int i = 0; i < s.slots; ++i) {
-      const size_t ii = static_cast<size_t>(i);
-      if (s.wa[ii] == 0.0 && s.we[ii] == 0.0) continue;
       for (int j = 0; j < s.slots; ++j) {
-        const size_t jj = static_cast<size_t>(j);
-        if (s.wp[jj] == 0.0 && s.we[jj] == 0.0 && s.wn[jj] == 0.0) continue;
+        if (group.mask[static_cast<size_t>(i * s.slots + j)] == 0) continue;
         for (int a = 0; a < 3; ++a) {
-          for (int b = 0; b < 3; ++b) sink->Add(s.slot[ii] + a, s.slot[jj] + b, 0.0);
+          for (int b = 0; b < 3; ++b) sink->Add(s.slot[static_cast<size_t>(i)] + a, s.slot[static_cast<size_t>(j)] + b, 0.0);
         }
       }
     }

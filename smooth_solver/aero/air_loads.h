@@ -24,6 +24,7 @@
 #include "interface/scenario/time_function.h"
 #include "smooth_solver/aero/airfoil.h"
 #include "smooth_solver/beam/beam_model.h"
+#include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/forces/force_elements.h"
 
 namespace cosim::smooth {
@@ -48,6 +49,15 @@ struct AeroStationSpec {
   int airfoil = -1;  // index into AeroModel::airfoils
 };
 
+// Where the material point X of a hex27 mesh lies: element, and the shape functions and their
+// reference gradients there. False if X is in no element.
+struct MeshPoint {
+  int element = -1;
+  std::array<double, 27> N{};
+  std::array<Eigen::Vector3d, 27> grad{};  // ∇_X N_a
+};
+bool LocateInMesh(const ElasticMesh& mesh, const Eigen::Vector3d& X, MeshPoint* at);
+
 // A surface as validated from the scenario; sections are built from it (AirLoads::Section).
 struct AeroSurfaceSpec {
   std::string name;
@@ -57,6 +67,10 @@ struct AeroSurfaceSpec {
   // frame, and the reference line (root, axis, chord towards the leading edge) in body coordinates.
   Eigen::Vector3d d2_0 = Eigen::Vector3d::UnitY(), d3_0 = Eigen::Vector3d::UnitZ();
   int body = -1;
+  // Elastic carrier: the body's index among the elastic bodies and its reference mesh; root_b,
+  // axis_b, chord_b are then global (reference configuration).
+  int elastic = -1;
+  ElasticMesh mesh;
   Eigen::Vector3d root_b = Eigen::Vector3d::Zero(), axis_b = Eigen::Vector3d::UnitX(),
                   chord_b = Eigen::Vector3d::UnitY();
   double upper_sign = 1.0;  // e2 = upper_sign · (rotated d3, or axis × chord)
@@ -86,7 +100,7 @@ struct AeroModel {
 
 // One integration point or probe station of a surface.
 struct AeroSection {
-  static constexpr int kMaxSlots = 12;
+  static constexpr int kMaxSlots = 27;
   int slots = 0;
   std::array<int, kMaxSlots> slot{};  // first coordinate of a 3-vector slot of q
   // Weights of each slot in a (quarter chord), p (three-quarter chord), e1 and e2.
@@ -99,7 +113,8 @@ struct AeroSection {
 
 class AirLoads : public ForceElement {
  public:
-  explicit AirLoads(AeroModel model);
+  // `elastic_offset`: the first coordinate of each elastic body's nodes.
+  AirLoads(AeroModel model, std::vector<int> elastic_offset);
   void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
@@ -151,7 +166,16 @@ class AirLoads : public ForceElement {
                const RotorState* rotor, bool derivatives, Local* out) const;
 
   AeroModel model_;
+  std::vector<int> elastic_offset_;
   std::vector<AeroSection> sections_;
+  // Consecutive sections on the same slots (a beam element's or a body's Gauss points): their
+  // Newton-matrix blocks are summed before they go to the sink; `mask` marks the slot pairs any
+  // of them touches (slots × slots, row-major), the same for the pattern.
+  struct Group {
+    int first = 0, last = 0;  // sections [first, last)
+    std::vector<char> mask;
+  };
+  std::vector<Group> groups_;
   std::vector<std::vector<int>> rotor_sections_;
   mutable std::vector<RotorState> rotor_state_;
 };

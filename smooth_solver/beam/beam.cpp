@@ -248,13 +248,14 @@ void BeamForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot
     Element(e, ql, vl, nullptr, &K, &C, nullptr);
     K *= stiffness_scale;
     if (retardation_ > 0.0) K += damping_scale * C;
+    // In 3×3 blocks (slots x, d1, d2, d3 of each node): one search per column and block.
     for (int J = 0; J < n_; ++J) {
       const int cj = kCoordinatesPerBody * e.node[static_cast<size_t>(J)];
-      for (int c = 0; c < kCoordinatesPerBody; ++c) {
-        for (int I = 0; I < n_; ++I) {
-          const int ri = kCoordinatesPerBody * e.node[static_cast<size_t>(I)];
-          for (int r = 0; r < kCoordinatesPerBody; ++r) {
-            sink->Add(ri + r, cj + c, K(kCoordinatesPerBody * I + r, kCoordinatesPerBody * J + c));
+      for (int I = 0; I < n_; ++I) {
+        const int ri = kCoordinatesPerBody * e.node[static_cast<size_t>(I)];
+        for (int sc = 0; sc < kCoordinatesPerBody; sc += 3) {
+          for (int sr = 0; sr < kCoordinatesPerBody; sr += 3) {
+            sink->AddBlock3(ri + sr, cj + sc, K.block<3, 3>(kCoordinatesPerBody * I + sr, kCoordinatesPerBody * J + sc));
           }
         }
       }

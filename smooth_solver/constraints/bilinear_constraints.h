@@ -95,6 +95,13 @@ class SparseSink {
  public:
   virtual ~SparseSink() = default;
   virtual void Add(int row, int column, double value) = 0;
+  // A dense 3×3 block at (row, column): sinks with a costly Add (a search per entry) find each
+  // column's three rows at once.
+  virtual void AddBlock3(int row, int column, const Eigen::Matrix3d& block) {
+    for (int c = 0; c < 3; ++c) {
+      for (int r = 0; r < 3; ++r) Add(row + r, column + c, block(r, c));
+    }
+  }
 };
 
 class ConstraintSet {

@@ -43,6 +43,21 @@ class MatrixSink : public SparseSink {
                                               ") outside the fixed pattern");
     m_->valuePtr()[it - inner] += value;
   }
+  // One search per column: a block's three rows are consecutive in a pattern that holds it.
+  void AddBlock3(int row, int column, const Eigen::Matrix3d& block) override {
+    const int* inner = m_->innerIndexPtr();
+    for (int c = 0; c < 3; ++c) {
+      const int* begin = inner + m_->outerIndexPtr()[column + c];
+      const int* end = inner + m_->outerIndexPtr()[column + c + 1];
+      const int* it = std::lower_bound(begin, end, row);
+      COSIM_ASSERT(end - it >= 3 && it[0] == row && it[2] == row + 2,
+                   "3x3 block at (" + std::to_string(row) + ", " + std::to_string(column + c) + ") outside the fixed pattern");
+      double* v = m_->valuePtr() + (it - inner);
+      v[0] += block(0, c);
+      v[1] += block(1, c);
+      v[2] += block(2, c);
+    }
+  }
 
  private:
   Eigen::SparseMatrix<double>* m_;
@@ -54,6 +69,9 @@ class OffsetSink : public SparseSink {
   OffsetSink(SparseSink* inner, int row, int column, double scale = 1.0)
       : inner_(inner), row_(row), column_(column), scale_(scale) {}
   void Add(int r, int c, double value) override { inner_->Add(r + row_, c + column_, scale_ * value); }
+  void AddBlock3(int r, int c, const Eigen::Matrix3d& block) override {
+    inner_->AddBlock3(r + row_, c + column_, scale_ * block);
+  }
 
  private:
   SparseSink* inner_;

@@ -264,7 +264,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   sys.mass.resize(n, n);
   sys.mass.setFromTriplets(mass.begin(), mass.end());
   if (!model.aero.empty()) {
-    auto air = std::make_unique<AirLoads>(model.aero);
+    auto air = std::make_unique<AirLoads>(model.aero, sys.elastic_offset);
     sys.air_loads = air.get();
     sys.forces.push_back(std::move(air));
   }

@@ -218,7 +218,7 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
       const int s = surface_names.Find(sp, r.surfaces(k));
       AeroSurfaceSpec& sf = aero.surfaces[static_cast<size_t>(s)];
       if (sf.rotor >= 0) {
-        checks.Fail(sp, "'" + r.surfaces(k) + "' already belongs to rotor '" + aero.rotors[static_cast<size_t>(sf.rotor)].name + "'");
+        checks.Fail(sp, "'" + r.surfaces(k) + "' already belongs to rotor '" + a.rotors(sf.rotor).name() + "'");
       }
       sf.rotor = i;
       rs.surfaces.push_back(s);

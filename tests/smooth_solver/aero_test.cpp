@@ -13,6 +13,7 @@
 #include "interface/run/errors.h"
 #include "smooth_solver/aero/air_loads.h"
 #include "smooth_solver/aero/airfoil.h"
+#include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/model/multibody_model.h"
 #include "smooth_solver/model/multibody_system.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
@@ -256,6 +257,66 @@ TEST(AirLoads, TangentsMatchFiniteDifferences) {
   }
 }
 
+TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents) {
+  // The same straight wing as a rigid body and as a hex27 mesh: undeformed at rest in a wind,
+  // the mesh's sections (points interpolated from 27 nodes, frame from the deformation
+  // gradient) carry the rigid wing's loads; deformed, the tangent is exact.
+  const std::string stations = "stations { s: 0.1 chord: 0.3 twist: 0.08 airfoil: \"naca0012\" quarter_chord: 0.01 } "
+                               "stations { s: 1.9 chord: 0.25 twist: -0.05 airfoil: \"naca0012\" }";
+  const std::string text =
+      "model { bodies { name: \"wing\" mass: 1 inertia: [1, 1, 1] position: [1, 0, 0] }\n"
+      "elastic_bodies { name: \"flex\" material { density: 2700 young: 7e10 poisson: 0.33 } "
+      "beam { length: 2 chord: 0.3 thickness: 0.05 elements_along: 3 root: [0, 0, 0] } }\n"
+      "air { wind_x { constant: -2 } wind_y { constant: -30 } wind_z { constant: 1 }\n"
+      "surfaces { name: \"rigid\" body: \"wing\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1] "
+      "segments: 3 " + stations + " }\n"
+      "surfaces { name: \"elastic\" elastic_body: \"flex\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] "
+      "upper: [0, 0, 1] segments: 3 " + stations + " } } }\n"
+      "numerics { end_time: 1 step: 1e-3 }";
+  const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "aero.pbtxt", {});
+  const MultibodyModel model = BuildMultibodyModel(file);
+  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+  const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
+  const AirLoads& air = *sys.air_loads;
+  const int n = sys.coordinates;
+  const Eigen::VectorXd qdot0 = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(n);
+  air.AddForce(sys.q0, qdot0, 0.0, f);
+  const Eigen::Vector3d rigid = f.head<3>();
+  Eigen::Vector3d flexible = Eigen::Vector3d::Zero();
+  for (int k = sys.elastic_offset[0]; k < n; k += 3) flexible += f.segment<3>(k);
+  std::printf("wing in a 30 m/s wind: rigid (%.4f, %.4f, %.4f) N, hex27 (%.4f, %.4f, %.4f) N\n", rigid.x(), rigid.y(),
+              rigid.z(), flexible.x(), flexible.y(), flexible.z());
+  EXPECT_GT(rigid.norm(), 50.0);
+  EXPECT_LT((rigid - flexible).norm(), 1e-9 * rigid.norm());
+  // Deformed and moving: K and C against central differences.
+  Eigen::VectorXd q = sys.q0, qdot(n);
+  for (int i = 0; i < n; ++i) {
+    q(i) += 0.01 * std::sin(0.7 * i + 0.2);
+    qdot(i) = 3.0 * std::cos(1.3 * i);
+  }
+  DenseCollector K(n), C(n);
+  air.AddTangent(q, qdot, 0.0, 1.0, 0.0, &K);
+  air.AddTangent(q, qdot, 0.0, 0.0, 1.0, &C);
+  Eigen::MatrixXd Kfd(n, n), Cfd(n, n);
+  const double d = 1e-6;
+  for (int j = 0; j < n; ++j) {
+    Eigen::VectorXd qp = q, qm = q, vp = qdot, vm = qdot, fp = Eigen::VectorXd::Zero(n), fm = fp, gp = fp, gm = fp;
+    qp(j) += d;
+    qm(j) -= d;
+    vp(j) += d;
+    vm(j) -= d;
+    air.AddForce(qp, qdot, 0.0, fp);
+    air.AddForce(qm, qdot, 0.0, fm);
+    air.AddForce(q, vp, 0.0, gp);
+    air.AddForce(q, vm, 0.0, gm);
+    Kfd.col(j) = -(fp - fm) / (2 * d);
+    Cfd.col(j) = -(gp - gm) / (2 * d);
+  }
+  EXPECT_LT((K.m - Kfd).norm(), 1e-6 * Kfd.norm());
+  EXPECT_LT((C.m - Cfd).norm(), 1e-6 * Cfd.norm());
+}
+
 // Thrust of N blades of the rigid rotor in hover under a uniform induced velocity ν, by
 // an independent quadrature of the same strip theory (no small angles): per span
 // dT = ½ ρ c a (θ − φ) (U_T² + ν²) cos φ with U_T = Ω r, φ = atan(ν/U_T), no drag.
@@ -477,6 +538,64 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
   EXPECT_NEAR(nu.back() / end, 1.0, 1e-4);
   EXPECT_LT(worst, 0.01 * end);
   EXPECT_NEAR(tau / tau_linear, 1.0, 0.03);
+}
+
+TEST(AirLoads, BadAirInputNamesThePlace) {
+  // Each broken scenario: exit 2 (InputError) with the field and what is expected.
+  const std::string body = "bodies { name: \"wing\" mass: 1 inertia: [1, 1, 1] } ";
+  const std::string line = "root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] ";
+  const std::string st = "stations { s: 0 chord: 0.3 airfoil: \"naca0012\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" }";
+  auto scene = [&](const std::string& air) { return "model { " + body + "air { " + air + " } } numerics { end_time: 1 step: 0.1 }"; };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {scene("surfaces { name: \"w\" upper: [0, 0, 1] " + st + " }"), "model.air.surfaces[0]: names no carrier"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 1, 0] " + st + " }"),
+       "model.air.surfaces[0].upper: lies in the chord plane"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] stations { s: 0 chord: 0.3 airfoil: \"naca0012\" } }"),
+       "needs at least two stations"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line +
+             "upper: [0, 0, 1] stations { s: 0 chord: 0.3 airfoil: \"naca0015\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } }"),
+       "model.air.surfaces[0].stations[0].airfoil"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line +
+             "upper: [0, 0, 1] stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } stations { s: 0.5 chord: 0.3 airfoil: \"naca0012\" } }"),
+       "stations must not decrease"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line +
+             "upper: [0, 0, 1] stations { s: 0 chord: -0.3 airfoil: \"naca0012\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } }"),
+       "model.air.surfaces[0].stations[0].chord"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] gauss_points: 7 " + st + " }"),
+       "model.air.surfaces[0].gauss_points"},
+      {scene("surfaces { name: \"w\" body: \"ghost\" " + line + "upper: [0, 0, 1] " + st + " }"),
+       "model.air.surfaces[0].body"},
+      {scene("surfaces { name: \"w\" elastic_body: \"ghost\" " + line + "upper: [0, 0, 1] " + st + " }"),
+       "no elastic body named 'ghost'"},
+      {scene("airfoils { name: \"t\" c81_file: \"/nonexistent/table.c81\" }"), "model.air.airfoils[0].c81_file"},
+      {scene("density: -1"), "model.air.density"},
+      {scene("gusts { front_direction: [0, 1, 0] direction: [0, 1, 0] front_speed: 10 }"), "model.air.gusts[0].profile"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st + " } "
+             "rotors { name: \"r\" hub: \"wing\" axis: [0, 0, 1] radius: 1 surfaces: [\"w\"] }"),
+       "model.air.rotors[0].inflow"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st + " } "
+             "rotors { name: \"r\" hub: \"wing\" axis: [0, 0, 1] radius: 1 inflow: UNIFORM surfaces: [\"w\", \"w\"] }"),
+       "already belongs to rotor 'r'"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st + " } "
+             "rotors { name: \"r\" hub: \"ground\" axis: [0, 0, 1] radius: 1 inflow: UNIFORM surfaces: [\"w\"] }"),
+       "model.air.rotors[0].hub"},
+  };
+  for (const auto& [text, fragment] : cases) {
+    try {
+      BuildMultibodyModel(interface::ScenarioFile::Parse(text, "bad.pbtxt", {}));
+      ADD_FAILURE() << "accepted; expected: " << fragment;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  }
+  // A C81 file that is malformed: the file and line in the message.
+  const std::string bad = WriteFile("bad.c81", "short header\n");
+  try {
+    BuildMultibodyModel(interface::ScenarioFile::Parse(scene("airfoils { name: \"t\" c81_file: \"" + bad + "\" }"), "bad.pbtxt", {}));
+    ADD_FAILURE() << "accepted a malformed table";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.c81:1:"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

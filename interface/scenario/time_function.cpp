@@ -116,7 +116,6 @@ double TimeFunction::SecondDerivative(double t) const {
   const double tau = t - start_time_;
   if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
   const double w = (kind_ == Kind::kCosinePulse ? 2.0 : 1.0) * std::numbers::pi / ramp_time_;
-  if (kind_ == Kind::kCosinePulse) return w * w * std::cos(w * tau) * final_value_;
   return 0.5 * w * w * std::cos(w * tau) * final_value_;
 }
 

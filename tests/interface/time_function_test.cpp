@@ -35,6 +35,30 @@ TEST(TimeFunction, CosineRampMatchesEquation37AndItsDerivative) {
   EXPECT_NEAR(ramp.Integral(3.0), 0.5 * 40.0 * 2.0 + 40.0, 1e-12);
 }
 
+TEST(TimeFunction, CosinePulseRisesToItsPeakAndBackWithItsDerivativesAndIntegral) {
+  // ½ (1 − cos(2π τ/T)) peak: the gust profile of reference/aero.md.
+  const ScenarioFile f = ScenarioFile::Parse("", "f", {});
+  const Checks checks(f);
+  scenario::TimeFunction proto;
+  proto.mutable_cosine_pulse()->set_peak(25.0);
+  proto.mutable_cosine_pulse()->set_duration(4.0);
+  proto.mutable_cosine_pulse()->set_start_time(1.0);
+  const TimeFunction pulse = TimeFunction::Build(checks, "x", proto);
+  EXPECT_DOUBLE_EQ(pulse.Value(0.5), 0.0);
+  EXPECT_NEAR(pulse.Value(3.0), 25.0, 1e-12);
+  EXPECT_NEAR(pulse.Value(2.0), 12.5, 1e-12);
+  EXPECT_DOUBLE_EQ(pulse.Value(5.5), 0.0);
+  for (double t : {1.3, 2.0, 3.7, 4.9}) {
+    EXPECT_NEAR(pulse.Derivative(t), (pulse.Value(t + 1e-6) - pulse.Value(t - 1e-6)) / 2e-6, 1e-6 * 25.0);
+    EXPECT_NEAR(pulse.SecondDerivative(t), (pulse.Derivative(t + 1e-6) - pulse.Derivative(t - 1e-6)) / 2e-6, 1e-5 * 25.0);
+  }
+  EXPECT_NEAR(pulse.Integral(10.0), 0.5 * 25.0 * 4.0, 1e-12);  // the mean ½ peak over its duration
+  scenario::TimeFunction bad;
+  bad.mutable_cosine_pulse()->set_peak(1.0);
+  bad.mutable_cosine_pulse()->set_duration(0.0);
+  EXPECT_THROW(TimeFunction::Build(checks, "x", bad), InputError);
+}
+
 TEST(TimeFunction, TableInterpolatesLinearlyAndRejectsDecreasingTimes) {
   const ScenarioFile f = ScenarioFile::Parse("", "f", {});
   const Checks checks(f);

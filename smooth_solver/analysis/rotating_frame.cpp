@@ -85,14 +85,27 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::
   const int n = system.coordinates, m = system.constraints.size(), N = n + m;
   const Eigen::Matrix3d O = Skew(frame.omega);
   const Eigen::SparseMatrix<double> MW2 = system.mass * PerTriple(n, O * O);
+  const Eigen::SparseMatrix<double> W = PerTriple(n, O);
   EquilibriumResult r;
   r.q = q_guess;
   r.lambda = Eigen::VectorXd::Zero(m);
+  // At rest in the spinning frame every triple moves with Ω × (its point off the axis, or its
+  // direction): the absolute velocities W q̂ that the air loads see. The other elements are
+  // objective (dampers, Kelvin–Voigt: no force for a rigid rotation) and are taken at q̇ = 0,
+  // where their tangents are exact (some leave out ∂C/∂q q̇).
+  auto velocity = [&](const Eigen::VectorXd& q) -> Eigen::VectorXd { return W * WithoutOrigin(system, q, frame.origin); };
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  const AirLoads* air = system.air_loads;
   auto residual = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::VectorXd* R) {
     R->resize(N);
     Eigen::VectorXd f(n);
     system.Force(q, zero, options.t, f);
+    if (air != nullptr) {  // the air's share at W q̂ instead of at rest
+      Eigen::VectorXd moving = Eigen::VectorXd::Zero(n), still = Eigen::VectorXd::Zero(n);
+      air->AddForce(q, velocity(q), options.t, moving);
+      air->AddForce(q, zero, options.t, still);
+      f += moving - still;
+    }
     R->head(n) = -f + MW2 * WithoutOrigin(system, q, frame.origin);
     system.constraints.AddJacobianTransposeTimes(q, options.t, lambda, R->head(n));
     system.constraints.Evaluate(q, options.t, R->tail(m));
@@ -102,10 +115,19 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::
     }
   };
   Eigen::VectorXd R;
+  system.AcceptStep(r.q, velocity(r.q), options.t);  // the rotors' inflow at the guess
   residual(r.q, r.lambda, &R);
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;
     system.AddForceTangent(r.q, zero, options.t, 1.0, 0.0, &sink);
+    if (air != nullptr) {
+      const Eigen::VectorXd v = velocity(r.q);
+      TripletSink damping;
+      air->AddTangent(r.q, v, options.t, 1.0, 0.0, &sink);
+      air->AddTangent(r.q, zero, options.t, -1.0, 0.0, &sink);
+      air->AddTangent(r.q, v, options.t, 0.0, 1.0, &damping);
+      AddSparse(Eigen::SparseMatrix<double>(damping.Build(n) * W), 1.0, &sink);  // −∂f/∂q̇ · ∂(W q̂)/∂q
+    }
     AddSparse(MW2, 1.0, &sink);
     system.constraints.HessianTimesLambda(options.t, r.lambda, &sink, 1.0);
     system.constraints.JacobianTranspose(r.q, options.t, &sink, n, 1.0);
@@ -115,11 +137,19 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::
     const Eigen::SparseMatrix<double> A = sink.Build(N);
     Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
     if (lu.info() != Eigen::Success) break;
-    const Eigen::VectorXd delta = lu.solve(-R);
+    Eigen::VectorXd delta = lu.solve(-R);
+    // Steps in q capped at options.max_step (metres, or director components): the first steps
+    // from a flat start can be metres long where a soft mode meets a large load (a twisted
+    // Puma blade in air: 13.8 m at the tip, then divergence); capped, Newton walks there. The
+    // multipliers take their full step (linear in the residual: capping them too let a blade
+    // drift under unbalanced centrifugal force to an unstable equilibrium).
+    const double longest = delta.head(n).lpNorm<Eigen::Infinity>();
+    if (longest > options.max_step) delta.head(n) *= options.max_step / longest;
     // Full Newton steps: a residual merit (forces in N beside constraint rows, an axial
     // stiffness 1e7 times the directors' second-order stretch) rejects the steps that converge.
     r.q += delta.head(n);
     r.lambda += delta.tail(m);
+    system.AcceptStep(r.q, velocity(r.q), options.t);  // inflow of the new state, held in Newton
     residual(r.q, r.lambda, &R);
     if (!R.allFinite()) break;
     if (delta.head(n).lpNorm<Eigen::Infinity>() <= options.tolerance * (1.0 + r.q.lpNorm<Eigen::Infinity>())) {
@@ -137,13 +167,28 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
   const int n = system.coordinates, m = system.constraints.size();
   const Eigen::Matrix3d O = Skew(frame.omega);
   const Eigen::MatrixXd M = Eigen::MatrixXd(system.mass);
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   Eigen::MatrixXd K = M * Eigen::MatrixXd(PerTriple(n, O * O)), C = 2.0 * M * Eigen::MatrixXd(PerTriple(n, O));
   {
+    // Objective elements at q̇ = 0; the air at the absolute velocities W q̂ of the steady state
+    // (see StaticEquilibrium): with q̇_abs = q̇ + W q̂ its K gains C_air W.
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
     DenseSink k(&K), c(&C);
     system.AddForceTangent(q, zero, t, 1.0, 0.0, &k);
     system.AddForceTangent(q, zero, t, 0.0, 1.0, &c);
     system.constraints.HessianTimesLambda(t, lambda, &k, 1.0);
+    if (const AirLoads* air = system.air_loads; air != nullptr) {
+      const Eigen::MatrixXd W = Eigen::MatrixXd(PerTriple(n, O));
+      const Eigen::VectorXd v = W * WithoutOrigin(system, q, frame.origin);
+      Eigen::MatrixXd Ca = Eigen::MatrixXd::Zero(n, n);  // the air's −∂f/∂q̇ at W q̂
+      DenseSink ca(&Ca);
+      air->AddTangent(q, v, t, 1.0, 0.0, &k);
+      air->AddTangent(q, zero, t, -1.0, 0.0, &k);
+      air->AddTangent(q, v, t, 0.0, 1.0, &ca);
+      K += Ca * W;
+      // C holds the air's damping at rest (from AddForceTangent): replace it by the one at W q̂.
+      air->AddTangent(q, zero, t, 0.0, -1.0, &c);
+      C += Ca;
+    }
   }
   // Rows that hold (active, not regularised: a regularised row is a spring, already in K via
   // its multiplier's law only in time integration; here it is held rigid as well).

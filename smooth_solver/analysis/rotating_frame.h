@@ -8,7 +8,10 @@
 // with the origin taken off the points, gives
 //   M q̈ + 2 M W q̇ + M W² q̂ + Φ_qᵀ λ = f(q, q̇),   Φ(q) = 0,                       (R1)
 // (M W² q̂ = −centrifugal force, 2 M W q̇ the Coriolis force). Statics: q̇ = 0; modes: the
-// linearisation of (R1) about that state on the null space of Φ_q.
+// linearisation of (R1) about that state on the null space of Φ_q. The air loads are taken at
+// the absolute velocities q̇ + W q̂ (they see the spin); the other force elements are objective
+// (no force for a rigid rotation) and are taken at q̇ = 0. Rotors' inflow is updated
+// (AcceptStep) at every equilibrium iterate and held in the modes.
 #include <Eigen/Core>
 
 #include <complex>
@@ -28,6 +31,7 @@ struct EquilibriumOptions {
   double t = 0.0;              // time at which loads and drives are taken
   double tolerance = 1e-10;    // on |Δq|∞ relative to 1 + |q|∞
   int max_iterations = 50;
+  double max_step = 0.1;       // longest Newton step in q (|Δq|∞): metres or director components
 };
 
 struct EquilibriumResult {

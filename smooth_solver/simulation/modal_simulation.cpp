@@ -54,7 +54,7 @@ void ModalSimulation::Solve(double omega) {
   EquilibriumOptions options;
   options.t = 0.0;
   options.tolerance = 1e-10;
-  options.max_iterations = 50;
+  options.max_iterations = 200;  // capped steps (EquilibriumOptions::max_step) may need more
   const EquilibriumResult r = StaticEquilibrium(*system_, q_, frame, options);
   newton_total_ += r.iterations;
   ++solves_;

@@ -447,15 +447,10 @@ TEST(AirLoads, GustFrontTravelsWithItsProfile) {
   EXPECT_EQ(air.Velocity(x, 7.1).norm(), 0.0);
 }
 
-TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
-  // reference/aero.md: a rigid blade hinged on the shaft (e = 0) in hover with full-span air,
-  // β'' + (γ/8) β' + ν_β² β = (γ/8) θ0 − g S_β/(I_β Ω²) in ψ = Ω t (λ = 0: no rotor inflow), so
-  // the flap mode's damping ratio is γ/(16 ν_β) and the steady coning β0 = (γ/8) θ0/ν_β² −
-  // g S_β/(I_β Ω² ν_β²). A uniform rod of R = 7.49 m and chord 0.537 m whose mass gives γ = 2
-  // (ζ = 0.125: a clean decay to measure), θ0 = 8°, released at β = 0 at full speed; the
-  // built-in NACA 0012 without compressibility (a = 5.7296). CGα at h = 1e-3 s, ρ∞ = 0.9.
-  const double R = 7.49, c = 0.537, rho = 1.225, a = 5.7296, omega = 28.0, theta = 8 * kDeg, g = 9.81;
-  const double gamma = 2.0, I = rho * a * c * std::pow(R, 4) / gamma, m = 3 * I / (R * R);
+// A rigid rod blade of mass m hinged on a shaft spinning at 28 rad/s, full-span NACA 0012 at
+// pitch θ0 (no compressibility), gravity, no rotor inflow.
+std::string FlappingBlade(double m, double theta) {
+  const double R = 7.49, omega = 28.0;
   char text[4096];
   std::snprintf(text, sizeof text, R"(
     model {
@@ -472,9 +467,22 @@ TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
                    stations { s: 0 chord: 0.537 twist: %.17g airfoil: "naca0012" }
                    stations { s: 7.49 chord: 0.537 twist: %.17g airfoil: "naca0012" } } }
     }
-    numerics { end_time: 2.5 step: 1e-3 smooth { rho_inf: 0.9 } }
+    numerics { end_time: 2.5 step: 1e-3 smooth { rho_inf: 0.9 ida_relative_tolerance: 1e-9 ida_absolute_tolerance: 1e-11 } }
     output { probes { name: "beta" quantity: JOINT_COORDINATE entity: "flap" } })",
                 m, m * R * R / 12, m * R * R / 12, R / 2, omega * R / 2, theta, theta);
+  return text;
+}
+
+TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
+  // reference/aero.md: a rigid blade hinged on the shaft (e = 0) in hover with full-span air,
+  // β'' + (γ/8) β' + ν_β² β = (γ/8) θ0 − g S_β/(I_β Ω²) in ψ = Ω t (λ = 0: no rotor inflow), so
+  // the flap mode's damping ratio is γ/(16 ν_β) and the steady coning β0 = (γ/8) θ0/ν_β² −
+  // g S_β/(I_β Ω² ν_β²). A uniform rod of R = 7.49 m and chord 0.537 m whose mass gives γ = 2
+  // (ζ = 0.125: a clean decay to measure), θ0 = 8°, released at β = 0 at full speed; the
+  // built-in NACA 0012 without compressibility (a = 5.7296). CGα at h = 1e-3 s, ρ∞ = 0.9.
+  const double R = 7.49, c = 0.537, rho = 1.225, a = 5.7296, omega = 28.0, theta = 8 * kDeg, g = 9.81;
+  const double gamma = 2.0, I = rho * a * c * std::pow(R, 4) / gamma, m = 3 * I / (R * R);
+  const std::string text = FlappingBlade(m, theta);
   MultibodySimulation sim(interface::ScenarioFile::Parse(text, "flap.pbtxt", {}));
   const double h = 1e-3;
   std::vector<double> beta, v(1);
@@ -511,6 +519,50 @@ TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
   EXPECT_NEAR(zeta / (gamma / (16 * nu)), 1.0, 0.01);
   EXPECT_NEAR(wn / omega, nu, 0.005);
   EXPECT_NEAR(beta0 / beta0_closed, 1.0, 0.002);
+}
+
+TEST(AirLoads, FlappingBladeAgreesWithIda) {
+  // The same blade released at β = 0, 0.3 s (the first overshoot and back): CGα at h = 1e-3 s
+  // and 2.5e-4 s against IDA at 1e-9 — the air loads' Jacobian serves both, and CGα converges
+  // to IDA's answer at second order.
+  const double R = 7.49, I = 1.225 * 5.7296 * 0.537 * std::pow(R, 4) / 2.0, m = 3 * I / (R * R);
+  auto run = [&](const std::vector<std::string>& sets, double h) {
+    MultibodySimulation sim(interface::ScenarioFile::Parse(FlappingBlade(m, 8 * kDeg), "flap.pbtxt", sets));
+    std::vector<double> v(1);
+    const int n = static_cast<int>(std::lround(0.3 / h));
+    for (int k = 0; k < n; ++k) sim.Step(k * h, h);
+    sim.Probe(&v);
+    return v[0];
+  };
+  const double ida = run({"numerics.smooth.integrator=IDA", "numerics.step=0.01"}, 0.01);
+  const double coarse = run({}, 1e-3), fine = run({"numerics.step=2.5e-4"}, 2.5e-4);
+  std::printf("flapping blade at 0.3 s: β IDA %.8f, CGα h = 1e-3 %.8f (%.1e), 2.5e-4 %.8f (%.1e)\n", ida, coarse,
+              std::abs(coarse - ida), fine, std::abs(fine - ida));
+  EXPECT_GT(ida, 0.02);
+  EXPECT_LT(std::abs(coarse - ida), 1e-5);  // measured 1.2e-6 rad
+  EXPECT_LT(std::abs(fine - ida), std::abs(coarse - ida) / 8);  // second order: 16 × for 4 × smaller steps
+}
+
+TEST(AirLoads, AirfoilsBlendBetweenStations) {
+  // Two airfoils along a wing (a table at the root, the built-in NACA 0012 at the tip): a section
+  // a quarter of the way out carries ¾ of the first's load and ¼ of the second's (the same flow,
+  // chord and frame).
+  const std::string table = IdealTable();
+  auto wing = [&](const std::string& root, const std::string& tip) {
+    return Build("model { bodies { name: \"w\" mass: 1 inertia: [1, 1, 1] }\n"
+                 "air { airfoils { name: \"ideal\" c81_file: \"" + table + "\" } wind_y { constant: -40 } wind_z { constant: -3 }\n"
+                 "surfaces { name: \"s\" body: \"w\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1] "
+                 "stations { s: 0 chord: 0.4 airfoil: \"" + root + "\" } stations { s: 2 chord: 0.4 airfoil: \"" + tip + "\" } } } }\n"
+                 "numerics { end_time: 1 step: 0.1 }");
+  };
+  const MultibodySystem mixed = wing("ideal", "naca0012"), ideal = wing("ideal", "ideal"), naca = wing("naca0012", "naca0012");
+  const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(mixed.coordinates);
+  auto load = [&](const MultibodySystem& sys) {
+    return sys.air_loads->Evaluate(sys.air_loads->Section(0, 0.5, 1.0), sys.q0, qdot, 0.0).force_local;
+  };
+  const Eigen::Vector3d expected = 0.75 * load(ideal) + 0.25 * load(naca);
+  EXPECT_GT((load(ideal) - load(naca)).norm(), 1.0);
+  EXPECT_LT((load(mixed) - expected).norm(), 1e-12 * expected.norm());
 }
 
 TEST(AirLoads, ModesOfTheFlappingBladeCarryTheAerodynamicDamping) {

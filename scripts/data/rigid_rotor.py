@@ -23,6 +23,12 @@ def v(x):
     return "[" + ", ".join(f"{c:.12g}" for c in x) + "]"
 
 
+def blade_axes(k):
+    """Azimuth ψ of blade k, its radial unit vector e_r and counter-clockwise tangent e_t."""
+    psi = k * math.pi / 2
+    return psi, (math.cos(psi), math.sin(psi), 0.0), (-math.sin(psi), math.cos(psi), 0.0)
+
+
 def rotation_vector(psi, beta):
     """Axis-angle of yaw ψ about z after a flap β (up positive) about −y."""
     cb, sb, cp, sp = math.cos(beta), math.sin(beta), math.cos(psi), math.sin(psi)
@@ -71,9 +77,7 @@ model {{
   joints {{ name: "shaft" type: REVOLUTE body1: "ground" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
            drive {{ quantity: ANGULAR_SPEED function {{ constant: {-OMEGA} }} }} }}"""]
 for k in range(4):
-    psi = k * math.pi / 2
-    er = (math.cos(psi), math.sin(psi), 0.0)
-    et = (-math.sin(psi), math.cos(psi), 0.0)
+    psi, er, et = blade_axes(k)
     beta0 = 0.0  # joint angles count from the initial pose: blades start flat
     # The blade's span direction after a flap β0 (up positive) and its centre of mass.
     span = (math.cos(beta0) * er[0], math.cos(beta0) * er[1], math.sin(beta0))
@@ -93,9 +97,7 @@ if SCENE == "gust":
 names = ", ".join(f'"blade{k + 1}"' for k in range(4))
 air.append(f"""    rotors {{ name: "rotor" hub: "hub" axis: [0, 0, 1] radius: 7.49 inflow: {'PITT_PETERS' if SCENE == 'hover' else 'UNIFORM'} surfaces: [{names}] }}""")
 for k in range(4):
-    psi = k * math.pi / 2
-    er = (math.cos(psi), math.sin(psi), 0.0)
-    et = (-math.sin(psi), math.cos(psi), 0.0)
+    psi, er, et = blade_axes(k)
     beta0 = 0.0
     span = (math.cos(beta0) * er[0], math.cos(beta0) * er[1], math.sin(beta0))
     # The reference line from the flap hinge along the blade: s = r − e.

@@ -178,6 +178,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   }
   for (const std::string& argument : overrides) file.ApplyOverride(argument);
   file.overrides_ = overrides;
+  file.pattern_origins_ =
+      ExpandPatterns(&file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   file.CheckFinite(file.proto_, "");
   // The name becomes the default output folder runs/<name>.
   if (file.proto_.has_name()) Checks(file).Name("name", true, file.proto_.name());
@@ -326,6 +328,17 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
 }
 
 std::string ScenarioFile::Where(const std::string& field_path) const {
+  for (const PatternOrigin& o : pattern_origins_) {
+    const std::string& e = o.expanded;
+    if (field_path.rfind(e, 0) == 0 && (field_path.size() == e.size() || field_path[e.size()] == '.')) {
+      return WhereInFile(o.source + field_path.substr(e.size())) + " (copy " + std::to_string(o.copy) + " of pattern '" +
+             o.pattern + "')";
+    }
+  }
+  return WhereInFile(field_path);
+}
+
+std::string ScenarioFile::WhereInFile(const std::string& field_path) const {
   for (auto it = overridden_.rbegin(); it != overridden_.rend(); ++it) {
     const std::string& set_path = it->first;
     if (field_path == set_path || (field_path.rfind(set_path, 0) == 0 &&

@@ -8,6 +8,7 @@
 
 #include <google/protobuf/text_format.h>
 
+#include "interface/scenario/pattern.h"
 #include "scenario.pb.h"
 
 namespace cosim::interface {
@@ -34,7 +35,8 @@ class ScenarioFile {
 
   // Where the field at `field_path` was given: "--set ARG" if an override set it or an
   // enclosing field, else "file:line:col" of the field, or of its nearest enclosing field
-  // that is present in the file, or the file name alone.
+  // that is present in the file, or the file name alone. A field of a pattern's copy is
+  // placed at the pattern's template, with "(copy k of pattern 'NAME')".
   std::string Where(const std::string& field_path) const;
 
   // Throws InputError "<where>: <field_path>: <message>".
@@ -52,6 +54,9 @@ class ScenarioFile {
   std::unique_ptr<google::protobuf::TextFormat::ParseInfoTree> tree_;
   // Normalised paths (indices, not names) set by overrides, with their argument.
   std::vector<std::pair<std::string, std::string>> overridden_;
+  // Where the patterns' copies came from (ExpandPatterns).
+  std::vector<PatternOrigin> pattern_origins_;
+  std::string WhereInFile(const std::string& field_path) const;
 };
 
 // One step of a field path: a field name and, on repeated fields, an index or element name.

@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -358,7 +360,15 @@ TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {
   // coupling.timeout does it: ProtocolFaults.SilentPeerEndsTheRunWithinTheTimeout.)
   const fs::path out = TempDir("tied_drop_killed");
   std::thread killer([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(700));
+    // Once the run has written more than ten rows (not after a fixed delay: on a loaded machine
+    // 0.7 s was sometimes before the first step), at most 30 s.
+    const auto start = std::chrono::steady_clock::now();
+    while (std::chrono::steady_clock::now() - start < std::chrono::seconds(30)) {
+      std::ifstream history(out / "history.csv");
+      const long lines = std::count(std::istreambuf_iterator<char>(history), std::istreambuf_iterator<char>(), '\n');
+      if (lines > 11) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
     const std::string kill = "pkill -KILL -f 'nonsmooth_solver .*" + out.string() + "/contacts'";
     (void)std::system(kill.c_str());
   });

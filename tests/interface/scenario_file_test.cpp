@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <numbers>
+
+#include <Eigen/Geometry>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -111,6 +114,97 @@ TEST(ScenarioFile, MaterializeDefaultsShowsEverySettingUsed) {
   EXPECT_DOUBLE_EQ(n.nonsmooth().theta(), 0.5);
   EXPECT_EQ(n.nonsmooth().lcp().solver(), scenario::LcpSettings::LEMKE);
   EXPECT_FALSE(n.has_end_time());  // no default: must be given
+}
+
+// A pattern: a blade written once, placed four times about z.
+const char* kRotor = R"(name: "rotor"
+model {
+  bodies { name: "hub" mass: 10 inertia: [1, 1, 2] }
+  air { rotors { name: "r" hub: "hub" axis: [0, 0, 1] radius: 5 inflow: UNIFORM surfaces: ["blade{blades}"] } }
+}
+patterns {
+  name: "blades"
+  count: 4
+  each {
+    model {
+      bodies { name: "blade{k}" mass: 50 inertia: [1, 20, 20] position: [2.5, 0, 0] rotation: [0, 0.1, 0]
+               velocity: [0, 25, 0] angular_velocity: [0, 0, 10] }
+      joints { name: "blade{k}_flap" type: REVOLUTE body1: "hub" body2: "blade{k}" point: [0.3, 0, 0] axis: [0, -1, 0]
+               point1: [0.3, 0, 0] }
+    }
+    output { probes { name: "blade{k}_flap" quantity: JOINT_COORDINATE entity: "blade{k}_flap" } }
+  }
+}
+)";
+
+TEST(Pattern, CopiesAreNamedTurnedAndReferenced) {
+  // Copy k is turned by (k − 1) 90° about z: points and directions rotate, rotation vectors
+  // compose, body-frame offsets (point1) stay; "{k}" is k in every string; the rotor's
+  // "blade{blades}" becomes the four names.
+  const ScenarioFile f = ScenarioFile::Parse(kRotor, "rotor.pbtxt", {});
+  const auto& m = f.proto().model();
+  ASSERT_EQ(m.bodies_size(), 5);
+  ASSERT_EQ(m.joints_size(), 4);
+  EXPECT_EQ(f.proto().patterns_size(), 0);
+  EXPECT_EQ(m.bodies(2).name(), "blade2");
+  EXPECT_EQ(m.joints(1).body2(), "blade2");
+  EXPECT_EQ(f.proto().output().probes(3).entity(), "blade4_flap");
+  // blade2 at ψ = 90°: position (0, 2.5, 0), velocity (−25, 0, 0), flap axis (1, 0, 0).
+  EXPECT_NEAR(m.bodies(2).position(0), 0.0, 1e-12);
+  EXPECT_NEAR(m.bodies(2).position(1), 2.5, 1e-12);
+  EXPECT_NEAR(m.bodies(2).velocity(0), -25.0, 1e-12);
+  EXPECT_NEAR(m.bodies(2).angular_velocity(2), 10.0, 1e-12);
+  EXPECT_NEAR(m.joints(1).axis(0), 1.0, 1e-12);
+  EXPECT_NEAR(m.joints(1).axis(1), 0.0, 1e-12);
+  EXPECT_EQ(m.joints(1).point1(0), 0.3);  // body frame: as written
+  // Rotation vector: R_z(90°) · R_y(0.1) — its axis turned to −x... check against Eigen.
+  const Eigen::Matrix3d expected = (Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitZ()) *
+                                    Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY())).toRotationMatrix();
+  const Eigen::Vector3d rv(m.bodies(2).rotation(0), m.bodies(2).rotation(1), m.bodies(2).rotation(2));
+  EXPECT_LT((Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() - expected).norm(), 1e-12);
+  ASSERT_EQ(m.air().rotors(0).surfaces_size(), 4);
+  EXPECT_EQ(m.air().rotors(0).surfaces(3), "blade4");
+}
+
+TEST(Pattern, SetReachesIntoTheTemplateAndTheCount) {
+  // A five-blade variant is one number; a template field changes every copy.
+  const ScenarioFile f = ScenarioFile::Parse(kRotor, "rotor.pbtxt",
+                                             {"patterns[0].count=5", "patterns[0].each.model.bodies[0].mass=60"});
+  EXPECT_EQ(f.proto().model().bodies_size(), 6);
+  EXPECT_EQ(f.proto().model().bodies(5).mass(), 60.0);
+  EXPECT_NEAR(f.proto().model().bodies(2).position(1), 2.5 * std::sin(2 * std::numbers::pi / 5), 1e-12);
+  EXPECT_EQ(f.proto().model().air().rotors(0).surfaces_size(), 5);
+  // Errors about a copy name the template's line and the copy; about an override, the override.
+  try {
+    f.Fail("model.bodies[3].inertia", "test");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("rotor.pbtxt:11:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("(copy 3 of pattern 'blades')"), std::string::npos) << e.what();
+  }
+  try {
+    f.Fail("model.bodies[4].mass", "test");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--set patterns[0].each.model.bodies[0].mass=60"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Pattern, BadPatternsAreRefusedWithTheirPlace) {
+  auto error = [](const std::vector<std::string>& sets) {
+    try {
+      ScenarioFile::Parse(kRotor, "rotor.pbtxt", sets);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_NE(error({"patterns[0].count=0"}).find("patterns[0].count: expected 1 to 1000 copies"), std::string::npos);
+  EXPECT_NE(error({"patterns[0].axis=[0, 0, 0]"}).find("patterns[0].axis: is zero"), std::string::npos);
+  EXPECT_NE(error({"patterns[0].name=\"a b\""}).find("patterns[0].name"), std::string::npos);
+  EXPECT_NE(error({"patterns[0].each.model.gravity=[0, 0, -9.81]"}).find("patterns[0].each.model.gravity: a pattern repeats list elements"),
+            std::string::npos);
+  EXPECT_NE(error({"patterns[0].each.numerics.step=0.1"}).find("patterns[0].each.numerics.step"), std::string::npos);
 }
 
 }  // namespace

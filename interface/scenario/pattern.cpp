@@ -1,0 +1,206 @@
+#include "interface/scenario/pattern.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <map>
+#include <numbers>
+
+namespace cosim::interface {
+
+namespace {
+
+namespace pb = google::protobuf;
+
+std::string Indexed(const std::string& path, int index) { return path + "[" + std::to_string(index) + "]"; }
+std::string Join(const std::string& prefix, const std::string& field) { return prefix.empty() ? field : prefix + "." + field; }
+
+void ReplaceAll(std::string* s, const std::string& from, const std::string& to) {
+  for (size_t at = s->find(from); at != std::string::npos; at = s->find(from, at + to.size())) s->replace(at, from.size(), to);
+}
+
+// `each` may set lists (repeated messages) inside containers (singular messages) only.
+void CheckOnlyLists(const pb::Message& m, const std::string& path,
+                    const std::function<void(const std::string&, const std::string&)>& fail) {
+  std::vector<const pb::FieldDescriptor*> fields;
+  m.GetReflection()->ListFields(m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    const std::string p = Join(path, f->name());
+    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE && !f->is_repeated()) {
+      CheckOnlyLists(m.GetReflection()->GetMessage(m, f), p, fail);
+    } else if (!(f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE && f->is_repeated())) {
+      fail(p, "a pattern repeats list elements (bodies, joints, beams, forces, surfaces, contact nodes, probes, …); "
+              "set this field in the scenario itself");
+    }
+  }
+}
+
+// Every string of `m` (and below) with "{k}" replaced.
+void Substitute(pb::Message* m, const std::string& k) {
+  const pb::Reflection* r = m->GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  r->ListFields(*m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_STRING) {
+      if (f->is_repeated()) {
+        for (int i = 0; i < r->FieldSize(*m, f); ++i) {
+          std::string v = r->GetRepeatedString(*m, f, i);
+          ReplaceAll(&v, "{k}", k);
+          r->SetRepeatedString(m, f, i, v);
+        }
+      } else {
+        std::string v = r->GetString(*m, f);
+        ReplaceAll(&v, "{k}", k);
+        r->SetString(m, f, v);
+      }
+    } else if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+      if (f->is_repeated()) {
+        for (int i = 0; i < r->FieldSize(*m, f); ++i) Substitute(r->MutableRepeatedMessage(m, f, i), k);
+      } else {
+        Substitute(r->MutableMessage(m, f), k);
+      }
+    }
+  }
+}
+
+// Every geometry-annotated 3-vector list of `m` (and below) turned by R about `origin`.
+void Turn(pb::Message* m, const Eigen::Matrix3d& R, const Eigen::Vector3d& origin) {
+  const pb::Reflection* r = m->GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  r->ListFields(*m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+      if (f->is_repeated()) {
+        for (int i = 0; i < r->FieldSize(*m, f); ++i) Turn(r->MutableRepeatedMessage(m, f, i), R, origin);
+      } else {
+        Turn(r->MutableMessage(m, f), R, origin);
+      }
+      continue;
+    }
+    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE || !f->is_repeated()) continue;
+    const scenario::Geometry g = f->options().GetExtension(scenario::geometry);
+    if (g == scenario::GEOMETRY_NONE) continue;
+    const int n = r->FieldSize(*m, f);
+    for (int i = 0; i + 2 < n; i += 3) {  // a wrong length is the reader's to report
+      Eigen::Vector3d v(r->GetRepeatedDouble(*m, f, i), r->GetRepeatedDouble(*m, f, i + 1), r->GetRepeatedDouble(*m, f, i + 2));
+      if (g == scenario::POINT) {
+        v = origin + R * (v - origin);
+      } else if (g == scenario::DIRECTION) {
+        v = R * v;
+      } else {  // rotation vector: R · R(v)
+        const double angle = v.norm();
+        const Eigen::Matrix3d Rv = angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+        const Eigen::AngleAxisd turned(R * Rv);
+        v = turned.angle() * turned.axis();
+      }
+      for (int c = 0; c < 3; ++c) r->SetRepeatedDouble(m, f, i + c, v(c));
+    }
+  }
+}
+
+// Appends the lists of `from` to those of `to`, recording where each element came from.
+void Append(const pb::Message& from, pb::Message* to, const std::string& source, const std::string& target,
+            const std::string& pattern, int copy, std::vector<PatternOrigin>* origins) {
+  const pb::Reflection* rf = from.GetReflection();
+  const pb::Reflection* rt = to->GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  rf->ListFields(from, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    const std::string s = Join(source, f->name()), t = Join(target, f->name());
+    if (!f->is_repeated()) {
+      Append(rf->GetMessage(from, f), rt->MutableMessage(to, f), s, t, pattern, copy, origins);
+      continue;
+    }
+    for (int i = 0; i < rf->FieldSize(from, f); ++i) {
+      const int at = rt->FieldSize(*to, f);
+      rt->AddMessage(to, f)->CopyFrom(rf->GetRepeatedMessage(from, f, i));
+      origins->push_back({Indexed(t, at), Indexed(s, i), pattern, copy});
+    }
+  }
+}
+
+// Outside the patterns: list entries "…{NAME}…" become one entry per copy of pattern NAME.
+void ExpandReferences(pb::Message* m, const std::map<std::string, int>& counts) {
+  const pb::Reflection* r = m->GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  r->ListFields(*m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+      if (f->is_repeated()) {
+        for (int i = 0; i < r->FieldSize(*m, f); ++i) ExpandReferences(r->MutableRepeatedMessage(m, f, i), counts);
+      } else {
+        ExpandReferences(r->MutableMessage(m, f), counts);
+      }
+      continue;
+    }
+    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_STRING || !f->is_repeated()) continue;
+    std::vector<std::string> entries;
+    bool changed = false;
+    for (int i = 0; i < r->FieldSize(*m, f); ++i) {
+      const std::string v = r->GetRepeatedString(*m, f, i);
+      bool expanded = false;
+      for (const auto& [name, count] : counts) {
+        const std::string key = "{" + name + "}";
+        if (v.find(key) == std::string::npos) continue;
+        for (int k = 1; k <= count; ++k) {
+          std::string e = v;
+          ReplaceAll(&e, key, std::to_string(k));
+          entries.push_back(e);
+        }
+        expanded = changed = true;
+        break;
+      }
+      if (!expanded) entries.push_back(v);
+    }
+    if (!changed) continue;
+    r->ClearField(m, f);
+    for (const std::string& e : entries) r->AddString(m, f, e);
+  }
+}
+
+}  // namespace
+
+std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
+                                          const std::function<void(const std::string&, const std::string&)>& fail) {
+  std::vector<PatternOrigin> origins;
+  if (proto->patterns_size() == 0) return origins;
+  std::map<std::string, int> counts;
+  const google::protobuf::RepeatedPtrField<scenario::Pattern> patterns = proto->patterns();
+  proto->clear_patterns();
+  for (int p = 0; p < patterns.size(); ++p) {
+    const scenario::Pattern& pat = patterns[p];
+    const std::string path = Indexed("patterns", p);
+    if (!pat.has_name() || pat.name().empty()) fail(path + ".name", "missing; a pattern's name is what {NAME} refers to");
+    for (char c : pat.name()) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') {
+        fail(path + ".name", "'" + pat.name() + "' is not a name of letters, digits and '_'");
+      }
+    }
+    if (counts.count(pat.name()) != 0) fail(path + ".name", "'" + pat.name() + "' names another pattern already");
+    if (!pat.has_count() || pat.count() < 1 || pat.count() > 1000) {
+      fail(path + ".count", "expected 1 to 1000 copies, got " + (pat.has_count() ? std::to_string(pat.count()) : "none"));
+    }
+    auto vector3 = [&](const google::protobuf::RepeatedField<double>& v, const std::string& field, const Eigen::Vector3d& fallback) {
+      if (v.empty()) return fallback;
+      if (v.size() != 3) fail(path + "." + field, "expected [x, y, z], got " + std::to_string(v.size()) + " values");
+      return Eigen::Vector3d(v[0], v[1], v[2]);
+    };
+    const Eigen::Vector3d axis = vector3(pat.axis(), "axis", Eigen::Vector3d::UnitZ());
+    if (axis.norm() == 0.0) fail(path + ".axis", "is zero; expected the direction of the pattern's axis");
+    const Eigen::Vector3d origin = vector3(pat.origin(), "origin", Eigen::Vector3d::Zero());
+    if (!pat.has_each()) fail(path + ".each", "missing; give the elements to repeat");
+    CheckOnlyLists(pat.each(), path + ".each", fail);
+    counts[pat.name()] = pat.count();
+    for (int k = 1; k <= pat.count(); ++k) {
+      scenario::Scenario copy = pat.each();
+      Substitute(&copy, std::to_string(k));
+      const double psi = pat.first_azimuth() + (k - 1) * 2.0 * std::numbers::pi / pat.count();
+      Turn(&copy, Eigen::AngleAxisd(psi, axis.normalized()).toRotationMatrix(), origin);
+      Append(copy, proto, path + ".each", "", pat.name(), k, &origins);
+    }
+  }
+  ExpandReferences(proto, counts);
+  return origins;
+}
+
+}  // namespace cosim::interface

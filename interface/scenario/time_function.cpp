@@ -56,14 +56,27 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       f.value_.assign(table.value().begin(), table.value().end());
       break;
     }
+    case scenario::TimeFunction::kSum: {
+      f.kind_ = Kind::kSum;
+      if (proto.sum().terms_size() == 0) checks.Fail(path + ".sum.terms", "is empty; give the functions to add");
+      for (int i = 0; i < proto.sum().terms_size(); ++i) {
+        f.terms_.push_back(Build(checks, path + ".sum.terms[" + std::to_string(i) + "]", proto.sum().terms(i)));
+      }
+      break;
+    }
     case scenario::TimeFunction::KIND_NOT_SET:
-      checks.Fail(path, "empty function; give constant, cosine_ramp { ... }, cosine_pulse { ... } or table { ... }");
+      checks.Fail(path, "empty function; give constant, cosine_ramp { ... }, cosine_pulse { ... }, table { ... } or sum { ... }");
   }
   return f;
 }
 
 double TimeFunction::Value(double t) const {
   switch (kind_) {
+    case Kind::kSum: {
+      double sum = 0.0;
+      for (const TimeFunction& term : terms_) sum += term.Value(t);
+      return sum;
+    }
     case Kind::kConstant: return constant_;
     case Kind::kCosineRamp: {
       // Eq. (37) of the CGα paper: ½ (1 − cos(π τ / T)) Ω for 0 <= τ < T.
@@ -91,6 +104,11 @@ double TimeFunction::Value(double t) const {
 
 double TimeFunction::Derivative(double t) const {
   switch (kind_) {
+    case Kind::kSum: {
+      double sum = 0.0;
+      for (const TimeFunction& term : terms_) sum += term.Derivative(t);
+      return sum;
+    }
     case Kind::kConstant: return 0.0;
     case Kind::kCosineRamp: {
       const double tau = t - start_time_;
@@ -112,6 +130,11 @@ double TimeFunction::Derivative(double t) const {
 }
 
 double TimeFunction::SecondDerivative(double t) const {
+  if (kind_ == Kind::kSum) {
+    double sum = 0.0;
+    for (const TimeFunction& term : terms_) sum += term.SecondDerivative(t);
+    return sum;
+  }
   if (kind_ != Kind::kCosineRamp && kind_ != Kind::kCosinePulse) return 0.0;
   const double tau = t - start_time_;
   if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
@@ -121,6 +144,11 @@ double TimeFunction::SecondDerivative(double t) const {
 
 double TimeFunction::Integral(double t) const {
   switch (kind_) {
+    case Kind::kSum: {
+      double sum = 0.0;
+      for (const TimeFunction& term : terms_) sum += term.Integral(t);
+      return sum;
+    }
     case Kind::kConstant: return constant_ * t;
     case Kind::kCosineRamp: {
       // ∫ ½(1 − cos(π τ/T)) F dτ = ½ F (τ − (T/π) sin(π τ/T)) over the ramp, then F per second.

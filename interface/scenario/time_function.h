@@ -1,6 +1,6 @@
 #pragma once
 // f(t) and df/dt of a scenario TimeFunction (constant, cosine ramp of Eq. (37) of the CGα
-// paper, a 1 − cos pulse, or a piecewise-linear table), validated when built.
+// paper, a 1 − cos pulse, a piecewise-linear table, or a sum of them), validated when built.
 #include <vector>
 
 #include "scenario.pb.h"
@@ -23,11 +23,12 @@ class TimeFunction {
   bool IsZero() const { return kind_ == Kind::kConstant && constant_ == 0.0; }
 
  private:
-  enum class Kind { kConstant, kCosineRamp, kCosinePulse, kTable };
+  enum class Kind { kConstant, kCosineRamp, kCosinePulse, kTable, kSum };
   Kind kind_ = Kind::kConstant;
   double constant_ = 0.0;
   double final_value_ = 0.0, ramp_time_ = 1.0, start_time_ = 0.0;
   std::vector<double> time_, value_;
+  std::vector<TimeFunction> terms_;  // kSum
 };
 
 }  // namespace cosim::interface

@@ -59,6 +59,31 @@ TEST(TimeFunction, CosinePulseRisesToItsPeakAndBackWithItsDerivativesAndIntegral
   EXPECT_THROW(TimeFunction::Build(checks, "x", bad), InputError);
 }
 
+TEST(TimeFunction, SumOfARampUpAndARampDownIsAnEngagementAndRunDown) {
+  // reference/puma.md: Ω(t) = ½(1 − cos(πt/20)) Ω100% up to 20 s, held, the mirror run-down from
+  // 30 s to rest at 50 s — a cosine ramp plus a negative one starting at 30 s.
+  const ScenarioFile f = ScenarioFile::Parse("", "f", {});
+  const Checks checks(f);
+  scenario::TimeFunction proto;
+  auto* up = proto.mutable_sum()->add_terms()->mutable_cosine_ramp();
+  up->set_final_value(28.0);
+  up->set_ramp_time(20.0);
+  auto* down = proto.mutable_sum()->add_terms()->mutable_cosine_ramp();
+  down->set_final_value(-28.0);
+  down->set_ramp_time(20.0);
+  down->set_start_time(30.0);
+  const TimeFunction omega = TimeFunction::Build(checks, "x", proto);
+  EXPECT_NEAR(omega.Value(10.0), 14.0, 1e-12);
+  EXPECT_NEAR(omega.Value(25.0), 28.0, 1e-12);
+  EXPECT_NEAR(omega.Value(40.0), 14.0, 1e-12);
+  EXPECT_NEAR(omega.Value(60.0), 0.0, 1e-12);
+  EXPECT_NEAR(omega.Derivative(35.0), -28.0 * std::numbers::pi / 40 * std::sin(std::numbers::pi / 4), 1e-12);
+  EXPECT_NEAR(omega.Integral(50.0), 28.0 * 30.0, 1e-9);  // 10 s up + 10 s held + 10 s down: 30 s at Ω
+  scenario::TimeFunction empty;
+  empty.mutable_sum();
+  EXPECT_THROW(TimeFunction::Build(checks, "x", empty), InputError);
+}
+
 TEST(TimeFunction, TableInterpolatesLinearlyAndRejectsDecreasingTimes) {
   const ScenarioFile f = ScenarioFile::Parse("", "f", {});
   const Checks checks(f);

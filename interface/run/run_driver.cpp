@@ -211,12 +211,32 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   output->Log(program + ": scenario '" + summary.scenario() + "', " + std::to_string(span.steps) +
               " steps of " + FormatNumber(span.step) + " s, output in " + output->folder());
   std::vector<double> values(static_cast<size_t>(output->probe_count()));
+  // Each column's Probe.scale (1 for columns that are not scenario probes, e.g. a MODES table).
+  std::vector<double> scale(values.size(), 1.0);
+  {
+    const std::vector<std::string> names = simulation->ProbeNames();
+    const auto& probes = file->proto().output().probes();
+    for (int i = 0; i < probes.size(); ++i) {
+      if (probes[i].scale() == 0.0) {
+        const std::string path = "output.probes[" + std::to_string(i) + "].scale";
+        std::cerr << program << ": error: " << file->Where(path) << ": " << path << ": must be non-zero\n";
+        return static_cast<int>(output->Finish(ExitCode::kBadInput, path + " must be non-zero"));
+      }
+      for (size_t c = 0; c < names.size() && c < scale.size(); ++c) {
+        if (names[c] == probes[i].name()) scale[c] = probes[i].scale();
+      }
+    }
+  }
+  auto probe = [&]() {
+    simulation->Probe(&values);
+    for (size_t c = 0; c < values.size(); ++c) values[c] *= scale[c];
+  };
   long long accepted = 0;
   std::chrono::steady_clock::duration step_time{};
   ExitCode code = ExitCode::kOk;
   std::string reason;
   try {
-    simulation->Probe(&values);
+    probe();
     output->WriteRow(span.start, values);
     for (long long k = 0; k < span.steps; ++k) {
       if (TerminationRequested()) throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
@@ -227,7 +247,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
       step_time += std::chrono::steady_clock::now() - t0;
       ++accepted;
       if (accepted % every == 0 || accepted == span.steps) {
-        simulation->Probe(&values);
+        probe();
         output->WriteRow(span.TimeAt(accepted), values);
       }
     }

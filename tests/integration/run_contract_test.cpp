@@ -353,6 +353,22 @@ TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   EXPECT_EQ(static_cast<double>(log.size()), smooth.coupling_iterations().total());
 }
 
+TEST(RunContract, ProbeScaleMultipliesItsColumnOnly) {
+  // output.probes[i].scale: an angle in degrees; the other columns as they were; zero refused.
+  const fs::path plain = TempDir("scale_plain"), degrees = TempDir("scale_degrees"), zero = TempDir("scale_zero");
+  const std::string scene = kScenarios + "/aero/hover_rotor.pbtxt --set numerics.end_time=0.05";
+  ASSERT_EQ(Launch(scene + " --out " + plain.string()).code, 0);
+  ASSERT_EQ(Launch(scene + " --out " + degrees.string() + " --set output.probes[4].scale=57.29577951308232").code, 0);
+  const auto a = ReadHistory(plain / "history.csv"), b = ReadHistory(degrees / "history.csv");
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_GT(std::abs(a.back()[5]), 1e-3);  // blade1_flap [rad], column 5 after time
+  EXPECT_NEAR(b.back()[5], 57.29577951308232 * a.back()[5], 1e-12);
+  EXPECT_EQ(b.back()[1], a.back()[1]);
+  const Result r = Launch(scene + " --out " + zero.string() + " --set output.probes[4].scale=0");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("output.probes[4].scale: must be non-zero"), std::string::npos) << r.output;
+}
+
 TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {
   // The contact process is killed half a second into a long run: the launcher sees it die and
   // stops the coordinator at once, which ends with exit code 4 and its history up to the last

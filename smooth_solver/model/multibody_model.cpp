@@ -163,6 +163,13 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       joint.drive = interface::TimeFunction::Build(checks, path + ".drive.function", d.function());
     }
     joint.locked = j.locked();
+    joint.initial_coordinate = j.initial_coordinate();
+    if (j.has_initial_coordinate() && j.has_drive()) {
+      checks.Fail(path + ".initial_coordinate", "a driven joint's coordinate is its drive's; remove one of them");
+    }
+    if (j.has_initial_coordinate() && joint.type != JointType::kRevolute && joint.type != JointType::kPrismatic) {
+      checks.Fail(path + ".initial_coordinate", "only revolute and prismatic joints have one coordinate");
+    }
     joint.release_time = std::numeric_limits<double>::infinity();
     if (j.has_release_time()) {
       if (!j.locked()) checks.Fail(path + ".release_time", "given for a joint that is not locked");

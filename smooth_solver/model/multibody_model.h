@@ -45,6 +45,7 @@ struct Joint {
   interface::TimeFunction drive;
   bool locked = false;
   double release_time = 0.0;
+  double initial_coordinate = 0.0;  // the coordinate of the initial poses [rad or m]
 };
 
 // A force element as given in the scenario (model.forces).

@@ -377,13 +377,15 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       }
       case ForceSpec::Kind::kJointSpring: {
         const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
+        // Coordinates are measured from the initial poses; a given rest is in the joint's own.
+        const double rest = f.has_rest ? f.rest - model.joints[static_cast<size_t>(f.joint)].initial_coordinate : f.rest;
         if (m.rotational) {
-          sys.forces.push_back(std::make_unique<CoordinateSpring>(m.b1, m.c1, m.b2, f.stiffness, f.damping, f.rest));
+          sys.forces.push_back(std::make_unique<CoordinateSpring>(m.b1, m.c1, m.b2, f.stiffness, f.damping, rest));
         } else {
           // The prismatic coordinate is measured from the given pose.
           const double s0 = m.separation.Value(sys.q0).dot(m.axis1.Value(sys.q0));
           sys.forces.push_back(
-              std::make_unique<CoordinateSpring>(m.separation, m.axis1, f.stiffness, f.damping, s0 + f.rest));
+              std::make_unique<CoordinateSpring>(m.separation, m.axis1, f.stiffness, f.damping, s0 + rest));
         }
         break;
       }
@@ -396,13 +398,14 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       }
       case ForceSpec::Kind::kJointStop: {
         const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
+        const double offset = model.joints[static_cast<size_t>(f.joint)].initial_coordinate;  // stops in the joint's own
         if (f.has_lower) {
           sys.forces.push_back(std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
-                                                                   f.lower, 1.0, f.law));
+                                                                   f.lower - offset, 1.0, f.law));
         }
         if (f.has_upper) {
           sys.forces.push_back(std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
-                                                                   f.upper, -1.0, f.law));
+                                                                   f.upper - offset, -1.0, f.law));
         }
         break;
       }

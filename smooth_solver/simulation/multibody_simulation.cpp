@@ -322,7 +322,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   std::vector<std::string> body_names;
   for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
   watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
+  // Angles continue past ±π (whole turns counted), from each joint's initial coordinate.
   angle_offset_.assign(model_.joints.size(), 0.0);
+  for (size_t j = 0; j < model_.joints.size(); ++j) angle_offset_[j] = model_.joints[j].initial_coordinate;
   last_angle_.assign(model_.joints.size(), 0.0);
   for (size_t j = 0; j < model_.joints.size(); ++j) {
     if (system_->joints[j].rotational) last_angle_[j] = system_->JointCoordinate(static_cast<int>(j), initial.q);
@@ -426,7 +428,11 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       }
       case Kind::kJointCoordinate:
         value = system_->JointCoordinate(p.index, s.q);
-        if (system_->joints[static_cast<size_t>(p.index)].rotational) value += angle_offset_[static_cast<size_t>(p.index)];
+        if (system_->joints[static_cast<size_t>(p.index)].rotational) {
+          value += angle_offset_[static_cast<size_t>(p.index)];
+        } else {
+          value += model_.joints[static_cast<size_t>(p.index)].initial_coordinate;
+        }
         break;
       case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
       case Kind::kReactionForce: value = interface::PickComponent(system_->JointReactionForce(p.index, s.lambda), p.component); break;

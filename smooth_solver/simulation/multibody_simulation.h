@@ -30,6 +30,7 @@ class MultibodySimulation : public interface::Simulation {
   CgAlpha* cgalpha();
   void Record(double t1, int iterations);
   long ida_internal_steps() const { return ida_steps_; }
+  double max_constraint_violation() const { return max_violation_; }  // over the accepted steps
 
  private:
   enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,

@@ -62,7 +62,7 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 #   (zero below a 10 m/s tip speed); sea-level air (1.225 kg/m³, 340 m/s), still{' until the gust' if GUST else ''};
 # - probes: angles in degrees; root shear and flapwise moment at r = 0.5 m (the first section
 #   outboard of the pitch bearing), in the beam's section frame (d3, the flapwise axis, points
-#   down: an upward shear on the outboard part reads negative).""")
+#   down: an upward shear on the outboard part reads negative); the stops' contact moment [N m].""")
 if GUST:
     print("""# - gust (puma.md's choice): 1 − cos pulse, peak 25 m/s, 100 m long, its front travelling
 #   along +y at 25 m/s (4 s at a point), reaching the disk's edge at t = 1 s; collective 10°
@@ -117,6 +117,7 @@ patterns {{
       probes {{ name: "blade{{k}}_root_shear_z" quantity: SECTION_FORCE entity: "blade{{k}}" station: 0.5 component: Z }}
       probes {{ name: "blade{{k}}_root_flap_moment" quantity: SECTION_MOMENT entity: "blade{{k}}" station: 0.5 component: Y }}
       probes {{ name: "blade{{k}}_tip_z" quantity: POSITION entity: "blade{{k}}.n10" component: Z }}
+      probes {{ name: "blade{{k}}_stop_moment" quantity: CONTACT_FORCE entity: "blade{{k}}_stops" }}
     }}
   }}
 }}

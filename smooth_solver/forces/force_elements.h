@@ -135,6 +135,8 @@ class UnilateralContact : public ForceElement {
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
   void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const override;
+  // The law's force f >= 0 [N, or N m for a joint stop] at (q, q̇): zero out of contact.
+  double LawForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const { return Evaluate(q, qdot).f; }
   // The law's elastic part stores K δⁿ⁺¹/(n + 1); its damping part only dissipates.
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 

@@ -365,6 +365,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
     sys.joints.push_back(measure);
   }
   for (const ForceSpec& f : model.forces) {
+    sys.contact_laws.emplace_back();
     switch (f.kind) {
       case ForceSpec::Kind::kLoad:
         sys.forces.push_back(std::make_unique<AppliedLoad>(f.body1, f.point1, f.force, f.torque, f.has_torque));
@@ -393,19 +394,20 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         // Signed gap g = (p − c)·n of body1's point against the plane (θ0 = 0, g >= 0 allowed).
         CoordinateSpring gap(LinearVector::Point(f.body1, f.point1) - LinearVector::Point(f.plane_body, f.plane_point),
                              LinearVector::Direction(f.plane_body, f.plane_normal), 0.0, 0.0, 0.0);
-        sys.forces.push_back(std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law));
+        auto contact = std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law);
+        sys.contact_laws.back().push_back(contact.get());
+        sys.forces.push_back(std::move(contact));
         break;
       }
       case ForceSpec::Kind::kJointStop: {
         const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
         const double offset = model.joints[static_cast<size_t>(f.joint)].initial_coordinate;  // stops in the joint's own
-        if (f.has_lower) {
-          sys.forces.push_back(std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
-                                                                   f.lower - offset, 1.0, f.law));
-        }
-        if (f.has_upper) {
-          sys.forces.push_back(std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
-                                                                   f.upper - offset, -1.0, f.law));
+        for (int side : {1, -1}) {
+          if (side > 0 ? !f.has_lower : !f.has_upper) continue;
+          auto stop = std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
+                                                          (side > 0 ? f.lower : f.upper) - offset, side, f.law);
+          sys.contact_laws.back().push_back(stop.get());
+          sys.forces.push_back(std::move(stop));
         }
         break;
       }

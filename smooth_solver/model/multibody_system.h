@@ -82,6 +82,9 @@ struct MultibodySystem {
   }
   // The beams' internal forces, in model.beams' order (also in `forces`).
   std::vector<const BeamForce*> beam_forces;
+  // Per model force element (model.forces' order): its continuous contacts or joint stops (also
+  // in `forces`; empty for other kinds), whose law force the CONTACT_FORCE probe reads.
+  std::vector<std::vector<const UnilateralContact*>> contact_laws;
   // The air loads (also in `forces`), or null.
   const AirLoads* air_loads = nullptr;
   // The elastic bodies' internal forces (also in `forces`).

@@ -144,13 +144,14 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       case sc::Probe::ROTOR_TORQUE: spec.kind = Kind::kRotorTorque; break;
       case sc::Probe::INFLOW_RATIO: spec.kind = Kind::kInflowRatio; break;
       case sc::Probe::INDUCED_VELOCITY: spec.kind = Kind::kInducedVelocity; break;
+      case sc::Probe::CONTACT_FORCE: spec.kind = Kind::kContactForce; break;
       default:
         checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
                                         "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
                                         "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY, CONSTRAINT_VIOLATION, DISPLACEMENT, "
                                         "STRAIN_ENERGY, ROTATION, SECTION_FORCE, SECTION_MOMENT, AERO_ANGLE_OF_ATTACK, "
-                                        "AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, INFLOW_RATIO or "
-                                        "INDUCED_VELOCITY, got " +
+                                        "AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, INFLOW_RATIO, "
+                                        "INDUCED_VELOCITY or CONTACT_FORCE, got " +
                                             sc::Probe::Quantity_Name(p.quantity()));
     }
     if (p.has_frame()) {
@@ -228,6 +229,16 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
         spec.index = find(rotor_index, "rotor");
         spec.component = interface::ProbeComponent(checks, path, p, false);
         break;
+      case Kind::kContactForce: {
+        std::map<std::string, int> contact_index;
+        for (size_t f = 0; f < model_.forces.size(); ++f) {
+          const auto kind = model_.forces[f].kind;
+          if (kind == ForceSpec::Kind::kContact || kind == ForceSpec::Kind::kJointStop) contact_index[model_.forces[f].name] = static_cast<int>(f);
+        }
+        spec.index = find(contact_index, "continuous contact or joint stop");
+        spec.component = interface::ProbeComponent(checks, path, p, false);
+        break;
+      }
       case Kind::kJointCoordinate:
       case Kind::kJointSpeed: {
         spec.index = find(joint_index, "joint");
@@ -426,6 +437,9 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
                                                : r.induced;
         break;
       }
+      case Kind::kContactForce:
+        for (const UnilateralContact* law : system_->contact_laws[static_cast<size_t>(p.index)]) value += law->LawForce(s.q, s.qdot);
+        break;
       case Kind::kJointCoordinate:
         value = system_->JointCoordinate(p.index, s.q);
         if (system_->joints[static_cast<size_t>(p.index)].rotational) {

@@ -37,7 +37,7 @@ class MultibodySimulation : public interface::Simulation {
                     kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation,
                     kDisplacement, kStrainEnergy, kClampForce, kClampMoment, kBodyDisplacement, kRotation,
                     kBeamStrainEnergy, kSectionForce, kSectionMoment, kAeroAlpha, kAeroForce, kAeroMoment,
-                    kAeroMach, kRotorThrust, kRotorTorque, kInflowRatio, kInducedVelocity };
+                    kAeroMach, kRotorThrust, kRotorTorque, kInflowRatio, kInducedVelocity, kContactForce };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;

@@ -65,5 +65,18 @@ TEST(PumaScenes, AFiveBladeRotorIsOneNumber) {
   sim.Step(0.0, 1e-4);
 }
 
+TEST(PumaScenes, StillRotorWaitsForItsGustOnTheDroopStops) {
+  // gust_continuous: the hub held, 10° collective in the air, the gust front reaching the disk
+  // at t = 1 s: before it, no air load (still air, still rotor: the guard keeps the inflow at
+  // zero) and the blades on their stops.
+  MultibodySimulation sim(interface::ScenarioFile::Load(kPuma + "gust_continuous.pbtxt", {}));
+  std::vector<double> v(sim.ProbeNames().size());
+  for (int s = 0; s < 100; ++s) sim.Step(s * 1e-4, 1e-4);
+  sim.Probe(&v);
+  EXPECT_EQ(v[static_cast<size_t>(Column(sim, "thrust"))], 0.0);
+  EXPECT_EQ(v[static_cast<size_t>(Column(sim, "hub_speed"))], 0.0);
+  EXPECT_GT(v[static_cast<size_t>(Column(sim, "blade3_stop_moment"))], 0.0);
+}
+
 }  // namespace
 }  // namespace cosim::smooth

@@ -19,6 +19,22 @@ void ReplaceAll(std::string* s, const std::string& from, const std::string& to) 
   for (size_t at = s->find(from); at != std::string::npos; at = s->find(from, at + to.size())) s->replace(at, from.size(), to);
 }
 
+// fn(child) for every message directly below m (singular fields and list elements).
+template <class F>
+void ForEachChild(pb::Message* m, F&& fn) {
+  const pb::Reflection* r = m->GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  r->ListFields(*m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    if (f->is_repeated()) {
+      for (int i = 0; i < r->FieldSize(*m, f); ++i) fn(r->MutableRepeatedMessage(m, f, i));
+    } else {
+      fn(r->MutableMessage(m, f));
+    }
+  }
+}
+
 // `each` may set lists (repeated messages) inside containers (singular messages) only.
 void CheckOnlyLists(const pb::Message& m, const std::string& path,
                     const std::function<void(const std::string&, const std::string&)>& fail) {
@@ -53,14 +69,9 @@ void Substitute(pb::Message* m, const std::string& k) {
         ReplaceAll(&v, "{k}", k);
         r->SetString(m, f, v);
       }
-    } else if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-      if (f->is_repeated()) {
-        for (int i = 0; i < r->FieldSize(*m, f); ++i) Substitute(r->MutableRepeatedMessage(m, f, i), k);
-      } else {
-        Substitute(r->MutableMessage(m, f), k);
-      }
     }
   }
+  ForEachChild(m, [&](pb::Message* child) { Substitute(child, k); });
 }
 
 // Every geometry-annotated 3-vector list of `m` (and below) turned by R about `origin`.
@@ -68,15 +79,8 @@ void Turn(pb::Message* m, const Eigen::Matrix3d& R, const Eigen::Vector3d& origi
   const pb::Reflection* r = m->GetReflection();
   std::vector<const pb::FieldDescriptor*> fields;
   r->ListFields(*m, &fields);
+  ForEachChild(m, [&](pb::Message* child) { Turn(child, R, origin); });
   for (const pb::FieldDescriptor* f : fields) {
-    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-      if (f->is_repeated()) {
-        for (int i = 0; i < r->FieldSize(*m, f); ++i) Turn(r->MutableRepeatedMessage(m, f, i), R, origin);
-      } else {
-        Turn(r->MutableMessage(m, f), R, origin);
-      }
-      continue;
-    }
     if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE || !f->is_repeated()) continue;
     const scenario::Geometry g = f->options().GetExtension(scenario::geometry);
     if (g == scenario::GEOMETRY_NONE) continue;
@@ -124,15 +128,8 @@ void ExpandReferences(pb::Message* m, const std::map<std::string, int>& counts) 
   const pb::Reflection* r = m->GetReflection();
   std::vector<const pb::FieldDescriptor*> fields;
   r->ListFields(*m, &fields);
+  ForEachChild(m, [&](pb::Message* child) { ExpandReferences(child, counts); });
   for (const pb::FieldDescriptor* f : fields) {
-    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-      if (f->is_repeated()) {
-        for (int i = 0; i < r->FieldSize(*m, f); ++i) ExpandReferences(r->MutableRepeatedMessage(m, f, i), counts);
-      } else {
-        ExpandReferences(r->MutableMessage(m, f), counts);
-      }
-      continue;
-    }
     if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_STRING || !f->is_repeated()) continue;
     std::vector<std::string> entries;
     bool changed = false;

@@ -562,23 +562,11 @@ TEST(AirLoads, ModesOfTheFlappingBladeCarryTheAerodynamicDamping) {
   // above, from a linearisation instead of a decay.
   const double R = 7.49, c = 0.537, rho = 1.225, a = 5.7296, gamma = 2.0, theta = 8 * kDeg;
   const double I = rho * a * c * std::pow(R, 4) / gamma, m = 3 * I / (R * R);
-  char text[4096];
-  std::snprintf(text, sizeof text, R"(
-    model {
-      bodies { name: "hub" mass: 100 inertia: [10, 10, 20] angular_velocity: [0, 0, 28] }
-      bodies { name: "blade" mass: %.17g inertia: [1e-3, %.17g, %.17g] position: [%.17g, 0, 0] }
-      joints { name: "shaft" type: REVOLUTE body1: "ground" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
-               drive { quantity: ANGULAR_SPEED function { constant: 28 } } }
-      joints { name: "flap" type: REVOLUTE body1: "hub" body2: "blade" point: [0, 0, 0] axis: [0, -1, 0] }
-      air { speed_of_sound: 1e9
-        surfaces { name: "b" body: "blade" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1]
-                   segments: 10 gauss_points: 3
-                   stations { s: 0 chord: 0.537 twist: %.17g airfoil: "naca0012" }
-                   stations { s: 7.49 chord: 0.537 twist: %.17g airfoil: "naca0012" } } }
-    }
-    numerics { start_time: 28 end_time: 28.1 step: 0.1 smooth { analysis: MODES modes { axis: [0, 0, 1] count: 4 } } })",
-                m, m * R * R / 12, m * R * R / 12, R / 2, theta, theta);
-  ModalSimulation sim(interface::ScenarioFile::Parse(text, "flap_modes.pbtxt", {}));
+  const std::vector<std::string> modes = {"model.gravity=[0, 0, 0]",  "numerics.start_time=28",
+                                         "numerics.end_time=28.1",   "numerics.step=0.1",
+                                         "numerics.smooth.analysis=MODES", "numerics.smooth.modes.axis=[0, 0, 1]",
+                                         "numerics.smooth.modes.count=4",  "output.probes=[]"};
+  ModalSimulation sim(interface::ScenarioFile::Parse(FlappingBlade(m, theta), "flap_modes.pbtxt", modes));
   ASSERT_FALSE(sim.modes().empty());
   const Mode& flap = sim.modes().front().mode;
   const double nu = std::sqrt(1.0 - gamma * c / (12 * R));

@@ -176,10 +176,19 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
     throw InputError(errors.Format(display_name) +
                      " (scenario files are protobuf text format; schema: proto/scenario.proto)");
   }
-  for (const std::string& argument : overrides) file.ApplyOverride(argument);
-  file.overrides_ = overrides;
+  // Overrides of the patterns come before their expansion (a count, a template field), the
+  // others after it, so that they can reach the copies too (the launcher sets each contact
+  // process's endpoint, and a process may come from a pattern).
+  auto of_patterns = [](const std::string& argument) { return argument.rfind("patterns", 0) == 0; };
+  for (const std::string& argument : overrides) {
+    if (of_patterns(argument)) file.ApplyOverride(argument);
+  }
   file.pattern_origins_ =
       ExpandPatterns(&file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
+  for (const std::string& argument : overrides) {
+    if (!of_patterns(argument)) file.ApplyOverride(argument);
+  }
+  file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
   // The name becomes the default output folder runs/<name>.
   if (file.proto_.has_name()) Checks(file).Name("name", true, file.proto_.name());
@@ -328,6 +337,7 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
 }
 
 std::string ScenarioFile::Where(const std::string& field_path) const {
+  if (const std::string set = OverrideOf(field_path); !set.empty()) return set;  // a copy's own override
   for (const PatternOrigin& o : pattern_origins_) {
     const std::string& e = o.expanded;
     if (field_path.rfind(e, 0) == 0 && (field_path.size() == e.size() || field_path[e.size()] == '.')) {
@@ -338,7 +348,7 @@ std::string ScenarioFile::Where(const std::string& field_path) const {
   return WhereInFile(field_path);
 }
 
-std::string ScenarioFile::WhereInFile(const std::string& field_path) const {
+std::string ScenarioFile::OverrideOf(const std::string& field_path) const {
   for (auto it = overridden_.rbegin(); it != overridden_.rend(); ++it) {
     const std::string& set_path = it->first;
     if (field_path == set_path || (field_path.rfind(set_path, 0) == 0 &&
@@ -346,6 +356,11 @@ std::string ScenarioFile::WhereInFile(const std::string& field_path) const {
       return "--set " + it->second;
     }
   }
+  return "";
+}
+
+std::string ScenarioFile::WhereInFile(const std::string& field_path) const {
+  if (const std::string set = OverrideOf(field_path); !set.empty()) return set;
   std::vector<PathSegment> segments;
   try {
     segments = ParseFieldPath(field_path, path_);

@@ -57,6 +57,8 @@ class ScenarioFile {
   // Where the patterns' copies came from (ExpandPatterns).
   std::vector<PatternOrigin> pattern_origins_;
   std::string WhereInFile(const std::string& field_path) const;
+  // "--set ARG" if an override set the field or an enclosing one, else empty.
+  std::string OverrideOf(const std::string& field_path) const;
 };
 
 // One step of a field path: a field name and, on repeated fields, an index or element name.

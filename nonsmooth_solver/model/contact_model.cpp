@@ -377,6 +377,15 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::s
     for (const auto& b : s.model().bodies()) elsewhere.insert(b.name());
     for (const auto& j : s.model().joints()) elsewhere.insert(j.name());
     for (const auto& e : s.model().elastic_bodies()) elsewhere.insert(e.name());
+    for (const auto& f : s.model().forces()) elsewhere.insert(f.name());
+    // Beams, their node bodies "<beam>.n<k>", aero surfaces and rotors.
+    for (const auto& b : s.model().beams()) {
+      elsewhere.insert(b.name());
+      const int nodes = b.elements() * (b.nodes_per_element() - 1) + 1;
+      for (int k = 0; k < nodes && k <= 100000; ++k) elsewhere.insert(b.name() + ".n" + std::to_string(k));
+    }
+    for (const auto& a : s.model().air().surfaces()) elsewhere.insert(a.name());
+    for (const auto& r : s.model().air().rotors()) elsewhere.insert(r.name());
   }
   BuildProbes(checks, s.output(), node_names, model, elsewhere, s.coupling().interface_nodes_size() > 0, &model);
   return model;

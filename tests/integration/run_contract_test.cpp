@@ -369,6 +369,27 @@ TEST(RunContract, ProbeScaleMultipliesItsColumnOnly) {
   EXPECT_NE(r.output.find("output.probes[4].scale: must be non-zero"), std::string::npos) << r.output;
 }
 
+TEST(CoupledRun, PumaRotorRunsWithOneContactProcessPerBlade) {
+  // scenarios/puma/engage_disengage.pbtxt (the pattern's four blades, each with its contact
+  // process, the launcher setting their endpoints into the copies): 30 steps at rest — every
+  // blade's node rests on its droop plane (an impulse each step), the flap angles stay at −10°.
+  const fs::path out = TempDir("puma_cosim");
+  const Result r = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + out.string() +
+                          " --set numerics.end_time=0.003 --set output.every=1");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto smooth = ReadTable(out / "history.csv");
+  for (int k = 1; k <= 4; ++k) {
+    const std::string blade = "blade" + std::to_string(k);
+    const auto stops = ReadTable(out / ("stops" + std::to_string(k)) / "history.csv");
+    const auto droop = stops.Column(blade + "_droop_impulse");
+    const auto flap = smooth.Column(blade + "_flap");
+    ASSERT_FALSE(droop.empty());
+    ASSERT_FALSE(flap.empty());
+    EXPECT_GT(droop.back(), 0.0) << blade;
+    EXPECT_NEAR(flap.back(), -10.0, 0.01) << blade;
+  }
+}
+
 TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {
   // The contact process is killed half a second into a long run: the launcher sees it die and
   // stops the coordinator at once, which ends with exit code 4 and its history up to the last

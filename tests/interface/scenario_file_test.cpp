@@ -190,6 +190,16 @@ TEST(Pattern, SetReachesIntoTheTemplateAndTheCount) {
   }
 }
 
+TEST(Pattern, OverridesOutsideThePatternsReachTheCopies) {
+  // Overrides of `patterns…` apply before the expansion, all others after it: one copy can be
+  // changed by name, and an error about it names that override.
+  const ScenarioFile f = ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"model.bodies[blade3].mass=70"});
+  EXPECT_EQ(f.proto().model().bodies(3).mass(), 70.0);
+  EXPECT_EQ(f.proto().model().bodies(2).mass(), 50.0);
+  EXPECT_EQ(f.Where("model.bodies[3].mass"), "--set model.bodies[blade3].mass=70");
+  EXPECT_NE(f.Where("model.bodies[3].inertia").find("(copy 3 of pattern 'blades')"), std::string::npos);
+}
+
 TEST(Pattern, BadPatternsAreRefusedWithTheirPlace) {
   auto error = [](const std::vector<std::string>& sets) {
     try {

@@ -63,6 +63,14 @@ Eigen::Vector3d Checks::Direction(const std::string& path, const google::protobu
   return v / norm;
 }
 
+Eigen::Vector3d Checks::AcrossAxis(const std::string& path, const google::protobuf::RepeatedField<double>& values,
+                                   const Eigen::Vector3d& axis) const {
+  const Eigen::Vector3d given = Direction(path, values);
+  const Eigen::Vector3d across = given - given.dot(axis) * axis;
+  if (across.norm() < 1e-6) Fail(path, "is parallel to axis; it must point across the span");
+  return across.normalized();
+}
+
 std::string Checks::Name(const std::string& path, bool has, const std::string& value) const {
   Require(path, has, "a name of letters, digits, '_', '.' or '-'");
   if (value.empty()) Fail(path, "must not be empty");

@@ -39,6 +39,10 @@ class Checks {
                           const std::optional<Eigen::Vector3d>& fallback) const;
   // A non-zero 3-vector, returned normalised.
   Eigen::Vector3d Direction(const std::string& path, const google::protobuf::RepeatedField<double>& values) const;
+  // A direction across the unit `axis` (a section's chord): its part normal to the axis,
+  // normalised; InputError if it is parallel to the axis.
+  Eigen::Vector3d AcrossAxis(const std::string& path, const google::protobuf::RepeatedField<double>& values,
+                             const Eigen::Vector3d& axis) const;
   // A name: present, [A-Za-z0-9_.-]+, not only dots, at most kMaxNameLength characters.
   static constexpr size_t kMaxNameLength = 128;
   std::string Name(const std::string& path, bool has, const std::string& value) const;

@@ -74,13 +74,7 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         const int b = beam_names.Find(path + ".beam", s.beam());
         sf.on_beam = true;
         sf.beam = model->beams[static_cast<size_t>(b)];
-        // The beam's untwisted section axes, as AddBeams builds them.
-        const sc::Beam& pb = m.beams(b);
-        const Eigen::Vector3d axis = Eigen::Vector3d(pb.axis(0), pb.axis(1), pb.axis(2)).normalized();
-        const Eigen::Vector3d chord(pb.chord(0), pb.chord(1), pb.chord(2));
-        sf.d2_0 = (chord - chord.dot(axis) * axis).normalized();
-        sf.d3_0 = axis.cross(sf.d2_0);
-        normal_ref = sf.d3_0;
+        normal_ref = sf.beam.d3_0;
         s_lo = sf.beam.span_start;
         s_hi = sf.beam.span_end;
         for (const char* f : {"root", "axis", "chord"}) {  // the beam's own
@@ -103,13 +97,11 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         const Eigen::Matrix3d R = body.orientation.toRotationMatrix();
         const Eigen::Vector3d root = checks.Vector3(path + ".root", s.root(), std::nullopt);
         const Eigen::Vector3d axis = checks.Direction(path + ".axis", s.axis());
-        const Eigen::Vector3d chord_given = checks.Direction(path + ".chord", s.chord());
-        const Eigen::Vector3d chord = chord_given - chord_given.dot(axis) * axis;
-        if (chord.norm() < 1e-6) checks.Fail(path + ".chord", "is parallel to axis; it must point across the span");
+        const Eigen::Vector3d chord = checks.AcrossAxis(path + ".chord", s.chord(), axis);
         sf.root_b = R.transpose() * (root - body.position);
         sf.axis_b = R.transpose() * axis;
-        sf.chord_b = R.transpose() * chord.normalized();
-        normal_ref = axis.cross(chord.normalized());
+        sf.chord_b = R.transpose() * chord;
+        normal_ref = axis.cross(chord);
         sf.segments = static_cast<int>(checks.InRange(path + ".segments", true, s.segments(), 1, 10000));
         s_lo = -1e300;
         s_hi = 1e300;
@@ -134,12 +126,9 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         sf.elastic = e;
         sf.mesh = elastic_meshes[static_cast<size_t>(e)];
         const Eigen::Vector3d axis = checks.Direction(path + ".axis", s.axis());
-        const Eigen::Vector3d chord_given = checks.Direction(path + ".chord", s.chord());
-        const Eigen::Vector3d chord = chord_given - chord_given.dot(axis) * axis;
-        if (chord.norm() < 1e-6) checks.Fail(path + ".chord", "is parallel to axis; it must point across the span");
         sf.root_b = checks.Vector3(path + ".root", s.root(), std::nullopt);
         sf.axis_b = axis;
-        sf.chord_b = chord.normalized();
+        sf.chord_b = checks.AcrossAxis(path + ".chord", s.chord(), axis);
         normal_ref = axis.cross(sf.chord_b);
         sf.segments = static_cast<int>(checks.InRange(path + ".segments", true, s.segments(), 1, 10000));
         s_lo = 0.0;

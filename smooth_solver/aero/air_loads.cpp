@@ -235,7 +235,7 @@ AeroSection AirLoads::Section(int surface, double s, double weight) const {
       d3r += N[I] * el->q_ref.segment<3>(kCoordinatesPerBody * I + 9);
     }
     const double theta = beam.table.At(s).twist;
-    const Vector3d chord_structural = std::cos(theta) * sf.d2_0 + std::sin(theta) * sf.d3_0;
+    const Vector3d chord_structural = std::cos(theta) * beam.d2_0 + std::sin(theta) * beam.d3_0;
     const double delta = std::atan2(chord_structural.dot(d3r.normalized()), chord_structural.dot(d2r.normalized()));
     const double cd = std::cos(delta), sd = std::sin(delta), us = sf.upper_sign;
     // c = cd d2 + sd d3; n = us (−sd d2 + cd d3).
@@ -456,7 +456,6 @@ AirLoads::SectionResult AirLoads::Evaluate(const AeroSection& section, const Eig
   res.force_local = o.f;
   res.force = o.F;
   res.point = o.a;
-  res.e3 = o.e3;
   return res;
 }
 

@@ -63,9 +63,8 @@ struct AeroSurfaceSpec {
   std::string name;
   bool on_beam = false;
   BeamModel beam;  // on_beam: a copy of the carrying beam (elements, table)
-  // Beam: the untwisted section axes (d2, d3 at zero twist). Body: body index, its reference
-  // frame, and the reference line (root, axis, chord towards the leading edge) in body coordinates.
-  Eigen::Vector3d d2_0 = Eigen::Vector3d::UnitY(), d3_0 = Eigen::Vector3d::UnitZ();
+  // Body: body index and the reference line (root, axis, chord towards the leading edge) in body
+  // coordinates.
   int body = -1;
   // Elastic carrier: the body's index among the elastic bodies and its reference mesh; root_b,
   // axis_b, chord_b are then global (reference configuration).
@@ -132,7 +131,6 @@ class AirLoads : public ForceElement {
     double alpha = 0.0, mach = 0.0, moment = 0.0;  // moment per span about the quarter chord
     Eigen::Vector3d force_local = Eigen::Vector3d::Zero();  // per span, section frame
     Eigen::Vector3d force = Eigen::Vector3d::Zero(), point = Eigen::Vector3d::Zero();  // global, at a
-    Eigen::Vector3d e3 = Eigen::Vector3d::Zero();
   };
   SectionResult Evaluate(const AeroSection& section, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
                          double t) const;

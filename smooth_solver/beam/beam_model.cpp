@@ -97,10 +97,9 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
     // Reference line and section frames.
     const Eigen::Vector3d root = checks.Vector3(path + ".root", b.root(), std::nullopt);
     const Eigen::Vector3d axis = checks.Direction(path + ".axis", b.axis());
-    const Eigen::Vector3d chord_given = checks.Direction(path + ".chord", b.chord());
-    const Eigen::Vector3d chord_normal = chord_given - chord_given.dot(axis) * axis;
-    if (chord_normal.norm() < 1e-6) checks.Fail(path + ".chord", "is parallel to axis; it must point across the span");
-    const Eigen::Vector3d d2_0 = chord_normal.normalized(), d3_0 = axis.cross(d2_0);
+    const Eigen::Vector3d d2_0 = checks.AcrossAxis(path + ".chord", b.chord(), axis), d3_0 = axis.cross(d2_0);
+    beam.d2_0 = d2_0;
+    beam.d3_0 = d3_0;
     const Eigen::Vector3d v0 = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
     const Eigen::Vector3d w0 = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
 

@@ -2,6 +2,8 @@
 // A beam as given in the scenario (model.beams), validated: its node bodies, elements and
 // section table. The nodes become bodies of the MultibodyModel ("<beam>.n<k>") before the joints
 // are read, so that joints, loads, probes and interface nodes can name them.
+#include <Eigen/Core>
+
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -22,6 +24,8 @@ struct BeamModel {
   BeamTable table;
   double retardation = 0.0;
   double span_start = 0.0, span_end = 0.0;
+  // The untwisted section axes in the initial configuration: chordwise d2, flapwise d3.
+  Eigen::Vector3d d2_0 = Eigen::Vector3d::UnitY(), d3_0 = Eigen::Vector3d::UnitZ();
   // Floor on every director's second moment, kRotaryFloor · m · ℓ² with ℓ = max(L_e, L/10)
   // (BeamElementMass): keeps each node's rotation inertial where the data give no rotary
   // inertia (d1 never has any: a section has no thickness along the span). A radius of gyration

@@ -11,6 +11,8 @@ KIND
                   relaxation, the reaction tolerance and the step vary (a coupled scenario)
   stability       the hard-case table: SCENARIO is a folder of scenarios (or one file); does
                   each complete, constraint violation, energy change, iterations, wall time
+  compare         runs of one scene on the same axes (study.compare: e.g. co-simulated and
+                  continuous stops), their RMS and peak differences and each stop contact
   results         every study of docs/results.md, regenerated into docs/
 
 Each study writes into its output folder (default runs/study/KIND-NAME): runs.csv (one row per
@@ -623,8 +625,129 @@ def study_modes(runner, scenario_path, out, sets):
     print(f"cosim study: fan plot in {out}/fan_plot.png, table in {out}/report.md", file=sys.stderr)
 
 
+def contact_episodes(times, values, floor=0.0):
+    """Runs of |value| > floor (a contact force, or a step's impulse): [(start, end, i0, i1)], with
+    i0..i1 the samples inside; start/end are the first and last samples in contact."""
+    episodes, start = [], None
+    for i, v in enumerate(values):
+        on = abs(v) > floor
+        if on and start is None:
+            start = i
+        if not on and start is not None:
+            episodes.append((times[start], times[i - 1], start, i - 1))
+            start = None
+    if start is not None:
+        episodes.append((times[start], times[-1], start, len(values) - 1))
+    return episodes
+
+
+def study_compare(runner, scenario_path, out, sets):
+    """Runs of one scene drawn on the same axes (study.compare: e.g. co-simulated and continuous
+    contact), their differences (RMS and peak, against the first run on its output times) and each
+    stop contact (study.compare[].contact_probes): start, end, the peaks of study.probes in it."""
+    scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    specs = study.get("compare", [])
+    if len(specs) < 2:
+        fail(f"{scenario_path}: study compare needs two or more `study {{ compare {{ ... }} }}` runs, got {len(specs)}")
+    probes = list(study.get("probes", []))
+    if not probes:
+        fail(f"{scenario_path}: study compare needs `study {{ probes: [...] }}`, the probes drawn")
+    runs = []
+    for i, spec in enumerate(specs):
+        path = os.path.join(os.path.dirname(scenario_path), spec["scenario"]) if spec.get("scenario") else scenario_path
+        if not os.path.isfile(path):
+            fail(f"{scenario_path}: study.compare[{i}].scenario: no such file: {path}")
+        runs.append({"id": spec.get("name", f"run{i}"), "scenario": path, "sets": list(sets) + list(spec.get("set", [])),
+                     "contact_probes": list(spec.get("contact_probes", [])), "out": os.path.join(out, "runs", f"r{i}")})
+    runs = runner.run_all(runs)
+    histories = [read_histories(r["out"]) for r in runs]
+    for r, h in zip(runs, histories):
+        missing = [p for p in probes + r["contact_probes"] if p not in h]
+        if missing and r["code"] == 0:
+            fail(f"run '{r['id']}' has no probe(s) {', '.join(missing)} (its history has {', '.join(sorted(h)) or 'none'})")
+    # Differences against the first run, on its output times within the common span.
+    ref_hist = histories[0]
+    diff_rows = []
+    for r, h in zip(runs[1:], histories[1:]):
+        for p in probes:
+            if p not in ref_hist or p not in h:
+                continue
+            t0, v0 = ref_hist[p]
+            t1, v1 = h[p]
+            inside = (t0 >= max(t0[0], t1[0])) & (t0 <= min(t0[-1], t1[-1]))
+            if not inside.any():
+                continue
+            d = np.interp(t0[inside], t1, v1) - v0[inside]
+            k = int(np.argmax(np.abs(d)))
+            diff_rows.append([r["id"], p, float(np.sqrt(np.mean(d * d))), float(abs(d[k])), float(t0[inside][k]),
+                              float(np.max(np.abs(v0[inside])))])
+    # Contacts.
+    contact_rows = []
+    for r, h in zip(runs, histories):
+        for cp in r["contact_probes"]:
+            if cp not in h:
+                continue
+            t, v = h[cp]
+            for n, (a, b, i0, i1) in enumerate(contact_episodes(t, v)):
+                row = [r["id"], cp, n + 1, float(a), float(b), float(np.max(np.abs(v[i0:i1 + 1])))]
+                for p in probes:
+                    if p in h:
+                        tp, vp = h[p]
+                        window = (tp >= a) & (tp <= b)
+                        row.append(float(np.max(np.abs(vp[window]))) if window.any() else float("nan"))
+                    else:
+                        row.append(float("nan"))
+                contact_rows.append(row)
+    write_csv(os.path.join(out, "differences.csv"), ["run", "probe", "rms", "peak", "peak_time", "reference_peak"], diff_rows)
+    write_csv(os.path.join(out, "contacts.csv"), ["run", "contact_probe", "contact", "start", "end", "peak_contact"] +
+              [f"peak_{p}" for p in probes], contact_rows)
+    write_csv(os.path.join(out, "runs.csv"), ["run", "exit", "wall_time", "process_seconds", "steps", "coupling_iterations_per_step"],
+              [[r["id"], r["code"], r["wall"], r["seconds"], (r["summary"] or {}).get("steps", ""),
+                ((r["summary"] or {}).get("coupling_iterations") or {}).get("mean_per_step", "")] for r in runs])
+    # The figure: one axis per probe, every run on it.
+    fig, axes = plt.subplots(len(probes), 1, figsize=(7.5, 2.1 * len(probes)), sharex=True)
+    axes = np.atleast_1d(axes)
+    styles = ["-", "--", ":", "-."]
+    for ax, p in zip(axes, probes):
+        for i, (r, h) in enumerate(zip(runs, histories)):
+            if p in h:
+                ax.plot(h[p][0], h[p][1], styles[i % len(styles)], lw=1.0, label=r["id"])
+        ax.set_ylabel(p, fontsize=8)
+    axes[-1].set_xlabel("time [s]")
+    axes[0].set_title(f"{scenario['name']}: " + " against ".join(r["id"] for r in runs), fontsize=10)
+    save_plot(fig, list(axes), os.path.join(out, "compare.png"))
+    lines = [f"# Compared: {scenario['name']}", "", scenario.get("description", ""), "",
+             "![compare](compare.png)", "",
+             "| run | exit | wall time of the steps [s] | process [s] | steps | coupling iterations per step |", "|---|---|---|---|---|---|"]
+    for r in runs:
+        s_ = r["summary"] or {}
+        lines.append(f"| {r['id']} | {r['code']} | {r['wall']:.1f} | {r['seconds']:.1f} | {s_.get('steps', '—')} | "
+                     f"{fmt((s_.get('coupling_iterations') or {}).get('mean_per_step', float('nan')))} |")
+    lines += ["", f"Differences from '{runs[0]['id']}' on its output times (RMS, largest and when; the reference's largest |value| for scale):", "",
+              "| run | probe | RMS | peak | at [s] | reference peak |", "|---|---|---|---|---|---|"]
+    for row in diff_rows:
+        lines.append(f"| {row[0]} | {row[1]} | {fmt(row[2])} | {fmt(row[3])} | {row[4]:.3f} | {fmt(row[5])} |")
+    lines += ["", "Stop contacts (samples where the contact probe is non-zero; the peaks of each probe within):", "",
+              "| run | contact probe | # | start [s] | end [s] | peak contact | " + " | ".join(f"peak {p}" for p in probes) + " |",
+              "|---|---|---|---|---|---|" + "---|" * len(probes)]
+    shown = {}
+    for row in contact_rows:
+        key = (row[0], row[1])
+        shown[key] = shown.get(key, 0) + 1
+        if shown[key] <= 12:
+            lines.append("| " + " | ".join([row[0], row[1], str(row[2]), f"{row[3]:.3f}", f"{row[4]:.3f}"] +
+                                           [fmt(x) for x in row[5:]]) + " |")
+    for key, n in shown.items():
+        if n > 12:
+            lines.append(f"| {key[0]} | {key[1]} | … {n - 12} more in contacts.csv | | | | " + " | " * len(probes))
+    lines += ["", failures_section(runs)]
+    write_report(out, lines)
+    return {"runs": runs, "differences": diff_rows, "contacts": contact_rows}
+
+
 STUDIES = {"convergence": study_convergence, "work-precision": study_work_precision,
-           "coupling": study_coupling, "stability": study_stability, "modes": study_modes}
+           "coupling": study_coupling, "stability": study_stability, "modes": study_modes,
+           "compare": study_compare}
 
 
 def main():

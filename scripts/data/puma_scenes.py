@@ -19,6 +19,11 @@ OMEGA = 28.0
 DROOP = -10.0 * math.pi / 180  # the droop stop; blades start on it
 E_LAG, E_FLAP, R_PITCH, R = 0.269, 0.289, 0.432, 7.49
 DEG = 57.29577951308232
+# The contact node's mass, taken from the cuff in the co-simulated scenes (so the blade weighs the
+# same in both models): heavy enough that the coupling iteration converges where a blade leaves
+# its stop (see the file's comments).
+NODE_MASS = 7.0
+LAG_STOP = 15.0 * math.pi / 180  # lead and lag stops (a choice: the data have none; see the file's comments)
 STATIONS = subprocess.run([os.path.join(HERE, "puma_blade_stations.py"), "--clockwise", "8"], check=True,
                           capture_output=True, text=True).stdout.rstrip()
 
@@ -54,7 +59,7 @@ hub_drive = ("constant: 0" if GUST else
              "sum { terms { cosine_ramp { final_value: -28 ramp_time: 20 } }\n"
              "                                               terms { cosine_ramp { final_value: 28 ramp_time: 20 start_time: 30 } } }")
 if COSIM:
-    STOPS = f"""      contact_nodes {{ name: "blade{{k}}_stop_node" mass: 0.1 position: {v(node)}
+    STOPS = f"""      contact_nodes {{ name: "blade{{k}}_stop_node" mass: {NODE_MASS} position: {v(node)}
                       contacts {{ obstacle: "blade{{k}}_droop" restitution: 0.8 }} contacts {{ obstacle: "blade{{k}}_antiflap" restitution: 0.8 }} }}
       obstacles {{ name: "blade{{k}}_droop" point: [{E_FLAP}, 0, 0] normal: {v(droop_normal)} attached_to_body: "hub" }}
       obstacles {{ name: "blade{{k}}_antiflap" point: [{E_FLAP}, 0, 0] normal: {v(antiflap_normal)} attached_to_body: "hub" }}"""
@@ -70,6 +75,16 @@ else:
                law {{ stiffness: 1e9 exponent: 1.5 restitution: 0.8 effective_restitution: true }} }} }}"""
     STOP_PROBES = """      probes { name: "blade{k}_stop_moment" quantity: CONTACT_FORCE entity: "blade{k}_stops" }"""
     COUPLING = ""
+TWIN = "gust_continuous.pbtxt" if GUST else "engage_disengage_continuous.pbtxt"
+# `scripts/cosim study compare` (the paper's Fig. 5 / Fig. 7): this scene against its continuous twin.
+STUDY = f'''# `scripts/cosim study compare` draws blade 1 of both models on the same axes (the paper's
+# Fig. {7 if GUST else 5}) and tables their differences and each stop contact.
+study {{
+  probes: ["blade1_flap", "blade1_lag", "blade1_root_shear_z", "blade1_root_flap_moment", "blade1_tip_z"]
+  compare {{ name: "co-simulated" contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] }}
+  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}
+}}''' if COSIM else ""
+CUFF_MASS = 7.3512 - (NODE_MASS if COSIM else 0.0)
 stops_kind = "co-simulated stops (four contact processes)" if COSIM else "continuous-contact stops"
 title = ("still rotor in a gust (Fig. 7), " if GUST else "engagement and disengagement (Fig. 5), ") + stops_kind
 print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articulated
@@ -78,8 +93,16 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 # scripts/data/puma_blade_stations.py. Data: ../shared/reference/puma.md, aero.md.
 # Choices where the data leave gaps:
 # - hub 50 kg, [5, 5, 10] kg m²; driven (speed) about +z, the rotor turning clockwise seen from above;
+# - lead and lag stops at ±15° on the lag hinge (Hunt–Crossley, K = 1e8 N m/rad^1.5, e = 0.5,
+#   an elastomer-lined stop), in both the continuous and the co-simulated scenes: the data have a
+#   lag damper and no lag spring, and during the spin-up the hub's angular acceleration (up to
+#   2.2 rad/s²) needs ~3 kN m at each lag hinge while the centrifugal lag stiffness is only
+#   Ω² e S_ζ ≈ 67 Ω² N m/rad — without stops the blades lag past 60° in the first 8 s, where the
+#   pitch link (rigid, its lower end fixed) pulls the pitch ~−0.3 ζ² nose down, the extra drag
+#   lags them further, and they wind round the lag hinge (observed: 370° at 11 s). Real
+#   articulated hubs have such stops; their Puma values are not in the data;
 # - lag link (0.269 → 0.289 m): 0.526 kg at 0.2845 m; cuff (flap hinge → pitch bearing, does not
-#   pitch): 7.35 kg at 0.3605 m; pitch fitting at the pitch bearing (the beam's clamp, carries the
+#   pitch): """ + (f"0.35 kg at 0.3605 m (and the 7 kg contact node)" if COSIM else "7.35 kg at 0.3605 m") + """; pitch fitting at the pitch bearing (the beam's clamp, carries the
 #   horn): 1 kg — together the tables' 8.35 kg over 0.289–0.432 m;
 # - pitch horn at (0.289, −0.181) m in blade coordinates (radial, counter-clockwise tangent): on
 #   the flap hinge's axis, so flapping does not change pitch; a rigid pitch link 0.3 m long
@@ -87,7 +110,14 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 #   collective and cyclic, swashplate fixed): spherical at the horn, universal at the ring;
 # - beam from the pitch bearing to the tip, 5 quadratic elements (the MBDyn model's), GA = EA,
 #   structural damping 1e-4 s; chord towards the leading edge (d3 down, the tables' twist negated);
-# - stops: droop −10°, anti-flap +10° on the flap hinge, """ + ("""Newton restitution 0.8 for a contact node of 0.1 kg
+# - stops: droop −10°, anti-flap +10° on the flap hinge, """ + ("""Newton restitution 0.8 for a contact node of 7 kg (its
+#   mass taken from the cuff's, which keeps 0.35 kg: the blade weighs what the continuous scene's
+#   does; the node's mass is not in the data). A light node makes the coupling iteration stiff:
+#   a free node moves h²/m per newton of tie force, which the tie (2e8 N/m) answers with
+#   h² k/m times that force — 2000 for 0.1 kg at h = 1 ms — and where a blade leaves its stop
+#   (the force changes sign, the node's LCP switches) neither IQN-ILS nor Aitken converged in 50
+#   iterations (observed: the gust at 2.97 s, the engagement at 5.25 s); 7 kg makes it 29, about
+#   the paper's setting at h = 1e-4 s; the node's
 #   tied (Tikhonov compliance 5e-9 m/N, puma.md's figure read per metre) 0.05 m below the blade
 #   axis at the pitch bearing, on the pitch fitting; the planes pass through the flap hinge's axis
 #   and through the node's place at ∓10°, attached to the hub;""" if COSIM else """Hunt–Crossley/Flores with n = 3/2,
@@ -97,7 +127,8 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 #   joints' initial_coordinate), gravity from t = 0 (the stop's static sag is ~1e-5 rad);
 # - air: strip theory on the beams from 2.08 m, NACA 0012 built in, uniform momentum inflow
 #   (zero below a 10 m/s tip speed); sea-level air (1.225 kg/m³, 340 m/s), still{' until the gust' if GUST else ''};
-# - probes: angles in degrees; root shear and flapwise moment at r = 0.5 m (the first section
+# - probes: angles in degrees; pitch bearing angle too (deg);
+#   root shear and flapwise moment at r = 0.5 m (the first section
 #   outboard of the pitch bearing), in the beam's section frame (d3, the flapwise axis, points
 #   down: an upward shear on the outboard part reads negative); the stops' contact moment [N m].""")
 if GUST:
@@ -125,7 +156,7 @@ patterns {{
   each {{
     model {{
       bodies {{ name: "blade{{k}}_lag" mass: 0.5256 inertia: [0.001, 0.001, 0.001] position: [0.2845, 0, 0] }}
-      bodies {{ name: "blade{{k}}_cuff" mass: 7.3512 inertia: [0.01, 0.0142, 0.0142] position: {v(drooped(0.3605))} rotation: {v(turned)} }}
+      bodies {{ name: "blade{{k}}_cuff" mass: {CUFF_MASS:.12g} inertia: [0.01, 0.0142, 0.0142] position: {v(drooped(0.3605))} rotation: {v(turned)} }}
       bodies {{ name: "blade{{k}}_pitch" mass: 1 inertia: [0.01, 0.01, 0.01] position: {v(drooped(R_PITCH))} rotation: {v(turned)} }}
       bodies {{ name: "blade{{k}}_pitch_link" mass: 0.5 inertia: [0.00375, 0.00375, 1e-4] position: {v((horn[0], horn[1], horn[2] - 0.15))} }}
       joints {{ name: "blade{{k}}_lag_hinge" type: REVOLUTE body1: "hub" body2: "blade{{k}}_lag" point: [{E_LAG}, 0, 0] axis: [0, 0, 1] }}
@@ -135,6 +166,8 @@ patterns {{
       joints {{ name: "blade{{k}}_horn" type: SPHERICAL body1: "blade{{k}}_pitch" body2: "blade{{k}}_pitch_link" point: {v(horn)} }}
       joints {{ name: "blade{{k}}_swashplate" type: UNIVERSAL body1: "hub" body2: "blade{{k}}_pitch_link" point: {v(swash)} axis: [1, 0, 0] axis2: [0, 1, 0] }}
       forces {{ name: "blade{{k}}_lag_damper" joint_spring {{ joint: "blade{{k}}_lag_hinge" stiffness: 0 damping: 7000 }} }}
+      forces {{ name: "blade{{k}}_lag_stops" joint_stop {{ joint: "blade{{k}}_lag_hinge" lower: {-LAG_STOP:.12g} upper: {LAG_STOP:.12g}
+               law {{ stiffness: 1e8 exponent: 1.5 restitution: 0.5 effective_restitution: true }} }} }}
 {STOPS}
       beams {{
         name: "blade{{k}}" root: {v(drooped(R_PITCH))} axis: {v(span)} chord: [0, -1, 0]
@@ -150,6 +183,7 @@ patterns {{
 {COUPLING}    output {{
       probes {{ name: "blade{{k}}_flap" quantity: JOINT_COORDINATE entity: "blade{{k}}_flap_hinge" scale: {DEG} }}
       probes {{ name: "blade{{k}}_lag" quantity: JOINT_COORDINATE entity: "blade{{k}}_lag_hinge" scale: {DEG} }}
+      probes {{ name: "blade{{k}}_pitch" quantity: JOINT_COORDINATE entity: "blade{{k}}_pitch_bearing" scale: {DEG} }}
       probes {{ name: "blade{{k}}_root_shear_z" quantity: SECTION_FORCE entity: "blade{{k}}" station: 0.5 component: Z }}
       probes {{ name: "blade{{k}}_root_flap_moment" quantity: SECTION_MOMENT entity: "blade{{k}}" station: 0.5 component: Y }}
       probes {{ name: "blade{{k}}_tip_z" quantity: POSITION entity: "blade{{k}}.n10" component: Z }}
@@ -158,13 +192,22 @@ patterns {{
   }}
 }}
 {"coupling { iteration { relaxation: IQN_ILS reuse_steps: 4 displacement_tolerance: 1e-8 reaction_tolerance: 1e-4 } }" if COSIM else ""}
+{STUDY}
+# Numerics (choices, measured in docs/results.md, "The Puma scenes"): h = 1 ms, ten times the
+# paper's 1e-4 s — the co-simulated impacts need no small step (Moreau–Jean), and the continuous
+# law's contact at K = 1e9 lasts ~20 ms on the droop stop; the Newton matrix is reused over up
+# to 20 steps (and every coupling iteration) while it contracts the corrections 4× or better.{'''
+# A contact stays in the step's LCP up to a predicted gap of 1 µm: the node of a blade resting
+# on its stop can end a step a hair above the plane (the tie's round-off), and a node left out
+# of the LCP for one step under the 4 kN of the tie flew 2 cm through it (h = 1 ms, t = 0.85 s).''' if COSIM else ''}
 numerics {{
   end_time: {15 if GUST else 50}
-  step: 1e-4
-  smooth {{ rho_inf: 0.6 }}
+  step: 1e-3
+  smooth {{ rho_inf: 0.6 jacobian_max_age: 20 }}{'''
+  nonsmooth { activation_gap: 1e-6 }''' if COSIM else ''}
 }}
 output {{
-  every: 100
+  every: 2
   probes {{ name: "hub_speed" quantity: JOINT_SPEED entity: "shaft" }}
   probes {{ name: "thrust" quantity: ROTOR_THRUST entity: "rotor" }}
 }}""")

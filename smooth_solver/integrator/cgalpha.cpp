@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <limits>
+#include <cstdio>
+#include <cstdlib>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
@@ -123,6 +125,7 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
   elastic_.Reset(state_.q);
   const int n = system.coordinates, m = system.constraints.size();
   next_ = state_;
+  predicted_ = state_;
   a_next_.resize(n);
   residual_.resize(n + m);
   force_.resize(n);
@@ -239,11 +242,8 @@ void CgAlpha::ProjectPositions(double t1) {
 }
 
 int CgAlpha::Step(double t, double h) {
-  const int n = system_.coordinates, m = system_.constraints.size();
+  const int m = system_.constraints.size();
   const double t1 = t + h;
-  const double bh2 = coef_.beta * h * h;
-  const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
-  const double gamma_prime = coef_.gamma / (coef_.beta * h);
   if (RestartAtRelease(system_, t, t1, &state_)) {
     a_ = state_.qddot;
     elastic_.Reset(state_.q);
@@ -283,20 +283,62 @@ int CgAlpha::Step(double t, double h) {
   next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - coef_.beta) * a_ + coef_.beta * a_next_);
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
 
+  // Same h up to the round-off of t_{k+1} − t_k on the run's time grid.
+  const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && std::abs(h - h_factorized_) <= 1e-9 * h &&
+                     age_ < settings_.jacobian_max_age;
+  if (reuse) predicted_ = next_;  // kept for a retry with fresh matrices
+  int iterations = 0;
+  bool converged = Newton(t1, h, reuse, &iterations);
+  if (!converged && reuse) {
+    next_ = predicted_;
+    converged = Newton(t1, h, /*reuse=*/false, &iterations);
+  }
+  if (converged) {
+    // Accept: a_{n+1} from Eq. (3).
+    a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
+    elastic_.Accept(state_.q, next_.q);
+    std::swap(state_, next_);
+    ++age_;
+    return iterations;
+  }
+  throw NumericalError("CGα: Newton did not converge in " + std::to_string(settings_.max_iterations) +
+                       " iterations at t = " + interface::FormatNumber(t1) + " s (tolerance " +
+                       interface::FormatNumber(settings_.tolerance) +
+                       "); reduce the step or raise numerics.smooth.newton_max_iterations");
+}
+
+bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
+  const int n = system_.coordinates, m = system_.constraints.size();
+  const double bh2 = coef_.beta * h * h;
+  const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
+  const double gamma_prime = coef_.gamma / (coef_.beta * h);
+  double previous_dq = std::numeric_limits<double>::infinity();
   ConstraintRows(t1, /*phi_known=*/false);
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
-    // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix.
+    ++*iterations;
+    // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix unless reused.
     system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
-    AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
+    if (reuse) {
+      elastic_.Add(state_.q, next_.q, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
+    } else {
+      AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
+    }
     auto r_q = residual_.head(n);
     r_q.noalias() = system_.mass * next_.qddot;
     r_q -= force_;
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     ScaledRows(1.0 / gamma_prime, residual_.tail(m));  // rows_ is at next_ (below, or before the loop)
-    if (!lu_.Factorize(S_)) {
-      throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
-                           " s (redundant constraints or a singular configuration)");
+    if (!reuse) {
+      ++factorizations_;
+      factorized_ = false;
+      if (!lu_.Factorize(S_)) {
+        throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
+                             " s (redundant constraints or a singular configuration)");
+      }
+      factorized_ = true;
+      h_factorized_ = h;
+      age_ = 0;
     }
     delta_ = -residual_;
     lu_.SolveInPlace(delta_);
@@ -306,7 +348,7 @@ int CgAlpha::Step(double t, double h) {
     next_.qddot += beta_prime * dq;
     next_.lambda += delta_.tail(m) / bh2;
     const double dq_norm = dq.lpNorm<Eigen::Infinity>();
-    if (!std::isfinite(dq_norm)) break;
+    if (!std::isfinite(dq_norm)) return false;
     // INDEX2_PROJECTED: the positions back onto Φ = 0 (velocity rows) inside the iteration, as a
     // displacement of q alone (q̇ and q̈ stay the Newmark ones): the next residual, forces and
     // the GEMM elastic force then see the corrected positions, as in the coupled GGL form
@@ -320,17 +362,15 @@ int CgAlpha::Step(double t, double h) {
     const double phi_norm = ScaledRows(h, violation_step_);
     if (dq_norm <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) &&
         phi_norm <= settings_.tolerance) {
-      // Accept: a_{n+1} from Eq. (3).
-      a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
-      elastic_.Accept(state_.q, next_.q);
-      std::swap(state_, next_);
-      return iteration;
+      return true;
     }
+    // A reused matrix that no longer contracts the correction well is replaced by a fresh one
+    // for the rest of the step (full Newton from here).
+    if (std::getenv("CGA_DEBUG")) fprintf(stderr, "t=%.4f it=%d reuse=%d dq=%.3e prev=%.3e phi=%.3e tol=%.3e\n", t1, iteration, (int)reuse, dq_norm, previous_dq, phi_norm, settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()));
+    if (reuse && dq_norm > settings_.reuse_contraction * previous_dq) reuse = false;
+    previous_dq = dq_norm;
   }
-  throw NumericalError("CGα: Newton did not converge in " + std::to_string(settings_.max_iterations) +
-                       " iterations at t = " + interface::FormatNumber(t1) + " s (tolerance " +
-                       interface::FormatNumber(settings_.tolerance) +
-                       "); reduce the step or raise numerics.smooth.newton_max_iterations");
+  return false;
 }
 
 }  // namespace cosim::smooth

@@ -76,6 +76,14 @@ struct CgAlphaSettings {
   // Elastic bodies: the GEMM midpoint internal force (Eq. (30)); false: the generalised-α
   // end-point force of Eq. (12).
   bool gemm = true;
+  // Newton matrix reuse (a modified Newton method): the matrix and its factorisation may serve
+  // up to this many later steps of the same h (0: a fresh matrix in every iteration, full
+  // Newton). A reused matrix is dropped when an iteration contracts the correction by less than
+  // `reuse_contraction` (the step then goes on with a fresh one) or when the step fails with it
+  // (the step is redone from its predictor with fresh matrices), so only the number of
+  // iterations changes, never the test that accepts a step.
+  int jacobian_max_age = 0;
+  double reuse_contraction = 0.25;
 };
 
 class CgAlpha : public SmoothIntegrator {
@@ -96,6 +104,9 @@ class CgAlpha : public SmoothIntegrator {
   double ConstraintViolation(double t) const override;
   // Solves of the position projection over all steps so far (INDEX2_PROJECTED; cost accounting).
   long long projection_solves() const { return projection_solves_; }
+  // Newton matrices assembled and factorised over all steps so far (cost accounting; with
+  // jacobian_max_age = 0 one per Newton iteration).
+  long long factorizations() const { return factorizations_; }
 
   // Starts again from `state` (consistent), a_n = q̈_n, without the shifted start-up: for a
   // coupled run, where the imposed coordinates are end-of-step values and a shift step would
@@ -152,8 +163,16 @@ class CgAlpha : public SmoothIntegrator {
   std::vector<char> velocity_row_;
   bool any_velocity_row_ = false;
   long long projection_solves_ = 0;
+  long long factorizations_ = 0;
+  // The factorisation in lu_: valid for step h_factorized_, reused for age_ accepted steps.
+  bool factorized_ = false;
+  double h_factorized_ = 0.0;
+  int age_ = 0;
+  // One Newton solve of the step from its predictor (next_ set); `reuse`: start from the
+  // factorisation in lu_. Returns whether it converged; adds the iterations to *iterations.
+  bool Newton(double t1, double h, bool reuse, int* iterations);
   // Newton workspace.
-  DaeState next_;
+  DaeState next_, predicted_;
   Eigen::VectorXd a_next_, residual_, delta_, phi_, phi_t_, rate_, rows_, violation_step_, force_;
   mutable Eigen::VectorXd violation_;
   Eigen::SparseMatrix<double> S_;

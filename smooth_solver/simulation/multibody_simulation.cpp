@@ -62,6 +62,11 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     checks.Fail("numerics.smooth.newton_max_iterations", "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
   }
   settings.max_iterations = s.newton_max_iterations();
+  if (s.jacobian_max_age() < 0) {
+    checks.Fail("numerics.smooth.jacobian_max_age", "must be >= 0 steps (0 = a fresh Newton matrix every iteration), got " +
+                                                        std::to_string(s.jacobian_max_age()));
+  }
+  settings.jacobian_max_age = s.jacobian_max_age();
   if (s.elastic_force() != sc::SmoothSettings::GEMM && s.elastic_force() != sc::SmoothSettings::END_POINT) {
     checks.Fail("numerics.smooth.elastic_force", "expected GEMM or END_POINT");
   }
@@ -529,6 +534,7 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   if (ida_) counters["ida_internal_steps"] = static_cast<double>(ida_steps_);
   if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get())) {
     counters["position_projection_solves"] = static_cast<double>(cg->projection_solves());
+    counters["newton_factorizations"] = static_cast<double>(cg->factorizations());
   }
   counters["watchdog_max_rigidity_rate"] = watchdog_->max_rigidity_rate();
   counters["watchdog_energy_checked"] = watchdog_->energy_checked() ? 1.0 : 0.0;

@@ -369,24 +369,35 @@ TEST(RunContract, ProbeScaleMultipliesItsColumnOnly) {
   EXPECT_NE(r.output.find("output.probes[4].scale: must be non-zero"), std::string::npos) << r.output;
 }
 
-TEST(CoupledRun, PumaRotorRunsWithOneContactProcessPerBlade) {
+TEST(CoupledRun, PumaRotorRestsOnItsDroopPlanesWithOneContactProcessPerBlade) {
   // scenarios/puma/engage_disengage.pbtxt (the pattern's four blades, each with its contact
-  // process, the launcher setting their endpoints into the copies): 30 steps at rest — every
-  // blade's node rests on its droop plane (an impulse each step), the flap angles stay at −10°.
+  // process, the launcher setting their endpoints into the copies), the first second (1000 steps
+  // of 1 ms, Ω < 0.18 rad/s): every blade's node rests on its droop plane — an impulse every
+  // sampled step (the blade's weight through the tie, ~4.4 kN on the node) — and the flap angles
+  // stay within 0.1° of −10°: the tie's compliance (5e-9 m/N at 0.145 m from the flap hinge,
+  // 2.4e-7 rad/(N m)) lets the blade sink 0.033° under its 2.4 kN m static moment, and the
+  // elastic blade's response to gravity applied at t = 0 about doubles it at first (observed
+  // −10.052°). Before numerics.nonsmooth.activation_gap held the resting contact
+  // in the LCP, a node that ended a step a hair above its plane was left out of the next one and
+  // flew 2 cm through it at t = 0.85 s.
   const fs::path out = TempDir("puma_cosim");
   const Result r = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + out.string() +
-                          " --set numerics.end_time=0.003 --set output.every=1");
+                          " --set numerics.end_time=1 --set output.every=10");
   ASSERT_EQ(r.code, 0) << r.output;
   const auto smooth = ReadTable(out / "history.csv");
   for (int k = 1; k <= 4; ++k) {
     const std::string blade = "blade" + std::to_string(k);
     const auto stops = ReadTable(out / ("stops" + std::to_string(k)) / "history.csv");
     const auto droop = stops.Column(blade + "_droop_impulse");
+    const auto antiflap = stops.Column(blade + "_antiflap_impulse");
     const auto flap = smooth.Column(blade + "_flap");
-    ASSERT_FALSE(droop.empty());
-    ASSERT_FALSE(flap.empty());
-    EXPECT_GT(droop.back(), 0.0) << blade;
-    EXPECT_NEAR(flap.back(), -10.0, 0.01) << blade;
+    ASSERT_EQ(droop.size(), 101u) << blade;
+    ASSERT_EQ(flap.size(), 101u) << blade;
+    for (size_t i = 1; i < droop.size(); ++i) {
+      EXPECT_GT(droop[i], 0.0) << blade << " sample " << i;
+      EXPECT_EQ(antiflap[i], 0.0) << blade << " sample " << i;
+      EXPECT_NEAR(flap[i], -10.0, 0.1) << blade << " sample " << i;
+    }
   }
 }
 

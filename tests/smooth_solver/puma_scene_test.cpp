@@ -25,7 +25,7 @@ int Column(const MultibodySimulation& sim, const std::string& name) {
 }
 
 TEST(PumaScenes, BladesStartOnTheirDroopStopsAndStayThereAtRest) {
-  // engage_disengage_continuous at t ≤ 0.03 s (Ω < 1e-4 rad/s): each blade drawn drooped reads
+  // engage_disengage_continuous at t ≤ 0.03 s (Ω < 1e-4 rad/s, the scene's 1 ms steps): each blade drawn drooped reads
   // −10° on its flap hinge and settles a few thousandths of a degree into the stop under its
   // weight (2.4 kN m against K = 1e9 N m/rad^1.5: δ ≈ 3e-5 rad static, plus the elastic blade's
   // response to gravity applied at t = 0); the pitch-link loop closes (no initial correction).
@@ -36,8 +36,8 @@ TEST(PumaScenes, BladesStartOnTheirDroopStopsAndStayThereAtRest) {
   sim.Probe(&v);
   for (int k = 1; k <= 4; ++k) EXPECT_NEAR(v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_flap"))], droop, 1e-9);
   double deepest = 0.0;
-  for (int s = 0; s < 300; ++s) {
-    sim.Step(s * 1e-4, 1e-4);
+  for (int s = 0; s < 30; ++s) {
+    sim.Step(s * 1e-3, 1e-3);
     sim.Probe(&v);
     for (int k = 1; k <= 4; ++k) {
       deepest = std::min(deepest, (v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_flap"))] - droop) * 180 / std::numbers::pi);
@@ -52,6 +52,42 @@ TEST(PumaScenes, BladesStartOnTheirDroopStopsAndStayThereAtRest) {
   // Each droop stop carries the blade (its contact moment builds as the elastic blade takes its
   // weight; the upper stop's law adds nothing).
   for (int k = 1; k <= 4; ++k) EXPECT_GT(v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_stop_moment"))], 100.0);
+}
+
+TEST(PumaScenes, BladesLiftOffTheirDroopStopsAsTheRotorSpinsUpAndTheLagStopsHoldThem) {
+  // engage_disengage_continuous, the first 7 s of the spin-up (Ω = 0 → 7.6 rad/s): the blades
+  // stay on their droop stops until the centrifugal moment about the flap hinge outgrows their
+  // weight and the rotor's (negative: zero collective, nose-down twist) thrust. Rigid, air-free
+  // estimate: Ω² (I_β sin 10° cos 10°) = 2429 N m · cos 10°, Ω = 3.45 rad/s (12.3 % of Ω100%, at
+  // t = 4.3 s); the negative air load delays it (observed 4.72 rad/s, 16.9 %, t = 5.19 s). Before,
+  // the hub's angular acceleration lags each blade onto its +15° lag stop (no lag spring in the
+  // data; the damper alone cannot hold 3 kN m at Ω ≈ 2 rad/s), which holds it there.
+  MultibodySimulation sim(interface::ScenarioFile::Load(kPuma + "engage_disengage_continuous.pbtxt", {}));
+  std::vector<double> v(sim.ProbeNames().size());
+  const double deg = 180 / std::numbers::pi, h = 1e-3;
+  double lift_off = -1.0, lift_off_speed = 0.0, largest_lag = 0.0;
+  for (int s = 0; s < 7000; ++s) {
+    sim.Step(s * h, h);
+    sim.Probe(&v);
+    const double flap = v[static_cast<size_t>(Column(sim, "blade1_flap"))] * deg;
+    largest_lag = std::max(largest_lag, v[static_cast<size_t>(Column(sim, "blade1_lag"))] * deg);
+    if (lift_off < 0.0 && flap > -9.9) {
+      lift_off = (s + 1) * h;
+      lift_off_speed = std::abs(v[static_cast<size_t>(Column(sim, "hub_speed"))]);
+    }
+  }
+  const double flap = v[static_cast<size_t>(Column(sim, "blade1_flap"))] * deg;
+  std::printf("Puma spin-up: blade 1 off its droop stop (flap > −9.9°) at t = %.3f s, Ω = %.3f rad/s (%.1f %% of "
+              "Ω100%%); flap %.2f° at 7 s; largest lag %.2f°\n", lift_off, lift_off_speed, 100 * lift_off_speed / 28,
+              flap, largest_lag);
+  EXPECT_GT(lift_off, 4.3);                // not before the rigid, air-free estimate
+  EXPECT_LT(lift_off, 6.5);
+  EXPECT_GT(lift_off_speed, 3.45);
+  EXPECT_GT(flap, -7.0);                   // clear of the stop, coning up as Ω grows
+  EXPECT_LT(flap, 0.0);                    // the negative thrust keeps it below the hub plane
+  EXPECT_GT(largest_lag, 14.0);            // on the lag stop ...
+  EXPECT_LT(largest_lag, 15.5);            // ... which holds it (K = 1e8: ~0.1° deep)
+  EXPECT_EQ(v[static_cast<size_t>(Column(sim, "blade1_stop_moment"))], 0.0);  // the flap stops free
 }
 
 TEST(PumaScenes, AFiveBladeRotorIsOneNumber) {
@@ -71,7 +107,7 @@ TEST(PumaScenes, StillRotorWaitsForItsGustOnTheDroopStops) {
   // sagging under gravity, 0.09 N; the guard keeps the inflow at zero) and the blades on their stops.
   MultibodySimulation sim(interface::ScenarioFile::Load(kPuma + "gust_continuous.pbtxt", {}));
   std::vector<double> v(sim.ProbeNames().size());
-  for (int s = 0; s < 100; ++s) sim.Step(s * 1e-4, 1e-4);
+  for (int s = 0; s < 10; ++s) sim.Step(s * 1e-3, 1e-3);
   sim.Probe(&v);
   EXPECT_LT(std::abs(v[static_cast<size_t>(Column(sim, "thrust"))]), 1.0);
   EXPECT_EQ(v[static_cast<size_t>(Column(sim, "hub_speed"))], 0.0);

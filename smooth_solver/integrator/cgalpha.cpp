@@ -2,8 +2,6 @@
 
 #include <cmath>
 #include <limits>
-#include <cstdio>
-#include <cstdlib>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
@@ -366,7 +364,6 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
     }
     // A reused matrix that no longer contracts the correction well is replaced by a fresh one
     // for the rest of the step (full Newton from here).
-    if (std::getenv("CGA_DEBUG")) fprintf(stderr, "t=%.4f it=%d reuse=%d dq=%.3e prev=%.3e phi=%.3e tol=%.3e\n", t1, iteration, (int)reuse, dq_norm, previous_dq, phi_norm, settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()));
     if (reuse && dq_norm > settings_.reuse_contraction * previous_dq) reuse = false;
     previous_dq = dq_norm;
   }

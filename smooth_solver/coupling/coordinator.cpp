@@ -258,7 +258,10 @@ int Coordinator::Step(double t, double h) {
   ++accepted_steps_;
   lambda_start_ = lambda_end_;
   filtered_start_ = filtered_end_;
-  if (in_contact_ && !was_in_contact_) {
+  // A new contact (an impact): the points take their nodes' velocities and the history restarts,
+  // unless the scenario keeps the smooth model going (restart_at_impact = false: a regularised
+  // tie then carries the velocity jump over the next steps; scenario.proto).
+  if (in_contact_ && !was_in_contact_ && settings_.restart_at_impact) {
     DaeState after = integrator_->state();
     ProjectVelocities(system_, t + h, &after);  // the points move with their nodes
     RestartWithCouplingRowsFree(std::move(after), t + h);

@@ -39,6 +39,7 @@ struct CouplingSettings {
   int reuse_steps = 0;                   // IQN-ILS: columns of that many earlier steps kept
   bool step_average_reaction = false;    // false: λ at the step's end (see scenario.proto)
   bool stop_at_max_iterations = true;    // false: accept and mark the step
+  bool restart_at_impact = true;         // see scenario.proto, CouplingIteration
 };
 
 // One iteration's record, for the convergence log.

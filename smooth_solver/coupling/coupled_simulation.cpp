@@ -123,6 +123,19 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     checks.Fail("coupling.iteration.on_max_iterations", "expected STOP or ACCEPT_AND_MARK");
   }
   settings.stop_at_max_iterations = it.on_max_iterations() == sc::Coupling::CouplingIteration::STOP;
+  settings.restart_at_impact = it.restart_at_impact();
+  if (!settings.restart_at_impact) {
+    // Without the restart only a compliant tie can carry a node's velocity jump to the smooth model.
+    const auto& nodes = file.proto().coupling().interface_nodes();
+    for (int i = 0; i < nodes.size(); ++i) {
+      if (nodes[i].regularization() <= 0.0) {
+        checks.Fail("coupling.iteration.restart_at_impact",
+                    "false needs every interface node regularised (Tikhonov c > 0); coupling.interface_nodes[" +
+                        std::to_string(i) + "] ('" + nodes[i].contact_node() + "') is rigid");
+        break;
+      }
+    }
+  }
 
   coordinator_ = std::make_unique<Coordinator>(sys, simulation_->cgalpha(), std::move(peers), settings);
   start_time_ = file.proto().numerics().start_time();

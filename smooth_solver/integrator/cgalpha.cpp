@@ -205,7 +205,7 @@ double CgAlpha::ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> ou
   return out.size() > 0 ? out.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
-void CgAlpha::ProjectPositions(double t1) {
+bool CgAlpha::ProjectPositions(double t1) {
   // Chord iteration on Φ(q) = 0 (velocity rows only; the position rows hold already) with the
   // last Newton factorisation: its constraint rows are Φ_q + O(h) (Φ_q q̇)_q, so each solve
   // cuts the violation by a factor O(Ωh); the violation left by one step is O(h³). Leaves
@@ -221,15 +221,15 @@ void CgAlpha::ProjectPositions(double t1) {
     system_.constraints.Evaluate(next_.q, t1, phi_);
     for (int i = 0; i < m; ++i) rhs(i) = velocity_row_[static_cast<size_t>(i)] != 0 ? -phi_(i) : 0.0;
     const double violation = rhs.lpNorm<Eigen::Infinity>();
-    if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return;
+    if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return true;
     // A slow but steady contraction (the velocity rows of the matrix lean by |ω| βh/γ from Φ_q,
     // and a beam's section rotations can spin fast in its stiff modes) is accepted once within
     // the Newton tolerance after 10 solves.
-    if (k >= 10 && violation <= settings_.tolerance) return;
+    if (k >= 10 && violation <= settings_.tolerance) return true;
     if (k == 30 || !std::isfinite(violation)) {
-      throw NumericalError("CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) +
-                           " s (|Φ| = " + interface::FormatNumber(violation) + " after " + std::to_string(k) +
-                           " solves); reduce the step");
+      failure_ = "CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) + " s (|Φ| = " +
+                 interface::FormatNumber(violation) + " after " + std::to_string(k) + " solves); reduce the step";
+      return false;
     }
     previous = violation;
     delta_.head(n).setZero();
@@ -299,6 +299,7 @@ int CgAlpha::Step(double t, double h) {
     ++age_;
     return iterations;
   }
+  if (!failure_.empty()) throw NumericalError(failure_);
   throw NumericalError("CGα: Newton did not converge in " + std::to_string(settings_.max_iterations) +
                        " iterations at t = " + interface::FormatNumber(t1) + " s (tolerance " +
                        interface::FormatNumber(settings_.tolerance) +
@@ -311,6 +312,7 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
   const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
   const double gamma_prime = coef_.gamma / (coef_.beta * h);
   double previous_dq = std::numeric_limits<double>::infinity();
+  failure_.clear();
   ConstraintRows(t1, /*phi_known=*/false);
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     ++*iterations;
@@ -353,7 +355,7 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
     // q_{n+1} = q_Newmark + Φ_qᵀν. Projecting only after convergence leaves λ and f̃ at the
     // uncorrected positions, and the multipliers drop to first order (observed: 1.0–1.2 for the
     // flexible pendulum's reactions, 2.1 with the projection here).
-    if (any_velocity_row_) ProjectPositions(t1);
+    if (any_velocity_row_ && !ProjectPositions(t1)) return false;
     // Converged: small correction and the closing rows met (velocity rows measured as h |Φ_q q̇ + Φ_t|,
     // the position change their violation makes over one step). rows_ serves the next iteration too.
     ConstraintRows(t1, /*phi_known=*/any_velocity_row_);

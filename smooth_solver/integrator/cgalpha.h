@@ -44,6 +44,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseLU>
 
+#include <string>
 #include <vector>
 
 #include "smooth_solver/integrator/elastic_step_force.h"
@@ -148,8 +149,8 @@ class CgAlpha : public SmoothIntegrator {
   // convergence test); returns |out|∞.
   double ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) const;
   // INDEX2_PROJECTED: projects next_.q onto Φ(q, t1) = 0 on the velocity rows with the last
-  // factorisation (a chord iteration); throws NumericalError if it does not converge.
-  void ProjectPositions(double t1);
+  // factorisation (a chord iteration); false (and failure_ says why) if it does not converge.
+  bool ProjectPositions(double t1);
 
   const MultibodySystem& system_;
   CgAlphaSettings settings_;
@@ -164,6 +165,7 @@ class CgAlpha : public SmoothIntegrator {
   bool any_velocity_row_ = false;
   long long projection_solves_ = 0;
   long long factorizations_ = 0;
+  std::string failure_;  // why the last Newton solve failed, if not for want of iterations
   // The factorisation in lu_: valid for step h_factorized_, reused for age_ accepted steps.
   bool factorized_ = false;
   double h_factorized_ = 0.0;

@@ -295,6 +295,18 @@ TEST(RunContract, BadInputStillWritesAFailedSummary) {
   EXPECT_TRUE(fs::exists(out / "history.csv"));
 }
 
+TEST(RunContract, NoRestartAtImpactNeedsRegularisedTies) {
+  // coupling.iteration.restart_at_impact = false leaves a node's velocity jump to the tie; a
+  // rigid tie (tied_drop's) cannot carry it: refused with the field, the node and exit 2.
+  const fs::path out = TempDir("no_restart_rigid");
+  const Result r = Launch(kScenarios + "/tied_drop.pbtxt --out " + out.string() +
+                          " --set coupling.iteration.restart_at_impact=false");
+  ASSERT_EQ(r.code, 2) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_NE(s.reason().find("coupling.iteration.restart_at_impact"), std::string::npos) << s.reason();
+  EXPECT_NE(s.reason().find("'node'"), std::string::npos) << s.reason();
+}
+
 TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   // In the wedge the two contact normals are not orthogonal, so one projected Gauss–Seidel
   // sweep cannot solve the size-2 LCP when the node reaches both planes (about t = 0.4 s):

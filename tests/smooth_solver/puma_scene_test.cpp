@@ -59,7 +59,7 @@ TEST(PumaScenes, BladesLiftOffTheirDroopStopsAsTheRotorSpinsUpAndTheLagStopsHold
   // stay on their droop stops until the centrifugal moment about the flap hinge outgrows their
   // weight and the rotor's (negative: zero collective, nose-down twist) thrust. Rigid, air-free
   // estimate: Ω² (I_β sin 10° cos 10°) = 2429 N m · cos 10°, Ω = 3.45 rad/s (12.3 % of Ω100%, at
-  // t = 4.3 s); the negative air load delays it (observed 4.72 rad/s, 16.9 %, t = 5.19 s). Before,
+  // t = 4.3 s); the negative air load delays it (observed 4.36 rad/s, 15.6 %, t = 5.16 s). Before,
   // the hub's angular acceleration lags each blade onto its +15° lag stop (no lag spring in the
   // data; the damper alone cannot hold 3 kN m at Ω ≈ 2 rad/s), which holds it there.
   MultibodySimulation sim(interface::ScenarioFile::Load(kPuma + "engage_disengage_continuous.pbtxt", {}));

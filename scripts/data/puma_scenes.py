@@ -122,7 +122,11 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 #   the paper's setting at h = 1e-4 s; the node's
 #   tied (Tikhonov compliance 5e-9 m/N, puma.md's figure read per metre) 0.05 m below the blade
 #   axis at the pitch bearing, on the pitch fitting; the planes pass through the flap hinge's axis
-#   and through the node's place at ∓10°, attached to the hub;""" if COSIM else """Hunt–Crossley/Flores with n = 3/2,
+#   and through the node's place at ∓10°, attached to the hub (as the issue and the paper put
+#   them): a blade lagged 15° on its lag stop meets its droop plane at a flap angle of −9.1°, not
+#   −10° as the continuous scene's hinge-angle law (observed in the full engagement). Planes on
+#   the lag link would act at −10° whatever the lag, but made the gust's coupled step at the
+#   lift-off diverge (the plane's motion is a second coupling path): not yet;""" if COSIM else """Hunt–Crossley/Flores with n = 3/2,
 #   rebound e = 0.8 (the law's e solved for it), K = 1e9 N m/rad^1.5 — the paper's 1e9 "N/m^1.5"
 #   read with a 1 m lever (moment = K δ^1.5, δ in rad);""") + f"""
 # - start: at rest, blades drawn drooped 10° onto their droop stops (flap hinge at −10°: the

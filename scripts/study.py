@@ -102,6 +102,11 @@ class Runner:
             return list(pool.map(one, runs))
 
 
+def run_scenario(scenario_path, run):
+    """The scenario file of a study's Run: its `scenario`, relative to the study's scene, else the scene."""
+    return os.path.join(os.path.dirname(scenario_path), run["scenario"]) if run.get("scenario") else scenario_path
+
+
 def read_json(path):
     try:
         with open(path) as f:
@@ -214,7 +219,7 @@ def reference_run(scenario_path, scenario, study, finest, coarsest, out):
         return None
     if study.get("reference_run"):
         r = study["reference_run"]
-        path = os.path.join(os.path.dirname(scenario_path), r["scenario"]) if r.get("scenario") else scenario_path
+        path = run_scenario(scenario_path, r)
         return {"id": f"reference {r.get('name', '')}".strip(), "scenario": path, "sets": list(study.get("set", [])) + list(r.get("set", [])),
                 "out": os.path.join(out, "runs", "reference"), "reference": True}
     h = finest / int(study.get("reference_refinement", 4))
@@ -344,7 +349,7 @@ def study_work_precision(runner, scenario_path, out, sets):
     methods = study.get("methods") or default_methods(scenario)
     runs = []
     for m, method in enumerate(methods):
-        path = os.path.join(os.path.dirname(scenario_path), method["scenario"]) if method.get("scenario") else scenario_path
+        path = run_scenario(scenario_path, method)
         field = method.get("sweep_field", "numerics.step")
         values = method.get("sweep_values") or steps
         for i, v in enumerate(values):
@@ -665,7 +670,7 @@ def study_compare(runner, scenario_path, out, sets):
         fail(f"{scenario_path}: study compare needs `study {{ probes: [...] }}`, the probes drawn")
     runs = []
     for i, spec in enumerate(specs):
-        path = os.path.join(os.path.dirname(scenario_path), spec["scenario"]) if spec.get("scenario") else scenario_path
+        path = run_scenario(scenario_path, spec)
         if not os.path.isfile(path):
             fail(f"{scenario_path}: study.compare[{i}].scenario: no such file: {path}")
         runs.append({"id": spec.get("name", f"run{i}"), "scenario": path, "sets": list(sets) + list(spec.get("set", [])),

@@ -77,12 +77,17 @@ else:
     COUPLING = ""
 TWIN = "gust_continuous.pbtxt" if GUST else "engage_disengage_continuous.pbtxt"
 # `scripts/cosim study compare` (the paper's Fig. 5 / Fig. 7): this scene against its continuous twin.
+# `scripts/cosim study timing`: MBDyn's continuous-contact model of the same rotor (peers.md: 2 s
+# settling + 50 s at h = 1e-4 s, minimal output, median of three runs on a quiet 2-core machine).
+PEER = "" if GUST else """
+  peer { name: "MBDyn, continuous-contact stops, h = 1e-4 s" wall_time: 787 simulated_time: 52
+         source: "../shared/reference/peers.md, median of 715, 787, 830 s on a quiet 2-core machine" }"""
 STUDY = f'''# `scripts/cosim study compare` draws blade 1 of both models on the same axes (the paper's
 # Fig. {7 if GUST else 5}) and tables their differences and each stop contact.
 study {{
   probes: ["blade1_flap", "blade1_lag", "blade1_root_shear_z", "blade1_root_flap_moment", "blade1_tip_z"]
   compare {{ name: "co-simulated" contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] }}
-  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}
+  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}
 }}''' if COSIM else ""
 COUPLING_ITERATION = ("coupling { iteration { relaxation: IQN_ILS reuse_steps: 4 displacement_tolerance: 1e-8 reaction_tolerance: 1e-4\n"
                       "                       restart_at_impact: false max_iterations: 50 on_max_iterations: ACCEPT_AND_MARK } }")

@@ -44,6 +44,41 @@ TEST(Study, StabilityKeepsGoingPastAFailingScene) {
   EXPECT_NE(report.find("numerics.step"), std::string::npos) << report;
 }
 
+TEST(Study, TimingRunsEachVariantAloneWithAndWithoutOutputAndRatesThePeer) {
+  // Without `study.compare` the scene itself is timed: as written (a history row every step)
+  // and without output (rows at the first and last step only), one run at a time. The ratio to
+  // the peer is its wall time per simulated second over the run's: checked from the CSV's own
+  // columns, so it holds whatever the machine's speed.
+  const fs::path out = TempDir("study_timing");
+  ASSERT_EQ(Study("timing " + kData + "/oscillator.pbtxt --out " + out.string() +
+                      " --set study.peer.wall_time=3 --set study.peer.simulated_time=2",
+                  out / "log.txt"),
+            0)
+      << Slurp(out / "log.txt");
+  const Table timing = ReadTable(out / "timing.csv");
+  ASSERT_EQ(timing.size(), 2u);
+  const std::vector<double> wall = timing.Column("step_wall_time"), simulated = timing.Column("simulated_time"),
+                            ratio = timing.Column("speed_ratio_to_peer"), steps = timing.Column("steps");
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(steps[k], 100.0);
+    EXPECT_NEAR(simulated[k], 1.0, 1e-12);
+    ASSERT_GT(wall[k], 0.0);
+    EXPECT_NEAR(ratio[k], (3.0 / 2.0) / (wall[k] / simulated[k]), 1e-9 * ratio[k]);
+  }
+  EXPECT_EQ(ReadTable(out / "runs" / "r0_out" / "history.csv").size(), 101u);  // every step and t = 0
+  EXPECT_EQ(ReadTable(out / "runs" / "r0_none" / "history.csv").size(), 2u);   // first and last
+  const std::string report = Slurp(out / "report.md");
+  EXPECT_NE(report.find("× faster than the peer"), std::string::npos) << report;
+  // One run at a time: each progress line reports a batch of one.
+  const std::string log = Slurp(out / "log.txt");
+  EXPECT_EQ(log.find("[2/2]"), std::string::npos) << log;
+  // A peer without a simulated time cannot be rated: refused, naming the field.
+  EXPECT_EQ(Study("timing " + kData + "/oscillator.pbtxt --out " + out.string() + " --set study.peer.wall_time=3",
+                  out / "log_bad.txt"),
+            2);
+  EXPECT_NE(Slurp(out / "log_bad.txt").find("study.peer"), std::string::npos);
+}
+
 TEST(Study, BadArgumentsAreRefused) {
   const fs::path out = TempDir("study_bad");
   EXPECT_EQ(Study("convergence " + kData + "/missing.pbtxt --out " + out.string(), out / "log.txt"), 2);

@@ -212,6 +212,13 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
       sf.rotor = i;
       rs.surfaces.push_back(s);
     }
+    if (r.has_blades()) {
+      if (r.blades() < r.surfaces_size()) {
+        checks.Fail(path + ".blades", std::to_string(r.blades()) + " blades, fewer than the " +
+                                          std::to_string(r.surfaces_size()) + " surfaces it lists; expected at least that many");
+      }
+      rs.load_factor = static_cast<double>(r.blades()) / std::max(1, r.surfaces_size());
+    }
     aero.rotors.push_back(std::move(rs));
   }
   model->aero = std::move(aero);

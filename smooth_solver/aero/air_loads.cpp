@@ -532,7 +532,7 @@ void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
         trial.nu(0) = nu;
         const double T = RotorLoads(static_cast<int>(r), trial, q, qdot, t).thrust;
         const double vt = std::hypot(st.v_parallel, st.v_normal + nu);
-        return 2.0 * rho * area * vt * nu - st.fade * T;
+        return 2.0 * rho * area * vt * nu - st.fade * rs.load_factor * T;
       };
       double x0 = st.nu(0), f0 = residual(x0);
       double x1 = x0 + 1e-3 * (1.0 + std::abs(x0)), f1 = residual(x1);
@@ -551,7 +551,8 @@ void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
     // thrust's first moments /(ρAR)): L M R ν̇ + ν = L F with L = L̃(χ) diag(1/V_T, 1/V, 1/V),
     // one implicit Euler step from the last accepted state with F and L at this state.
     const RotorResult loads = RotorLoads(static_cast<int>(r), st, q, qdot, t);
-    const Vector3d F = st.fade / (rho * area) * Vector3d(loads.thrust, loads.moment_x / rs.radius, loads.moment_y / rs.radius);
+    const Vector3d F = st.fade * rs.load_factor / (rho * area) *
+                       Vector3d(loads.thrust, loads.moment_x / rs.radius, loads.moment_y / rs.radius);
     const double vn = st.v_normal + st.nu(0);
     const double vt = std::max(std::hypot(st.v_parallel, vn), 1e-3);
     const double vm = std::max((st.v_parallel * st.v_parallel + vn * (vn + st.nu(0))) / vt, 1e-3);

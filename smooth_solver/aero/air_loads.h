@@ -86,6 +86,7 @@ struct RotorSpec {
   double radius = 1.0, guard_tip_speed = 10.0;
   Inflow inflow = Inflow::kUniform;
   std::vector<int> surfaces;
+  double load_factor = 1.0;  // blades / modelled surfaces: scales the inflow's forcing
 };
 
 struct AeroModel {

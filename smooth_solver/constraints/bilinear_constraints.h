@@ -63,6 +63,9 @@ struct ScalarConstraint {
   // A locked joint's constraint holds up to this time [s] included, then no longer exists: its row
   // contributes nothing and its multiplier is zero (integrators put an identity row there).
   double release_time = std::numeric_limits<double>::infinity();
+  // A lock whose value the initial-condition solver chooses (Joint.lock_at_closure): left out of
+  // the loop closure, then `constant` is set so that the row holds the closed configuration.
+  bool set_by_closure = false;
 };
 
 // A coordinate a coupling peer gives instead of a time function: its value, rate and

@@ -1,5 +1,8 @@
 #include "smooth_solver/integrator/initial_conditions.h"
 
+#include <limits>
+#include <optional>
+
 #include <kinsol/kinsol.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
@@ -19,6 +22,9 @@ namespace {
 
 struct ClosureProblem {
   const MultibodySystem* system;
+  // The constraints as the closure sees them: the system's, with the locks set by the closure
+  // (Joint.lock_at_closure) released.
+  const ConstraintSet* constraints;
   double t0;
   int n, mc, mh;
   Eigen::SparseMatrix<double> A;  // the Jacobian, its pattern fixed (KLU, not a dense N × N)
@@ -38,12 +44,12 @@ int Residual(N_Vector y, N_Vector f, void* data) {
   auto F = View(f);
   const Eigen::VectorXd q = Y.head(p->n);
   F.head(p->n) = q - p->system->q0;
-  p->system->constraints.AddJacobianTransposeTimes(q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
+  p->constraints->AddJacobianTransposeTimes(q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
   p->system->holds.AddJacobianTransposeTimes(q, p->t0, Y.tail(p->mh), F.head(p->n));
-  p->system->constraints.Evaluate(q, p->t0, F.segment(p->n, p->mc));
-  for (int i = 0; i < p->mc; ++i) F(p->n + i) -= p->system->constraints.Compliance(static_cast<size_t>(i)) * Y(p->n + i);
+  p->constraints->Evaluate(q, p->t0, F.segment(p->n, p->mc));
+  for (int i = 0; i < p->mc; ++i) F(p->n + i) -= p->constraints->Compliance(static_cast<size_t>(i)) * Y(p->n + i);
   for (int i = 0; i < p->mc; ++i) {
-    if (!p->system->constraints.Active(static_cast<size_t>(i), p->t0)) F(p->n + i) = Y(p->n + i);  // released: μ = 0
+    if (!p->constraints->Active(static_cast<size_t>(i), p->t0)) F(p->n + i) = Y(p->n + i);  // released: μ = 0
   }
   p->system->holds.Evaluate(q, p->t0, F.tail(p->mh));
   return F.allFinite() ? 0 : 1;
@@ -54,12 +60,12 @@ int Residual(N_Vector y, N_Vector f, void* data) {
 void FillJacobian(const ClosureProblem& p, const Eigen::Ref<const Eigen::VectorXd>& Y, SparseSink* sink) {
   const Eigen::VectorXd q = Y.head(p.n);
   for (int i = 0; i < p.n; ++i) sink->Add(i, i, 1.0);
-  p.system->constraints.HessianTimesLambda(p.t0, Y.segment(p.n, p.mc), sink, 1.0);
+  p.constraints->HessianTimesLambda(p.t0, Y.segment(p.n, p.mc), sink, 1.0);
   p.system->holds.HessianTimesLambda(p.t0, Y.tail(p.mh), sink, 1.0);
-  p.system->constraints.Jacobian(q, p.t0, sink, p.n, 1.0);
-  p.system->constraints.JacobianTranspose(q, p.t0, sink, p.n, 1.0);
-  p.system->constraints.AddReleasedDiagonal(p.t0, sink, p.n);
-  p.system->constraints.AddComplianceDiagonal(sink, p.n, 1.0);
+  p.constraints->Jacobian(q, p.t0, sink, p.n, 1.0);
+  p.constraints->JacobianTranspose(q, p.t0, sink, p.n, 1.0);
+  p.constraints->AddReleasedDiagonal(p.t0, sink, p.n);
+  p.constraints->AddComplianceDiagonal(sink, p.n, 1.0);
   p.system->holds.Jacobian(q, p.t0, sink, p.n + p.mc, 1.0);
   p.system->holds.JacobianTranspose(q, p.t0, sink, p.n + p.mc, 1.0);
 }
@@ -70,10 +76,10 @@ Eigen::SparseMatrix<double> JacobianPattern(const ClosureProblem& p) {
   const double always = -std::numeric_limits<double>::infinity();
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
-  p.system->constraints.HessianPattern(&pattern);
+  p.constraints->HessianPattern(&pattern);
   p.system->holds.HessianPattern(&pattern);
-  p.system->constraints.Jacobian(p.system->q0, always, &pattern, p.n, 1.0);
-  p.system->constraints.JacobianTranspose(p.system->q0, always, &pattern, p.n, 1.0);
+  p.constraints->Jacobian(p.system->q0, always, &pattern, p.n, 1.0);
+  p.constraints->JacobianTranspose(p.system->q0, always, &pattern, p.n, 1.0);
   p.system->holds.Jacobian(p.system->q0, always, &pattern, p.n + p.mc, 1.0);
   p.system->holds.JacobianTranspose(p.system->q0, always, &pattern, p.n + p.mc, 1.0);
   return pattern.Build(N, N);
@@ -130,6 +136,13 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   rhs.segment(n, mc) *= -1.0;
   if (holds != nullptr) holds->JacobianTimes(q, t, qdot_ref, rhs.tail(mh));
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
+  if (lu.info() != Eigen::Success && mh > 0) {
+    // A held speed the constraints already fix (a held joint of a structure the closure made
+    // rigid, e.g. with an actuator locked at closure) makes its row redundant: met in the
+    // least-squares sense instead (consistent, as here, it costs nothing).
+    for (int i = 0; i < mh; ++i) A.coeffRef(n + mc + i, n + mc + i) -= 1e-12;
+    lu.compute(A);
+  }
   if (lu.info() != Eigen::Success) return false;
   *qdot = lu.solve(rhs).head(n);
   return true;
@@ -140,7 +153,18 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
 DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report) {
   const int n = system.coordinates, mc = system.constraints.size(), mh = system.holds.size();
   const int N = n + mc + mh;
-  ClosureProblem problem{&system, t0, n, mc, mh, {}};
+  // Locks whose value the closure chooses are not part of it (Joint.lock_at_closure).
+  std::optional<ConstraintSet> closure_constraints;
+  for (const ScalarConstraint& c : system.constraints.constraints) {
+    if (!c.set_by_closure) continue;
+    if (!closure_constraints) closure_constraints = system.constraints;
+  }
+  if (closure_constraints) {
+    for (ScalarConstraint& c : closure_constraints->constraints) {
+      if (c.set_by_closure) c.release_time = -std::numeric_limits<double>::infinity();
+    }
+  }
+  ClosureProblem problem{&system, closure_constraints ? &*closure_constraints : &system.constraints, t0, n, mc, mh, {}};
   problem.A = JacobianPattern(problem);
 
   SUNContext ctx = nullptr;
@@ -208,6 +232,16 @@ void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state)
   if (!SmallestVelocityChange(system, nullptr, t, state->q, reference, &state->qdot, /*mass_metric=*/true)) {
     throw NumericalError("the velocity constraints are singular at t = " + interface::FormatNumber(t) +
                          " s (redundant rows: regularise the coupling rows of a closed loop)");
+  }
+}
+
+void HoldClosedLocks(MultibodySystem* system, const Eigen::VectorXd& q, double t0) {
+  ConstraintSet& cs = system->constraints;
+  Eigen::VectorXd phi(cs.size());
+  cs.Evaluate(q, t0, phi);
+  for (int i = 0; i < cs.size(); ++i) {
+    ScalarConstraint& c = cs.constraints[static_cast<size_t>(i)];
+    if (c.set_by_closure) c.constant -= phi(i);  // Φ_i(q) = 0 from now on (its constant has weight 1)
   }
 }
 

@@ -163,6 +163,10 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
       joint.drive = interface::TimeFunction::Build(checks, path + ".drive.function", d.function());
     }
     joint.locked = j.locked();
+    joint.lock_at_closure = j.lock_at_closure();
+    if (j.lock_at_closure() && !j.locked()) {
+      checks.Fail(path + ".lock_at_closure", "given for a joint that is not locked; add `locked: true`");
+    }
     joint.initial_coordinate = j.initial_coordinate();
     if (j.has_initial_coordinate() && j.has_drive()) {
       checks.Fail(path + ".initial_coordinate", "a driven joint's coordinate is its drive's; remove one of them");

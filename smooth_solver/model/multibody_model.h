@@ -44,6 +44,7 @@ struct Joint {
   bool drive_is_rate = false;  // speed or angular speed rather than displacement or angle
   interface::TimeFunction drive;
   bool locked = false;
+  bool lock_at_closure = false;  // the lock holds the closed loop's value, not the given pose's
   double release_time = 0.0;
   double initial_coordinate = 0.0;  // the coordinate of the initial poses [rad or m]
 };

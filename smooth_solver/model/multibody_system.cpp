@@ -111,10 +111,19 @@ double MultibodySystem::PotentialEnergy(const Eigen::VectorXd& q) const {
   return e;
 }
 
-Eigen::Vector3d MultibodySystem::JointReactionForce(int joint, const Eigen::VectorXd& lambda) const {
+Eigen::Vector3d MultibodySystem::JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                                                    double t) const {
   const JointMeasure& m = joints[static_cast<size_t>(joint)];
   // Φ = p1 − p2: the generalised constraint force −Φ_qᵀλ on body2's position is +λ.
-  return m.has_point_rows ? Eigen::Vector3d(lambda.segment<3>(m.first_row)) : Eigen::Vector3d::Zero();
+  if (m.has_point_rows) return lambda.segment<3>(m.first_row);
+  // Otherwise (prismatic): −Φ_qᵀλ of the joint's rows on body2's position (body1 exerts it), or
+  // minus that on body1's when body2 is the ground.
+  Eigen::VectorXd selected = Eigen::VectorXd::Zero(lambda.size());
+  selected.segment(m.first_row, m.row_count) = lambda.segment(m.first_row, m.row_count);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(coordinates);
+  constraints.AddJacobianTransposeTimes(q, t, selected, g);
+  return m.body2 >= 0 ? Eigen::Vector3d(-g.segment<3>(kCoordinatesPerBody * m.body2))
+                      : Eigen::Vector3d(g.segment<3>(kCoordinatesPerBody * m.body1));
 }
 
 Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
@@ -357,6 +366,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         lock.constant = -(p2 - p1).Value(sys.q0).dot(a1.Value(sys.q0));
       }
       lock.release_time = j.release_time;
+      lock.set_by_closure = j.lock_at_closure;
       cs.constraints.push_back(lock);
     }
     measure.row_count = cs.size() - measure.first_row;

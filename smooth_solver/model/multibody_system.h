@@ -97,9 +97,10 @@ struct MultibodySystem {
   double JointCoordinate(int joint, const Eigen::VectorXd& q) const;
   double JointRate(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
   // Force [N] and moment [N m] that body1 exerts on body2 through the joint (from the
-  // multipliers): the force from the point-coincidence rows, the moment (a pure couple, the
+  // multipliers): the force from the point-coincidence rows (a joint without them, prismatic:
+  // the generalised force all its rows put on body2's position), the moment (a pure couple, the
   // same about any point) from the orientation and drive rows.
-  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& lambda) const;
+  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, double t) const;
   Eigen::Vector3d JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
                                       double t) const;
   // Position of body b's centre of mass, its axes (columns u, v, w).

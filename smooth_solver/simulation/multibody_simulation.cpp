@@ -1,12 +1,15 @@
 #include "smooth_solver/simulation/multibody_simulation.h"
 
-#include "smooth_solver/integrator/cgalpha_index2.h"
-
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
+#include <optional>
 #include <set>
 
 #include "interface/scenario/checks.h"
+#include "smooth_solver/integrator/cgalpha_index2.h"
+#include "state.pb.h"
 
 namespace cosim::smooth {
 
@@ -16,6 +19,46 @@ namespace sc = cosim::scenario;
 
 namespace {
 
+// numerics.initial_state: the saved state, checked against this scene and start time.
+state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFile& file, const MultibodySystem& system,
+                               size_t joints, double start_time) {
+  const std::string place = "numerics.initial_state";
+  std::filesystem::path path(file.proto().numerics().initial_state());
+  if (path.is_relative()) path = std::filesystem::path(file.path()).parent_path() / path;
+  std::ifstream in(path, std::ios::binary);
+  state::SmoothState s;
+  if (!in || !s.ParseFromIstream(&in)) {
+    checks.Fail(place, "'" + path.string() + "' is not a readable final_state.pb (a smooth run's saved state)");
+  }
+  if (s.coordinates() != system.coordinates || s.constraints() != system.constraints.size() ||
+      s.q_size() != system.coordinates || s.qdot_size() != system.coordinates ||
+      s.reference_q_size() != system.coordinates ||
+      s.angle_offsets_size() != static_cast<int>(joints)) {
+    checks.Fail(place, "'" + path.string() + "' holds a state of " + std::to_string(s.coordinates()) + " coordinates and " +
+                           std::to_string(s.constraints()) + " constraints (scenario '" + s.scenario() + "'); this scene has " +
+                           std::to_string(system.coordinates) + " and " + std::to_string(system.constraints.size()) +
+                           ": expected a state written by a run of the same scene");
+  }
+  if (std::abs(s.time() - start_time) > 1e-9 * std::max(1.0, std::abs(start_time))) {
+    checks.Fail(place, "the state is at t = " + interface::FormatNumber(s.time()) + " s but numerics.start_time is " +
+                           interface::FormatNumber(start_time) + " s; expected them equal (--set numerics.start_time=" +
+                           interface::FormatNumber(s.time()) + ")");
+  }
+  for (int i = 0; i < s.q_size(); ++i) {
+    if (!std::isfinite(s.q(i)) || !std::isfinite(s.qdot(i))) {
+      checks.Fail(place, "'" + path.string() + "' has a non-finite coordinate or velocity at index " + std::to_string(i));
+    }
+  }
+  return s;
+}
+
+// A global vector in the axes of body `frame` (−1: global, unchanged).
+Eigen::Vector3d InFrame(int frame, const Eigen::VectorXd& q, const Eigen::Vector3d& v) {
+  if (frame < 0) return v;
+  Eigen::Matrix3d F;
+  for (int k = 0; k < 3; ++k) F.col(k) = q.segment<3>(kCoordinatesPerBody * frame + 3 + 3 * k);
+  return F.transpose() * v;
+}
 
 }  // namespace
 
@@ -41,6 +84,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   if (model_.bodies.empty() && elastic.empty()) {
     checks.Fail("model.bodies", "the smooth solver needs at least one rigid or elastic body");
   }
+  scenario_name_ = interface::ScenarioName(file);
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();
@@ -162,10 +206,11 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     if (p.has_frame()) {
       const bool vector = p.quantity() == sc::Probe::POSITION || p.quantity() == sc::Probe::VELOCITY ||
                           p.quantity() == sc::Probe::ACCELERATION || p.quantity() == sc::Probe::ANGULAR_VELOCITY ||
-                          p.quantity() == sc::Probe::DISPLACEMENT || p.quantity() == sc::Probe::ROTATION;
+                          p.quantity() == sc::Probe::DISPLACEMENT || p.quantity() == sc::Probe::ROTATION ||
+                          p.quantity() == sc::Probe::REACTION_FORCE || p.quantity() == sc::Probe::REACTION_MOMENT;
       if (!vector) {
-        checks.Fail(path + ".frame", "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, DISPLACEMENT and "
-                                     "ROTATION of a body can be expressed in a body's frame");
+        checks.Fail(path + ".frame", "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, DISPLACEMENT, "
+                                     "ROTATION, REACTION_FORCE and REACTION_MOMENT can be expressed in a body's frame");
       }
       if (p.frame() != "ground") {
         auto it = body_index.find(p.frame());
@@ -262,9 +307,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
           break;
         }
         spec.index = find(joint_index, "joint");
-        if (model_.joints[static_cast<size_t>(spec.index)].type == JointType::kPrismatic) {
-          checks.Fail(path + ".entity", "the reaction force of a prismatic joint is not available yet (its moment is)");
-        }
         spec.component = interface::ProbeComponent(checks, path, p, true);
         break;
       case Kind::kReactionMoment:
@@ -301,13 +343,36 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     probes_.push_back(spec);
   }
 
-  system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_, &elastic));
+  auto system = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_, &elastic));
   time_ = numerics_.start_time();
   // Elements with a memory (contact laws' onset speed, rotor inflow) start from the user's
   // guess, so the consistent state's accelerations see an inflow, then from that state.
-  system_->AcceptStep(system_->q0, system_->qdot0, time_);
-  const DaeState initial = ConsistentInitialState(*system_, time_, &initial_report_);
-  system_->AcceptStep(initial.q, initial.qdot, time_);
+  // A restart (numerics.initial_state) does not close the loops again: the first run's
+  // consistent initial configuration, saved with the state, is the probes' reference and fixes
+  // the closed locks, as it did in that run.
+  std::optional<state::SmoothState> restart;
+  if (numerics_.has_initial_state()) {
+    if (coupled) {
+      checks.Fail("numerics.initial_state", "a coupled run cannot restart from a saved state yet (its contact processes' "
+                                            "states are not saved); remove it");
+    }
+    restart = ReadRestart(checks, file, *system, model_.joints.size(), time_);
+  }
+  DaeState initial;
+  if (restart) {
+    initial.q = Eigen::Map<const Eigen::VectorXd>(restart->reference_q().data(), restart->reference_q_size());
+    initial.qdot = Eigen::VectorXd::Zero(initial.q.size());
+  } else {
+    // Elements with a memory (contact laws' onset speed, rotor inflow) start from the user's
+    // guess, so the consistent state's accelerations see an inflow, then from that state.
+    system->AcceptStep(system->q0, system->qdot0, time_);
+    initial = ConsistentInitialState(*system, time_, &initial_report_);
+  }
+  HoldClosedLocks(system.get(), initial.q, time_);
+  reference_q_ = initial.q;
+  reference_time_ = restart ? restart->reference_time() : time_;
+  system_ = std::move(system);
+  if (!restart) system_->AcceptStep(initial.q, initial.qdot, time_);
   for (ProbeSpec& p : probes_) {
     if (p.kind != Kind::kBodyDisplacement && p.kind != Kind::kRotation && p.kind != Kind::kDisplacement) continue;
     const Eigen::VectorXd& q = initial.q;
@@ -327,6 +392,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     p.initial_position = F.transpose() * (Eigen::Vector3d(q.segment<3>(o)) - xF);
     if (p.kind != Kind::kDisplacement) p.initial_orientation = F.transpose() * B;
   }
+  if (restart) {
+    initial.q = Eigen::Map<const Eigen::VectorXd>(restart->q().data(), restart->q_size());
+    initial.qdot = Eigen::Map<const Eigen::VectorXd>(restart->qdot().data(), restart->qdot_size());
+    system_->AcceptStep(initial.q, initial.qdot, time_);
+    ConsistentAccelerations(*system_, time_, &initial);
+  }
   if (ida_) {
     integrator_ = std::make_unique<IdaReference>(*system_, ida, initial, time_);
   } else if (s.integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
@@ -340,7 +411,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
   // Angles continue past ±π (whole turns counted), from each joint's initial coordinate.
   angle_offset_.assign(model_.joints.size(), 0.0);
-  for (size_t j = 0; j < model_.joints.size(); ++j) angle_offset_[j] = model_.joints[j].initial_coordinate;
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    angle_offset_[j] = restart ? restart->angle_offsets(static_cast<int>(j)) : model_.joints[j].initial_coordinate;
+  }
   last_angle_.assign(model_.joints.size(), 0.0);
   for (size_t j = 0; j < model_.joints.size(); ++j) {
     if (system_->joints[j].rotational) last_angle_[j] = system_->JointCoordinate(static_cast<int>(j), initial.q);
@@ -454,9 +527,12 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         }
         break;
       case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
-      case Kind::kReactionForce: value = interface::PickComponent(system_->JointReactionForce(p.index, s.lambda), p.component); break;
+      case Kind::kReactionForce:
+        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, time_)), p.component);
+        break;
       case Kind::kReactionMoment:
-        value = interface::PickComponent(system_->JointReactionMoment(p.index, s.q, s.lambda, time_), p.component);
+        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, time_)),
+                                         p.component);
         break;
       case Kind::kKinetic: value = system_->KineticEnergy(s.qdot); break;
       case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;
@@ -480,7 +556,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kClampMoment: {
         Eigen::Vector3d force, moment;
         system_->ClampReaction(p.index, s.q, s.lambda, &force, &moment);
-        value = interface::PickComponent(p.kind == Kind::kClampForce ? force : moment, p.component);
+        value = interface::PickComponent(InFrame(p.frame, s.q, p.kind == Kind::kClampForce ? force : moment), p.component);
         break;
       }
       case Kind::kStrainEnergy: {
@@ -517,6 +593,28 @@ void MultibodySimulation::Record(double t1, int iterations) {
     if (jump > std::numbers::pi) angle_offset_[j] -= 2.0 * std::numbers::pi;
     if (jump < -std::numbers::pi) angle_offset_[j] += 2.0 * std::numbers::pi;
     last_angle_[j] = angle;
+  }
+}
+
+void MultibodySimulation::BeginOutput(const std::string& folder) { output_folder_ = folder; }
+
+void MultibodySimulation::EndOutput() {
+  if (output_folder_.empty()) return;
+  state::SmoothState saved;
+  saved.set_scenario(scenario_name_);
+  saved.set_time(time_);
+  saved.set_coordinates(system_->coordinates);
+  saved.set_constraints(system_->constraints.size());
+  const DaeState& s = integrator_->state();
+  saved.mutable_q()->Add(s.q.data(), s.q.data() + s.q.size());
+  saved.mutable_qdot()->Add(s.qdot.data(), s.qdot.data() + s.qdot.size());
+  saved.mutable_angle_offsets()->Add(angle_offset_.begin(), angle_offset_.end());
+  saved.mutable_reference_q()->Add(reference_q_.data(), reference_q_.data() + reference_q_.size());
+  saved.set_reference_time(reference_time_);
+  const std::string path = output_folder_ + "/final_state.pb";
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out || !saved.SerializeToOstream(&out)) {
+    throw InputError("cannot write " + path + " (choose a writable output folder; is the disk full?)");
   }
 }
 

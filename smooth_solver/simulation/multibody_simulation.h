@@ -20,6 +20,10 @@ class MultibodySimulation : public interface::Simulation {
   void Probe(std::vector<double>* values) const override;
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
+  // final_state.pb in the output folder at the end of the run (its last accepted state):
+  // numerics.initial_state of a later run starts from it.
+  void BeginOutput(const std::string& folder) override;
+  void EndOutput() override;
 
   const MultibodySystem& system() const { return *system_; }
   const MultibodyModel& model() const { return model_; }
@@ -69,6 +73,11 @@ class MultibodySimulation : public interface::Simulation {
   double max_violation_ = 0.0;
   // Revolute angles unwrapped across ±π: turns added to atan2 per joint.
   std::vector<double> angle_offset_, last_angle_;
+  std::string output_folder_, scenario_name_;
+  // The consistent initial configuration of the run (or of the run a restart continues) and its
+  // time: the probes' reference, saved with the final state.
+  Eigen::VectorXd reference_q_;
+  double reference_time_ = 0.0;
 };
 
 }  // namespace cosim::smooth

@@ -358,6 +358,36 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
   }
 }
 
+TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
+  // `blades: 4` on a rotor that models one blade: in hover every blade carries the same load, so
+  // the inflow must be the four-blade rotor's (to the secant's tolerance) and the thrust reported
+  // a quarter of it (the modelled blade's). Without `blades` the one blade would see the inflow
+  // of a one-blade rotor: lower, so its thrust is higher than a quarter.
+  const double theta = 8 * kDeg, twist = -8 * kDeg, omega = 28.0;
+  const std::string air = "airfoils { name: \"ideal\" c81_file: \"" + IdealTable() + "\" }";
+  auto hover = [&](int modelled, const std::vector<std::string>& sets) {
+    const MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, modelled), sets);
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
+  };
+  const AirLoads::RotorResult four = hover(4, {}), one_of_four = hover(1, {"model.air.rotors[0].blades=4"}),
+                              alone = hover(1, {});
+  std::printf("hover: four blades ν = %.6f m/s, T = %.1f N; one modelled of four ν = %.6f, T = %.1f N; "
+              "a one-blade rotor ν = %.6f, T = %.1f N\n",
+              four.induced, four.thrust, one_of_four.induced, one_of_four.thrust, alone.induced, alone.thrust);
+  EXPECT_NEAR(one_of_four.induced / four.induced, 1.0, 1e-8);
+  EXPECT_NEAR(one_of_four.thrust / (0.25 * four.thrust), 1.0, 1e-8);
+  EXPECT_LT(alone.induced, 0.7 * four.induced);
+  EXPECT_GT(alone.thrust, 0.25 * four.thrust * 1.05);
+  // Fewer blades than the surfaces listed: refused, naming the field.
+  try {
+    (void)Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, 2), {"model.air.rotors[0].blades=1"});
+    ADD_FAILURE() << "blades < surfaces accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("model.air.rotors[0].blades"), std::string::npos) << e.what();
+  }
+}
+
 TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
   // reference/aero.md, puma.md: hub still, collective 10°, air along +y, blade 1 along +x with
   // its leading edge towards −y (a clockwise rotor): blade 1 sees the wind on its leading edge

@@ -1,5 +1,7 @@
 // CGα on rigid multibody systems in natural coordinates: exact Jacobians, the CGα paper's
 // four-bar (period, Table 5), second-order convergence, energy with ρ∞ = 1, loop closure.
+#include <filesystem>
+#include <tuple>
 #include "smooth_solver/integrator/cgalpha.h"
 
 #include <gtest/gtest.h>
@@ -478,6 +480,102 @@ TEST(LockedJoints, PendulumHeldUntilReleaseThenSwingsAsIfReleasedThen) {
     std::printf("%s: angle 0.5 s after release %.12f, unlocked run %.12f\n", integrator, a, b);
     EXPECT_GT(std::abs(b), 0.5);  // it did swing
     EXPECT_NEAR(a, b, std::string(integrator) == "IDA" ? 1e-6 : 1e-9);
+  }
+}
+
+TEST(LockedJoints, AnActuatorLockedAtClosureHoldsTheLengthThatClosesTheLoop) {
+  // An arm (1 m, 1 kg, pivot at the origin) propped at its tip by a strut from (1, −1, 0): a rod
+  // on a universal joint and an actuator (prismatic, 0.05 kg) locked with `lock_at_closure`,
+  // drawn 0.2 m short. The closure (the arm's angle held) extends the actuator by 0.2 m and the
+  // lock then holds that: the structure stands (a rigid triangle). Statics give the actuator's
+  // push: half the arm's weight (its centre at 0.5 m, the tip at 1 m) plus its own,
+  // (0.5 + 0.05) 9.81 N.
+  const std::string scene = R"(
+model {
+  gravity: [0, -9.81, 0]
+  bodies { name: "arm" mass: 1 inertia: [0.001, 0.083, 0.083] position: [0.5, 0, 0] }
+  bodies { name: "rod" mass: 0.5 inertia: [0.027, 0.0001, 0.027] position: [1, -0.6, 0] }
+  bodies { name: "slider" mass: 0.05 inertia: [1e-6, 1e-6, 1e-6] position: [1, -0.2, 0] }
+  joints { name: "pivot" type: REVOLUTE body1: "ground" body2: "arm" point: [0, 0, 0] axis: [0, 0, 1] }
+  joints { name: "base" type: UNIVERSAL body1: "ground" body2: "rod" point: [1, -1, 0] axis: [1, 0, 0] axis2: [0, 0, 1] }
+  joints { name: "actuator" type: PRISMATIC body1: "rod" body2: "slider" point: [1, -0.2, 0] axis: [0, 1, 0] locked: true lock_at_closure: true }
+  joints { name: "tip" type: SPHERICAL body1: "slider" body2: "arm" point1: [0, 0, 0] point2: [0.5, 0, 0] }
+  initial_conditions { hold_joints: ["pivot"] }
+}
+numerics { end_time: 0.5 step: 1e-3 smooth { rho_inf: 0.6 } }
+)";
+  MultibodySimulation sim(interface::ScenarioFile::Parse(scene, "propped_arm", {}));
+  const MultibodySystem& sys = sim.system();
+  EXPECT_NEAR(sys.JointCoordinate(2, sim.integrator().state().q), 0.2, 1e-12);  // the closure's extension
+  const double h = 1e-3;
+  for (int k = 0; k < 500; ++k) sim.Step(k * h, h);
+  const DaeState& s = sim.integrator().state();
+  const double push = sys.JointReactionForce(2, s.q, s.lambda, 0.5).y();
+  std::printf("propped arm at 0.5 s: actuator extension %.3e m from the closure's, arm angle %.2e rad, push %.6f N "
+              "(statics %.6f N)\n", sys.JointCoordinate(2, s.q) - 0.2, sys.JointCoordinate(0, s.q), push, 0.55 * 9.81);
+  EXPECT_NEAR(sys.JointCoordinate(2, s.q), 0.2, 1e-9);  // held where the closure put it
+  EXPECT_NEAR(sys.JointCoordinate(0, s.q), 0.0, 1e-9);  // the strut holds the released arm up
+  EXPECT_NEAR(push, 0.55 * 9.81, 1e-6);
+  // Locked at the drawn length the loop cannot close (with the arm held, its closure matrix is
+  // singular: reported as redundant); and lock_at_closure needs a lock.
+  for (const auto& [set, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"model.joints[actuator].lock_at_closure=false", "redundant"},
+           {"model.joints[actuator].locked=false", "model.joints[2].lock_at_closure"}}) {
+    try {
+      MultibodySimulation bad(interface::ScenarioFile::Parse(scene, "propped_arm", {set}));
+      ADD_FAILURE() << set << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << set << ": " << e.what();
+    }
+  }
+}
+
+TEST(Restart, ARunFromASavedStateContinuesTheTrajectory) {
+  // A pendulum run to 0.5 s writes final_state.pb; a second run from it (numerics.initial_state,
+  // start_time 0.5) to 2 s ends where an uninterrupted run ends, to within what restarting CGα
+  // costs: its acceleration-like variable restarts at the consistent q̈ (first-order in h in
+  // the algorithm's a − q̈), so the difference is of the discretisation error's size, not zero —
+  // here below the uninterrupted run's own error against h = 1e-5 times 2. The pendulum is
+  // given the speed to swing over the top (full turns).
+  const std::string pendulum = std::string(COSIM_SOURCE_DIR) + "/tests/data/rigid_pendulum.pbtxt";
+  const std::vector<std::string> spin{"model.bodies[arm].angular_velocity=[0, 9, 0]"};
+  auto angle_at = [&](MultibodySimulation& sim, double from, double to, double h) {
+    for (long k = 0; k < std::lround((to - from) / h); ++k) sim.Step(from + static_cast<double>(k) * h, h);
+    return sim.system().JointCoordinate(0, sim.integrator().state().q);
+  };
+  const double h = 1e-3;
+  MultibodySimulation first(interface::ScenarioFile::Load(pendulum, spin));
+  angle_at(first, 0.0, 0.5, h);
+  const std::string folder = ::testing::TempDir() + "restart_state";
+  std::filesystem::create_directories(folder);
+  first.BeginOutput(folder);
+  first.EndOutput();
+  std::vector<std::string> restarted_sets = spin;
+  restarted_sets.push_back("numerics.start_time=0.5");
+  restarted_sets.push_back("numerics.initial_state=\"" + folder + "/final_state.pb\"");
+  MultibodySimulation restarted(interface::ScenarioFile::Load(pendulum, restarted_sets));
+  const double a_restarted = angle_at(restarted, 0.5, 2.0, h);
+  MultibodySimulation whole(interface::ScenarioFile::Load(pendulum, spin));
+  const double a_whole = angle_at(whole, 0.0, 2.0, h);
+  MultibodySimulation fine(interface::ScenarioFile::Load(pendulum, spin));
+  const double a_fine = angle_at(fine, 0.0, 2.0, 1e-5);
+  std::printf("restart at 0.5 s: angle at 2 s %.9f (restarted) %.9f (whole run) %.9f (h = 1e-5)\n", a_restarted, a_whole,
+              a_fine);
+  EXPECT_LT(std::abs(a_restarted - a_whole), 2.0 * std::abs(a_whole - a_fine));
+  EXPECT_GT(std::abs(a_whole - a_fine), 0.0);
+  // Bad restarts: another time, another scene.
+  for (const auto& [scene, sets, expected] : std::vector<std::tuple<std::string, std::vector<std::string>, std::string>>{
+           {pendulum, {"numerics.start_time=0.4", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "start_time"},
+           {std::string(COSIM_SOURCE_DIR) + "/scenarios/four_bar.pbtxt",
+            {"numerics.start_time=0.5", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "same scene"},
+           {pendulum, {"numerics.initial_state=\"" + folder + "/missing.pb\""}, "not a readable"}}) {
+    try {
+      MultibodySimulation bad(interface::ScenarioFile::Load(scene, sets));
+      ADD_FAILURE() << expected << ": accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("numerics.initial_state"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
   }
 }
 

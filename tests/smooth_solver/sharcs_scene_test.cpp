@@ -100,6 +100,7 @@ TEST(SharcsHub, BeamBladeSpinsUpIsReleasedAndLagsAtItsCentrifugalFrequency) {
   std::printf("SHARCS beam: lag up through 1.2° at %.4f and %.4f s: period %.4f s (uniform blade on its hinge: ν = %.3f/rev, "
               "%.4f s)\n", crossings[0], crossings[1], period, nu, expected);
   EXPECT_NEAR(period / expected, 1.0, 0.08);
+  // The loop stays closed (the projected form projects the positions onto the constraints).
   EXPECT_LT(sim.max_constraint_violation(), 1e-8);
 }
 

@@ -613,6 +613,9 @@ def results(runner, out_root, sets, reuse=False):
             target = f"{kind}-{name}-{png}"
             shutil.copy(os.path.join(out, png), os.path.join(figures, target))
             text = text.replace(f"]({png})", f"](results/{target})")
+        if entry_sets:  # the settings that make this entry differ from the scene's own, in its heading
+            first, _, rest = text.partition("\n")
+            text = f"{first} ({', '.join(s for e in entry_sets for s in e)})\n{rest}"
         if (kind, name) == ("stability", "scenarios"):
             text = text.replace("# Stability: the hard cases", "# The shipped scenarios, as they run", 1)
         reading = os.path.join(docs, "readings", f"{kind}-{name}.md")

@@ -1,5 +1,6 @@
 #include "smooth_solver/integrator/initial_conditions.h"
 
+#include <algorithm>
 #include <limits>
 #include <optional>
 
@@ -155,13 +156,11 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   const int N = n + mc + mh;
   // Locks whose value the closure chooses are not part of it (Joint.lock_at_closure).
   std::optional<ConstraintSet> closure_constraints;
-  for (const ScalarConstraint& c : system.constraints.constraints) {
-    if (!c.set_by_closure) continue;
-    if (!closure_constraints) closure_constraints = system.constraints;
-  }
-  if (closure_constraints) {
+  const auto& rows = system.constraints.constraints;
+  if (std::any_of(rows.begin(), rows.end(), [](const ScalarConstraint& c) { return c.set_by_closure; })) {
+    closure_constraints = system.constraints;
     for (ScalarConstraint& c : closure_constraints->constraints) {
-      if (c.set_by_closure) c.release_time = -std::numeric_limits<double>::infinity();
+      if (c.set_by_closure) c.release_time = -std::numeric_limits<double>::infinity();  // released: left out
     }
   }
   ClosureProblem problem{&system, closure_constraints ? &*closure_constraints : &system.constraints, t0, n, mc, mh, {}};

@@ -20,8 +20,8 @@ namespace sc = cosim::scenario;
 namespace {
 
 // numerics.initial_state: the saved state, checked against this scene and start time.
-state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFile& file, const MultibodySystem& system,
-                               size_t joints, double start_time) {
+state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFile& file, const std::string& scenario,
+                               const MultibodySystem& system, size_t joints, double start_time) {
   const std::string place = "numerics.initial_state";
   std::filesystem::path path(file.proto().numerics().initial_state());
   if (path.is_relative()) path = std::filesystem::path(file.path()).parent_path() / path;
@@ -29,6 +29,10 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
   state::SmoothState s;
   if (!in || !s.ParseFromIstream(&in)) {
     checks.Fail(place, "'" + path.string() + "' is not a readable final_state.pb (a smooth run's saved state)");
+  }
+  if (s.scenario() != scenario) {
+    checks.Fail(place, "'" + path.string() + "' is a state of scenario '" + s.scenario() + "', not of '" + scenario +
+                           "'; expected a state written by a run of this scene");
   }
   if (s.coordinates() != system.coordinates || s.constraints() != system.constraints.size() ||
       s.q_size() != system.coordinates || s.qdot_size() != system.coordinates ||
@@ -345,8 +349,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
 
   auto system = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_, &elastic));
   time_ = numerics_.start_time();
-  // Elements with a memory (contact laws' onset speed, rotor inflow) start from the user's
-  // guess, so the consistent state's accelerations see an inflow, then from that state.
   // A restart (numerics.initial_state) does not close the loops again: the first run's
   // consistent initial configuration, saved with the state, is the probes' reference and fixes
   // the closed locks, as it did in that run.
@@ -356,7 +358,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       checks.Fail("numerics.initial_state", "a coupled run cannot restart from a saved state yet (its contact processes' "
                                             "states are not saved); remove it");
     }
-    restart = ReadRestart(checks, file, *system, model_.joints.size(), time_);
+    restart = ReadRestart(checks, file, scenario_name_, *system, model_.joints.size(), time_);
   }
   DaeState initial;
   if (restart) {

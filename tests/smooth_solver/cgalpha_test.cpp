@@ -567,7 +567,7 @@ TEST(Restart, ARunFromASavedStateContinuesTheTrajectory) {
   for (const auto& [scene, sets, expected] : std::vector<std::tuple<std::string, std::vector<std::string>, std::string>>{
            {pendulum, {"numerics.start_time=0.4", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "start_time"},
            {std::string(COSIM_SOURCE_DIR) + "/scenarios/four_bar.pbtxt",
-            {"numerics.start_time=0.5", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "same scene"},
+            {"numerics.start_time=0.5", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "scenario 'rigid_pendulum'"},
            {pendulum, {"numerics.initial_state=\"" + folder + "/missing.pb\""}, "not a readable"}}) {
     try {
       MultibodySimulation bad(interface::ScenarioFile::Load(scene, sets));

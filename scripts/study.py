@@ -109,6 +109,14 @@ def run_scenario(scenario_path, run):
     return os.path.join(os.path.dirname(scenario_path), run["scenario"]) if run.get("scenario") else scenario_path
 
 
+def compare_run_scenario(scenario_path, spec, i):
+    """run_scenario of study.compare[i], refused (exit 2) if the file is not there."""
+    path = run_scenario(scenario_path, spec)
+    if not os.path.isfile(path):
+        fail(f"{scenario_path}: study.compare[{i}].scenario: no such file: {path}")
+    return path
+
+
 def read_json(path):
     try:
         with open(path) as f:
@@ -718,9 +726,7 @@ def study_compare(runner, scenario_path, out, sets):
         fail(f"{scenario_path}: study compare needs `study {{ probes: [...] }}`, the probes drawn")
     runs = []
     for i, spec in enumerate(specs):
-        path = run_scenario(scenario_path, spec)
-        if not os.path.isfile(path):
-            fail(f"{scenario_path}: study.compare[{i}].scenario: no such file: {path}")
+        path = compare_run_scenario(scenario_path, spec, i)
         runs.append({"id": spec.get("name", f"run{i}"), "scenario": path, "sets": list(sets) + list(spec.get("set", [])),
                      "contact_probes": list(spec.get("contact_probes", [])), "out": os.path.join(out, "runs", f"r{i}")})
     runs = runner.run_all(runs)
@@ -821,9 +827,7 @@ def study_timing(runner, scenario_path, out, sets):
              f"got {peer.get('wall_time')} and {peer.get('simulated_time')}")
     runs = []
     for i, spec in enumerate(specs):
-        path = run_scenario(scenario_path, spec)
-        if not os.path.isfile(path):
-            fail(f"{scenario_path}: study.compare[{i}].scenario: no such file: {path}")
+        path = compare_run_scenario(scenario_path, spec, i)
         for output in ("as written", "none"):
             extra = [] if output == "as written" else ["output.every=1000000000"]
             runs.append({"id": f"{spec.get('name', f'run{i}')}: output {output}", "name": spec.get("name", f"run{i}"),

@@ -611,13 +611,14 @@ def results(runner, out_root, sets, reuse=False):
             ("convergence", "sharcs_hub_structural_damping", "scenarios/sharcs/hub.pbtxt",
              ["numerics.end_time=0.27", "model.elastic_bodies[0].retardation_time=1e-5",
               "numerics.smooth.newton_tolerance=1e-10", "numerics.smooth.newton_max_iterations=50"])]
-    for kind, name, path, *entry_sets in plan:
+    for kind, name, path, *entry in plan:
+        entry_sets = entry[0] if entry else []  # this entry's own overrides
         out = os.path.join(out_root, f"{kind}-{name}")
         os.makedirs(out, exist_ok=True)
         if reuse and os.path.isfile(os.path.join(out, "report.md")):
             print(f"cosim study: {kind}-{name}: reusing {out}/report.md", file=sys.stderr)
         else:
-            STUDIES[kind](runner, os.path.join(ROOT, path), out, list(sets) + [s for e in entry_sets for s in e])
+            STUDIES[kind](runner, os.path.join(ROOT, path), out, list(sets) + entry_sets)
         with open(os.path.join(out, "report.md")) as f:
             text = f.read()
         for png in (p for p in os.listdir(out) if p.endswith(".png")):
@@ -626,7 +627,7 @@ def results(runner, out_root, sets, reuse=False):
             text = text.replace(f"]({png})", f"](results/{target})")
         if entry_sets:  # the settings that make this entry differ from the scene's own, in its heading
             first, _, rest = text.partition("\n")
-            text = f"{first} ({', '.join(s for e in entry_sets for s in e)})\n{rest}"
+            text = f"{first} ({', '.join(entry_sets)})\n{rest}"
         if (kind, name) == ("stability", "scenarios"):
             text = text.replace("# Stability: the hard cases", "# The shipped scenarios, as they run", 1)
         reading = os.path.join(docs, "readings", f"{kind}-{name}.md")
@@ -797,9 +798,10 @@ def study_compare(runner, scenario_path, out, sets):
               "| run | probe | RMS | peak | at [s] | reference peak |", "|---|---|---|---|---|---|"]
     for row in diff_rows:
         lines.append(f"| {row[0]} | {row[1]} | {fmt(row[2])} | {fmt(row[3])} | {row[4]:.3f} | {fmt(row[5])} |")
-    lines += ["", "Stop contacts (samples where the contact probe is non-zero; the peaks of each probe within):", "",
-              "| run | contact probe | # | start [s] | end [s] | peak contact | " + " | ".join(f"peak {p}" for p in probes) + " |",
-              "|---|---|---|---|---|---|" + "---|" * len(probes)]
+    if any(r["contact_probes"] for r in runs):  # scenes without stops have no contact table
+        lines += ["", "Stop contacts (samples where the contact probe is non-zero; the peaks of each probe within):", "",
+                  "| run | contact probe | # | start [s] | end [s] | peak contact | " + " | ".join(f"peak {p}" for p in probes) + " |",
+                  "|---|---|---|---|---|---|" + "---|" * len(probes)]
     shown = {}
     for row in contact_rows:
         key = (row[0], row[1])

@@ -34,13 +34,13 @@ struct Probes {
 TEST(SharcsHub, TheLoopClosesWithTheAdaptivePitchLinkAtTheLengthTableEightNeeds) {
   // Table 8: flap 1.5°, pitch 1.93°, the pitch link 0.112 m from the swashplate point
   // (0.0516, 0.03985, −0.112) m. The horn tip, 0.03985 m across the pitch axis at the flap
-  // hinge's station, is lifted by the pitch and leaned by the flap to T = (e − c sθ sβ, c cθ,
+  // hinge's station e, is lifted by the pitch and leaned by the flap to T = (e − c sθ sβ, c cθ,
   // c sθ cβ) with c = 0.03985: the closure must lengthen the APL to |T − S| − 0.112 (1.342 mm)
   // and keep the flap, lag and pitch as given.
   MultibodySimulation sim(interface::ScenarioFile::Load(kSharcs + "hub.pbtxt", {}));
   Probes p(sim);
   sim.Probe(&p.values);
-  const double beta = 1.5 * kDeg, theta = 1.93 * kDeg, c = 0.03985, e = 0.0516;
+  const double beta = 1.5 * kDeg, theta = 1.93 * kDeg, c = 0.03985;
   const double dx = -c * std::sin(theta) * std::sin(beta), dy = c * std::cos(theta) - c,
                dz = c * std::sin(theta) * std::cos(beta) + 0.112;
   const double extension = std::sqrt(dx * dx + dy * dy + dz * dz) - 0.112;
@@ -58,7 +58,6 @@ TEST(SharcsHub, TheLoopClosesWithTheAdaptivePitchLinkAtTheLengthTableEightNeeds)
   EXPECT_NEAR(p("lag"), 0.0, 1e-12);
   EXPECT_NEAR(p("pitch_link_z_mm"), c * std::sin(theta) * std::cos(beta), 1e-10);  // the APL's top on the horn tip
   EXPECT_LT(sim.integrator().ConstraintViolation(0.0), 1e-12);
-  (void)e;
 }
 
 TEST(SharcsHub, BeamBladeSpinsUpIsReleasedAndLagsAtItsCentrifugalFrequency) {

@@ -6,13 +6,16 @@
 //  3. One static Newton solve of the CGα paper's cantilever.
 //  4. A four-blade hub (rigid hub on a driven shaft, four blades of ten elements clamped to it,
 //     spinning up): cost per CGα step, Newton iterations per step, the share of one elastic
-//     force+tangent evaluation in it, and the same run with IDA (tolerances 1e-6) as the peer.
+//     force+tangent evaluation in it, and the same run with IDA (tolerances 1e-6) as the peer;
+//     then the Newton-matrix levers of issue 18 on the same run (reuse across steps, unrotated
+//     and co-rotated with the hub), each with its difference from full Newton at the tip and root.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/elastic/elastic_force.h"
+#include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 
@@ -30,6 +33,7 @@ double Seconds(int repeats, F&& f) {
 class NullSink : public cosim::smooth::SparseSink {
  public:
   void Add(int, int, double value) override { sum_ += value; }
+  void AddDense(const int*, int count, const double* values, double) override { sum_ += values[count - 1]; }
   double sum_ = 0.0;
 };
 
@@ -114,9 +118,15 @@ int main() {
         retardation_time: 1e-4
       })";
   }
-  hub += "\n    }\n    numerics { end_time: 0.1 step: 0.002 }\n";
+  hub += "\n    }\n    numerics { end_time: 0.1 step: 0.002 }\n"
+         "    output {\n"
+         "      probes { name: \"tip_z\" quantity: DISPLACEMENT entity: \"blade0\" point: \"tip_centre\" component: Z frame: \"hub\" }\n"
+         "      probes { name: \"tip_y\" quantity: DISPLACEMENT entity: \"blade0\" point: \"tip_centre\" component: Y frame: \"hub\" }\n"
+         "      probes { name: \"root_y\" quantity: REACTION_FORCE entity: \"blade0\" component: Y frame: \"hub\" }\n"
+         "    }\n";
   const int steps = 50;
   double hex_step = 0.0;
+  std::vector<double> full_newton(3);
   for (const char* integrator : {"CGALPHA", "IDA"}) {
     const auto file = cosim::interface::ScenarioFile::Parse(hub, "four_blade_hub.pbtxt",
                                                             {std::string("numerics.smooth.integrator=") + integrator});
@@ -138,6 +148,7 @@ int main() {
       });
       const double iterations = static_cast<double>(sim.newton_iterations()) / steps;
       hex_step = per_step;
+      sim.Probe(&full_newton);
       std::printf("\nfour-blade hub (4 × 10 elements, %d coordinates, %d constraints), h = 2 ms:\n", sys.coordinates,
                   sys.constraints.size());
       std::printf("  CGα: %.2f ms per step, %.2f Newton iterations per step; one elastic force+tangent %.2f ms "
@@ -147,6 +158,30 @@ int main() {
       std::printf("  IDA (tolerances 1e-6): %.2f ms per output step (%ld internal steps in all)\n", 1e3 * per_step,
                   sim.ida_internal_steps());
     }
+  }
+  // The Newton-matrix levers on the same 50 steps (issue 18), against full Newton above: the
+  // matrix reused across steps (modified Newton; a reused matrix stops when it contracts less
+  // than 4x per iteration), unrotated and co-rotated with the hub (numerics.smooth.jacobian_frame).
+  std::printf("  %-44s %10s %8s %9s %14s %14s\n", "Newton matrices", "ms/step", "speed-up", "factor/step",
+              "tip_z diff [m]", "root_y diff [N]");
+  struct Lever {
+    const char* name;
+    std::vector<std::string> sets;
+  };
+  const Lever levers[] = {
+      {"reused up to 20 steps, unrotated", {"numerics.smooth.jacobian_max_age=20"}},
+      {"reused, co-rotated with the hub", {"numerics.smooth.jacobian_max_age=1000", "numerics.smooth.jacobian_frame=hub"}},
+  };
+  for (const Lever& lever : levers) {
+    MultibodySimulation sim(cosim::interface::ScenarioFile::Parse(hub, "four_blade_hub.pbtxt", lever.sets));
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < steps; ++k) sim.Step(k * 0.002, (k + 1) * 0.002 - k * 0.002);
+    const double per_step = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / steps;
+    std::vector<double> v(3);
+    sim.Probe(&v);
+    const auto& cg = dynamic_cast<const CgAlpha&>(sim.integrator());
+    std::printf("  %-44s %10.2f %7.1fx %9.2f %14.2e %14.2e\n", lever.name, 1e3 * per_step, hex_step / per_step,
+                static_cast<double>(cg.factorizations()) / steps, v[0] - full_newton[0], v[2] - full_newton[2]);
   }
   // Issue 14: the research Puma's articulated rotor with beam blades (scenarios/puma/
   // rotor_no_air.pbtxt: lag and flap hinges, beams clamped at the pitch bearing, lag dampers,

@@ -105,6 +105,13 @@ class SparseSink {
       for (int r = 0; r < 3; ++r) Add(row + r, column + c, block(r, c));
     }
   }
+  // scale × a dense count × count matrix (column-major `values`) at rows and columns `index`
+  // (an element matrix): sinks with a costly Add find each column's entries in one pass.
+  virtual void AddDense(const int* index, int count, const double* values, double scale) {
+    for (int c = 0; c < count; ++c) {
+      for (int r = 0; r < count; ++r) Add(index[r], index[c], scale * values[r + c * count]);
+    }
+  }
 };
 
 class ConstraintSet {
@@ -115,6 +122,11 @@ class ConstraintSet {
   // none. CGα and the initial position and velocity solves honour it; the initial accelerations
   // leave the regularised (coupling) rows out.
   std::vector<double> compliance;
+  // First rows of the row triples e_k · d(q) = 0 (k = x, y, z: a joint's, clamp's or coupling
+  // node's point coincidence along the global axes), whose three multipliers are the components
+  // of one global vector: a Newton matrix carried along with a rotation R rotates them as it
+  // rotates the coordinates (CgAlpha, "co-rotated reuse").
+  std::vector<int> vector_triples;
   double Compliance(size_t i) const { return i < compliance.size() ? compliance[i] : 0.0; }
   // −scale · c_i on the diagonal (offset + i, offset + i) of every regularised row: the
   // ∂(Φ_i − c_i λ_i)/∂λ_i block of a saddle-point matrix whose multipliers are scaled by `scale`.

@@ -96,15 +96,11 @@ void ScatterForce(const ElementNodes& nodes, const Hex27::ElementVector& fe, dou
 
 void ScatterMatrix(const ElementNodes& nodes, const Hex27::ElementMatrix& Ke, double scale, SparseSink* K,
                    int offset) {
-  for (int b = 0; b < Hex27::kNodes; ++b) {
-    const int B = offset + 3 * nodes[static_cast<size_t>(b)];
-    for (int j = 0; j < 3; ++j) {
-      for (int a = 0; a < Hex27::kNodes; ++a) {
-        const int A = offset + 3 * nodes[static_cast<size_t>(a)];
-        for (int i = 0; i < 3; ++i) K->Add(A + i, B + j, scale * Ke(3 * a + i, 3 * b + j));
-      }
-    }
+  std::array<int, 3 * Hex27::kNodes> index;  // Ke is node-major: 3a + i
+  for (int a = 0; a < Hex27::kNodes; ++a) {
+    for (int i = 0; i < 3; ++i) index[static_cast<size_t>(3 * a + i)] = offset + 3 * nodes[static_cast<size_t>(a)] + i;
   }
+  K->AddDense(index.data(), 3 * Hex27::kNodes, Ke.data(), scale);
 }
 
 }  // namespace

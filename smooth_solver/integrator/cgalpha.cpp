@@ -1,5 +1,6 @@
 #include "smooth_solver/integrator/cgalpha.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -32,6 +33,10 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
 // coincidence along fixed axes, an elastic clamp, an axis against the ground) keeps Φ = 0: its
 // normal never turns, so the Newmark update's normal-velocity mode (amplification 1 − γ/β,
 // |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
+// A Newton iterate from a reused matrix is accepted when its estimated error is below this share
+// of the Newton tolerance (CgAlpha::Newton).
+constexpr double kReusedErrorShare = 1e-3;
+
 bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
   if (cs.Compliance(i) != 0.0) return false;
   const ScalarConstraint& c = cs.constraints[i];
@@ -233,7 +238,7 @@ bool CgAlpha::ProjectPositions(double t1) {
     }
     previous = violation;
     delta_.head(n).setZero();
-    lu_.SolveInPlace(delta_);
+    Solve(delta_);
     next_.q += delta_.head(n);
     ++projection_solves_;
   }
@@ -284,12 +289,17 @@ int CgAlpha::Step(double t, double h) {
   // Same h up to the round-off of t_{k+1} − t_k on the run's time grid.
   const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && std::abs(h - h_factorized_) <= 1e-9 * h &&
                      age_ < settings_.jacobian_max_age;
-  if (reuse) predicted_ = next_;  // kept for a retry with fresh matrices
+  // Co-rotated reuse (frame_body set) also keeps a step's first fresh matrix for its later
+  // iterations; plain reuse keeps full Newton in a step that starts with a fresh matrix.
+  const Matrices matrices = reuse                       ? Matrices::kReused
+                            : settings_.frame_body >= 0 ? Matrices::kFreshFirst
+                                                        : Matrices::kFreshEach;
+  if (matrices != Matrices::kFreshEach) predicted_ = next_;  // kept for a retry with fresh matrices
   int iterations = 0;
-  bool converged = Newton(t1, h, reuse, &iterations);
-  if (!converged && reuse) {
+  bool converged = Newton(t1, h, matrices, &iterations);
+  if (!converged && matrices != Matrices::kFreshEach) {
     next_ = predicted_;
-    converged = Newton(t1, h, /*reuse=*/false, &iterations);
+    converged = Newton(t1, h, Matrices::kFreshEach, &iterations);
   }
   if (converged) {
     // Accept: a_{n+1} from Eq. (3).
@@ -306,7 +316,30 @@ int CgAlpha::Step(double t, double h) {
                        "); reduce the step or raise numerics.smooth.newton_max_iterations");
 }
 
-bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
+Eigen::Matrix3d CgAlpha::FrameAxes(const Eigen::VectorXd& q) const {
+  Eigen::Matrix3d axes;  // columns u, v, w of the body's 12 coordinates [x, u, v, w]
+  for (int k = 0; k < 3; ++k) axes.col(k) = q.segment<3>(kCoordinatesPerBody * settings_.frame_body + 3 + 3 * k);
+  return axes;
+}
+
+void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) {
+  if (settings_.frame_body < 0) {
+    lu_.SolveInPlace(x);
+    return;
+  }
+  // x = T S₀⁻¹ Tᵀ x with T = R on every coordinate triple and multiplier triple, R = F F₀ᵀ.
+  const Eigen::Matrix3d R = FrameAxes(next_.q) * factorized_axes_.transpose();
+  const int n = system_.coordinates;
+  auto rotate = [&](const Eigen::Matrix3d& r) {
+    for (int k = 0; k < n; k += 3) x.segment<3>(k) = r * x.segment<3>(k);
+    for (int row : system_.constraints.vector_triples) x.segment<3>(n + row) = r * x.segment<3>(n + row);
+  };
+  rotate(R.transpose());
+  lu_.SolveInPlace(x);
+  rotate(R);
+}
+
+bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const double bh2 = coef_.beta * h * h;
   const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
@@ -318,10 +351,11 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
     ++*iterations;
     // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix unless reused.
     system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
-    if (reuse) {
-      elastic_.Add(state_.q, next_.q, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
-    } else {
+    const bool fresh = matrices == Matrices::kFreshEach || (matrices == Matrices::kFreshFirst && iteration == 1);
+    if (fresh) {
       AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
+    } else {
+      elastic_.Add(state_.q, next_.q, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
     }
     auto r_q = residual_.head(n);
     r_q.noalias() = system_.mass * next_.qddot;
@@ -329,9 +363,10 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
     system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     ScaledRows(1.0 / gamma_prime, residual_.tail(m));  // rows_ is at next_ (below, or before the loop)
-    if (!reuse) {
+    if (fresh) {
       ++factorizations_;
       factorized_ = false;
+      if (settings_.frame_body >= 0) factorized_axes_ = FrameAxes(next_.q);
       if (!lu_.Factorize(S_)) {
         throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                              " s (redundant constraints or a singular configuration)");
@@ -341,7 +376,7 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
       age_ = 0;
     }
     delta_ = -residual_;
-    lu_.SolveInPlace(delta_);
+    Solve(delta_);
     const auto dq = delta_.head(n);
     next_.q += dq;
     next_.qdot += gamma_prime * dq;
@@ -360,13 +395,26 @@ bool CgAlpha::Newton(double t1, double h, bool reuse, int* iterations) {
     // the position change their violation makes over one step). rows_ serves the next iteration too.
     ConstraintRows(t1, /*phi_known=*/any_velocity_row_);
     const double phi_norm = ScaledRows(h, violation_step_);
-    if (dq_norm <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) &&
-        phi_norm <= settings_.tolerance) {
-      return true;
+    const double dq_tolerance = settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>());
+    // With a matrix from an earlier iteration the convergence is linear, and the error left
+    // behind is about ρ/(1 − ρ) |Δq| (ρ: the contraction of the last two corrections, taken as
+    // reuse_contraction when there is only one) instead of full Newton's O(|Δq|²): such an
+    // iterate is accepted only once that estimate is below kReusedErrorShare of the tolerance,
+    // about what full Newton's last iteration leaves (docs/results.md: the four-blade hub).
+    // (Co-rotated reuse only so far: with the projected form, the extra iterations move the
+    // positions along the stale matrix's projection directions, docs/design.md "Newton-matrix
+    // reuse", and the four-bar of JacobianReuse ends 3e-6 away instead of 5e-8.)
+    bool accurate = true;
+    if (!fresh && settings_.frame_body >= 0) {
+      const double rho = std::min(std::isfinite(previous_dq) ? dq_norm / previous_dq : settings_.reuse_contraction, 0.9);
+      accurate = rho / (1.0 - rho) * dq_norm <= kReusedErrorShare * dq_tolerance;
     }
+    if (dq_norm <= dq_tolerance && accurate && phi_norm <= settings_.tolerance) return true;
     // A reused matrix that no longer contracts the correction well is replaced by a fresh one
     // for the rest of the step (full Newton from here).
-    if (reuse && dq_norm > settings_.reuse_contraction * previous_dq) reuse = false;
+    if (matrices != Matrices::kFreshEach && dq_norm > settings_.reuse_contraction * previous_dq) {
+      matrices = Matrices::kFreshEach;
+    }
     previous_dq = dq_norm;
   }
   return false;

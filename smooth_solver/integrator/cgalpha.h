@@ -85,6 +85,17 @@ struct CgAlphaSettings {
   // iterations changes, never the test that accepts a step.
   int jacobian_max_age = 0;
   double reuse_contraction = 0.25;
+  // With reuse on (jacobian_max_age > 0), the rigid body (index into the model's bodies, -1:
+  // none) whose rotation a reused matrix is carried along with: a co-rotated reuse. Every
+  // coordinate of the system is a 3-vector (positions, body axes, nodes, beam directors), and for
+  // a scene symmetric about the motion of this body (a rotor about its shaft: the hub) the Newton
+  // matrix at a rotated state is the rotated matrix, S(Rq) = T S(q) Tᵀ with T rotating every
+  // coordinate triple and the multiplier triples of ConstraintSet::vector_triples by R. A matrix
+  // factorised when the body's axes were F₀ then serves the state with axes F as
+  // x = T S₀⁻¹ Tᵀ b, R = F F₀ᵀ: in absolute coordinates a blade's stiff axial modes turn with it,
+  // and an unrotated matrix stops contracting once the hub has turned by about the ratio of its
+  // bending to axial stiffness (1e-3 rad on the four-blade hub of elastic_benchmark).
+  int frame_body = -1;
 };
 
 class CgAlpha : public SmoothIntegrator {
@@ -170,9 +181,18 @@ class CgAlpha : public SmoothIntegrator {
   bool factorized_ = false;
   double h_factorized_ = 0.0;
   int age_ = 0;
-  // One Newton solve of the step from its predictor (next_ set); `reuse`: start from the
-  // factorisation in lu_. Returns whether it converged; adds the iterations to *iterations.
-  bool Newton(double t1, double h, bool reuse, int* iterations);
+  // Which Newton matrices a solve of the step uses: the factorisation in lu_ from an earlier
+  // step (then fresh ones if it stops contracting), a fresh one in the first iteration kept for
+  // the later ones while they contract well (modified Newton), or a fresh one in every iteration.
+  enum class Matrices { kReused, kFreshFirst, kFreshEach };
+  // One Newton solve of the step from its predictor (next_ set). Returns whether it converged;
+  // adds the iterations to *iterations.
+  bool Newton(double t1, double h, Matrices matrices, int* iterations);
+  // x ← S⁻¹ x with the factorisation in lu_, co-rotated with settings_.frame_body (see there)
+  // from its axes when the matrix was assembled to their value at next_.q.
+  void Solve(Eigen::Ref<Eigen::VectorXd> x);
+  Eigen::Matrix3d FrameAxes(const Eigen::VectorXd& q) const;
+  Eigen::Matrix3d factorized_axes_ = Eigen::Matrix3d::Identity();
   // Newton workspace.
   DaeState next_, predicted_;
   Eigen::VectorXd a_next_, residual_, delta_, phi_, phi_t_, rate_, rows_, violation_step_, force_;

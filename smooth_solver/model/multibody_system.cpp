@@ -234,6 +234,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         const LinearVector at_body = clamp.rigid_body < 0 ? LinearVector::Constant(X)
                                                           : LinearVector::Point(clamp.rigid_body, f.R.transpose() * (X - f.x));
         sys.elastic_clamp_rows.back().emplace_back(sys.constraints.size(), node);
+        sys.constraints.vector_triples.push_back(sys.constraints.size());
         for (int k = 0; k < 3; ++k) {
           ScalarConstraint c;
           c.name = sys.elastic[e]->name + ".clamp_node_" + std::to_string(node);
@@ -305,6 +306,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       // Coincidence of the joint's points: λ of these rows is the force body1 exerts on body2
       // (with the sign convention Φ = p1 − p2).
       const char* axes[3] = {"x", "y", "z"};
+      cs.vector_triples.push_back(cs.size());
       for (int k = 0; k < 3; ++k) add(std::string("point_") + axes[k], p1 - p2, LinearVector::Constant(Eigen::Vector3d::Unit(k)));
     }
     measure.has_point_rows = point_rows;
@@ -440,6 +442,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         ip.point = LinearVector::Point(spec.body, spec.point);
       }
       const Eigen::Vector3d at = ip.point.Value(sys.q0);
+      cs.vector_triples.push_back(cs.size());
       for (int j = 0; j < 3; ++j) {
         ImposedCoordinate& x = (*sys.imposed)[3 * k + static_cast<size_t>(j)];
         x.value = at(j);  // until the peer says otherwise: where the point is

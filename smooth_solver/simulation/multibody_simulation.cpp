@@ -138,6 +138,16 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   // Probes.
   std::map<std::string, int> body_index, joint_index;
   for (size_t b = 0; b < model_.bodies.size(); ++b) body_index[model_.bodies[b].name] = static_cast<int>(b);
+  if (s.has_jacobian_frame()) {
+    auto it = body_index.find(s.jacobian_frame());
+    if (it == body_index.end()) {
+      checks.Fail("numerics.smooth.jacobian_frame", "no rigid body named '" + s.jacobian_frame() + "'");
+    } else if (s.jacobian_max_age() == 0) {
+      checks.Fail("numerics.smooth.jacobian_frame", "set, but numerics.smooth.jacobian_max_age is 0 (no matrix is reused)");
+    } else {
+      settings.frame_body = it->second;
+    }
+  }
   for (size_t j = 0; j < model_.joints.size(); ++j) joint_index[model_.joints[j].name] = static_cast<int>(j);
   std::map<std::string, int> beam_index;
   for (size_t b = 0; b < model_.beams.size(); ++b) beam_index[model_.beams[b].name] = static_cast<int>(b);

@@ -254,6 +254,12 @@ void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::Vector
   if (s.delta <= 0.0) impact_speed_ = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
 }
 
+double UnilateralContact::TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  const State s = Evaluate(q, qdot);
+  if (s.delta >= 0.0 || s.rate <= 0.0) return std::numeric_limits<double>::infinity();  // in contact, or opening
+  return -s.delta / s.rate;
+}
+
 UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
   State s;
   s.measure = measure_.Evaluate(q);

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include <array>
+#include <limits>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -37,6 +38,11 @@ class ForceElement {
   // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it
   // (the contact laws' impact speed). Called by the simulation, never inside Newton.
   virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/, double /*t*/) const {}
+  // Adaptive steps: the time [s] until a contact this element models would begin at the present
+  // rates (its gap over its closing speed), +∞ if none is approaching.
+  virtual double TimeToContact(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/) const {
+    return std::numeric_limits<double>::infinity();
+  }
 };
 
 // A force F(t) at a body point s and a torque T(t) on the body, both global. In natural
@@ -135,6 +141,7 @@ class UnilateralContact : public ForceElement {
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
   void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const override;
+  double TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
   // The law's force f >= 0 [N, or N m for a joint stop] at (q, q̇): zero out of contact.
   double LawForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const { return Evaluate(q, qdot).f; }
   // The law's elastic part stores K δⁿ⁺¹/(n + 1); its damping part only dissipates.

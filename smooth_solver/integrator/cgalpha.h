@@ -112,6 +112,8 @@ class CgAlpha : public SmoothIntegrator {
   double alpha_f() const { return coef_.alpha_f; }
   double beta() const { return coef_.beta; }
   double gamma() const { return coef_.gamma; }
+  // The acceleration-like variable a_n of Eq. (3) (the adaptive step's error estimate).
+  const Eigen::VectorXd& acceleration_variable() const { return a_; }
   // |Φ|∞ at the current state.
   double ConstraintViolation(double t) const override;
   // Solves of the position projection over all steps so far (INDEX2_PROJECTED; cost accounting).

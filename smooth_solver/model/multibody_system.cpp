@@ -84,6 +84,12 @@ void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd
   for (const auto& element : forces) element->AcceptStep(q, qdot, t);
 }
 
+double MultibodySystem::TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+  double t = std::numeric_limits<double>::infinity();
+  for (const auto& element : forces) t = std::min(t, element->TimeToContact(q, qdot));
+  return t;
+}
+
 void MultibodySystem::ForcePattern(SparseSink* sink) const {
   for (const auto& element : forces) element->Pattern(sink);
 }

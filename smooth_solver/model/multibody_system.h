@@ -92,6 +92,8 @@ struct MultibodySystem {
   void ForcePattern(SparseSink* sink) const;
   // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it.
   void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const;
+  // The earliest time until a continuous contact begins at the present rates (+∞: none near).
+  double TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
 
   // Joint coordinate [rad or m] and its rate.
   double JointCoordinate(int joint, const Eigen::VectorXd& q) const;

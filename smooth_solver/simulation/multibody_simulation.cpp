@@ -1,8 +1,10 @@
 #include "smooth_solver/simulation/multibody_simulation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <set>
@@ -123,6 +125,30 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     checks.Fail("numerics.smooth.constraint_form", "expected INDEX3 or INDEX2_PROJECTED");
   }
   settings.form = s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
+  const sc::AdaptiveStep& adaptive = numerics_.adaptive();
+  if (adaptive.enabled()) {
+    if (coupled) {
+      checks.Fail("numerics.adaptive", "a coupled run takes fixed steps so far (the contact processes' side of a "
+                                       "rejected step is issue 18's next part); set enabled: false");
+    } else if (s.integrator() != sc::SmoothSettings::CGALPHA) {
+      checks.Fail("numerics.adaptive", "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
+                                       "own); set enabled: false");
+    }
+    adaptive_.on = true;
+    adaptive_.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
+    adaptive_.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
+    adaptive_.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
+    adaptive_.max_step = adaptive.has_max_step()
+                             ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
+                             : 100.0 * numerics_.step();
+    adaptive_.contact_step = adaptive.has_contact_step()
+                                 ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
+                                 : 0.1 * numerics_.step();
+    if (adaptive_.max_step < adaptive_.min_step) {
+      checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(adaptive_.min_step) +
+                                                    " s, got " + interface::FormatNumber(adaptive_.max_step) + " s");
+    }
+  }
   const sc::Watchdog& w = s.watchdog();
   WatchdogSettings watchdog;
   watchdog.rigidity_rate = checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
@@ -440,7 +466,7 @@ std::vector<std::string> MultibodySimulation::ProbeNames() const {
 }
 
 Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
-  const DaeState& s = integrator_->state();
+  const DaeState& s = interpolated_ ? shown_ : integrator_->state();
   const int o = kCoordinatesPerBody * p.index;
   // ω = ½ Σ_k e_k × ė_k and ω̇ = ½ Σ_k e_k × ë_k for orthonormal axes e_k.
   auto omega = [&](int at, const Eigen::VectorXd& rate) {
@@ -482,7 +508,7 @@ Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
 }
 
 void MultibodySimulation::Probe(std::vector<double>* values) const {
-  const DaeState& s = integrator_->state();
+  const DaeState& s = interpolated_ ? shown_ : integrator_->state();
   for (size_t i = 0; i < probes_.size(); ++i) {
     const ProbeSpec& p = probes_[i];
     double value = 0.0;
@@ -509,7 +535,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kAeroMoment:
       case Kind::kAeroMach: {
         const AirLoads& air = *system_->air_loads;
-        const AirLoads::SectionResult r = air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, time_);
+        const AirLoads::SectionResult r = air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_);
         value = p.kind == Kind::kAeroAlpha    ? r.alpha
                 : p.kind == Kind::kAeroMoment ? r.moment
                 : p.kind == Kind::kAeroMach   ? r.mach
@@ -520,7 +546,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kRotorTorque:
       case Kind::kInflowRatio:
       case Kind::kInducedVelocity: {
-        const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, time_);
+        const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_);
         value = p.kind == Kind::kRotorThrust   ? r.thrust
                 : p.kind == Kind::kRotorTorque ? r.torque
                 : p.kind == Kind::kInflowRatio ? r.inflow_ratio
@@ -533,6 +559,10 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kJointCoordinate:
         value = system_->JointCoordinate(p.index, s.q);
         if (system_->joints[static_cast<size_t>(p.index)].rotational) {
+          // An interpolated state lies within the last step: on last_angle_'s side of ±π.
+          const double last = last_angle_[static_cast<size_t>(p.index)];
+          if (value - last > std::numbers::pi) value -= 2.0 * std::numbers::pi;
+          if (value - last < -std::numbers::pi) value += 2.0 * std::numbers::pi;
           value += angle_offset_[static_cast<size_t>(p.index)];
         } else {
           value += model_.joints[static_cast<size_t>(p.index)].initial_coordinate;
@@ -540,16 +570,16 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         break;
       case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
       case Kind::kReactionForce:
-        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, time_)), p.component);
+        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, probe_time_)), p.component);
         break;
       case Kind::kReactionMoment:
-        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, time_)),
+        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, probe_time_)),
                                          p.component);
         break;
       case Kind::kKinetic: value = system_->KineticEnergy(s.qdot); break;
       case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;
       case Kind::kTotal: value = system_->KineticEnergy(s.qdot) + system_->PotentialEnergy(s.q); break;
-      case Kind::kViolation: value = integrator_->ConstraintViolation(time_); break;
+      case Kind::kViolation: value = Violation(s.q); break;
       case Kind::kDisplacement: {
         const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
         Eigen::Vector3d d;
@@ -583,7 +613,97 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
   }
 }
 
-void MultibodySimulation::Step(double t, double h) { Record(t + h, integrator_->Step(t, h)); }
+double MultibodySimulation::Violation(const Eigen::VectorXd& q) const {
+  if (!interpolated_) return integrator_->ConstraintViolation(time_);
+  Eigen::VectorXd phi(system_->constraints.size());
+  system_->constraints.Evaluate(q, probe_time_, phi);
+  return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
+}
+
+void MultibodySimulation::Step(double t, double h) {
+  interpolated_ = false;
+  if (!adaptive_.on) {
+    Record(t + h, integrator_->Step(t, h));
+    probe_time_ = time_;
+    return;
+  }
+  // numerics.adaptive: steps of their own size until the integrator has passed t + h, then the
+  // probes read the state interpolated at t + h (or the integrator's, if a step ended there).
+  auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
+  const double target = t + h, end = numerics_.end_time();
+  const double eps = 1e-12 * std::max(1.0, std::abs(target));
+  if (h_next_ <= 0.0) h_next_ = h;
+  while (time_ < target - eps) {
+    double step = std::min(h_next_, adaptive_.max_step);
+    const DaeState& now = cg.state();
+    // Half the time to a contact at the present closing rate (the approach may accelerate): the
+    // steps shorten geometrically towards it, and the last enters it by about contact_step.
+    step = std::min(step, std::max(0.5 * system_->TimeToContact(now.q, now.qdot) + adaptive_.contact_step,
+                                   adaptive_.min_step));
+    if (time_ + step > end - eps) step = end - time_;  // the run ends on its end time
+    cg.SaveTo(&checkpoint_);
+    int iterations = 0;
+    double norm = std::numeric_limits<double>::infinity();
+    std::string why;
+    try {
+      iterations = cg.Step(time_, step);
+      norm = ErrorNorm(step);
+      why = "the error estimate " + interface::FormatNumber(norm) + " > 1";
+    } catch (const NumericalError& e) {
+      why = e.what();
+    }
+    if (!(norm <= 1.0)) {  // rejected: the same step again, smaller
+      cg.Restore(checkpoint_);
+      ++rejected_;
+      h_next_ = step * (std::isfinite(norm) ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 0.9) : 0.25);
+      if (h_next_ < adaptive_.min_step) {
+        throw NumericalError("numerics.adaptive: the step would fall below min_step = " +
+                             interface::FormatNumber(adaptive_.min_step) + " s at t = " + interface::FormatNumber(time_) +
+                             " s (" + interface::FormatNumber(step) + " s rejected: " + why + ")");
+      }
+      continue;
+    }
+    previous_ = checkpoint_.state;
+    previous_time_ = time_;
+    Record(time_ + step, iterations);
+    ++accepted_steps_;
+    smallest_step_ = std::min(smallest_step_, step);
+    largest_step_ = std::max(largest_step_, step);
+    h_next_ = std::min(step * (norm > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 2.0) : 2.0), adaptive_.max_step);
+  }
+  probe_time_ = target;
+  if (std::abs(time_ - target) > eps) Interpolate(target);
+}
+
+double MultibodySimulation::ErrorNorm(double h) const {
+  // e = |β − 1/6| h² (a_{n+1} − a_n): the local error of the Newmark position update (Zienkiewicz &
+  // Xie 1991), here on the generalised-α acceleration variable.
+  const auto& cg = dynamic_cast<const CgAlpha&>(*integrator_);
+  const double c = std::abs(cg.beta() - 1.0 / 6.0) * h * h;
+  const Eigen::VectorXd& q = cg.state().q;
+  double sum = 0.0;
+  for (Eigen::Index i = 0; i < q.size(); ++i) {
+    const double e = c * (cg.acceleration_variable()(i) - checkpoint_.a(i));
+    const double w = adaptive_.absolute + adaptive_.relative * std::abs(q(i));
+    sum += (e / w) * (e / w);
+  }
+  return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(q.size(), 1)));
+}
+
+void MultibodySimulation::Interpolate(double t) {
+  // Cubic Hermite between the last two accepted states: q from (q, q̇), q̇ from (q̇, q̈) at both
+  // ends; q̈ and λ linear. O(H⁴) in q: below the step's own error.
+  const DaeState& b = integrator_->state();
+  const DaeState& a = previous_;
+  const double H = time_ - previous_time_, s = (t - previous_time_) / H;
+  const double h00 = (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s), h10 = s * (1.0 - s) * (1.0 - s);
+  const double h01 = s * s * (3.0 - 2.0 * s), h11 = s * s * (s - 1.0);
+  shown_.q = h00 * a.q + (h10 * H) * a.qdot + h01 * b.q + (h11 * H) * b.qdot;
+  shown_.qdot = h00 * a.qdot + (h10 * H) * a.qddot + h01 * b.qdot + (h11 * H) * b.qddot;
+  shown_.qddot = (1.0 - s) * a.qddot + s * b.qddot;
+  shown_.lambda = (1.0 - s) * a.lambda + s * b.lambda;
+  interpolated_ = true;
+}
 
 CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
 
@@ -642,6 +762,12 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   counters["initial_position_change"] = initial_report_.position_change;
   counters["initial_velocity_change"] = initial_report_.velocity_change;
   if (ida_) counters["ida_internal_steps"] = static_cast<double>(ida_steps_);
+  if (adaptive_.on) {
+    counters["adaptive_accepted_steps"] = static_cast<double>(accepted_steps_);
+    counters["adaptive_rejected_steps"] = static_cast<double>(rejected_);
+    counters["adaptive_smallest_step"] = accepted_steps_ > 0 ? smallest_step_ : 0.0;
+    counters["adaptive_largest_step"] = largest_step_;
+  }
   if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get())) {
     counters["position_projection_solves"] = static_cast<double>(cg->projection_solves());
     counters["newton_factorizations"] = static_cast<double>(cg->factorizations());

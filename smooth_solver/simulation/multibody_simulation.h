@@ -1,6 +1,7 @@
 #pragma once
 // A standalone smooth-solver run: model, natural-coordinate system, consistent initial
 // state, CGα, and the probes, behind the run contract's Simulation interface.
+#include <limits>
 #include <memory>
 
 #include "interface/run/run_driver.h"
@@ -71,6 +72,23 @@ class MultibodySimulation : public interface::Simulation {
   long steps_ = 0;
   double time_ = 0.0;
   double max_violation_ = 0.0;
+  // numerics.adaptive (standalone CGα): the controller's settings and state. time_ is the
+  // integrator's time, which may run ahead of the output grid; the probes then read shown_, the
+  // state interpolated at probe_time_ between previous_ (at previous_time_) and the integrator's.
+  struct AdaptiveSettings {
+    bool on = false;
+    double relative = 0.0, absolute = 0.0, min_step = 0.0, max_step = 0.0, contact_step = 0.0;
+  };
+  double ErrorNorm(double h) const;
+  void Interpolate(double t);
+  double Violation(const Eigen::VectorXd& q) const;  // |Φ|∞ of the state the probes read
+  AdaptiveSettings adaptive_;
+  double h_next_ = 0.0, previous_time_ = 0.0, probe_time_ = 0.0;
+  double smallest_step_ = std::numeric_limits<double>::infinity(), largest_step_ = 0.0;
+  long accepted_steps_ = 0, rejected_ = 0;
+  CgAlpha::Checkpoint checkpoint_;
+  DaeState previous_, shown_;
+  bool interpolated_ = false;
   // Revolute angles unwrapped across ±π: turns added to atan2 per joint.
   std::vector<double> angle_offset_, last_angle_;
   std::string output_folder_, scenario_name_;

@@ -669,7 +669,12 @@ void MultibodySimulation::Step(double t, double h) {
     ++accepted_steps_;
     smallest_step_ = std::min(smallest_step_, step);
     largest_step_ = std::max(largest_step_, step);
-    h_next_ = std::min(step * (norm > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 2.0) : 2.0), adaptive_.max_step);
+    // Growth below 1.25× is not taken (as RADAU5 does): an unchanged h keeps a reused Newton
+    // matrix valid (jacobian_max_age), which a step that changes by a few percent would drop.
+    double growth = norm > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 2.0) : 2.0;
+    if (growth >= 1.0 && growth < 1.25) growth = 1.0;
+    if (step < h_next_) growth = std::max(growth, h_next_ / step);  // a step cut to land or before a contact
+    h_next_ = std::min(step * growth, adaptive_.max_step);
   }
   probe_time_ = target;
   if (std::abs(time_ - target) > eps) Interpolate(target);

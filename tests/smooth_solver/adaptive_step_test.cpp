@@ -52,7 +52,7 @@ Outputs Drive(MultibodySimulation* sim, double start, double end, double h, int 
 TEST(AdaptiveStep, AnOscillatorsErrorFollowsTheToleranceOnTheOutputGrid) {
   // The controller keeps the local error estimate |β − 1/6| h² Δa at the tolerance, so h ∝ tol^(1/3)
   // and the global error of the second-order scheme ∝ h² ∝ tol^(2/3): a tolerance 100× smaller
-  // gives about 21× less error with 4.6× the steps (observed: 16.5× with 4.3×). The history is read at the output grid
+  // gives about 21× less error with 4.6× the steps (observed: 16.7× with 4.4×). The history is read at the output grid
   // (every 0.01 s) between steps of up to 0.1 s, by cubic Hermite interpolation, whose O(H⁴)
   // error stays below the step's own.
   std::vector<double> errors, steps;
@@ -90,8 +90,8 @@ TEST(AdaptiveStep, APendulumAgainstAStopMatchesFineFixedStepsWithATwentiethOfThe
   // swing. Fixed steps must resolve the impact everywhere; the adaptive step shortens towards the
   // stop (half the time to contact at the closing speed, then contact_step), through the impact by
   // its error estimate, and grows again after it. Observed (tolerance 1e-8, output every 0.5 ms):
-  // 1254 steps, hinge angle after the impact within 4.2e-4 rad of h = 1e-5 s, where fixed
-  // h = 2.5e-5 s (60000 steps) is within 5.3e-4 rad: 18× faster at equal accuracy.
+  // 1296 steps, hinge angle after the impact within 3.3e-4 rad of h = 1e-5 s, where fixed
+  // h = 2.5e-5 s (60000 steps) is within 5.3e-4 rad: 16× faster (0.094 s against 1.48 s).
   const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop_continuous.pbtxt";
   MultibodySimulation fixed(interface::ScenarioFile::Load(path, {"numerics.step=2.5e-5"}));
   MultibodySimulation adaptive(interface::ScenarioFile::Load(
@@ -110,7 +110,7 @@ TEST(AdaptiveStep, APendulumAgainstAStopMatchesFineFixedStepsWithATwentiethOfThe
               "the impact within %.2e rad\n",
               a.accepted, a.rejected, difference);
   EXPECT_LT(a.accepted, 60000.0 / 20.0);
-  EXPECT_LT(difference, 1.5e-3);  // the two runs' own errors, 4.2e-4 and 5.3e-4, with margin
+  EXPECT_LT(difference, 1.5e-3);  // the two runs' own errors, 3.3e-4 and 5.3e-4, with margin
 }
 
 TEST(AdaptiveStep, AStepBelowTheMinimumEndsTheRunAsANumericalFailure) {

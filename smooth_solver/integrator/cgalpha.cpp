@@ -26,6 +26,10 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   return pattern.Build(n + m, n + m);
 }
 
+// A Newton iterate from a reused matrix is accepted when its estimated error is below this share
+// of the Newton tolerance (CgAlpha::Newton).
+constexpr double kReusedErrorShare = 1e-3;
+
 // Whether INDEX2_PROJECTED closes row i at velocity level: a curved row (a term whose two
 // vectors both move: Φ_q changes with q, like the rigidity rows u·u = 1 and the axes of a
 // revolute joint between two bodies), unless it is a coupling interface row (imposed by a peer,
@@ -33,10 +37,6 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
 // coincidence along fixed axes, an elastic clamp, an axis against the ground) keeps Φ = 0: its
 // normal never turns, so the Newmark update's normal-velocity mode (amplification 1 − γ/β,
 // |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
-// A Newton iterate from a reused matrix is accepted when its estimated error is below this share
-// of the Newton tolerance (CgAlpha::Newton).
-constexpr double kReusedErrorShare = 1e-3;
-
 bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
   if (cs.Compliance(i) != 0.0) return false;
   const ScalarConstraint& c = cs.constraints[i];
@@ -400,7 +400,7 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
     // behind is about ρ/(1 − ρ) |Δq| (ρ: the contraction of the last two corrections, taken as
     // reuse_contraction when there is only one) instead of full Newton's O(|Δq|²): such an
     // iterate is accepted only once that estimate is below kReusedErrorShare of the tolerance,
-    // about what full Newton's last iteration leaves (docs/results.md: the four-blade hub).
+    // about what full Newton's last iteration leaves (docs/design.md, "Co-rotated reuse").
     // (Co-rotated reuse only so far: with the projected form, the extra iterations move the
     // positions along the stale matrix's projection directions, docs/design.md "Newton-matrix
     // reuse", and the four-bar of JacobianReuse ends 3e-6 away instead of 5e-8.)

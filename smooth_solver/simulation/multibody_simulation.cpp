@@ -457,6 +457,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     if (system_->joints[j].rotational) last_angle_[j] = system_->JointCoordinate(static_cast<int>(j), initial.q);
   }
   max_violation_ = integrator_->ConstraintViolation(time_);
+  probe_time_ = time_;
 }
 
 std::vector<std::string> MultibodySimulation::ProbeNames() const {
@@ -621,10 +622,8 @@ double MultibodySimulation::Violation(const Eigen::VectorXd& q) const {
 }
 
 void MultibodySimulation::Step(double t, double h) {
-  interpolated_ = false;
   if (!adaptive_.on) {
     Record(t + h, integrator_->Step(t, h));
-    probe_time_ = time_;
     return;
   }
   // numerics.adaptive: steps of their own size until the integrator has passed t + h, then the
@@ -677,6 +676,7 @@ void MultibodySimulation::Step(double t, double h) {
     h_next_ = std::min(step * growth, adaptive_.max_step);
   }
   probe_time_ = target;
+  interpolated_ = false;  // a step that ended on the target, now or in an earlier call
   if (std::abs(time_ - target) > eps) Interpolate(target);
 }
 
@@ -720,6 +720,8 @@ void MultibodySimulation::Record(double t1, int iterations) {
     newton_.Add(iterations);
   }
   time_ = t1;
+  probe_time_ = t1;  // the probes read the integrator's state (an adaptive step may interpolate after)
+  interpolated_ = false;
   watchdog_->Check(integrator_->state(), t1, ++steps_);
   max_violation_ = std::max(max_violation_, integrator_->ConstraintViolation(time_));
   // Unwrap revolute angles (a step never turns a joint by π).

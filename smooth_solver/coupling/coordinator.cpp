@@ -176,7 +176,8 @@ int Coordinator::Step(double t, double h) {
   for (;; ++iteration) {
     Impose(h);
     integrator_->Restore(start_);
-    newton_ += integrator_->Step(t, h);
+    newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
+    if (settings_.warm_start) iterate_ = integrator_->state();  // equal sizes: no allocation once warm
     const Eigen::VectorXd& lambda = integrator_->state().lambda;
     for (size_t k = 0; k < system_.interface_points.size(); ++k) {
       lambda_end_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);

@@ -40,6 +40,7 @@ struct CouplingSettings {
   bool step_average_reaction = false;    // false: λ at the step's end (see scenario.proto)
   bool stop_at_max_iterations = true;    // false: accept and mark the step
   bool restart_at_impact = true;         // see scenario.proto, CouplingIteration
+  bool warm_start = true;                // Newton from the last coupling iteration's end (scenario.proto)
 };
 
 // One iteration's record, for the convergence log.
@@ -94,6 +95,7 @@ class Coordinator {
   CouplingSettings settings_;
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
+  DaeState iterate_;  // the end state of the step's last coupling iteration (Newton's start for the next)
   long long step_ = 0;
   int n_ = 0;  // interface values: 3 per point
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions

@@ -124,6 +124,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   }
   settings.stop_at_max_iterations = it.on_max_iterations() == sc::Coupling::CouplingIteration::STOP;
   settings.restart_at_impact = it.restart_at_impact();
+  settings.warm_start = it.warm_start();
   if (!settings.restart_at_impact) {
     // Without the restart only a compliant tie can carry a node's velocity jump to the smooth model.
     const auto& nodes = file.proto().coupling().interface_nodes();

@@ -244,7 +244,7 @@ bool CgAlpha::ProjectPositions(double t1) {
   }
 }
 
-int CgAlpha::Step(double t, double h) {
+int CgAlpha::Step(double t, double h, const DaeState* guess) {
   const int m = system_.constraints.size();
   const double t1 = t + h;
   if (RestartAtRelease(system_, t, t1, &state_)) {
@@ -285,6 +285,7 @@ int CgAlpha::Step(double t, double h) {
   a_next_ = (state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
   next_.q = state_.q + h * state_.qdot + h * h * ((0.5 - coef_.beta) * a_ + coef_.beta * a_next_);
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
+  if (guess != nullptr) next_ = *guess;  // assignments of equal sizes: no allocation
 
   // Same h up to the round-off of t_{k+1} − t_k on the run's time grid.
   const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && std::abs(h - h_factorized_) <= 1e-9 * h &&

@@ -106,7 +106,9 @@ class SparseSink {
     }
   }
   // scale × a dense count × count matrix (column-major `values`) at rows and columns `index`
-  // (an element matrix): sinks with a costly Add find each column's entries in one pass.
+  // (an element matrix): sinks with a costly Add find each column's entries in one pass, with
+  // workspaces of kMaxDense on the stack (larger ones go entry by entry).
+  static constexpr int kMaxDense = 96;  // a hex27's 81 coordinates
   virtual void AddDense(const int* index, int count, const double* values, double scale) {
     for (int c = 0; c < count; ++c) {
       for (int r = 0; r < count; ++r) Add(index[r], index[c], scale * values[r + c * count]);

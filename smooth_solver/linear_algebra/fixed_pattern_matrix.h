@@ -62,7 +62,7 @@ class MatrixSink : public SparseSink {
   // One merge of the sorted rows with each column's pattern (no search per entry: the scatter of
   // an element matrix was ~14 % of a hex27 CGα step with Add).
   void AddDense(const int* index, int count, const double* values, double scale) override {
-    if (count > kMaxDense) {  // larger than any element matrix: entry by entry
+    if (count > kMaxDense) {
       SparseSink::AddDense(index, count, values, scale);
       return;
     }
@@ -87,7 +87,6 @@ class MatrixSink : public SparseSink {
   }
 
  private:
-  static constexpr int kMaxDense = 96;  // a hex27's 81 coordinates
   Eigen::SparseMatrix<double>* m_;
 };
 
@@ -101,15 +100,11 @@ class OffsetSink : public SparseSink {
     inner_->AddBlock3(r + row_, c + column_, scale_ * block);
   }
   void AddDense(const int* index, int count, const double* values, double scale) override {
-    if (row_ != column_) {
+    if (row_ != column_ || count > kMaxDense) {
       SparseSink::AddDense(index, count, values, scale);
       return;
     }
-    std::array<int, 96> shifted;  // on the stack: steps do not allocate
-    if (count > static_cast<int>(shifted.size())) {
-      SparseSink::AddDense(index, count, values, scale);
-      return;
-    }
+    std::array<int, kMaxDense> shifted;  // on the stack: steps do not allocate
     for (int k = 0; k < count; ++k) shifted[static_cast<size_t>(k)] = index[k] + row_;
     inner_->AddDense(shifted.data(), count, values, scale_ * scale);
   }

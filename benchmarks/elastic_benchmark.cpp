@@ -263,7 +263,7 @@ int main() {
     for (int k = 0; k < reps; ++k) air.AddTangent(q, qdot, 0.0, 1.0, 0.5, &sink);
     const double tangent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
     t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < reps / 10; ++k) air.AcceptStep(q, qdot, 1e-4 * (k + 2));
+    for (int k = 0; k < reps / 10; ++k) air.AcceptStep(q, qdot, 1e-4 * (k + 2), sim.mutable_data());
     const double accept = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / (reps / 10);
     std::printf("  air loads: %zu sections; force %.1f us, force + tangent %.1f us, inflow update %.1f us per call "
                 "(checksum %.3g)\n",

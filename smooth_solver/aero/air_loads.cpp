@@ -120,10 +120,10 @@ bool LocateInMesh(const ElasticMesh& mesh, const Vector3d& X, MeshPoint* at) {
   return false;
 }
 
-AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset)
-    : model_(std::move(model)), elastic_offset_(std::move(elastic_offset)) {
+AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset, SystemData* data)
+    : model_(std::move(model)), elastic_offset_(std::move(elastic_offset)), data_(data) {
   rotor_sections_.resize(model_.rotors.size());
-  rotor_state_.resize(model_.rotors.size());
+  data->rotors.assign(model_.rotors.size(), RotorState{});
   std::vector<double> gx, gw;
   for (size_t si = 0; si < model_.surfaces.size(); ++si) {
     const AeroSurfaceSpec& sf = model_.surfaces[si];
@@ -363,7 +363,7 @@ void AirLoads::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, d
                         Eigen::Ref<Eigen::VectorXd> f) const {
   Local o;
   for (const AeroSection& s : sections_) {
-    const RotorState* r = s.rotor >= 0 ? &rotor_state_[static_cast<size_t>(s.rotor)] : nullptr;
+    const RotorState* r = s.rotor >= 0 ? &data_->rotors[static_cast<size_t>(s.rotor)] : nullptr;
     Compute(s, q, qdot, t, r, false, &o);
     const Vector3d F = s.weight * o.F, couple = s.weight * o.m * o.e2;
     for (int k = 0; k < s.slots; ++k) {
@@ -383,7 +383,7 @@ void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
     L.setZero(3 * slots, 3 * slots);
     for (int k = group.first; k < group.last; ++k) {
       const AeroSection& s = sections_[static_cast<size_t>(k)];
-      const RotorState* r = s.rotor >= 0 ? &rotor_state_[static_cast<size_t>(s.rotor)] : nullptr;
+      const RotorState* r = s.rotor >= 0 ? &data_->rotors[static_cast<size_t>(s.rotor)] : nullptr;
       Compute(s, q, qdot, t, r, true, &o);
       Matrix3d R;
       R << o.e1, o.e2, o.e3;
@@ -447,7 +447,7 @@ void AirLoads::Pattern(SparseSink* sink) const {
 AirLoads::SectionResult AirLoads::Evaluate(const AeroSection& section, const Eigen::VectorXd& q,
                                            const Eigen::VectorXd& qdot, double t) const {
   Local o;
-  const RotorState* r = section.rotor >= 0 ? &rotor_state_[static_cast<size_t>(section.rotor)] : nullptr;
+  const RotorState* r = section.rotor >= 0 ? &data_->rotors[static_cast<size_t>(section.rotor)] : nullptr;
   Compute(section, q, qdot, t, r, false, &o);
   SectionResult res;
   res.alpha = o.alpha;
@@ -507,14 +507,14 @@ AirLoads::RotorResult AirLoads::RotorLoads(int r, const RotorState& state, const
 }
 
 AirLoads::RotorResult AirLoads::Rotor(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const {
-  return RotorLoads(r, rotor_state_[static_cast<size_t>(r)], q, qdot, t);
+  return RotorLoads(r, data_->rotors[static_cast<size_t>(r)], q, qdot, t);
 }
 
-void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const {
+void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, SystemData* data) const {
   const double rho = model_.air.density;
   for (size_t r = 0; r < model_.rotors.size(); ++r) {
     const RotorSpec& rs = model_.rotors[r];
-    RotorState& st = rotor_state_[r];
+    RotorState& st = data->rotors[r];
     const double h = st.started ? t - st.t : 0.0;
     UpdateFrame(static_cast<int>(r), q, qdot, t, &st);
     st.started = true;

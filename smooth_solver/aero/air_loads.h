@@ -113,8 +113,9 @@ struct AeroSection {
 
 class AirLoads : public ForceElement {
  public:
-  // `elastic_offset`: the first coordinate of each elastic body's nodes.
-  AirLoads(AeroModel model, std::vector<int> elastic_offset);
+  // `elastic_offset`: the first coordinate of each elastic body's nodes. The rotors' inflow is
+  // read from `data->rotors` (sized here, one per rotor), which AcceptStep advances.
+  AirLoads(AeroModel model, std::vector<int> elastic_offset, SystemData* data);
   void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
@@ -123,7 +124,7 @@ class AirLoads : public ForceElement {
   bool Passive() const override { return false; }
   // Advances the rotors' inflow to the accepted state (uniform: solved anew; Pitt–Peters: one
   // implicit Euler step of its states over t − t_previous).
-  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const override;
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, SystemData* data) const override;
 
   const AeroModel& model() const { return model_; }
   // A section of surface `surface` at span coordinate s (weight 1), for probes.
@@ -144,18 +145,8 @@ class AirLoads : public ForceElement {
   size_t section_count() const { return sections_.size(); }
 
  private:
-  // The rotor's frame and inflow, fixed over a step.
-  struct RotorState {
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::UnitZ();
-    Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY();
-    double v_normal = 0.0;  // V_⊥: free stream into the disk against n [m/s]
-    double v_parallel = 0.0;
-    Eigen::Vector3d downstream = Eigen::Vector3d::UnitX();  // in-plane free-stream direction
-    double tip_speed = 0.0, fade = 0.0;
-    Eigen::Vector3d nu = Eigen::Vector3d::Zero();  // ν0, ν_x, ν_y [m/s] (applied)
-    double t = 0.0;
-    bool started = false;
-  };
+  // The rotor's frame and inflow, fixed over a step: in SystemData (a run's changing state).
+  using RotorState = RotorInflowState;
   void UpdateFrame(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, RotorState* s) const;
   RotorResult RotorLoads(int r, const RotorState& state, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
                          double t) const;
@@ -176,7 +167,7 @@ class AirLoads : public ForceElement {
   };
   std::vector<Group> groups_;
   std::vector<std::vector<int>> rotor_sections_;
-  mutable std::vector<RotorState> rotor_state_;
+  const SystemData* data_;  // data_->rotors: one per model_.rotors
 };
 
 }  // namespace cosim::smooth

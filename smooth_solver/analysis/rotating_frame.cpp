@@ -80,7 +80,7 @@ Eigen::VectorXd WithoutOrigin(const MultibodySystem& system, const Eigen::Vector
 
 }  // namespace
 
-EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::VectorXd& q_guess,
+EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess,
                                const SpinningFrame& frame, const EquilibriumOptions& options) {
   const int n = system.coordinates, m = system.constraints.size(), N = n + m;
   const Eigen::Matrix3d O = Skew(frame.omega);

@@ -42,9 +42,10 @@ struct EquilibriumResult {
 };
 
 // Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t)] = 0 from `q_guess` (full steps: ramp large
-// loads, e.g. through the loads' time functions).
-EquilibriumResult StaticEquilibrium(const MultibodySystem& system, const Eigen::VectorXd& q_guess,
-                               const SpinningFrame& frame, const EquilibriumOptions& options);
+// loads, e.g. through the loads' time functions). The rotors' inflow is updated at the
+// iterates (AcceptStep: the system's data changes).
+EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess,
+                                    const SpinningFrame& frame, const EquilibriumOptions& options);
 
 struct Mode {
   double frequency = 0.0;  // [rad/s], |λ| (the undamped circular frequency of the pair)

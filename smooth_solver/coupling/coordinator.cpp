@@ -12,9 +12,10 @@ namespace cosim::smooth {
 
 using coupling::Envelope;
 
-Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std::vector<Peer> peers,
+Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlpha* integrator, std::vector<Peer> peers,
                          const CouplingSettings& settings)
     : system_(system),
+      data_(data),
       integrator_(integrator),
       peers_(std::move(peers)),
       settings_(settings),
@@ -37,7 +38,7 @@ Coordinator::Coordinator(const MultibodySystem& system, CgAlpha* integrator, std
   }
   // Until the first step: where the points are, at rest.
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
-    for (int j = 0; j < 3; ++j) position_(3 * static_cast<Eigen::Index>(k) + j) = (*system.imposed)[3 * k + j].value;
+    for (int j = 0; j < 3; ++j) position_(3 * static_cast<Eigen::Index>(k) + j) = data->imposed[3 * k + j].value;
   }
 }
 
@@ -85,7 +86,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
   RestartWithCouplingRowsFree(integrator_->state(), start_time);
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     const Eigen::Vector3d a = system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
-    for (int j = 0; j < 3; ++j) (*system_.imposed)[3 * k + static_cast<size_t>(j)].acceleration = a(j);
+    for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
   }
   for (Peer& peer : peers_) {
     auto* hello = peer.channel->Outgoing(-1, 0).mutable_hello();
@@ -141,7 +142,7 @@ void Coordinator::ReceiveKinematics(int iteration) {
 
 void Coordinator::Impose(double h) {
   for (Eigen::Index v = 0; v < n_; ++v) {
-    ImposedCoordinate& c = (*system_.imposed)[static_cast<size_t>(v)];
+    ImposedCoordinate& c = data_->imposed[static_cast<size_t>(v)];
     c.value = position_(v);
     c.rate = velocity_(v);
     c.acceleration = (velocity_(v) - start_velocity_(v)) / h;
@@ -151,7 +152,7 @@ void Coordinator::Impose(double h) {
 int Coordinator::Step(double t, double h) {
   log_.clear();  // this step's records (the capacity stays: no allocation once warm)
   integrator_->SaveTo(&start_);
-  for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = (*system_.imposed)[static_cast<size_t>(v)].rate;
+  for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = data_->imposed[static_cast<size_t>(v)].rate;
   relaxation_.BeginStep();
   // Predictor: the reactions extrapolated linearly from the last two accepted steps (constant
   // after a start or an impact). With a stiff tie the first residual is the prediction error
@@ -174,8 +175,8 @@ int Coordinator::Step(double t, double h) {
   bool converged = false;
   int iteration = 0;
   for (;; ++iteration) {
+    integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
     Impose(h);
-    integrator_->Restore(start_);
     newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
     if (settings_.warm_start) iterate_ = integrator_->state();  // equal sizes: no allocation once warm
     const Eigen::VectorXd& lambda = integrator_->state().lambda;

@@ -65,7 +65,9 @@ class Coordinator {
     std::vector<int> points;  // indices into MultibodySystem::interface_points, in Hello order
     std::vector<MovingObstacle> obstacles = {};
   };
-  Coordinator(const MultibodySystem& system, CgAlpha* integrator, std::vector<Peer> peers,
+  // `data`: the system's changing state (its owner's mutable_data()), where the interface
+  // rows' imposed coordinates are written; the integrator's checkpoints hold it.
+  Coordinator(const MultibodySystem& system, SystemData* data, CgAlpha* integrator, std::vector<Peer> peers,
               const CouplingSettings& settings);
 
   // Hello → Welcome with every peer.
@@ -90,6 +92,7 @@ class Coordinator {
   void ReceiveKinematics(int iteration);
 
   const MultibodySystem& system_;
+  SystemData* data_;
   CgAlpha* integrator_;
   std::vector<Peer> peers_;
   CouplingSettings settings_;

@@ -138,7 +138,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     }
   }
 
-  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->cgalpha(), std::move(peers), settings);
+  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(), std::move(peers), settings);
   start_time_ = file.proto().numerics().start_time();
   step_ = file.proto().numerics().step();
 }

@@ -249,9 +249,10 @@ double CoordinateSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
   return 0.5 * k_ * s * s;
 }
 
-void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double /*t*/) const {
+void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double /*t*/,
+                                   SystemData* data) const {
   const State s = Evaluate(q, qdot);
-  if (s.delta <= 0.0) impact_speed_ = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
+  if (s.delta <= 0.0) data->impact_speed[slot_] = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
 }
 
 double UnilateralContact::TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
@@ -268,7 +269,7 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
   for (size_t i = 0; i < index.size(); ++i) theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
   s.delta = side_ * (threshold_ - s.measure.value);
   s.rate = -side_ * theta_dot;
-  const interface::HuntCrossleyForce c = interface::EvaluateHuntCrossley(law_, impact_speed_, s.delta, s.rate);
+  const interface::HuntCrossleyForce c = interface::EvaluateHuntCrossley(law_, data_->impact_speed[slot_], s.delta, s.rate);
   s.f = c.f;
   s.df_ddelta = c.df_ddelta;
   s.df_drate = c.df_drate;

@@ -15,6 +15,7 @@
 
 #include "interface/contact/hunt_crossley.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/model/system_data.h"
 
 namespace cosim::smooth {
 
@@ -35,9 +36,12 @@ class ForceElement {
   // False for an element that can feed energy into the system beyond its PotentialEnergy
   // (time-varying or follower loads): the energy watchdog is then off in AUTO mode.
   virtual bool Passive() const { return true; }
-  // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it
-  // (the contact laws' impact speed). Called by the simulation, never inside Newton.
-  virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/, double /*t*/) const {}
+  // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it in
+  // `data` (the contact laws' impact speed, the rotors' inflow), which they read otherwise
+  // through the const pointer they were built with. Called by the owner of the run's
+  // SystemData, never inside Newton; the element itself keeps nothing that changes.
+  virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/, double /*t*/,
+                          SystemData* /*data*/) const {}
   // Adaptive steps: the time [s] until a contact this element models would begin at the present
   // rates (its gap over its closing speed), +∞ if none is approaching.
   virtual double TimeToContact(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/) const {
@@ -128,19 +132,25 @@ class CoordinateSpring : public ForceElement {
 // signed gap (p − c)·n of a body point against a plane (θ0 = 0, side = +1), or a revolute joint
 // angle against a stop (lower: side = +1, upper: side = −1). The generalised force is −f ∇δ.
 // δ̇⁻ is a memory: taken at the last accepted state before the penetration (AcceptStep), so it
-// is fixed within a step's Newton iterations (an O(h) approximation of the onset speed).
+// is fixed within a step's Newton iterations (an O(h) approximation of the onset speed); it
+// lives in SystemData::impact_speed (slot given at construction), saved with CGα's checkpoints.
 using HuntCrossleyLaw = interface::HuntCrossleyLaw;
 
 class UnilateralContact : public ForceElement {
  public:
-  UnilateralContact(CoordinateSpring measure, double threshold, double side, const HuntCrossleyLaw& law)
-      : measure_(std::move(measure)), threshold_(threshold), side_(side), law_(law) {}
+  // Takes a new slot in data->impact_speed.
+  UnilateralContact(CoordinateSpring measure, double threshold, double side, const HuntCrossleyLaw& law,
+                    SystemData* data)
+      : measure_(std::move(measure)), threshold_(threshold), side_(side), law_(law), data_(data),
+        slot_(data->impact_speed.size()) {
+    data->impact_speed.push_back(0.0);
+  }
   void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
   void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                   double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
-  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const override;
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, SystemData* data) const override;
   double TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
   // The law's force f >= 0 [N, or N m for a joint stop] at (q, q̇): zero out of contact.
   double LawForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const { return Evaluate(q, qdot).f; }
@@ -160,7 +170,8 @@ class UnilateralContact : public ForceElement {
   CoordinateSpring measure_;  // θ(q) with gradient and Hessian (zero stiffness: a measure only)
   double threshold_, side_;
   HuntCrossleyLaw law_;
-  mutable double impact_speed_ = 0.0;  // δ̇⁻, from the last accepted state without contact
+  const SystemData* data_;  // data_->impact_speed[slot_]: δ̇⁻, from the last accepted state without contact
+  size_t slot_;
 };
 
 }  // namespace cosim::smooth

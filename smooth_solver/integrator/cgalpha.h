@@ -138,23 +138,40 @@ class CgAlpha : public SmoothIntegrator {
   }
 
   // Everything a step changes, to try a step again (a coupling iteration) or undo it (a
-  // rejected step). SaveTo reuses the checkpoint's buffers.
+  // rejected step): the integrator's state and, once attached, the run's SystemData (imposed
+  // interface coordinates, contact memories, inflow). SaveTo reuses the checkpoint's buffers.
   struct Checkpoint {
     DaeState state;
     Eigen::VectorXd a, elastic;
     bool started = false;
+    SystemData data;
+    bool has_data = false;
   };
+  // The SystemData of the system being integrated (its owner's mutable_data()): checkpoints
+  // hold it from now on. Without it they hold the integrator's state only (tests that build a
+  // system without memories or interface points).
+  void AttachData(SystemData* data) { data_ = data; }
   void SaveTo(Checkpoint* c) const {  // assignments of equal sizes reuse the buffers
     c->state = state_;
     c->a = a_;
     c->elastic = elastic_.current();
     c->started = started_;
+    c->has_data = data_ != nullptr;
+    if (data_ != nullptr) {
+      if (c->data.imposed.size() != data_->imposed.size() || c->data.impact_speed.size() != data_->impact_speed.size() ||
+          c->data.rotors.size() != data_->rotors.size()) {
+        c->data = *data_;  // the first save: allocates
+      } else {
+        c->data.CopyFrom(*data_);
+      }
+    }
   }
   void Restore(const Checkpoint& c) {
     state_ = c.state;
     a_ = c.a;
     elastic_.set_current(c.elastic);
     started_ = c.started;
+    if (c.has_data && data_ != nullptr) data_->CopyFrom(c.data);
   }
 
  private:
@@ -171,6 +188,7 @@ class CgAlpha : public SmoothIntegrator {
   bool ProjectPositions(double t1);
 
   const MultibodySystem& system_;
+  SystemData* data_ = nullptr;  // system_'s changing state, saved with the checkpoints (AttachData)
   CgAlphaSettings settings_;
   AlphaCoefficients coef_;
   DaeState state_;

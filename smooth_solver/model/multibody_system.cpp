@@ -80,8 +80,8 @@ void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::Vec
   }
 }
 
-void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const {
-  for (const auto& element : forces) element->AcceptStep(q, qdot, t);
+void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) {
+  for (const auto& element : forces) element->AcceptStep(q, qdot, t, data_.get());
 }
 
 double MultibodySystem::TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
@@ -280,7 +280,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   sys.mass.resize(n, n);
   sys.mass.setFromTriplets(mass.begin(), mass.end());
   if (!model.aero.empty()) {
-    auto air = std::make_unique<AirLoads>(model.aero, sys.elastic_offset);
+    auto air = std::make_unique<AirLoads>(model.aero, sys.elastic_offset, sys.mutable_data());
     sys.air_loads = air.get();
     sys.forces.push_back(std::move(air));
   }
@@ -412,7 +412,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         // Signed gap g = (p − c)·n of body1's point against the plane (θ0 = 0, g >= 0 allowed).
         CoordinateSpring gap(LinearVector::Point(f.body1, f.point1) - LinearVector::Point(f.plane_body, f.plane_point),
                              LinearVector::Direction(f.plane_body, f.plane_normal), 0.0, 0.0, 0.0);
-        auto contact = std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law);
+        auto contact = std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law, sys.mutable_data());
         sys.contact_laws.back().push_back(contact.get());
         sys.forces.push_back(std::move(contact));
         break;
@@ -423,7 +423,8 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         for (int side : {1, -1}) {
           if (side > 0 ? !f.has_lower : !f.has_upper) continue;
           auto stop = std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
-                                                          (side > 0 ? f.lower : f.upper) - offset, side, f.law);
+                                                          (side > 0 ? f.lower : f.upper) - offset, side, f.law,
+                                                          sys.mutable_data());
           sys.contact_laws.back().push_back(stop.get());
           sys.forces.push_back(std::move(stop));
         }
@@ -434,7 +435,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   // Coupling interface nodes: e_j · p(q) − x_j = 0 with x_j imposed (drive weight −1 on the
   // constant), and the regularisation c on their rows.
   if (!model.interface_points.empty()) {
-    sys.imposed = std::make_shared<std::vector<ImposedCoordinate>>(3 * model.interface_points.size());
+    sys.mutable_data()->imposed.resize(3 * model.interface_points.size());  // (never resized again)
     ConstraintSet& cs = sys.constraints;
     cs.compliance.resize(cs.constraints.size(), 0.0);
     for (size_t k = 0; k < model.interface_points.size(); ++k) {
@@ -450,7 +451,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       const Eigen::Vector3d at = ip.point.Value(sys.q0);
       cs.vector_triples.push_back(cs.size());
       for (int j = 0; j < 3; ++j) {
-        ImposedCoordinate& x = (*sys.imposed)[3 * k + static_cast<size_t>(j)];
+        ImposedCoordinate& x = sys.mutable_data()->imposed[3 * k + static_cast<size_t>(j)];
         x.value = at(j);  // until the peer says otherwise: where the point is
         const int d = static_cast<int>(cs.drives.size());
         Drive drive;

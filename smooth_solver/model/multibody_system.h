@@ -18,6 +18,7 @@
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/forces/force_elements.h"
 #include "smooth_solver/model/multibody_model.h"
+#include "smooth_solver/model/system_data.h"
 
 namespace cosim::smooth {
 
@@ -72,10 +73,14 @@ struct MultibodySystem {
   // sink += stiffness_scale · (−∂f/∂q) + damping_scale · (−∂f/∂q̇).
   void AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
                        double damping_scale, SparseSink* sink, bool include_elastic = true) const;
-  // Coupling interface nodes and the coordinates their peers impose (3 per node: x, y, z), which
-  // the coordinator sets between iterations; the rows' drives point into this storage.
+  // Coupling interface nodes; the coordinates their peers impose (3 per node: x, y, z) are in
+  // data().imposed, which the coordinator sets between iterations (the rows' drives read it).
   std::vector<InterfacePoint> interface_points;
-  std::shared_ptr<std::vector<ImposedCoordinate>> imposed;
+  // The run's changing state (system_data.h): the model reads it, its owner writes it through
+  // mutable_data() (a const system cannot), CGα's checkpoints save and restore it.
+  const SystemData& data() const { return *data_; }
+  SystemData* mutable_data() { return data_.get(); }
+  std::unique_ptr<SystemData> data_ = std::make_unique<SystemData>();  // (on the heap: its address is bound into the elements)
   // Force [N] the smooth model exerts on interface node k, from the multipliers.
   Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
     return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);
@@ -90,8 +95,9 @@ struct MultibodySystem {
   // The elastic bodies' internal forces (also in `forces`).
   std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;
-  // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it.
-  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const;
+  // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it
+  // in mutable_data().
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t);
   // The earliest time until a continuous contact begins at the present rates (+∞: none near).
   double TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
 

@@ -38,7 +38,7 @@ ModalSimulation::ModalSimulation(const interface::ScenarioFile& file) : model_(B
     checks.Fail("numerics.start_time", "is the first spin speed in a MODES analysis; expected >= 0 rad/s, got " +
                                            interface::FormatNumber(numerics_.start_time()));
   }
-  system_ = std::make_unique<const MultibodySystem>(BuildMultibodySystem(model_));
+  system_ = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_));
   q_ = system_->q0;
   // The steady state at the first speed, reached by ramping Ω.
   for (int k = 1; k < ramp_steps_; ++k) Solve(numerics_.start_time() * k / ramp_steps_);

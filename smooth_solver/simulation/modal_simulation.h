@@ -34,7 +34,7 @@ class ModalSimulation : public interface::Simulation {
   void Solve(double omega);
   void WritePending();  // the solved speeds' modes into modes.csv, once it is open
   MultibodyModel model_;
-  std::unique_ptr<const MultibodySystem> system_;
+  std::unique_ptr<MultibodySystem> system_;
   scenario::Numerics numerics_;
   Eigen::Vector3d axis_, origin_;
   int count_ = 10, ramp_steps_ = 1;

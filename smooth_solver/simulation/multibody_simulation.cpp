@@ -441,7 +441,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   } else if (s.integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
     integrator_ = std::make_unique<CgAlphaIndex2>(*system_, settings, initial);
   } else {
-    integrator_ = std::make_unique<CgAlpha>(*system_, settings, initial);
+    auto cg = std::make_unique<CgAlpha>(*system_, settings, initial);
+    cg->AttachData(system_->mutable_data());  // checkpoints (rejected steps, coupling iterations) restore it
+    integrator_ = std::move(cg);
   }
   watchdog.energy = w.energy_check() == sc::Watchdog::ON || (w.energy_check() == sc::Watchdog::AUTO && PassiveSystem(*system_));
   std::vector<std::string> body_names;

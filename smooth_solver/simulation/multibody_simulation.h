@@ -27,6 +27,8 @@ class MultibodySimulation : public interface::Simulation {
   void EndOutput() override;
 
   const MultibodySystem& system() const { return *system_; }
+  // The system's changing state (the coordinator of a coupled run writes the imposed coordinates).
+  SystemData* mutable_data() { return system_->mutable_data(); }
   const MultibodyModel& model() const { return model_; }
   const SmoothIntegrator& integrator() const { return *integrator_; }
   long long newton_iterations() const { return newton_.total(); }  // CGα, all steps so far
@@ -60,7 +62,7 @@ class MultibodySimulation : public interface::Simulation {
   Eigen::Vector3d BodyVector(const ProbeSpec& p) const;
 
   MultibodyModel model_;
-  std::unique_ptr<const MultibodySystem> system_;
+  std::unique_ptr<MultibodySystem> system_;  // changed only through AcceptStep and mutable_data()
   std::unique_ptr<SmoothIntegrator> integrator_;
   bool ida_ = false;
   long ida_steps_ = 0;

@@ -334,7 +334,7 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
   const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225;
   for (const auto& [theta_deg, ct_closed] : std::vector<std::pair<double, double>>{{5.0, 0.002755}, {10.0, 0.007310}}) {
     const double theta = theta_deg * kDeg, twist = -8 * kDeg;
-    const MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
+    MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
                                                  theta, twist, omega, "UNIFORM"));
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
     const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
@@ -366,7 +366,7 @@ TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
   const double theta = 8 * kDeg, twist = -8 * kDeg, omega = 28.0;
   const std::string air = "airfoils { name: \"ideal\" c81_file: \"" + IdealTable() + "\" }";
   auto hover = [&](int modelled, const std::vector<std::string>& sets) {
-    const MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, modelled), sets);
+    MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, modelled), sets);
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
     return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
   };
@@ -394,7 +394,7 @@ TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
   // at +10° and lifts; blade 3 (along −x) sees it from its trailing edge (α ≈ −170°) and is
   // pushed down; blades 2 and 4 see it along their span and feel almost nothing. The induced
   // velocity is held at zero (still rotor).
-  const MultibodySystem sys =
+  MultibodySystem sys =
       Build(RigidRotor("", "naca0012", 10 * kDeg, 0.0, 0.0, "UNIFORM", "wind_y { constant: 25 }", true));
   const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(sys.coordinates);
   sys.AcceptStep(sys.q0, qdot, 0.0);
@@ -641,7 +641,7 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
   const std::string table = IdealTable();
   const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225, theta = 5 * kDeg, twist = -8 * kDeg;
   const double M = 128.0 / (75.0 * kPi);
-  const MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
+  MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
                                                theta, twist, omega, "PITT_PETERS"));
   const Eigen::VectorXd still = Eigen::VectorXd::Zero(sys.coordinates);
   sys.AcceptStep(sys.q0, still, 0.0);

@@ -100,7 +100,7 @@ TEST(Beam, RigidMotionsAreStressFree) {
 }
 
 // Static cantilever under the scenario's loads, ramped with t from 0 to 1 in `steps`.
-EquilibriumResult LoadSteps(const MultibodySystem& sys, int steps) {
+EquilibriumResult LoadSteps(MultibodySystem& sys, int steps) {
   EquilibriumResult r;
   r.q = sys.q0;
   for (int k = 1; k <= steps; ++k) {
@@ -127,7 +127,7 @@ TEST(Beam, MattiassonElasticaUnderATipDeadLoad) {
     // The load block closes `beams` and opens a force element inside `model`.
     std::string text = Cantilever(8, 3, 1e7, 1.0);
     text.replace(text.find(" } } numerics"), 13, " " + load + "} numerics");
-    const MultibodySystem sys = Build(text);
+    MultibodySystem sys = Build(text);
     const EquilibriumResult r = LoadSteps(sys, 20);
     ASSERT_TRUE(r.converged) << "λ = " << c.lambda;
     const int tip = 16 * kCoordinatesPerBody;
@@ -146,7 +146,7 @@ TEST(Beam, RollsUpIntoAFullCircleUnderATipMoment) {
   text.replace(text.find(" } } numerics"), 13,
                " } forces { name: \"tip\" load { body: \"b.n32\" torque { constant: 0 } torque { table { time: [0, 1] "
                "value: [0, " + std::to_string(-M) + "] } } torque { constant: 0 } } } } numerics");
-  const MultibodySystem sys = Build(text);
+  MultibodySystem sys = Build(text);
   const EquilibriumResult r = LoadSteps(sys, 40);
   ASSERT_TRUE(r.converged);
   const int tip = 32 * kCoordinatesPerBody;
@@ -163,7 +163,7 @@ TEST(Beam, RotatingCantileverFrequenciesOfWrightEtAl) {
   // the first three flapwise (z) frequencies against Wright, Smith, Thresher & Wang (1982),
   // ω̄ = ω √(m L⁴/EI), to 0.5 % (beams.md). Steady state and modes in the spinning frame; 10
   // quadratic elements; EA = GA = 1e7 (inextensible in the reference).
-  const MultibodySystem sys = Build(Cantilever(10, 3, 1e7, 1.0));
+  MultibodySystem sys = Build(Cantilever(10, 3, 1e7, 1.0));
   const double expected[4][3] = {
       {3.5160, 22.0345, 61.6972}, {5.5850, 24.2735, 63.9669}, {9.2569, 29.9959, 70.2936}, {13.1702, 37.6041, 79.6158}};
   for (int c = 0; c < 4; ++c) {
@@ -238,7 +238,7 @@ TEST(Beam, SectionForcesOfACantileverUnderItsWeight) {
   // s) exact, the moment (quadratic) within 0.3 % of the root's.
   std::string text = Cantilever(8, 3, 1e7, 1.0);
   text.replace(text.find("model {"), 7, "model { gravity: [0, 0, -1e-3]");
-  const MultibodySystem sys = Build(text);
+  MultibodySystem sys = Build(text);
   const EquilibriumResult r = StaticEquilibrium(sys, sys.q0, SpinningFrame{}, EquilibriumOptions{});
   ASSERT_TRUE(r.converged);
   const double q = 1e-3;

@@ -49,11 +49,12 @@ struct CoupledRun {
 
 CoupledRun RunTiedDrop(interface::Relaxation::Method method, int steps) {
   const interface::ScenarioFile file = interface::ScenarioFile::Parse(kTiedDrop, "tied_drop.pbtxt", {});
-  const MultibodySystem sys = BuildMultibodySystem(BuildMultibodyModel(file));
+  MultibodySystem sys = BuildMultibodySystem(BuildMultibodyModel(file));
   InitialConditionReport report;
   CgAlphaSettings cg;
   cg.tolerance = 1e-12;
   CgAlpha integrator(sys, cg, ConsistentInitialState(sys, 0.0, &report));
+  integrator.AttachData(sys.mutable_data());
 
   zmq::context_t context;
   interface::Channel contact_end(&context, {"inproc://tied_drop", true, "contacts", "smooth", 5.0, 1.0});
@@ -72,7 +73,7 @@ CoupledRun RunTiedDrop(interface::Relaxation::Method method, int steps) {
   settings.relaxation = method;
   settings.displacement_tolerance = 1e-12;
   settings.reaction_tolerance = 1e-9;
-  Coordinator coordinator(sys, &integrator, {{&smooth_end, {0}}}, settings);
+  Coordinator coordinator(sys, sys.mutable_data(), &integrator, {{&smooth_end, {0}}}, settings);
   CoupledRun run;
   try {
     coordinator.Handshake("tied_drop", 0.0, 1e-3);

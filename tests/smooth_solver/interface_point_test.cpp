@@ -60,14 +60,14 @@ TEST(InterfacePoint, ImposedMotionIsFollowedAndRegularisationYields) {
   // compliant rows (ω = 1/√(c m) ≈ 32 rad/s) and ρ∞ = 0.9 damps that slowly: 3 s of 1 ms steps.
   for (double c : {0.0, 1e-3}) {
     const interface::ScenarioFile file = interface::ScenarioFile::Parse(TiedPendulum(c), "tied.pbtxt", {});
-    const MultibodySystem sys = BuildMultibodySystem(BuildMultibodyModel(file));
+    MultibodySystem sys = BuildMultibodySystem(BuildMultibodyModel(file));
     InitialConditionReport report;
     const DaeState initial = ConsistentInitialState(sys, 0.0, &report);
     CgAlphaSettings settings;
     settings.tolerance = 1e-12;
     settings.rho_inf = 0.5;
     CgAlpha integrator(sys, settings, initial);
-    (*sys.imposed)[2].value = -0.01;  // z of the point
+    sys.mutable_data()->imposed[2].value = -0.01;  // z of the point
     // Critically slow: many small steps with the lowered point held, until the rod is at rest.
     for (int k = 0; k < 3000; ++k) integrator.Step(k * 1e-3, 1e-3);
     const Eigen::Vector3d end = sys.interface_points[0].point.Value(integrator.state().q);

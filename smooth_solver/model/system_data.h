@@ -1,0 +1,55 @@
+#pragma once
+// Everything of a smooth model that changes during a run besides (q, q̇, q̈, λ): the coordinates
+// a coupling peer imposes on the interface points, the contact laws' impact-speed memories and
+// the rotors' inflow. The MultibodySystem (the model, like Pinocchio's Model or MuJoCo's mjModel)
+// is immutable once built and reads this through a const reference; its owner writes it (the
+// coordinator between coupling iterations, AcceptStep after an accepted step) and CGα's
+// checkpoints save and restore it with the integrator's state, so that a rejected step (an
+// adaptive step's error test, a coupling iteration that fails) leaves no trace
+// (like Pinocchio's Data or MuJoCo's mjData).
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <stdexcept>
+#include <vector>
+
+#include "smooth_solver/constraints/bilinear_constraints.h"
+
+namespace cosim::smooth {
+
+// A rotor's frame and inflow, fixed over a step (smooth_solver/aero/air_loads.h).
+struct RotorInflowState {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY();
+  double v_normal = 0.0;  // V_⊥: free stream into the disk against n [m/s]
+  double v_parallel = 0.0;
+  Eigen::Vector3d downstream = Eigen::Vector3d::UnitX();  // in-plane free-stream direction
+  double tip_speed = 0.0, fade = 0.0;
+  Eigen::Vector3d nu = Eigen::Vector3d::Zero();  // ν0, ν_x, ν_y [m/s] (applied)
+  double t = 0.0;
+  bool started = false;
+};
+
+struct SystemData {
+  // 3 per interface point (x, y, z): the end-of-step values the peer imposes; the coupling rows'
+  // drives point at these (their addresses never change after the build).
+  std::vector<ImposedCoordinate> imposed;
+  // δ̇⁻ of each UnilateralContact (force_elements.h), by its memory slot.
+  std::vector<double> impact_speed;
+  // One per rotor of the air loads.
+  std::vector<RotorInflowState> rotors;
+
+  // Copies `other` into this object's storage (same sizes: no reallocation, so the drives'
+  // pointers into `imposed` stay valid).
+  void CopyFrom(const SystemData& other) {
+    if (other.imposed.size() != imposed.size() || other.impact_speed.size() != impact_speed.size() ||
+        other.rotors.size() != rotors.size()) {
+      throw std::logic_error("SystemData::CopyFrom: the two objects belong to different systems");
+    }
+    std::copy(other.imposed.begin(), other.imposed.end(), imposed.begin());
+    std::copy(other.impact_speed.begin(), other.impact_speed.end(), impact_speed.begin());
+    std::copy(other.rotors.begin(), other.rotors.end(), rotors.begin());
+  }
+};
+
+}  // namespace cosim::smooth

@@ -51,7 +51,7 @@ void ContactServer::Answer(const Envelope& e) {
   std::map<std::string, const Obstacle*> needed;  // the body-attached obstacles this process's nodes touch
   for (const Contact& c : simulation_->model().contacts) {
     const Obstacle& o = simulation_->model().obstacles[static_cast<size_t>(c.obstacle)];
-    if (o.driven) needed[o.name] = &o;
+    if (o.driven >= 0) needed[o.name] = &o;
   }
   if (hello.obstacle_frames_size() != hello.moving_obstacles_size()) {
     throw InputError("coupling: Hello from '" + peer + "' lists " + std::to_string(hello.moving_obstacles_size()) +
@@ -68,7 +68,7 @@ void ContactServer::Answer(const Envelope& e) {
     }
     const Obstacle& found = *it->second;
     needed.erase(it);
-    DrivenFrame& d = *found.driven;
+    DrivenFrame& d = simulation_->mutable_data()->frames[static_cast<size_t>(found.driven)];
     d.start = d.end = ReadFrame(hello.obstacle_frames(i), "Hello.obstacle_frames[" + std::to_string(i) + "]");
     d.point_body = d.start.rotation.transpose() * (found.point - d.start.origin);
     d.normal_body = d.start.rotation.transpose() * found.normal;
@@ -78,8 +78,11 @@ void ContactServer::Answer(const Envelope& e) {
   }
   if (!needed.empty()) {
     throw InputError("coupling: Hello from '" + peer + "' gives no frame for obstacle '" + needed.begin()->first +
-                     "', attached to body '" + needed.begin()->second->driven->body + "'");
+                     "', attached to body '" + needed.begin()->second->driven_body + "'");
   }
+  frame_ends_.resize(moving_.size());
+  for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
+  simulation_->SaveStart();  // (the frames are data: the start checkpoint holds them)
   coupling::Welcome* welcome = channel_->Outgoing(-1, 0).mutable_welcome();
   welcome->set_process_name(channel_->options().self);
   welcome->set_solver(simulation_->SolverName());
@@ -89,6 +92,8 @@ void ContactServer::Answer(const Envelope& e) {
 
 void ContactServer::TentativeStep(int64_t step, int iteration) {
   simulation_->RestoreStart();
+  // This iteration's end frames (as the smooth side imposes its coordinates after restoring).
+  for (size_t i = 0; i < moving_.size(); ++i) Frame(i).end = frame_ends_[i];
   simulation_->SetExternalForces(external_);
   try {
     simulation_->StepTentatively(t_, h_);
@@ -153,7 +158,7 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
                      std::to_string(moving_.size()) + ", one per moving obstacle");
   }
   for (size_t i = 0; i < moving_.size(); ++i) {
-    moving_[i]->end =
+    frame_ends_[i] =
         ReadFrame(reactions.obstacle_frames(static_cast<int>(i)), std::string(where) + ".obstacle_frames[" + std::to_string(i) + "]");
   }
   const auto& force = reactions.force();
@@ -226,12 +231,13 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       step_ = e.step();
       t_ = e.step_begin().time();
       h_ = e.step_begin().step();
-      simulation_->SaveStart();
-      for (const auto& d : moving_) {  // the last accepted end is this step's start
-        d->start = d->end;
-        d->t0 = t_;
-        d->t1 = t_ + h_;
+      for (size_t i = 0; i < moving_.size(); ++i) {  // the last accepted end is this step's start
+        DrivenFrame& d = Frame(i);
+        d.start = d.end;
+        d.t0 = t_;
+        d.t1 = t_ + h_;
       }
+      simulation_->SaveStart();  // the nodes and these frames: a rejected step comes back here
       if (e.step_begin().has_predictor()) SetReactions(e.step_begin().predictor(), "StepBegin.predictor");
       TentativeStep(step_, 0);  // the predictor, or the last accepted reactions
       return Outcome::kContinue;
@@ -262,8 +268,8 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
         ++accepted_;
         if (on_accept) on_accept(t_ + h_);
       } else {
-        simulation_->RestoreStart();
-        for (const auto& d : moving_) d->end = d->start;
+        simulation_->RestoreStart();  // the nodes' state and the frames at the step's start
+        for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
       }
       step_ = -1;
       channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);

@@ -51,7 +51,9 @@ class ContactServer {
   // Checked, into external_ and the moving obstacles' end frames.
   void SetReactions(const coupling::Reactions& reactions, const char* where);
   BodyFrame ReadFrame(const coupling::Frame& frame, const std::string& where) const;  // checked
-  std::vector<std::shared_ptr<DrivenFrame>> moving_;  // in Hello.moving_obstacles order
+  std::vector<int> moving_;  // ContactData::frames index of each Hello.moving_obstacles entry
+  std::vector<BodyFrame> frame_ends_;  // the frames at the step's end the last Reactions (or predictor) gave
+  DrivenFrame& Frame(size_t i) { return simulation_->mutable_data()->frames[static_cast<size_t>(moving_[i])]; }
   int coordinator_exit_code_ = 0;
   std::string coordinator_reason_;
 

@@ -24,9 +24,12 @@ class ContactStepper : public interface::Simulation {
   void StepTentatively(double t, double h);
   void CheckAccepted(double t) const;
   virtual const ContactModel& model() const = 0;
-  // Checkpoint of the step's start, and back to it (every coupling iteration restarts there).
+  // Checkpoint of the step's start, and back to it (every coupling iteration restarts there;
+  // a rejected step too): the nodes' state and the ContactData.
   virtual void SaveStart() = 0;
   virtual void RestoreStart() = 0;
+  // The driven obstacles' frames, which the coupling server sets (model().driven_frames of them).
+  virtual ContactData* mutable_data() = 0;
   // Force per node [N] (3 × nodes, model order), constant over the next steps.
   virtual void SetExternalForces(const Eigen::VectorXd& forces) = 0;
   virtual const Eigen::VectorXd& positions() const = 0;   // 3 per node

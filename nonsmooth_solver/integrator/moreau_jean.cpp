@@ -17,6 +17,7 @@ size_t Idx(int i) { return static_cast<size_t>(i); }
 
 MoreauJean::MoreauJean(const ContactModel& model, double start_time)
     : model_(model), lcp_(model.lcp), time_(start_time) {
+  data_.frames.resize(static_cast<size_t>(model.driven_frames));
   const Eigen::Index n = static_cast<Eigen::Index>(model.nodes.size());
   const Eigen::Index nc = static_cast<Eigen::Index>(model.contacts.size());
   q_.resize(3 * n);
@@ -92,7 +93,7 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
 
 double MoreauJean::Gap(int contact) const {
   const Contact& c = model_.contacts[Idx(contact)];
-  return model_.obstacles[Idx(c.obstacle)].Gap(time_, q_.segment<3>(3 * c.node));
+  return model_.obstacles[Idx(c.obstacle)].Gap(time_, q_.segment<3>(3 * c.node), data_);
 }
 
 double MoreauJean::KineticEnergy(int node) const { return nonsmooth::KineticEnergy(model_, v_, node); }
@@ -100,7 +101,7 @@ double MoreauJean::KineticEnergy(int node) const { return nonsmooth::KineticEner
 double MoreauJean::PotentialEnergy(int node) const { return nonsmooth::PotentialEnergy(model_, q_, node); }
 
 Eigen::Vector3d MoreauJean::FacetDirection(const Obstacle& ob, double t, int j) const {
-  const Eigen::Vector3d n = ob.NormalAt(t), t1 = ob.TangentAt(t);
+  const Eigen::Vector3d n = ob.NormalAt(t, data_), t1 = ob.TangentAt(t, data_);
   const double angle = 2.0 * std::numbers::pi * j / model_.friction_facets;
   return std::cos(angle) * t1 + std::sin(angle) * n.cross(t1);
 }
@@ -170,11 +171,11 @@ void MoreauJean::BuildColumns(int group, double t1) {
     const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
     const Eigen::Index o = 3 * model_.node_slot[Idx(ct.node)];
     a.normal_column = column;
-    set(column++, o, ob.NormalAt(t1));
+    set(column++, o, ob.NormalAt(t1, data_));
     if (fc3d) {
       a.tangent_columns = 2;
-      set(column++, o, ob.TangentAt(t1));
-      set(column++, o, ob.NormalAt(t1).cross(ob.TangentAt(t1)));
+      set(column++, o, ob.TangentAt(t1, data_));
+      set(column++, o, ob.NormalAt(t1, data_).cross(ob.TangentAt(t1, data_)));
     } else if (ct.friction > 0.0) {
       a.tangent_columns = model_.friction_facets;
       for (int j = 0; j < model_.friction_facets; ++j) set(column++, o, FacetDirection(ob, t1, j));
@@ -225,7 +226,7 @@ void MoreauJean::SolveContacts(const std::vector<int>& groups, double t1, double
       const Contact& ct = model_.contacts[Idx(a.contact)];
       const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
       const Eigen::Vector3d x1 = q_.segment<3>(3 * ct.node) + h * v_.segment<3>(3 * ct.node);
-      const Eigen::Vector3d plane_velocity = ob.VelocityAt(t1, x1);
+      const Eigen::Vector3d plane_velocity = ob.VelocityAt(t1, x1, data_);
       const Eigen::Index o = 3 * model_.node_slot[Idx(ct.node)];
       const Eigen::Vector3d v_free = w.v_free.segment<3>(o);
       // Normal row: w = u_{k+1} + e u_k, relative to the plane (Eq. (2)).
@@ -310,8 +311,8 @@ void MoreauJean::Step(double t, double h) {
       const Contact& ct = model_.contacts[Idx(c)];
       const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
       const Eigen::Vector3d x = q_.segment<3>(3 * ct.node);
-      const double u0 = ob.NormalAt(t).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x);
-      if (ob.Gap(t, x) + 0.5 * h * u0 <= model_.activation_gap) {
+      const double u0 = ob.NormalAt(t, data_).dot(v_.segment<3>(3 * ct.node)) + ob.GapRateBias(t, x, data_);
+      if (ob.Gap(t, x, data_) + 0.5 * h * u0 <= model_.activation_gap) {
         active_.push_back(ActiveContact{c, static_cast<int>(g), 0, 0, -1, u0});
       }
     }

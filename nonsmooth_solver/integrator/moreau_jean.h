@@ -69,6 +69,9 @@ class MoreauJean {
   double KineticEnergy(int node) const;    // node < 0: all nodes
   double PotentialEnergy(int node) const;  // gravity and springs; node < 0: all (node springs included)
   const MoreauJeanStats& stats() const { return stats_; }
+  // The driven obstacles' frames (the coupling server writes them; checkpoints hold them).
+  const ContactData& data() const { return data_; }
+  ContactData* mutable_data() { return &data_; }
 
   // The state a step changes, to try a step again (a coupling iteration) or undo it (a
   // rejected step). SaveTo reuses the checkpoint's buffers: no allocation once sized.
@@ -77,6 +80,7 @@ class MoreauJean {
     Eigen::VectorXd q, v, impulse;
     Eigen::MatrixXd friction_impulse;
     MoreauJeanStats stats;
+    ContactData data;
   };
   void SaveTo(Checkpoint* c) const {
     c->time = time_;
@@ -85,6 +89,7 @@ class MoreauJean {
     c->impulse = impulse_;
     c->friction_impulse = friction_impulse_;
     c->stats = stats_;
+    c->data.frames.assign(data_.frames.begin(), data_.frames.end());  // (no allocation once sized)
   }
   void Restore(const Checkpoint& c) {
     time_ = c.time;
@@ -93,6 +98,7 @@ class MoreauJean {
     impulse_ = c.impulse;
     friction_impulse_ = c.friction_impulse;
     stats_ = c.stats;
+    data_.frames.assign(c.data.frames.begin(), c.data.frames.end());
   }
 
  private:
@@ -131,6 +137,7 @@ class MoreauJean {
   Eigen::Vector3d FacetDirection(const Obstacle& ob, double t, int j) const;
 
   const ContactModel& model_;
+  ContactData data_;
   LcpSolver lcp_;
   double time_ = 0.0;
   Eigen::VectorXd q_, v_, impulse_, external_;

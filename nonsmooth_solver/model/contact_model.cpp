@@ -27,40 +27,47 @@ BodyFrame DrivenFrame::At(double t) const {
   return f;
 }
 
-Eigen::Vector3d Obstacle::PointAt(double t) const {
-  if (driven) {
-    const BodyFrame f = driven->At(t);
-    return f.origin + f.rotation * driven->point_body;
+Eigen::Vector3d Obstacle::PointAt(double t, const ContactData& data) const {
+  if (driven >= 0) {
+    const DrivenFrame& d = data.frames[static_cast<size_t>(driven)];
+    const BodyFrame f = d.At(t);
+    return f.origin + f.rotation * d.point_body;
   }
   return point + t * velocity;
 }
 
-Eigen::Vector3d Obstacle::NormalAt(double t) const {
-  if (driven) return driven->At(t).rotation * driven->normal_body;
+Eigen::Vector3d Obstacle::NormalAt(double t, const ContactData& data) const {
+  if (driven >= 0) {
+    const DrivenFrame& d = data.frames[static_cast<size_t>(driven)];
+    return d.At(t).rotation * d.normal_body;
+  }
   if (!moving || rotation_angle.IsZero()) return normal;
   return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * normal;
 }
 
-Eigen::Vector3d Obstacle::TangentAt(double t) const {
-  if (driven) return driven->At(t).rotation * driven->tangent_body;
+Eigen::Vector3d Obstacle::TangentAt(double t, const ContactData& data) const {
+  if (driven >= 0) {
+    const DrivenFrame& d = data.frames[static_cast<size_t>(driven)];
+    return d.At(t).rotation * d.tangent_body;
+  }
   if (!moving || rotation_angle.IsZero()) return tangent;
   return Eigen::AngleAxisd(rotation_angle.Value(t), rotation_axis) * tangent;
 }
 
-Eigen::Vector3d Obstacle::VelocityAt(double t, const Eigen::Vector3d& x) const {
-  if (driven) {
-    const BodyFrame f = driven->At(t);
+Eigen::Vector3d Obstacle::VelocityAt(double t, const Eigen::Vector3d& x, const ContactData& data) const {
+  if (driven >= 0) {
+    const BodyFrame f = data.frames[static_cast<size_t>(driven)].At(t);
     return f.velocity + f.angular_velocity.cross(x - f.origin);
   }
   if (!moving) return Eigen::Vector3d::Zero();
-  return velocity + rotation_angle.Derivative(t) * rotation_axis.cross(x - PointAt(t));
+  return velocity + rotation_angle.Derivative(t) * rotation_axis.cross(x - PointAt(t, data));
 }
 
-double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x) const {
+double Obstacle::GapRateBias(double t, const Eigen::Vector3d& x, const ContactData& data) const {
   // g = n·(x − p): dg/dt = n·ẋ − n·ṗ + ṅ·(x − p), with ṅ = ω × n, and
   // (ω × n)·r = −n·(ω × r): the bias is −n·(velocity of the plane's point at x).
   if (!moving) return 0.0;
-  return -NormalAt(t).dot(VelocityAt(t, x));
+  return -NormalAt(t, data).dot(VelocityAt(t, x, data));
 }
 
 double KineticEnergy(const ContactModel& model, const Eigen::VectorXd& v, int node) {
@@ -133,8 +140,8 @@ void BuildObstacles(const Checks& checks, const sc::Model& model, bool served, C
                         "run needs a fixed or prescribed obstacle");
       }
       obstacle.moving = true;
-      obstacle.driven = std::make_shared<DrivenFrame>();
-      obstacle.driven->body = o.attached_to_body();
+      obstacle.driven = out->driven_frames++;
+      obstacle.driven_body = o.attached_to_body();
     }
     out->obstacles.push_back(obstacle);
   }

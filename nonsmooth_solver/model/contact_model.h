@@ -1,7 +1,8 @@
 #pragma once
 // The contact process's model: point masses ("contact nodes") and the planes they may touch,
 // built and validated from a scenario. Immutable once built; the integrator's changing state
-// lives in its workspace (see integrator/moreau_jean.h).
+// lives in its workspace (see integrator/moreau_jean.h), the frames of obstacles driven by the
+// coordinator of a coupled run in ContactData, which the integrator's checkpoints hold.
 #include <Eigen/Core>
 
 #include <array>
@@ -43,7 +44,6 @@ struct BodyFrame {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // body → global
 };
 struct DrivenFrame {
-  std::string body;
   double t0 = 0.0, t1 = 0.0;
   BodyFrame start, end;    // at t0 (last accepted) and t1 (the step's end, this iteration)
   // The plane's point, normal and tangent in the body frame (fixed at the Hello).
@@ -52,10 +52,18 @@ struct DrivenFrame {
   BodyFrame At(double t) const;
 };
 
+// What changes in a contact model during a run besides the nodes' state: the frames of the
+// obstacles attached to smooth bodies (Obstacle::driven indexes them), set by the coupling
+// server at the Hello, each StepBegin and each Reactions. Saved and restored with the
+// integrator's checkpoint, so that a rejected step leaves no trace (like Pinocchio's Data).
+struct ContactData {
+  std::vector<DrivenFrame> frames;
+};
+
 // The plane {x : n(t)·(x − p(t)) >= 0}: fixed, moving with a prescribed rigid motion (a
 // constant velocity plus a rotation angle about an axis through p), or attached to a body of
-// the smooth model in a coupled run (`driven`: the frames come from the coordinator; the
-// integrator reads them through the same functions).
+// the smooth model in a coupled run (`driven`: the frames come from the coordinator, in the
+// run's ContactData; the integrator reads them through the same functions).
 struct Obstacle {
   std::string name;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();   // p(0)
@@ -65,19 +73,22 @@ struct Obstacle {
   Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitZ();  // unit
   TimeFunction rotation_angle;                               // [rad]
   bool moving = false;
-  // Shared with the contact server, which updates it between iterations (the model stays
-  // immutable otherwise).
-  std::shared_ptr<DrivenFrame> driven;
+  // Attached to a smooth body: its index in ContactData::frames (−1: not driven) and the body.
+  int driven = -1;
+  std::string driven_body;
 
-  Eigen::Vector3d PointAt(double t) const;
-  Eigen::Vector3d NormalAt(double t) const;
-  Eigen::Vector3d TangentAt(double t) const;
+  // At time t; `data` holds the driven frames (unused for the other obstacles).
+  Eigen::Vector3d PointAt(double t, const ContactData& data) const;
+  Eigen::Vector3d NormalAt(double t, const ContactData& data) const;
+  Eigen::Vector3d TangentAt(double t, const ContactData& data) const;
   // Velocity of the plane's material point at x: V + ω × (x − p(t)).
-  Eigen::Vector3d VelocityAt(double t, const Eigen::Vector3d& x) const;
+  Eigen::Vector3d VelocityAt(double t, const Eigen::Vector3d& x, const ContactData& data) const;
   // Signed distance of x from the plane at time t.
-  double Gap(double t, const Eigen::Vector3d& x) const { return NormalAt(t).dot(x - PointAt(t)); }
+  double Gap(double t, const Eigen::Vector3d& x, const ContactData& data) const {
+    return NormalAt(t, data).dot(x - PointAt(t, data));
+  }
   // Part of the gap rate that comes from the plane's motion: dg/dt = n·ẋ + GapRateBias(t, x).
-  double GapRateBias(double t, const Eigen::Vector3d& x) const;
+  double GapRateBias(double t, const Eigen::Vector3d& x, const ContactData& data) const;
 };
 
 // Linear spring-damper between two nodes: f₁ = −k (x₁ − x₂ − r₀) − c (ẋ₁ − ẋ₂), f₂ = −f₁.
@@ -135,6 +146,7 @@ struct ContactModel {
   // Solve the contacts of each NodeGroup in an LCP of its own (the same solution as one LCP).
   bool split_independent_lcps = true;
   FrictionModel friction_model = FrictionModel::kPolyhedralLcp;
+  int driven_frames = 0;  // obstacles attached to smooth bodies (ContactData::frames' size)
   int friction_facets = 8;  // tangent directions of the polyhedral cone, >= 3
   LcpOptions lcp;
 };

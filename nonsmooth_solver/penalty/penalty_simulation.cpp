@@ -64,6 +64,7 @@ PenaltySimulation::PenaltySimulation(const interface::ScenarioFile& file, const 
   }
   state_.impact_speed = Eigen::VectorXd::Constant(m, law.speed_threshold);
   state_.impulse = Eigen::VectorXd::Zero(m);
+  state_.data.frames.resize(static_cast<size_t>(model_->driven_frames));
   saved_ = state_;
   external_ = Eigen::VectorXd::Zero(n);
   mass_.resize(n);
@@ -116,9 +117,9 @@ void PenaltySimulation::Forces(double t, const Eigen::VectorXd& q, const Eigen::
     const Contact& ct = model.contacts[c];
     const Obstacle& ob = model.obstacles[static_cast<size_t>(ct.obstacle)];
     const auto o = 3 * static_cast<Eigen::Index>(ct.node);
-    const Eigen::Vector3d x = q.segment<3>(o), n = ob.NormalAt(t);
+    const Eigen::Vector3d x = q.segment<3>(o), n = ob.NormalAt(t, state_.data);
     // δ = −n·(x − p), δ̇ = −(n·ẋ + bias): the force f n pushes the node out along n.
-    const double delta = -ob.Gap(t, x), rate = -(n.dot(v.segment<3>(o)) + ob.GapRateBias(t, x));
+    const double delta = -ob.Gap(t, x, state_.data), rate = -(n.dot(v.segment<3>(o)) + ob.GapRateBias(t, x, state_.data));
     const interface::HuntCrossleyForce law =
         interface::EvaluateHuntCrossley(laws_[c], state_.impact_speed(static_cast<Eigen::Index>(c)), delta, rate);
     f->segment<3>(o) += law.f * n;
@@ -140,8 +141,8 @@ void PenaltySimulation::Substep(double t, double h) {
     const Obstacle& ob = model.obstacles[static_cast<size_t>(ct.obstacle)];
     const auto o = 3 * static_cast<Eigen::Index>(ct.node);
     const Eigen::Vector3d x = q0.segment<3>(o);
-    if (ob.Gap(t, x) >= 0.0) {
-      const double rate = -(ob.NormalAt(t).dot(v0.segment<3>(o)) + ob.GapRateBias(t, x));
+    if (ob.Gap(t, x, state_.data) >= 0.0) {
+      const double rate = -(ob.NormalAt(t, state_.data).dot(v0.segment<3>(o)) + ob.GapRateBias(t, x, state_.data));
       state_.impact_speed(static_cast<Eigen::Index>(c)) = std::max(rate, laws_[c].speed_threshold);
     }
   }
@@ -192,7 +193,7 @@ void PenaltySimulation::Advance(double t, double h) {
 
 double PenaltySimulation::Gap(int contact) const {
   const Contact& c = model_->contacts[static_cast<size_t>(contact)];
-  return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node));
+  return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node), state_.data);
 }
 
 bool PenaltySimulation::Impact(int) const { return false; }  // finite forces: velocities never jump

@@ -47,6 +47,7 @@ class PenaltySimulation : public ContactStepper {
   void SaveStart() override { saved_ = state_; }
   void RestoreStart() override { state_ = saved_; }
   void SetExternalForces(const Eigen::VectorXd& forces) override { external_ = forces; }
+  ContactData* mutable_data() override { return &state_.data; }
   const Eigen::VectorXd& positions() const override { return state_.q; }
   const Eigen::VectorXd& velocities() const override { return state_.v; }
   bool Impact(int node) const override;
@@ -61,6 +62,7 @@ class PenaltySimulation : public ContactStepper {
     Eigen::VectorXd q, v;
     Eigen::VectorXd impact_speed;  // δ̇⁻ per contact (while in contact)
     Eigen::VectorXd impulse;       // ∫ f dt per contact over the last step
+    ContactData data;              // the driven obstacles' frames (the coupling server's)
   };
   // f(t, q, v) into `f` (3 per node, F_ext included) and the contact forces' magnitudes into
   // `contact`; with `K`, `C`: −∂f/∂q and −∂f/∂v (the bias of a moving plane's velocity field

@@ -27,6 +27,7 @@ class ContactSimulation : public ContactStepper {
   void SaveStart() override { integrator_->SaveTo(&start_); }
   void RestoreStart() override { integrator_->Restore(start_); }
   void SetExternalForces(const Eigen::VectorXd& forces) override { integrator_->SetExternalForces(forces); }
+  ContactData* mutable_data() override { return integrator_->mutable_data(); }
   const Eigen::VectorXd& positions() const override { return integrator_->positions(); }
   const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
   bool Impact(int node) const override;

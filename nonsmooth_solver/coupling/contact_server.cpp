@@ -80,6 +80,7 @@ void ContactServer::Answer(const Envelope& e) {
     throw InputError("coupling: Hello from '" + peer + "' gives no frame for obstacle '" + needed.begin()->first +
                      "', attached to body '" + needed.begin()->second->driven_body + "'");
   }
+  accepted_time_ = hello.start_time();
   frame_ends_.resize(moving_.size());
   for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
   simulation_->SaveStart();  // (the frames are data: the start checkpoint holds them)
@@ -112,6 +113,7 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
     }
     k->add_in_contact(simulation_->Impact(node) ? 1 : 0);
   }
+  k->set_time_to_contact(simulation_->TimeToContact());
   channel_->Send();
 }
 
@@ -211,6 +213,26 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
   }
 }
 
+void ContactServer::ServeUntil(double time) {
+  const double eps = 1e-12 * std::max(1.0, std::abs(time));
+  while (accepted_time_ < time - eps) {
+    const Envelope& e = channel_->ReceiveAny();
+    if (e.has_step_begin() &&
+        std::abs(e.step_begin().time() - accepted_time_) > 1e-12 * std::max(1.0, std::abs(accepted_time_))) {
+      throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
+                       interface::FormatNumber(e.step_begin().time()) + " s from '" + channel_->options().peer +
+                       "', expected a step from the last accepted one's end, t = " +
+                       interface::FormatNumber(accepted_time_) + " s");
+    }
+    if (Handle(e) == Outcome::kShutdown) {
+      const int code = coordinator_exit_code_;
+      ThrowAs(PeerOutcome(code), "coupling: '" + channel_->options().peer + "' ended the run before t = " +
+                            interface::FormatNumber(time) + " s (exit code " + std::to_string(code) +
+                            (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
+    }
+  }
+}
+
 void ContactServer::ServeShutdown() {
   while (Handle(channel_->ReceiveAny()) != Outcome::kShutdown) {
   }
@@ -265,10 +287,12 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
           throw;
         }
         last_accepted_ = step_;
+        accepted_time_ = t_ + h_;
         ++accepted_;
         if (on_accept) on_accept(t_ + h_);
       } else {
         simulation_->RestoreStart();  // the nodes' state and the frames at the step's start
+        ++rejected_;
         for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
       }
       step_ = -1;

@@ -35,11 +35,17 @@ class ContactServer {
   // The same, step by step (a contact process inside the run driver's time loop):
   void Handshake();                              // Hello → Welcome
   void ServeStep(int64_t step, double t, double h);  // until step `step` (t, h) is accepted
+  // Adaptive steps (numerics.adaptive): the coordinator chooses each step and may reject it;
+  // serves until an accepted step ends at `time` or later (each StepBegin must start where the
+  // last accepted step ended). Returns at once if one already has.
+  void ServeUntil(double time);
+  double accepted_time() const { return accepted_time_; }  // end of the last accepted step
   void ServeShutdown();                          // the coordinator's Shutdown → reply
 
   std::function<void(double time)> on_accept;
   long long accepted_steps() const { return accepted_; }
   long long tentative_steps() const { return tentative_; }
+  long long rejected_steps() const { return rejected_; }  // StepEnd(accepted = false): adaptive steps
   const std::vector<int>& interface_nodes() const { return nodes_; }  // model node indices
 
  private:
@@ -65,6 +71,8 @@ class ContactServer {
   double t_ = 0.0, h_ = 0.0;
   int64_t step_ = -1;          // the step under way
   int64_t last_accepted_ = -1;
+  double accepted_time_ = 0.0;
+  long long rejected_ = 0;
   long long accepted_ = 0, tentative_ = 0;
 };
 

@@ -1,6 +1,8 @@
 #include "nonsmooth_solver/coupling/contact_stepper.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -27,6 +29,18 @@ void ContactStepper::StepTentatively(double t, double h) {
                            "the step too long)");
     }
   }
+}
+
+double ContactStepper::TimeToContact() const {
+  double earliest = std::numeric_limits<double>::infinity();
+  for (size_t c = 0; c < model().contacts.size(); ++c) {
+    const int i = static_cast<int>(c);
+    const double gap = Gap(i);
+    if (gap <= 0.0 || Impulse(i) > 0.0) return 0.0;
+    const double rate = GapRate(i);
+    if (rate < 0.0) earliest = std::min(earliest, gap / -rate);
+  }
+  return earliest;
 }
 
 void ContactStepper::CheckAccepted(double t) const {

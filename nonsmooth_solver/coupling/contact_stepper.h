@@ -40,7 +40,15 @@ class ContactStepper : public interface::Simulation {
   virtual bool Impact(int node) const = 0;
   virtual std::string SolverName() const = 0;  // for the Welcome
   virtual double Gap(int contact) const = 0;      // [m] at the current time
+  virtual double GapRate(int contact) const = 0;  // [m/s] at the current time
   virtual double Impulse(int contact) const = 0;  // [N s] over the last step
+
+  // The earliest time [s] from now at which one of the contacts could close at its present
+  // rate: gap / closing speed; 0 for a contact closed or pushing (impulse or force in the last
+  // step); +∞ if every open contact is opening or still. Sent as Kinematics.time_to_contact:
+  // the coordinator's adaptive step stops short of it, and a step that no contact can reach
+  // needs no coupling iterations beyond the first (coupling.iteration.free_flight).
+  double TimeToContact() const;
 
   // The method's step from t to t + h (Moreau–Jean, the penalty law).
   virtual void Advance(double t, double h) = 0;

@@ -31,6 +31,7 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   options.keys = interface::CurveKeysFromEnvironment();
   channel_ = std::make_unique<interface::Channel>(context_.get(), options);
   server_ = std::make_unique<ContactServer>(simulation_.get(), channel_.get(), file.proto().name());
+  adaptive_ = file.proto().numerics().adaptive().enabled();
 }
 
 ServedContactSimulation::~ServedContactSimulation() = default;
@@ -40,13 +41,23 @@ void ServedContactSimulation::Step(double t, double h) {
     server_->Handshake();
     handshaken_ = true;
   }
-  server_->ServeStep(step_, t, h);
+  if (adaptive_) {
+    // The coordinator's steps: error controlled, landing on every output time (the history's
+    // rows), rejected and redone at will; this run's grid step only says how far to serve.
+    server_->ServeUntil(t + h);
+  } else {
+    server_->ServeStep(step_, t, h);
+  }
   ++step_;
 }
 
 void ServedContactSimulation::FillSummary(run::RunSummary* summary) const {
   simulation_->FillSummary(summary);
   summary->mutable_counters()->insert({"tentative_steps", static_cast<double>(server_->tentative_steps())});
+  if (adaptive_) {
+    summary->mutable_counters()->insert({"adaptive_accepted_steps", static_cast<double>(server_->accepted_steps())});
+    summary->mutable_counters()->insert({"adaptive_rejected_steps", static_cast<double>(server_->rejected_steps())});
+  }
 }
 
 void ServedContactSimulation::Finish(ExitCode code, const std::string& reason) {
@@ -73,6 +84,10 @@ int RunContactProgram(const std::string& program, int argc, char** argv,
           file.Fail("coupling.interface_nodes",
                     "the contact nodes are tied to the smooth model: run the coupled scene with scripts/cosim run "
                     "(or " + program + " --process NAME under a coordinator)");
+        }
+        if (file.proto().numerics().adaptive().enabled()) {
+          file.Fail("numerics.adaptive", "a contact-only scene takes fixed steps (the adaptive step is the smooth "
+                                         "solver's, standalone or as the coordinator of a coupled run); remove it");
         }
         return make(file, nullptr);  // every node; obstacles on smooth bodies refused
       });

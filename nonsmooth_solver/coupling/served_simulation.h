@@ -41,6 +41,7 @@ class ServedContactSimulation : public interface::Simulation {
   std::unique_ptr<ContactServer> server_;
   int64_t step_ = 0;
   bool handshaken_ = false;
+  bool adaptive_ = false;  // numerics.adaptive: the coordinator's steps (ServeUntil)
 };
 
 // main() of a contact program: standalone (a scene of contact nodes only) it runs `make`'s

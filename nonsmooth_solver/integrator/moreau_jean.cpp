@@ -96,6 +96,13 @@ double MoreauJean::Gap(int contact) const {
   return model_.obstacles[Idx(c.obstacle)].Gap(time_, q_.segment<3>(3 * c.node), data_);
 }
 
+double MoreauJean::GapRate(int contact) const {
+  const Contact& c = model_.contacts[Idx(contact)];
+  const Obstacle& ob = model_.obstacles[Idx(c.obstacle)];
+  const Eigen::Vector3d x = q_.segment<3>(3 * c.node);
+  return ob.NormalAt(time_, data_).dot(v_.segment<3>(3 * c.node)) + ob.GapRateBias(time_, x, data_);
+}
+
 double MoreauJean::KineticEnergy(int node) const { return nonsmooth::KineticEnergy(model_, v_, node); }
 
 double MoreauJean::PotentialEnergy(int node) const { return nonsmooth::PotentialEnergy(model_, q_, node); }

@@ -66,6 +66,7 @@ class MoreauJean {
   const Eigen::MatrixXd& friction_impulses() const { return friction_impulse_; }
   double time() const { return time_; }
   double Gap(int contact) const;
+  double GapRate(int contact) const;  // [m/s] at the current time (the node's velocity against the plane's)
   double KineticEnergy(int node) const;    // node < 0: all nodes
   double PotentialEnergy(int node) const;  // gravity and springs; node < 0: all (node springs included)
   const MoreauJeanStats& stats() const { return stats_; }

@@ -196,6 +196,14 @@ double PenaltySimulation::Gap(int contact) const {
   return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node), state_.data);
 }
 
+double PenaltySimulation::GapRate(int contact) const {
+  const Contact& c = model_->contacts[static_cast<size_t>(contact)];
+  const Obstacle& ob = model_->obstacles[static_cast<size_t>(c.obstacle)];
+  const Eigen::Vector3d x = state_.q.segment<3>(3 * c.node);
+  return ob.NormalAt(state_.time, state_.data).dot(state_.v.segment<3>(3 * c.node)) +
+         ob.GapRateBias(state_.time, x, state_.data);
+}
+
 bool PenaltySimulation::Impact(int) const { return false; }  // finite forces: velocities never jump
 
 void PenaltySimulation::FillSummary(run::RunSummary* summary) const {

@@ -54,6 +54,7 @@ class PenaltySimulation : public ContactStepper {
   std::string SolverName() const override;
 
   double Gap(int contact) const override;
+  double GapRate(int contact) const override;
   double Impulse(int contact) const override { return state_.impulse(contact); }
 
  private:

@@ -32,6 +32,7 @@ class ContactSimulation : public ContactStepper {
   const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
   bool Impact(int node) const override;
   double Gap(int contact) const override { return integrator_->Gap(contact); }
+  double GapRate(int contact) const override { return integrator_->GapRate(contact); }
   double Impulse(int contact) const override { return integrator_->impulses()(contact); }
   std::string SolverName() const override { return "nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)"; }
 

@@ -113,6 +113,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
 
 void Coordinator::ReceiveKinematics(int iteration) {
   in_contact_ = false;
+  time_to_contact_ = std::numeric_limits<double>::infinity();
   for (Peer& peer : peers_) {
     const auto& k = peer.channel->Receive(Envelope::kKinematics, step_, iteration).kinematics();
     const int expected = 3 * static_cast<int>(peer.points.size());
@@ -130,6 +131,14 @@ void Coordinator::ReceiveKinematics(int iteration) {
       }
     }
     for (int c : k.in_contact()) in_contact_ = in_contact_ || c != 0;
+    // An older peer that does not say: a contact is always possible.
+    const double ttc = k.has_time_to_contact() ? k.time_to_contact() : 0.0;
+    if (std::isnan(ttc) || ttc < 0.0) {
+      throw InputError("coupling: Kinematics.time_to_contact from '" + peer.channel->options().peer + "' of step " +
+                       std::to_string(step_) + " is " + interface::FormatNumber(ttc) +
+                       "; expected a time >= 0 [s] (or +inf)");
+    }
+    time_to_contact_ = std::min(time_to_contact_, ttc);
     for (size_t i = 0; i < peer.points.size(); ++i) {
       for (int j = 0; j < 3; ++j) {
         const Eigen::Index v = 3 * peer.points[i] + j;
@@ -150,14 +159,38 @@ void Coordinator::Impose(double h) {
 }
 
 int Coordinator::Step(double t, double h) {
+  const Attempt attempt = Try(t, h);
+  if (!attempt.failure.empty()) throw NumericalError(attempt.failure);  // (everything restored)
+  if (!attempt.converged) {
+    if (settings_.stop_at_max_iterations) {
+      integrator_->Restore(start_);
+      throw NumericalError(NoConvergence(t, h));
+    }
+    ++marked_;
+  }
+  Accept(t, h, attempt.converged);
+  return attempt.iterations;
+}
+
+std::string Coordinator::NoConvergence(double t, double h) const {
+  return "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
+         std::to_string(step_) + " (t = " + interface::FormatNumber(t + h) + " s): reaction residual " +
+         interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
+         interface::FormatNumber(log_.back().displacement_change) +
+         " m; raise coupling.iteration.max_iterations, choose AITKEN or IQN_ILS, or shorten the step";
+}
+
+Coordinator::Attempt Coordinator::Try(double t, double h) {
+  Attempt result;
   log_.clear();  // this step's records (the capacity stays: no allocation once warm)
   integrator_->SaveTo(&start_);
   for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = data_->imposed[static_cast<size_t>(v)].rate;
   relaxation_.BeginStep();
   // Predictor: the reactions extrapolated linearly from the last two accepted steps (constant
-  // after a start or an impact). With a stiff tie the first residual is the prediction error
-  // times the tie's gain, so this is worth an iteration per step.
-  x_ = accepted_steps_ >= 2 ? Eigen::VectorXd(2.0 * accepted_x_ - previous_accepted_x_) : accepted_x_;
+  // after a start or an impact), scaled to this step's length. With a stiff tie the first
+  // residual is the prediction error times the tie's gain, so this is worth an iteration per step.
+  const double ratio = accepted_h_ > 0.0 ? h / accepted_h_ : 1.0;
+  x_ = accepted_steps_ >= 2 ? Eigen::VectorXd(accepted_x_ + ratio * (accepted_x_ - previous_accepted_x_)) : accepted_x_;
   for (Peer& peer : peers_) {
     auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();
     begin->set_time(t);
@@ -171,13 +204,26 @@ int Coordinator::Step(double t, double h) {
     peer.channel->Send();
   }
   ReceiveKinematics(0);
+  // coupling.iteration.free_flight_margin: no contact can close within the step (every peer's
+  // time to contact beyond free_flight_margin steps from the step's end, none closed): the
+  // first iteration is accepted if its reaction residual meets the tolerance, without the
+  // second iteration that would confirm the kinematics (the displacement test).
+  const bool free_flight = settings_.free_flight_margin > 0.0 && time_to_contact_ > settings_.free_flight_margin * h;
   newton_ = 0;
-  bool converged = false;
   int iteration = 0;
   for (;; ++iteration) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
     Impose(h);
-    newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
+    try {
+      newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
+    } catch (const NumericalError& e) {
+      // Every peer waits for this side's next message: the caller may reject the step (adaptive)
+      // or end the run with this failure.
+      integrator_->Restore(start_);
+      result.failure = e.what();
+      result.iterations = iteration + 1;
+      return result;
+    }
     if (settings_.warm_start) iterate_ = integrator_->state();  // equal sizes: no allocation once warm
     const Eigen::VectorXd& lambda = integrator_->state().lambda;
     for (size_t k = 0; k < system_.interface_points.size(); ++k) {
@@ -198,9 +244,12 @@ int Coordinator::Step(double t, double h) {
     if (!x_tilde_.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
-      throw NumericalError("coupling: the smooth model's reactions on the interface nodes are not finite after "
-                           "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
-                           interface::FormatNumber(t + h) + " s");
+      integrator_->Restore(start_);
+      result.failure = "coupling: the smooth model's reactions on the interface nodes are not finite after "
+                       "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
+                       interface::FormatNumber(t + h) + " s";
+      result.iterations = iteration + 1;
+      return result;
     }
     CouplingIterationRecord record;
     record.step = step_;
@@ -217,12 +266,17 @@ int Coordinator::Step(double t, double h) {
         64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, position_.lpNorm<Eigen::Infinity>());
     const bool at_roundoff = iteration > 0 && n_ > 0 && record.displacement_change <= position_roundoff &&
                              record.reaction_residual <= (x_tilde_ - previous_x_tilde_).lpNorm<Eigen::Infinity>();
-    converged = (record.reaction_residual <= settings_.reaction_tolerance * scale || at_roundoff) &&
-                (iteration > 0 ? record.displacement_change <= settings_.displacement_tolerance
-                               : record.reaction_residual == 0.0);
-    if (converged && at_roundoff && record.reaction_residual > settings_.reaction_tolerance * scale) ++at_roundoff_;
+    result.converged = (record.reaction_residual <= settings_.reaction_tolerance * scale || at_roundoff) &&
+                       (iteration > 0 ? record.displacement_change <= settings_.displacement_tolerance
+                                      : record.reaction_residual == 0.0);
+    if (iteration == 0 && !result.converged && free_flight &&
+        record.reaction_residual <= settings_.reaction_tolerance * scale) {
+      result.converged = result.free_flight = true;
+      ++free_flight_;
+    }
+    if (result.converged && at_roundoff && record.reaction_residual > settings_.reaction_tolerance * scale) ++at_roundoff_;
     previous_x_tilde_ = x_tilde_;
-    if (converged || iteration + 1 >= settings_.max_iterations) {
+    if (result.converged || iteration + 1 >= settings_.max_iterations) {
       record.relaxation_factor = 0.0;
       log_.push_back(record);
       break;
@@ -242,21 +296,18 @@ int Coordinator::Step(double t, double h) {
     }
     ReceiveKinematics(iteration + 1);
   }
-  if (!converged) {
-    if (settings_.stop_at_max_iterations) {
-      const std::string reason =
-          "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
-          std::to_string(step_) + " (t = " + interface::FormatNumber(t + h) + " s): reaction residual " +
-          interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
-          interface::FormatNumber(log_.back().displacement_change) +
-          " m; raise coupling.iteration.max_iterations, choose AITKEN or IQN_ILS, or shorten the step";
-      integrator_->Restore(start_);
-      throw NumericalError(reason);
-    }
-    ++marked_;
-  }
+  last_iteration_ = iteration;
+  result.iterations = iteration + 1;
+  result.impact = in_contact_ && !was_in_contact_;
+  result.contact = in_contact_;
+  result.time_to_contact = time_to_contact_;
+  return result;
+}
+
+void Coordinator::Accept(double t, double h, bool converged) {
   previous_accepted_x_ = accepted_x_;
   accepted_x_ = x_;
+  accepted_h_ = h;
   ++accepted_steps_;
   lambda_start_ = lambda_end_;
   filtered_start_ = filtered_end_;
@@ -272,15 +323,25 @@ int Coordinator::Step(double t, double h) {
     relaxation_.Forget();   // nor do the secants of the interface map before it
   }
   was_in_contact_ = in_contact_;
+  EndStep(true, converged);
+  ++step_;
+}
+
+void Coordinator::Reject() {
+  integrator_->Restore(start_);
+  relaxation_.Forget();  // secants of a step of another length
+  EndStep(false, false);
+  ++rejected_;
+}
+
+void Coordinator::EndStep(bool accepted, bool converged) {
   for (Peer& peer : peers_) {
-    auto* end = peer.channel->Outgoing(step_, iteration).mutable_step_end();
-    end->set_accepted(true);
+    auto* end = peer.channel->Outgoing(step_, last_iteration_).mutable_step_end();
+    end->set_accepted(accepted);
     end->set_converged(converged);
     peer.channel->Send();
   }
-  for (Peer& peer : peers_) peer.channel->Receive(Envelope::kStepEnd, step_, iteration);
-  ++step_;
-  return iteration + 1;
+  for (Peer& peer : peers_) peer.channel->Receive(Envelope::kStepEnd, step_, last_iteration_);
 }
 
 void Coordinator::Shutdown(int exit_code, const std::string& reason, bool wait_for_replies) {

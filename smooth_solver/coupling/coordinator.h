@@ -41,6 +41,10 @@ struct CouplingSettings {
   bool stop_at_max_iterations = true;    // false: accept and mark the step
   bool restart_at_impact = true;         // see scenario.proto, CouplingIteration
   bool warm_start = true;                // Newton from the last coupling iteration's end (scenario.proto)
+  // > 0: a step whose peers report no contact within this many steps of its end is accepted
+  // after its first iteration if the reaction residual meets the tolerance (scenario.proto,
+  // CouplingIteration.free_flight_margin); 0: always confirm with a second iteration.
+  double free_flight_margin = 0.0;
 };
 
 // One iteration's record, for the convergence log.
@@ -72,8 +76,30 @@ class Coordinator {
 
   // Hello → Welcome with every peer.
   void Handshake(const std::string& scenario_name, double start_time, double step);
-  // One coupled step from t to t + h; returns the coupling iterations used.
+  // One coupled step from t to t + h (fixed steps): Try, then Accept; a failed Newton solve or
+  // (with stop_at_max_iterations) no convergence throws NumericalError. Returns the coupling
+  // iterations used.
   int Step(double t, double h);
+
+  // The adaptive step's pieces. Try: the coupling iterations of the step from t to t + h,
+  // committed to nothing: the integrator holds the last iteration's end state, every peer its
+  // tentative step. Then exactly one of Accept (StepEnd accepted) or Reject (StepEnd rejected:
+  // every peer and the integrator back at the step's start; the next Try may take another h).
+  struct Attempt {
+    int iterations = 0;
+    bool converged = false;    // within the tolerances (or free flight)
+    bool free_flight = false;  // accepted after one iteration: no contact reachable (free_flight_margin)
+    std::string failure;       // a failed Newton solve (integrator restored): reject or stop
+    bool impact = false;       // a node's contact closed in the step (its velocity jumped)
+    bool contact = false;      // an impulsive contact acted in the step
+    double time_to_contact = 0.0;  // the peers' earliest, from the step's end [s]
+  };
+  Attempt Try(double t, double h);
+  void Accept(double t, double h, bool converged);
+  void Reject();
+  std::string NoConvergence(double t, double h) const;  // the reason of an unconverged step
+  long long rejected_steps() const { return rejected_; }
+  long long free_flight_steps() const { return free_flight_; }  // steps accepted after one iteration
   // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
   // `wait_for_replies`, waits for each one's Shutdown.
   void Shutdown(int exit_code, const std::string& reason, bool wait_for_replies = true);
@@ -90,6 +116,7 @@ class Coordinator {
   // CGα from `state` at t, its accelerations with the coupling rows left out (λ = 0 there).
   void RestartWithCouplingRowsFree(DaeState state, double t);
   void ReceiveKinematics(int iteration);
+  void EndStep(bool accepted, bool converged);  // StepEnd to every peer, and their replies
 
   const MultibodySystem& system_;
   SystemData* data_;
@@ -103,6 +130,10 @@ class Coordinator {
   int n_ = 0;  // interface values: 3 per point
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions
   long long accepted_steps_ = 0;  // since the start or the last impact (for the predictor)
+  double accepted_h_ = 0.0;       // the last accepted step's length
+  double time_to_contact_ = 0.0;  // the peers' earliest, from the last Kinematics
+  int last_iteration_ = 0;        // of the last Try
+  long long rejected_ = 0, free_flight_ = 0;
   // The interface rows' multipliers λ and their CGα-filtered values λ̃ at the step's start
   // (accepted) and end (this iteration).
   Eigen::VectorXd lambda_start_, lambda_end_, filtered_start_, filtered_end_;

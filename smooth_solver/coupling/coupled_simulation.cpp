@@ -1,6 +1,7 @@
 #include "smooth_solver/coupling/coupled_simulation.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <set>
 #include <zmq.hpp>
@@ -125,6 +126,12 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   settings.stop_at_max_iterations = it.on_max_iterations() == sc::Coupling::CouplingIteration::STOP;
   settings.restart_at_impact = it.restart_at_impact();
   settings.warm_start = it.warm_start();
+  settings.free_flight_margin = it.free_flight_margin();
+  if (!(settings.free_flight_margin >= 0.0) || !std::isfinite(settings.free_flight_margin)) {
+    checks.Fail("coupling.iteration.free_flight_margin",
+                "must be a finite number of steps >= 0 (0: always iterate), got " +
+                    interface::FormatNumber(settings.free_flight_margin));
+  }
   if (!settings.restart_at_impact) {
     // Without the restart only a compliant tie can carry a node's velocity jump to the smooth model.
     const auto& nodes = file.proto().coupling().interface_nodes();
@@ -141,6 +148,8 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(), std::move(peers), settings);
   start_time_ = file.proto().numerics().start_time();
   step_ = file.proto().numerics().step();
+  span_ = interface::ValidateTimeSpan(file);
+  every_ = file.proto().output().has_every() ? std::max(1, file.proto().output().every()) : 1;
 }
 
 CoupledSmoothSimulation::~CoupledSmoothSimulation() = default;
@@ -149,6 +158,10 @@ void CoupledSmoothSimulation::Step(double t, double h) {
   if (!handshaken_) {
     coordinator_->Handshake(scenario_name_, start_time_, step_);
     handshaken_ = true;
+  }
+  if (simulation_->adaptive()) {
+    StepAdaptively(t + h);
+    return;
   }
   int iterations = 0;
   try {
@@ -166,12 +179,42 @@ void CoupledSmoothSimulation::Step(double t, double h) {
   simulation_->Record(t + h, coordinator_->last_newton_iterations());
 }
 
+void CoupledSmoothSimulation::StepAdaptively(double until) {
+  // The steps land on the history's next row time at or after `until` (the run driver writes a
+  // row every output.every grid steps and at the end): both sides' rows are then states at
+  // that time, not interpolations across the contact processes' velocity jumps.
+  const long long k = std::llround((until - span_.start) / span_.step);
+  const long long row = std::min(span_.steps, (k + every_ - 1) / every_ * every_);
+  const double target = span_.TimeAt(row);
+  Coordinator::Attempt last;
+  MultibodySimulation::StepHooks hooks;
+  hooks.attempt = [&](double from, double step) {
+    last = coordinator_->Try(from, step);
+    MultibodySimulation::AttemptOutcome outcome;
+    outcome.iterations = coordinator_->last_newton_iterations();
+    outcome.failure = last.failure;
+    if (outcome.failure.empty() && !last.converged) outcome.failure = coordinator_->NoConvergence(from, step);
+    outcome.contact = last.contact;
+    outcome.time_to_contact = last.time_to_contact;
+    return outcome;
+  };
+  hooks.accept = [&](double from, double step) {
+    coordinator_->Accept(from, step, true);
+    WriteIterations();
+    coupling_.Add(last.iterations);
+  };
+  hooks.reject = [&] { coordinator_->Reject(); };
+  simulation_->Advance(target, hooks);
+}
+
 void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
   simulation_->FillSummary(summary);
   coupling_.Fill(summary->mutable_coupling_iterations());
   summary->mutable_counters()->insert({"coupling_steps_marked", static_cast<double>(coordinator_->marked_steps())});
   summary->mutable_counters()->insert(
       {"coupling_steps_at_roundoff", static_cast<double>(coordinator_->roundoff_steps())});
+  summary->mutable_counters()->insert(
+      {"coupling_free_flight_steps", static_cast<double>(coordinator_->free_flight_steps())});
 }
 
 void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {

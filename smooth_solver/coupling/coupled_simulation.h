@@ -49,6 +49,10 @@ class CoupledSmoothSimulation : public interface::Simulation {
   bool handshaken_ = false;
   std::string scenario_name_;
   double start_time_ = 0.0, step_ = 0.0;
+  // numerics.adaptive: error-controlled coupled steps up to the history's next row time.
+  void StepAdaptively(double until);
+  interface::TimeSpan span_;
+  int every_ = 1;
 };
 
 }  // namespace cosim::smooth

@@ -127,14 +127,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   settings.form = s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
   const sc::AdaptiveStep& adaptive = numerics_.adaptive();
   if (adaptive.enabled()) {
-    if (coupled) {
-      checks.Fail("numerics.adaptive", "a coupled run takes fixed steps so far (the contact processes' side of a "
-                                       "rejected step is issue 18's next part); set enabled: false");
-    } else if (s.integrator() != sc::SmoothSettings::CGALPHA) {
+    if (s.integrator() != sc::SmoothSettings::CGALPHA) {
       checks.Fail("numerics.adaptive", "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
                                        "own); set enabled: false");
     }
     adaptive_.on = true;
+    adaptive_.land = coupled;
     adaptive_.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
     adaptive_.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
     adaptive_.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
@@ -628,33 +626,55 @@ void MultibodySimulation::Step(double t, double h) {
     Record(t + h, integrator_->Step(t, h));
     return;
   }
-  // numerics.adaptive: steps of their own size until the integrator has passed t + h, then the
-  // probes read the state interpolated at t + h (or the integrator's, if a step ended there).
   auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
-  const double target = t + h, end = numerics_.end_time();
+  StepHooks standalone;
+  standalone.attempt = [&cg](double from, double step) {
+    AttemptOutcome outcome;
+    try {
+      outcome.iterations = cg.Step(from, step);
+    } catch (const NumericalError& e) {
+      outcome.failure = e.what();
+    }
+    return outcome;
+  };
+  Advance(t + h, standalone);
+}
+
+void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
+  // numerics.adaptive: steps of their own size until the integrator has reached t + h; standalone
+  // the probes then read the state interpolated at t + h (or the integrator's, if a step ended
+  // there), coupled (adaptive_.land) the steps land on t + h.
+  auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
+  const double end = numerics_.end_time();
   const double eps = 1e-12 * std::max(1.0, std::abs(target));
-  if (h_next_ <= 0.0) h_next_ = h;
+  if (h_next_ <= 0.0) h_next_ = numerics_.step();
   while (time_ < target - eps) {
     double step = std::min(h_next_, adaptive_.max_step);
     const DaeState& now = cg.state();
     // Half the time to a contact at the present closing rate (the approach may accelerate): the
-    // steps shorten geometrically towards it, and the last enters it by about contact_step.
-    step = std::min(step, std::max(0.5 * system_->TimeToContact(now.q, now.qdot) + adaptive_.contact_step,
-                                   adaptive_.min_step));
+    // steps shorten geometrically towards it, and the last enters it by about contact_step. The
+    // contact processes' contacts (coupled) count as the smooth model's own.
+    const double to_contact = std::min(system_->TimeToContact(now.q, now.qdot), peer_time_to_contact_);
+    step = std::min(step, std::max(0.5 * to_contact + adaptive_.contact_step, adaptive_.min_step));
+    // Coupled: land on the output time, in equal steps when it is less than two steps away (no
+    // sliver of a step before it).
+    if (adaptive_.land && time_ + step > target - step) {
+      step = (target - time_) / std::ceil((target - time_) / step - 1e-9);
+    }
     if (time_ + step > end - eps) step = end - time_;  // the run ends on its end time
     cg.SaveTo(&checkpoint_);
-    int iterations = 0;
+    const AttemptOutcome outcome = hooks.attempt(time_, step);
     double norm = std::numeric_limits<double>::infinity();
-    std::string why;
-    try {
-      iterations = cg.Step(time_, step);
-      norm = ErrorNorm(step);
+    std::string why = outcome.failure;
+    if (why.empty()) {
+      // A step in which a contact process's contact acted (an impact: velocities jumped) is not
+      // the smooth motion the estimate measures: it is taken at contact_step (below) instead.
+      norm = outcome.contact ? 0.0 : ErrorNorm(step);
       why = "the error estimate " + interface::FormatNumber(norm) + " > 1";
-    } catch (const NumericalError& e) {
-      why = e.what();
     }
     if (!(norm <= 1.0)) {  // rejected: the same step again, smaller
       cg.Restore(checkpoint_);
+      if (hooks.reject) hooks.reject();
       ++rejected_;
       h_next_ = step * (std::isfinite(norm) ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 0.9) : 0.25);
       if (h_next_ < adaptive_.min_step) {
@@ -664,9 +684,11 @@ void MultibodySimulation::Step(double t, double h) {
       }
       continue;
     }
+    if (hooks.accept) hooks.accept(time_, step);
     previous_ = checkpoint_.state;
     previous_time_ = time_;
-    Record(time_ + step, iterations);
+    Record(time_ + step, outcome.iterations);
+    peer_time_to_contact_ = outcome.time_to_contact;
     ++accepted_steps_;
     smallest_step_ = std::min(smallest_step_, step);
     largest_step_ = std::max(largest_step_, step);
@@ -676,23 +698,25 @@ void MultibodySimulation::Step(double t, double h) {
     if (growth >= 1.0 && growth < 1.25) growth = 1.0;
     if (step < h_next_) growth = std::max(growth, h_next_ / step);  // a step cut to land or before a contact
     h_next_ = std::min(step * growth, adaptive_.max_step);
+    // At an impact and while a contact acts: steps of contact_step (cut at impacts).
+    if (outcome.contact) h_next_ = std::min(h_next_, std::max(adaptive_.contact_step, adaptive_.min_step));
   }
   probe_time_ = target;
   interpolated_ = false;  // a step that ended on the target, now or in an earlier call
   if (std::abs(time_ - target) > eps) Interpolate(target);
 }
 
-double MultibodySimulation::ErrorNorm(double h) const {
+double MultibodySimulation::ErrorNorm(double h) {
   // e = |β − 1/6| h² (a_{n+1} − a_n): the local error of the Newmark position update (Zienkiewicz &
   // Xie 1991), here on the generalised-α acceleration variable.
-  const auto& cg = dynamic_cast<const CgAlpha&>(*integrator_);
+  auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
   const double c = std::abs(cg.beta() - 1.0 / 6.0) * h * h;
   const Eigen::VectorXd& q = cg.state().q;
+  error_ = c * (cg.acceleration_variable() - checkpoint_.a);
   double sum = 0.0;
   for (Eigen::Index i = 0; i < q.size(); ++i) {
-    const double e = c * (cg.acceleration_variable()(i) - checkpoint_.a(i));
     const double w = adaptive_.absolute + adaptive_.relative * std::abs(q(i));
-    sum += (e / w) * (e / w);
+    sum += (error_(i) / w) * (error_(i) / w);
   }
   return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(q.size(), 1)));
 }

@@ -1,7 +1,9 @@
 #pragma once
 // A standalone smooth-solver run: model, natural-coordinate system, consistent initial
 // state, CGα, and the probes, behind the run contract's Simulation interface.
+#include <functional>
 #include <limits>
+#include <string>
 #include <memory>
 
 #include "interface/run/run_driver.h"
@@ -36,6 +38,24 @@ class MultibodySimulation : public interface::Simulation {
   // integrator (nullptr for the others), and the bookkeeping of an accepted step to t1.
   CgAlpha* cgalpha();
   void Record(double t1, int iterations);
+
+  // numerics.adaptive: one try of a step, what the controller needs to judge it.
+  struct AttemptOutcome {
+    int iterations = 0;        // Newton iterations (for the statistics)
+    std::string failure;       // non-empty: the step failed (Newton, coupling): rejected
+    bool contact = false;      // a contact process's contact acted in the step: no error test
+    double time_to_contact = std::numeric_limits<double>::infinity();  // the peers', from its end [s]
+  };
+  struct StepHooks {
+    std::function<AttemptOutcome(double t, double h)> attempt;  // the step from t to t + h on cgalpha()
+    std::function<void(double t, double h)> accept;             // the attempt passed (before Record)
+    std::function<void()> reject;                               // it did not (cgalpha() restored)
+  };
+  // Error-controlled steps from the integrator's time to `target` (or past it, standalone: the
+  // probes then read the state interpolated there; coupled runs land on it), each tried by
+  // `hooks.attempt` and accepted or rejected by the controller (numerics.adaptive).
+  void Advance(double target, const StepHooks& hooks);
+  bool adaptive() const { return adaptive_.on; }
   long ida_internal_steps() const { return ida_steps_; }
   double max_constraint_violation() const { return max_violation_; }  // over the accepted steps
 
@@ -79,13 +99,16 @@ class MultibodySimulation : public interface::Simulation {
   // state interpolated at probe_time_ between previous_ (at previous_time_) and the integrator's.
   struct AdaptiveSettings {
     bool on = false;
+    bool land = false;  // coupled: steps end on the output times (no interpolation of the peers' states)
     double relative = 0.0, absolute = 0.0, min_step = 0.0, max_step = 0.0, contact_step = 0.0;
   };
-  double ErrorNorm(double h) const;
+  double ErrorNorm(double h);
+  Eigen::VectorXd error_;  // ErrorNorm's estimate
   void Interpolate(double t);
   double Violation(const Eigen::VectorXd& q) const;  // |Φ|∞ of the state the probes read
   AdaptiveSettings adaptive_;
   double h_next_ = 0.0, previous_time_ = 0.0, probe_time_ = 0.0;
+  double peer_time_to_contact_ = std::numeric_limits<double>::infinity();
   double smallest_step_ = std::numeric_limits<double>::infinity(), largest_step_ = 0.0;
   long accepted_steps_ = 0, rejected_ = 0;
   CgAlpha::Checkpoint checkpoint_;

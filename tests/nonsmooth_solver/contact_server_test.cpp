@@ -97,6 +97,37 @@ TEST(ContactServer, IterationsRestartFromTheStepStartAndOnlyAcceptedStepsCount) 
   EXPECT_NEAR(h.simulation.integrator().time(), dt, 1e-15);
 }
 
+TEST(ContactServer, ARejectedStepIsRedoneWithAnotherLengthFromTheSameStart) {
+  // The adaptive step's protocol: the coordinator rejects a step (StepEnd accepted = false) and
+  // begins the same step again, shorter. The redone step starts from the rejected one's start
+  // state, as if the rejected one had never been tried; each Kinematics says how long until the
+  // ball could reach the ground at its present speed (gap / closing speed; +∞ while still).
+  Harness h;
+  h.Hello("ball");
+  h.smooth.Receive(Envelope::kWelcome, -1, -1);
+  const double g = 9.81, dt = 0.005;
+  for (const double step : {dt, 0.5 * dt}) {
+    auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
+    begin->set_time(0.0);
+    begin->set_step(step);
+    h.smooth.Send();
+    const coupling::Kinematics& k = h.smooth.Receive(Envelope::kKinematics, 0, 0).kinematics();
+    EXPECT_NEAR(k.position(2), 1.0 - 0.5 * g * step * step, 1e-14);
+    ASSERT_TRUE(k.has_time_to_contact());
+    EXPECT_NEAR(k.time_to_contact(), (1.0 - 0.5 * g * step * step) / (g * step), 1e-9);
+    auto* end = h.smooth.Outgoing(0, 0).mutable_step_end();
+    end->set_accepted(step < dt);  // the long one rejected, the short one accepted
+    h.smooth.Send();
+    h.smooth.Receive(Envelope::kStepEnd, 0, 0);
+  }
+  h.Finish();
+  EXPECT_EQ(h.server.accepted_steps(), 1);
+  EXPECT_EQ(h.server.rejected_steps(), 1);
+  EXPECT_NEAR(h.simulation.integrator().positions()(2), 1.0 - 0.5 * g * 0.25 * dt * dt, 1e-14);
+  EXPECT_NEAR(h.simulation.integrator().velocities()(2), -g * 0.5 * dt, 1e-14);
+  EXPECT_NEAR(h.simulation.integrator().time(), 0.5 * dt, 1e-15);
+}
+
 TEST(ContactServer, UnknownInterfaceNodeIsRefusedNamingIt) {
   Harness h;
   h.Hello("bal");

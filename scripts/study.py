@@ -389,7 +389,10 @@ def study_work_precision(runner, scenario_path, out, sets):
             if field == "numerics.smooth.ida_relative_tolerance":
                 extra.append(f"numerics.smooth.ida_absolute_tolerance={v!r}")
             if field == "numerics.adaptive.relative":  # adaptive CGα: output on the coarsest grid, every step
-                extra += [f"numerics.adaptive.absolute={v!r}", "numerics.adaptive.enabled=true", "output.every=1"]
+                extra += [f"numerics.adaptive.absolute={v!r}", "numerics.adaptive.enabled=true"]
+                # (unless the method asks for sparser rows: a coupled adaptive run's steps land on them)
+                if not any(x.startswith("output.every=") for x in method.get("set", [])):
+                    extra.append("output.every=1")
             if field == "numerics.step":
                 extra.append(f"output.every={every_for(scenario, v, steps[0])}")
             else:  # output on the coarsest grid

@@ -113,7 +113,7 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
     }
     k->add_in_contact(simulation_->Impact(node) ? 1 : 0);
   }
-  k->set_time_to_contact(simulation_->TimeToContact());
+  k->set_time_to_contact(simulation_->TimeToContact(resting_speed_));
   channel_->Send();
 }
 

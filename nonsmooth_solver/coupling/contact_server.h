@@ -43,6 +43,8 @@ class ContactServer {
   void ServeShutdown();                          // the coordinator's Shutdown → reply
 
   std::function<void(double time)> on_accept;
+  // numerics.adaptive.resting_speed [m/s] (Kinematics.time_to_contact; ContactStepper::TimeToContact).
+  void set_resting_speed(double speed) { resting_speed_ = speed; }
   long long accepted_steps() const { return accepted_; }
   long long tentative_steps() const { return tentative_; }
   long long rejected_steps() const { return rejected_; }  // StepEnd(accepted = false): adaptive steps
@@ -72,6 +74,7 @@ class ContactServer {
   int64_t step_ = -1;          // the step under way
   int64_t last_accepted_ = -1;
   double accepted_time_ = 0.0;
+  double resting_speed_ = 0.0;
   long long rejected_ = 0;
   long long accepted_ = 0, tentative_ = 0;
 };

@@ -31,13 +31,17 @@ void ContactStepper::StepTentatively(double t, double h) {
   }
 }
 
-double ContactStepper::TimeToContact() const {
+double ContactStepper::TimeToContact(double resting_speed) const {
   double earliest = std::numeric_limits<double>::infinity();
   for (size_t c = 0; c < model().contacts.size(); ++c) {
     const int i = static_cast<int>(c);
-    const double gap = Gap(i);
-    if (gap <= 0.0 || Impulse(i) > 0.0) return 0.0;
-    const double rate = GapRate(i);
+    const double gap = Gap(i), rate = GapRate(i);
+    if (gap <= 0.0 || Impulse(i) > 0.0) {
+      // Closed: an event under way (the node still moving against or off the plane: 0), or a
+      // node resting on it (left out: a blade lying on its stop is smooth motion).
+      if (std::abs(rate) > resting_speed) return 0.0;
+      continue;
+    }
     if (rate < 0.0) earliest = std::min(earliest, gap / -rate);
   }
   return earliest;

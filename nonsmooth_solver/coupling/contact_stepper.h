@@ -44,11 +44,13 @@ class ContactStepper : public interface::Simulation {
   virtual double Impulse(int contact) const = 0;  // [N s] over the last step
 
   // The earliest time [s] from now at which one of the contacts could close at its present
-  // rate: gap / closing speed; 0 for a contact closed or pushing (impulse or force in the last
-  // step); +∞ if every open contact is opening or still. Sent as Kinematics.time_to_contact:
-  // the coordinator's adaptive step stops short of it, and a step that no contact can reach
-  // needs no coupling iterations beyond the first (coupling.iteration.free_flight).
-  double TimeToContact() const;
+  // rate: gap / closing speed over the open ones (+∞ if every open contact is opening or
+  // still); 0 if a closed one (gap <= 0, or an impulse or force in the last step) moves along its
+  // normal faster than `resting_speed` [m/s] (an impact or a rebound under way); closed ones
+  // slower are resting and left out. Sent as Kinematics.time_to_contact: the coordinator's
+  // adaptive step stops short of it (numerics.adaptive.resting_speed), and a step no contact
+  // can reach may skip its confirming coupling iteration (free_flight_margin).
+  double TimeToContact(double resting_speed) const;
 
   // The method's step from t to t + h (Moreau–Jean, the penalty law).
   virtual void Advance(double t, double h) = 0;

@@ -1,5 +1,6 @@
 #include "nonsmooth_solver/coupling/served_simulation.h"
 
+#include <cmath>
 #include <set>
 #include <zmq.hpp>
 
@@ -32,6 +33,11 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   channel_ = std::make_unique<interface::Channel>(context_.get(), options);
   server_ = std::make_unique<ContactServer>(simulation_.get(), channel_.get(), file.proto().name());
   adaptive_ = file.proto().numerics().adaptive().enabled();
+  const double resting = file.proto().numerics().adaptive().resting_speed();
+  if (!(resting >= 0.0) || !std::isfinite(resting)) {
+    file.Fail("numerics.adaptive.resting_speed", "must be a finite speed >= 0 [m/s], got " + interface::FormatNumber(resting));
+  }
+  server_->set_resting_speed(resting);
 }
 
 ServedContactSimulation::~ServedContactSimulation() = default;

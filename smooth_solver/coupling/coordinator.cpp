@@ -205,10 +205,11 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   }
   ReceiveKinematics(0);
   // coupling.iteration.free_flight_margin: no contact can close within the step (every peer's
-  // time to contact beyond free_flight_margin steps from the step's end, none closed): the
+  // time to contact beyond free_flight_margin steps from the step's end, none acting): the
   // first iteration is accepted if its reaction residual meets the tolerance, without the
   // second iteration that would confirm the kinematics (the displacement test).
-  const bool free_flight = settings_.free_flight_margin > 0.0 && time_to_contact_ > settings_.free_flight_margin * h;
+  const bool free_flight =
+      settings_.free_flight_margin > 0.0 && !in_contact_ && time_to_contact_ > settings_.free_flight_margin * h;
   newton_ = 0;
   int iteration = 0;
   for (;; ++iteration) {

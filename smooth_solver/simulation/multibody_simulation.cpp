@@ -667,8 +667,9 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
     double norm = std::numeric_limits<double>::infinity();
     std::string why = outcome.failure;
     if (why.empty()) {
-      // A step in which a contact process's contact acted (an impact: velocities jumped) is not
-      // the smooth motion the estimate measures: it is taken at contact_step (below) instead.
+      // A step in which a contact process's contact closed (an impact: velocities jumped) is not
+      // the smooth motion the estimate measures: the next ones are contact_step long instead. (A
+      // contact that stays closed, a blade resting on its stop, is tested as any motion.)
       norm = outcome.contact ? 0.0 : ErrorNorm(step);
       why = "the error estimate " + interface::FormatNumber(norm) + " > 1";
     }
@@ -698,7 +699,7 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
     if (growth >= 1.0 && growth < 1.25) growth = 1.0;
     if (step < h_next_) growth = std::max(growth, h_next_ / step);  // a step cut to land or before a contact
     h_next_ = std::min(step * growth, adaptive_.max_step);
-    // At an impact and while a contact acts: steps of contact_step (cut at impacts).
+    // After an impact: steps of contact_step, growing again under the controller.
     if (outcome.contact) h_next_ = std::min(h_next_, std::max(adaptive_.contact_step, adaptive_.min_step));
   }
   probe_time_ = target;

@@ -372,12 +372,16 @@ TEST(CoupledValidation, LinearOscillatorMatchesTheEntirelyNonsmoothSolution) {
   EXPECT_GT(coupled_rms[0] / coupled_rms[1], 1.6);
 }
 
-TEST(CoupledAdaptiveStep, TheOscillatorKeepsTheFixedStepsAccuracyWithAFifthOfTheSteps) {
+TEST(CoupledAdaptiveStep, TheOscillatorRunsWithAFifthOfTheStepsBothSidesRollingBackTogether) {
   // numerics.adaptive across the coupling: each coupled step is chosen by CGα's error estimate,
   // cut before the wall (the contact process's Kinematics.time_to_contact) and redone smaller
   // when rejected, the contact process rolled back with it (StepEnd accepted = false); the steps
-  // land on the rows (every 10 ms here). Against the closed form, as the fixed 1 ms run
-  // (measured: RMS 1.32e-3 m fixed in 2000 steps, 6.1e-4 m adaptive in 461 steps, 59 rejected).
+  // land on the rows (every 10 ms here). What holds: both sides accepted and rolled back the same
+  // steps, the rows are the fixed run's, and the run stays on the closed form to event-capturing
+  // accuracy. Measured here: RMS 6.1e-4 m (max 1.8e-3) in 461 steps, 59 rejected, against the
+  // fixed 1 ms run's 1.32e-3 (max 2.0e-3) in 2000. That is not a general win: with other
+  // settings the largest error ranged 1.6e-3 to 9e-3 m, and at tolerance 1e-8 the first rebound
+  // was lost (docs/design.md, "Adaptive step"); the bound below guards against a lost bounce.
   const ExactOscillator exact;
   const fs::path fixed = TempDir("oscillator_fixed_rows"), adaptive = TempDir("oscillator_adaptive");
   const Result a = Launch(kScenarios + "/linear_oscillator.pbtxt --out " + fixed.string() + " --set output.every=10");
@@ -395,8 +399,7 @@ TEST(CoupledAdaptiveStep, TheOscillatorKeepsTheFixedStepsAccuracyWithAFifthOfThe
   const double rejected = smooth.counters().at("adaptive_rejected_steps");
   std::printf("oscillator: fixed 1 ms RMS %.3e (max %.3e) m; adaptive %.0f steps (%.0f rejected) RMS %.3e (max %.3e) m\n",
               rms_fixed, max_fixed, accepted, rejected, rms, max);
-  EXPECT_LT(rms, 1.2 * rms_fixed);
-  EXPECT_LT(max, 2.5e-3);
+  EXPECT_LT(max, 1e-2);  // a lost bounce is 5e-2 or more (the amplitude is 0.1 m)
   EXPECT_LT(accepted, 0.3 * 2000);
   // Both sides took and rolled back the same steps.
   EXPECT_EQ(contact.counters().at("adaptive_accepted_steps"), accepted);

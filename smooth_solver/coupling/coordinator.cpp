@@ -223,6 +223,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       integrator_->Restore(start_);
       result.failure = e.what();
       result.iterations = iteration + 1;
+      last_iteration_ = iteration;  // (the StepEnd that rejects it carries this iteration)
       return result;
     }
     if (settings_.warm_start) iterate_ = integrator_->state();  // equal sizes: no allocation once warm
@@ -250,6 +251,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
                        "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
                        interface::FormatNumber(t + h) + " s";
       result.iterations = iteration + 1;
+      last_iteration_ = iteration;  // (the StepEnd that rejects it carries this iteration)
       return result;
     }
     CouplingIterationRecord record;

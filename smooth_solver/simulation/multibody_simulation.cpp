@@ -142,6 +142,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     adaptive_.contact_step = adaptive.has_contact_step()
                                  ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
                                  : 0.1 * numerics_.step();
+    // (Read by the contact processes of a coupled run; checked here too, so that no scene carries a bad one.)
+    checks.NonNegative("numerics.adaptive.resting_speed", adaptive.resting_speed(), "m/s");
     if (adaptive_.max_step < adaptive_.min_step) {
       checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(adaptive_.min_step) +
                                                     " s, got " + interface::FormatNumber(adaptive_.max_step) + " s");

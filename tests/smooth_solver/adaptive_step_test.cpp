@@ -133,6 +133,7 @@ TEST(AdaptiveStep, SettingsItCannotHonourAreRefusedWithTheirPlace) {
       {"numerics.adaptive.enabled=true", "numerics.smooth.integrator=IDA"},
       {"numerics.adaptive.enabled=true", "numerics.adaptive.min_step=1e-2", "numerics.adaptive.max_step=1e-3"},
       {"numerics.adaptive.enabled=true", "numerics.adaptive.relative=0"},
+      {"numerics.adaptive.enabled=true", "numerics.adaptive.resting_speed=-1"},
   };
   for (const auto& sets : bad) {
     try {

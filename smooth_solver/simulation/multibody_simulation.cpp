@@ -658,11 +658,9 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
     // contact processes' contacts (coupled) count as the smooth model's own.
     const double to_contact = std::min(system_->TimeToContact(now.q, now.qdot), peer_time_to_contact_);
     step = std::min(step, std::max(0.5 * to_contact + adaptive_.contact_step, adaptive_.min_step));
-    // Coupled: land on the output time, in equal steps when it is less than two steps away (no
-    // sliver of a step before it).
-    if (adaptive_.land && time_ + step > target - step) {
-      step = (target - time_) / std::ceil((target - time_) / step - 1e-9);
-    }
+    // Coupled: land on the output time in equal steps (no sliver of a step before it; the same h
+    // from row to row while the controller keeps it, so that a reused Newton matrix stays valid).
+    if (adaptive_.land) step = (target - time_) / std::ceil((target - time_) / step - 1e-9);
     if (time_ + step > end - eps) step = end - time_;  // the run ends on its end time
     cg.SaveTo(&checkpoint_);
     const AttemptOutcome outcome = hooks.attempt(time_, step);

@@ -378,7 +378,7 @@ TEST(CoupledAdaptiveStep, TheOscillatorRunsWithAFifthOfTheStepsBothSidesRollingB
   // when rejected, the contact process rolled back with it (StepEnd accepted = false); the steps
   // land on the rows (every 10 ms here). What holds: both sides accepted and rolled back the same
   // steps, the rows are the fixed run's, and the run stays on the closed form to event-capturing
-  // accuracy. Measured here: RMS 6.1e-4 m (max 1.8e-3) in 461 steps, 59 rejected, against the
+  // accuracy. Measured here: RMS 4.9e-4 m (max 1.3e-3) in 456 steps, 43 rejected, against the
   // fixed 1 ms run's 1.32e-3 (max 2.0e-3) in 2000. That is not a general win: with other
   // settings the largest error ranged 1.6e-3 to 9e-3 m, and at tolerance 1e-8 the first rebound
   // was lost (docs/design.md, "Adaptive step"); the bound below guards against a lost bounce.

@@ -194,7 +194,7 @@ void CoupledSmoothSimulation::StepAdaptively(double until) {
     outcome.iterations = coordinator_->last_newton_iterations();
     outcome.failure = last.failure;
     if (outcome.failure.empty() && !last.converged) outcome.failure = coordinator_->NoConvergence(from, step);
-    outcome.contact = last.impact;  // a contact that closed in the step (a resting one is smooth motion)
+    outcome.impact = last.impact;  // a contact that closed in the step (a resting one is smooth motion)
     outcome.time_to_contact = last.time_to_contact;
     return outcome;
   };

@@ -670,7 +670,7 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
       // A step in which a contact process's contact closed (an impact: velocities jumped) is not
       // the smooth motion the estimate measures: the next ones are contact_step long instead. (A
       // contact that stays closed, a blade resting on its stop, is tested as any motion.)
-      norm = outcome.contact ? 0.0 : ErrorNorm(step);
+      norm = outcome.impact ? 0.0 : ErrorNorm(step);
       why = "the error estimate " + interface::FormatNumber(norm) + " > 1";
     }
     if (!(norm <= 1.0)) {  // rejected: the same step again, smaller
@@ -700,7 +700,7 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
     if (step < h_next_) growth = std::max(growth, h_next_ / step);  // a step cut to land or before a contact
     h_next_ = std::min(step * growth, adaptive_.max_step);
     // After an impact: steps of contact_step, growing again under the controller.
-    if (outcome.contact) h_next_ = std::min(h_next_, std::max(adaptive_.contact_step, adaptive_.min_step));
+    if (outcome.impact) h_next_ = std::min(h_next_, std::max(adaptive_.contact_step, adaptive_.min_step));
   }
   probe_time_ = target;
   interpolated_ = false;  // a step that ended on the target, now or in an earlier call

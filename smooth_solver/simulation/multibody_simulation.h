@@ -43,7 +43,7 @@ class MultibodySimulation : public interface::Simulation {
   struct AttemptOutcome {
     int iterations = 0;        // Newton iterations (for the statistics)
     std::string failure;       // non-empty: the step failed (Newton, coupling): rejected
-    bool contact = false;      // a contact process's contact closed in the step (an impact): no error test
+    bool impact = false;       // a contact process's contact closed in the step: no error test
     double time_to_contact = std::numeric_limits<double>::infinity();  // the peers', from its end [s]
   };
   struct StepHooks {

@@ -203,14 +203,18 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
     const Outcome outcome = Handle(e);
     if (outcome == Outcome::kAccepted && last_accepted_ == step) return;
     if (outcome == Outcome::kShutdown) {
-      // The coordinator stopped the run: this process ends with the run's outcome (its exit
-      // code when it is one of the contract's failures, else a peer failure).
-      const int code = coordinator_exit_code_;
-      ThrowAs(PeerOutcome(code), "coupling: '" + channel_->options().peer + "' ended the run before step " +
-                            std::to_string(step) + " (exit code " + std::to_string(code) +
-                            (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
+      ThrowStopped("step " + std::to_string(step));
     }
   }
+}
+
+void ContactServer::ThrowStopped(const std::string& before) const {
+  // The coordinator stopped the run: this process ends with the run's outcome (its exit code
+  // when it is one of the contract's failures, else a peer failure).
+  const int code = coordinator_exit_code_;
+  ThrowAs(PeerOutcome(code), "coupling: '" + channel_->options().peer + "' ended the run before " + before +
+                                 " (exit code " + std::to_string(code) +
+                                 (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
 }
 
 void ContactServer::ServeUntil(double time) {
@@ -224,12 +228,7 @@ void ContactServer::ServeUntil(double time) {
                        "', expected a step from the last accepted one's end, t = " +
                        interface::FormatNumber(accepted_time_) + " s");
     }
-    if (Handle(e) == Outcome::kShutdown) {
-      const int code = coordinator_exit_code_;
-      ThrowAs(PeerOutcome(code), "coupling: '" + channel_->options().peer + "' ended the run before t = " +
-                            interface::FormatNumber(time) + " s (exit code " + std::to_string(code) +
-                            (coordinator_reason_.empty() ? "" : ": " + coordinator_reason_) + ")");
-    }
+    if (Handle(e) == Outcome::kShutdown) ThrowStopped("t = " + interface::FormatNumber(time) + " s");
   }
 }
 

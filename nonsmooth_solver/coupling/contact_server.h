@@ -56,6 +56,8 @@ class ContactServer {
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
   void TentativeStep(int64_t step, int iteration);
   void StopOnFailure(const Error& e, int64_t step, int iteration);  // Shutdown with its code and reason
+  // The coordinator's Shutdown came before `before` (a step, a time): ends this process with it.
+  [[noreturn]] void ThrowStopped(const std::string& before) const;
   // Checked, into external_ and the moving obstacles' end frames.
   void SetReactions(const coupling::Reactions& reactions, const char* where);
   BodyFrame ReadFrame(const coupling::Frame& frame, const std::string& where) const;  // checked

@@ -211,6 +211,15 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   const bool free_flight =
       settings_.free_flight_margin > 0.0 && !in_contact_ && time_to_contact_ > settings_.free_flight_margin * h;
   newton_ = 0;
+  // This side failed in iteration `at` (every peer waits for its next message): the integrator back
+  // at the step's start; the caller rejects the step (adaptive) or ends the run.
+  auto failed = [&](int at, std::string why) {
+    integrator_->Restore(start_);
+    result.failure = std::move(why);
+    result.iterations = at + 1;
+    last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
+    return result;
+  };
   int iteration = 0;
   for (;; ++iteration) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
@@ -218,13 +227,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     try {
       newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
     } catch (const NumericalError& e) {
-      // Every peer waits for this side's next message: the caller may reject the step (adaptive)
-      // or end the run with this failure.
-      integrator_->Restore(start_);
-      result.failure = e.what();
-      result.iterations = iteration + 1;
-      last_iteration_ = iteration;  // (the StepEnd that rejects it carries this iteration)
-      return result;
+      return failed(iteration, e.what());
     }
     if (settings_.warm_start) iterate_ = integrator_->state();  // equal sizes: no allocation once warm
     const Eigen::VectorXd& lambda = integrator_->state().lambda;
@@ -246,13 +249,9 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (!x_tilde_.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
-      integrator_->Restore(start_);
-      result.failure = "coupling: the smooth model's reactions on the interface nodes are not finite after "
-                       "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
-                       interface::FormatNumber(t + h) + " s";
-      result.iterations = iteration + 1;
-      last_iteration_ = iteration;  // (the StepEnd that rejects it carries this iteration)
-      return result;
+      return failed(iteration, "coupling: the smooth model's reactions on the interface nodes are not finite after "
+                               "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
+                               interface::FormatNumber(t + h) + " s");
     }
     CouplingIterationRecord record;
     record.step = step_;

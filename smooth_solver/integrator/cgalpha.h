@@ -158,11 +158,10 @@ class CgAlpha : public SmoothIntegrator {
     c->started = started_;
     c->has_data = data_ != nullptr;
     if (data_ != nullptr) {
-      if (c->data.imposed.size() != data_->imposed.size() || c->data.impact_speed.size() != data_->impact_speed.size() ||
-          c->data.rotors.size() != data_->rotors.size()) {
-        c->data = *data_;  // the first save: allocates
-      } else {
+      if (c->data.SameShape(*data_)) {
         c->data.CopyFrom(*data_);
+      } else {
+        c->data = *data_;  // the first save: allocates
       }
     }
   }

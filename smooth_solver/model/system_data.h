@@ -39,11 +39,15 @@ struct SystemData {
   // One per rotor of the air loads.
   std::vector<RotorInflowState> rotors;
 
+  // Whether `other` has this object's sizes (belongs to the same system).
+  bool SameShape(const SystemData& other) const {
+    return other.imposed.size() == imposed.size() && other.impact_speed.size() == impact_speed.size() &&
+           other.rotors.size() == rotors.size();
+  }
   // Copies `other` into this object's storage (same sizes: no reallocation, so the drives'
   // pointers into `imposed` stay valid).
   void CopyFrom(const SystemData& other) {
-    if (other.imposed.size() != imposed.size() || other.impact_speed.size() != impact_speed.size() ||
-        other.rotors.size() != rotors.size()) {
+    if (!SameShape(other)) {
       throw std::logic_error("SystemData::CopyFrom: the two objects belong to different systems");
     }
     std::copy(other.imposed.begin(), other.imposed.end(), imposed.begin());

@@ -27,6 +27,7 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
   previous_x_tilde_ = x_;
   x_next_ = x_;
   accepted_x_ = x_;
+  solved_x_ = x_;
   previous_accepted_x_ = x_;
   lambda_start_ = lambda_end_ = filtered_start_ = filtered_end_ = x_;
   position_ = x_;
@@ -220,16 +221,56 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
     return result;
   };
-  int iteration = 0;
+  // Sends the reactions x_ for `iteration` to every peer (obstacle frames from `frames`) and
+  // receives the kinematics they answer with.
+  auto exchange = [&](int iteration, const DaeState& frames) {
+    for (Peer& peer : peers_) {
+      auto* r = peer.channel->Outgoing(step_, iteration).mutable_reactions();
+      for (int p : peer.points) {
+        for (int j = 0; j < 3; ++j) r->add_force(x_(3 * p + j));
+      }
+      for (const MovingObstacle& o : peer.obstacles) FillFrame(o.body, frames, 0.0, r->add_obstacle_frames());
+      peer.channel->Send();
+    }
+    ReceiveKinematics(iteration);
+  };
+  int iteration = 0, backtracks = 0;
   for (;; ++iteration) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
     Impose(h);
     try {
       newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
     } catch (const NumericalError& e) {
-      return failed(iteration, e.what());
+      // The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps)
+      // sent the peers reactions whose kinematics this side cannot solve (observed: the Puma
+      // gust's lift-off at 2.975 s: reactions that moved the node 32 m, Newton diverging to
+      // |q| ~ 1e158). Back-track from the last iteration that solved: first the plain relaxed
+      // update from it with the secants forgotten (the method's first-iteration ω), then halving
+      // towards it; ask the peers again — up to kMaxBacktracks times a step, within max_iterations.
+      if (iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
+        return failed(iteration, e.what());
+      }
+      ++backtracks;
+      ++backtracks_;
+      CouplingIterationRecord record;
+      record.step = step_;
+      record.iteration = iteration;
+      record.reaction_residual = std::numeric_limits<double>::infinity();  // no answer: the solve failed
+      record.displacement_change = (position_ - previous_position_).lpNorm<Eigen::Infinity>();
+      if (backtracks == 1) {
+        relaxation_.Forget();
+        relaxation_.Next(solved_x_, previous_x_tilde_, &x_);  // previous_x_tilde_: the solved iteration's answer
+        record.relaxation_factor = relaxation_.last_factor();
+      } else {
+        x_ = solved_x_ + 0.5 * (x_ - solved_x_);
+        record.relaxation_factor = 0.5;
+      }
+      log_.push_back(record);
+      exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
+      continue;
     }
-    if (settings_.warm_start) iterate_ = integrator_->state();  // equal sizes: no allocation once warm
+    iterate_ = integrator_->state();  // equal sizes: no allocation once warm
+    solved_x_ = x_;
     const Eigen::VectorXd& lambda = integrator_->state().lambda;
     for (size_t k = 0; k < system_.interface_points.size(); ++k) {
       lambda_end_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
@@ -288,15 +329,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     log_.push_back(record);
     x_ = x_next_;
     previous_position_ = position_;
-    for (Peer& peer : peers_) {
-      auto* r = peer.channel->Outgoing(step_, iteration + 1).mutable_reactions();
-      for (int p : peer.points) {
-        for (int j = 0; j < 3; ++j) r->add_force(x_(3 * p + j));
-      }
-      for (const MovingObstacle& o : peer.obstacles) FillFrame(o.body, integrator_->state(), 0.0, r->add_obstacle_frames());
-      peer.channel->Send();
-    }
-    ReceiveKinematics(iteration + 1);
+    exchange(iteration + 1, integrator_->state());
   }
   last_iteration_ = iteration;
   result.iterations = iteration + 1;

@@ -100,6 +100,8 @@ class Coordinator {
   std::string NoConvergence(double t, double h) const;  // the reason of an unconverged step
   long long rejected_steps() const { return rejected_; }
   long long free_flight_steps() const { return free_flight_; }  // steps accepted after one iteration
+  // Coupling iterations whose smooth solve failed and were redone with a halved update.
+  long long backtracks() const { return backtracks_; }
   // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
   // `wait_for_replies`, waits for each one's Shutdown.
   void Shutdown(int exit_code, const std::string& reason, bool wait_for_replies = true);
@@ -125,15 +127,17 @@ class Coordinator {
   CouplingSettings settings_;
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
-  DaeState iterate_;  // the end state of the step's last coupling iteration (Newton's start for the next)
+  DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
+  static constexpr int kMaxBacktracks = 4;  // per step (Try)
   long long step_ = 0;
   int n_ = 0;  // interface values: 3 per point
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions
+  Eigen::VectorXd solved_x_;  // the reactions of the step's last coupling iteration that solved
   long long accepted_steps_ = 0;  // since the start or the last impact (for the predictor)
   double accepted_h_ = 0.0;       // the last accepted step's length
   double time_to_contact_ = 0.0;  // the peers' earliest, from the last Kinematics
   int last_iteration_ = 0;        // of the last Try
-  long long rejected_ = 0, free_flight_ = 0;
+  long long rejected_ = 0, free_flight_ = 0, backtracks_ = 0;
   // The interface rows' multipliers λ and their CGα-filtered values λ̃ at the step's start
   // (accepted) and end (this iteration).
   Eigen::VectorXd lambda_start_, lambda_end_, filtered_start_, filtered_end_;

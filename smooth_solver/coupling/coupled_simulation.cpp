@@ -215,6 +215,7 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
       {"coupling_steps_at_roundoff", static_cast<double>(coordinator_->roundoff_steps())});
   summary->mutable_counters()->insert(
       {"coupling_free_flight_steps", static_cast<double>(coordinator_->free_flight_steps())});
+  summary->mutable_counters()->insert({"coupling_backtracks", static_cast<double>(coordinator_->backtracks())});
 }
 
 void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {

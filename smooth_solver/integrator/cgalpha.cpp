@@ -368,6 +368,14 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
       ++factorizations_;
       factorized_ = false;
       if (settings_.frame_body >= 0) factorized_axes_ = FrameAxes(next_.q);
+      // A diverging iteration overflows the matrix before its corrections stop being finite
+      // (observed: |q| 3e158 after 13 iterations): a failed Newton solve, not a singular model.
+      const Eigen::Map<const Eigen::VectorXd> values(S_.valuePtr(), S_.nonZeros());
+      if (!values.allFinite()) {
+        failure_ = "CGα: Newton diverged at t = " + interface::FormatNumber(t1) + " s (iteration " +
+                   std::to_string(iteration) + ": the iteration matrix is no longer finite)";
+        return false;
+      }
       if (!lu_.Factorize(S_)) {
         throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
                              " s (redundant constraints or a singular configuration)");

@@ -29,15 +29,16 @@ import os
 import shutil
 import subprocess
 import sys
-import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import distributed_runs  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EXIT_MEANING = {0: "ok", 2: "bad input", 3: "numerical failure", 4: "peer failure"}
@@ -53,13 +54,32 @@ def fail(message, code=2):
 # ---------------------------------------------------------------------------------------------
 
 class Runner:
-    """Runs cosim_launch processes in parallel and reports progress on stderr."""
+    """Runs cosim_launch processes on Dask workers (distributed_runs: a local cluster of `jobs`
+    workers, or the cluster at `scheduler`) and reports progress on stderr."""
 
-    def __init__(self, bin_dir, jobs):
-        self.launch = os.path.join(bin_dir, "cosim_launch")
+    def __init__(self, bin_dir, jobs, scheduler=None):
+        self.bin_dir = os.path.abspath(bin_dir)
+        self.launch = os.path.join(self.bin_dir, "cosim_launch")
         if not os.access(self.launch, os.X_OK):
             fail(f"{self.launch} not found; build the project first (scripts/cosim setup)")
         self.jobs = max(1, jobs)
+        self.scheduler = scheduler
+        self._cluster = None
+
+    def cluster(self):
+        if self._cluster is None:
+            try:
+                self._cluster = distributed_runs.Cluster(self.jobs, self.scheduler)
+            except ConnectionError as e:
+                fail(f"--scheduler: {e}", 4)
+            where = f"the Dask scheduler at {self.scheduler}" if self.scheduler else "a local Dask cluster"
+            print(f"cosim study: runs go to {where} ({self._cluster.workers()} workers)", file=sys.stderr)
+        return self._cluster
+
+    def close(self):
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
 
     def scenario_json(self, scenario, sets=()):
         args = [self.launch, scenario, "--print-scenario"]
@@ -71,37 +91,47 @@ class Runner:
         return json.loads(p.stdout)
 
     def run_all(self, runs):
-        """runs: list of dicts with id, scenario, sets, out. Adds code, wall, summary, seconds."""
-        total, done = len(runs), [0]
-        start = time.time()
-        lock = threading.Lock()
+        """runs: list of dicts with id, scenario, sets, out. Adds code, wall, summary, seconds, host."""
+        from distributed import as_completed
 
-        def one(run):
+        cluster = self.cluster()
+        total, done = len(runs), 0
+        start = time.time()
+        futures = {}
+        for run in runs:
+            folder, name = os.path.split(os.path.abspath(run["scenario"]))
+            job = {"scenario": name, "sets": list(run["sets"]), "files": distributed_runs.file_sets(run["sets"]),
+                   "bin_dir": self.bin_dir}
+            try:
+                futures[cluster.submit(job, folder)] = run
+            except ValueError as e:
+                fail(str(e))
+        for future in as_completed(list(futures)):
+            run = futures[future]
+            try:
+                result = future.result()
+            except Exception as e:  # noqa: BLE001 - a lost worker or a failed task is a data point
+                result = {"code": 4, "seconds": float("nan"), "host": "?", "outputs": None,
+                          "stderr": f"the Dask task failed: {type(e).__name__}: {e}"}
             shutil.rmtree(run["out"], ignore_errors=True)
-            args = [self.launch, run["scenario"], "--out", run["out"]]
-            for s in run["sets"]:
-                args += ["--set", s]
-            t0 = time.time()
-            p = subprocess.run(args, capture_output=True, text=True)
-            run["seconds"] = time.time() - t0
-            run["code"] = p.returncode
+            if result["outputs"] is not None:
+                distributed_runs.unpack(result["outputs"], run["out"])
+            run["seconds"] = result["seconds"]
+            run["code"] = result["code"]
+            run["host"] = result["host"]
             run["summary"] = read_json(os.path.join(run["out"], "summary.json"))
             # What failed: the run's own reason (the coordinator's), else its last word.
             reason = (run["summary"] or {}).get("reason", "")
-            run["message"] = reason or (p.stderr.strip().splitlines() or [""])[-1]
+            run["message"] = reason or (result["stderr"].strip().splitlines() or [""])[-1]
             # The time in the time steps (the method's cost, without process start and output), else
             # the process's.
             summary = run["summary"] or {}
             run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or run["seconds"]
-            with lock:
-                done[0] += 1
-                status = "ok" if p.returncode == 0 else f"FAILED (exit {p.returncode}: {EXIT_MEANING.get(p.returncode, '?')})"
-                print(f"cosim study: [{done[0]}/{total}] {run['id']}: {status}; {total - done[0]} left, "
-                      f"{time.time() - start:.1f} s so far", file=sys.stderr)
-            return run
-
-        with ThreadPoolExecutor(max_workers=self.jobs) as pool:
-            return list(pool.map(one, runs))
+            done += 1
+            status = "ok" if run["code"] == 0 else f"FAILED (exit {run['code']}: {EXIT_MEANING.get(run['code'], '?')})"
+            print(f"cosim study: [{done}/{total}] {run['id']}: {status}; {total - done} left, "
+                  f"{time.time() - start:.1f} s so far", file=sys.stderr)
+        return runs
 
 
 def run_scenario(scenario_path, run):
@@ -894,25 +924,34 @@ def main():
     parser.add_argument("kind", choices=list(STUDIES) + ["results"])
     parser.add_argument("scenario", nargs="?", help="a scenario file (a folder for stability)")
     parser.add_argument("--out", help="output folder (default runs/study/KIND-NAME)")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at once (default: cores)")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                        help="workers of the local Dask cluster: runs at once (default: cores)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="send the runs to the Dask scheduler at ADDRESS (e.g. tcp://host:8786) instead of a "
+                             "local cluster; its workers need the project built at the same path (or COSIM_BIN_DIR)")
     parser.add_argument("--set", action="append", default=[], metavar="FIELD.PATH=VALUE",
                         help="override applied to every run")
     parser.add_argument("--reuse", action="store_true",
                         help="results: keep a study's report that is already in the output folder (rerun only the missing)")
     parser.add_argument("--bin", default=os.environ.get("COSIM_BIN_DIR", os.path.join(ROOT, "build", "release", "bin")))
     args = parser.parse_args()
-    runner = Runner(args.bin, args.jobs)
-    if args.kind == "results":
-        results(runner, args.out or os.path.join(ROOT, "runs", "study", "results"), args.set, args.reuse)
-        return
-    if not args.scenario:
-        fail(f"study {args.kind} needs a scenario")
-    if not os.path.exists(args.scenario):
-        fail(f"{args.scenario}: no such file or folder")
-    name = os.path.splitext(os.path.basename(os.path.normpath(args.scenario)))[0]
-    out = args.out or os.path.join(ROOT, "runs", "study", f"{args.kind}-{name}")
-    os.makedirs(out, exist_ok=True)
-    STUDIES[args.kind](runner, os.path.abspath(args.scenario), out, args.set)
+    if args.jobs < 1:
+        fail(f"--jobs {args.jobs}: expected a positive number of workers")
+    runner = Runner(args.bin, args.jobs, args.scheduler)
+    try:
+        if args.kind == "results":
+            results(runner, args.out or os.path.join(ROOT, "runs", "study", "results"), args.set, args.reuse)
+            return
+        if not args.scenario:
+            fail(f"study {args.kind} needs a scenario")
+        if not os.path.exists(args.scenario):
+            fail(f"{args.scenario}: no such file or folder")
+        name = os.path.splitext(os.path.basename(os.path.normpath(args.scenario)))[0]
+        out = args.out or os.path.join(ROOT, "runs", "study", f"{args.kind}-{name}")
+        os.makedirs(out, exist_ok=True)
+        STUDIES[args.kind](runner, os.path.abspath(args.scenario), out, args.set)
+    finally:
+        runner.close()
 
 
 if __name__ == "__main__":

@@ -13,19 +13,25 @@ KIND
                   each complete, constraint violation, energy change, iterations, wall time
   compare         runs of one scene on the same axes (study.compare: e.g. co-simulated and
                   continuous stops), their RMS and peak differences and each stop contact
+  envelope        the scene over a grid of one or two named quantities (study.envelope: e.g.
+                  gust peak × direction), per point the tips' lowest and highest heights,
+                  clearance to a plane, peak stop force and impacts; polar or grid plots
   timing          wall time of the scene's runs (study.compare, else the scene) with and
                   without output, one at a time, per simulated second and against study.peer
   results         every study of docs/results.md, regenerated into docs/
 
 Each study writes into its output folder (default runs/study/KIND-NAME): runs.csv (one row per
-run), PNG plots and report.md embedding them. Runs are independent processes (cosim_launch),
-run in parallel up to --jobs (default: the number of cores); a failed run is a data point.
+run), PNG plots and report.md embedding them. Runs are independent processes (cosim_launch)
+run on Dask distributed: a local cluster of --jobs workers (default: the number of cores), or
+the cluster at --scheduler ADDRESS, each run's scenario folder shipped to its worker and its
+outputs brought back (distributed_runs.py); a failed run is a data point.
 """
 import argparse
 import csv
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -913,9 +919,213 @@ def study_timing(runner, scenario_path, out, sets):
     return {"runs": runs, "rows": rows}
 
 
+# ---------------------------------------------------------------------------------------------
+# Envelope
+# ---------------------------------------------------------------------------------------------
+
+def axis_sets(axis, value, where):
+    """The overrides of one envelope axis at `value`: each {expression} of v evaluated."""
+    def evaluate(match):
+        expression = match.group(1)
+        try:
+            result = eval(compile(expression, where, "eval"), {"__builtins__": {}}, dict(SAFE_MATH, v=float(value)))
+            return repr(float(result))
+        except Exception as e:  # noqa: BLE001 - the user's expression
+            fail(f"{where}: '{{{expression}}}' at v = {value:g} fails: {e}")
+    out = []
+    for j, template in enumerate(axis.get("set", [])):
+        if "=" not in template:
+            fail(f"{where}.set[{j}]: '{template}' is not FIELD.PATH=VALUE")
+        out.append(re.sub(r"\{([^{}]*)\}", evaluate, template))
+    return out
+
+
+def envelope_point(history, spec, step):
+    """The envelope's measures of one run from its history (what exists of it for a failed run)."""
+    m = {}
+    lowest = highest = (float("nan"), "", float("nan"))
+    down = up = (float("nan"), "")
+    for p in spec.get("tip_probes", []):
+        if p not in history or len(history[p][0]) == 0:
+            continue
+        t, z = history[p]
+        i, k = int(np.argmin(z)), int(np.argmax(z))
+        if not z[i] >= lowest[0]:
+            lowest = (float(z[i]), p, float(t[i]))
+        if not z[k] <= highest[0]:
+            highest = (float(z[k]), p, float(t[k]))
+        if not z[0] - z[i] <= down[0]:
+            down = (float(z[0] - z[i]), p)
+        if not z[k] - z[0] <= up[0]:
+            up = (float(z[k] - z[0]), p)
+    m["tip_lowest"], m["tip_lowest_probe"], m["tip_lowest_time"] = lowest
+    m["tip_highest"], m["tip_highest_probe"], m["tip_highest_time"] = highest
+    m["tip_down"], m["tip_down_probe"] = down
+    m["tip_up"], m["tip_up_probe"] = up
+    height = spec.get("clearance_height")
+    m["clearance"] = lowest[0] - height if height is not None else float("nan")
+    peak, peak_probe, impacts = 0.0, "", 0
+    found = False
+    for kind in ("impulse_probes", "force_probes"):
+        for p in spec.get(kind, []):
+            if p not in history:
+                continue
+            found = True
+            t, v = history[p]
+            force = np.abs(v) / step if kind == "impulse_probes" else np.abs(v)
+            if len(force) and force.max() > peak:
+                peak, peak_probe = float(force.max()), p
+            impacts += len(contact_episodes(t, v))
+    m["peak_stop_force"] = peak if found else float("nan")
+    m["peak_stop_force_probe"] = peak_probe
+    m["impacts"] = impacts if found else float("nan")
+    return m
+
+
+ENVELOPE_MEASURES = [("tip_lowest", "lowest tip [m]"), ("tip_highest", "highest tip [m]"),
+                     ("clearance", "smallest clearance [m]"), ("peak_stop_force", "peak stop force"),
+                     ("impacts", "stop impacts")]
+
+
+def study_envelope(runner, scenario_path, out, sets):
+    """The scene over a grid of one or two named quantities (study.envelope.axes), each point a
+    full run; per point the tips' extremes, the clearance to a plane, the stops' peak force and
+    impacts. Failed runs are points too (their measures up to where they stopped, marked)."""
+    started = time.time()
+    scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    spec = study.get("envelope")
+    where = f"{scenario_path}: study.envelope"
+    if not spec:
+        fail(f"{scenario_path}: study envelope needs `study {{ envelope {{ axes {{ ... }} tip_probes: [...] }} }}`")
+    axes = spec.get("axes", [])
+    if not 1 <= len(axes) <= 2:
+        fail(f"{where}.axes: {len(axes)} axes; expected one or two")
+    for a, axis in enumerate(axes):
+        if not axis.get("values") or not axis.get("set"):
+            fail(f"{where}.axes[{a}] ('{axis.get('name', '')}'): needs values and set")
+    if not spec.get("tip_probes") and not spec.get("impulse_probes") and not spec.get("force_probes"):
+        fail(f"{where}: nothing to measure: give tip_probes, impulse_probes or force_probes")
+    sets = list(sets) + list(spec.get("set", []))
+    if spec.get("impulse_probes"):
+        sets.append("output.every=1")  # every step's impulse: none missed between rows
+    names = [a.get("name") or f"axis{i}" for i, a in enumerate(axes)]
+    grid = [[v] for v in axes[0]["values"]]
+    if len(axes) == 2:
+        grid = [[v0, v1] for v0 in axes[0]["values"] for v1 in axes[1]["values"]]
+    runs = []
+    for i, point in enumerate(grid):
+        point_sets = [s_ for a, v in zip(axes, point) for s_ in axis_sets(a, v, f"{where}.axes[{axes.index(a)}]")]
+        label = ", ".join(f"{n} = {v:g}" for n, v in zip(names, point))
+        runs.append({"id": label, "point": point, "scenario": scenario_path, "sets": sets + point_sets,
+                     "out": os.path.join(out, "runs", f"p{i}")})
+    # Every override checked before any run: a bad field path is the study's input error.
+    runner.scenario_json(scenario_path, runs[0]["sets"])
+    runs = runner.run_all(runs)
+    rows = []
+    for r in runs:
+        summary = r["summary"] or {}
+        step = (summary.get("numerics") or {}).get("step") or scenario["numerics"].get("step", 1.0)
+        m = envelope_point(read_histories(r["out"]), spec, float(step))
+        r["measures"] = m
+        rows.append(list(r["point"]) + [r["code"], r["wall"], summary.get("simulated_time", float("nan")),
+                                        r.get("host", "")] +
+                    [m[k] for k in ("tip_lowest", "tip_lowest_probe", "tip_lowest_time", "tip_highest", "tip_highest_probe",
+                                    "tip_highest_time", "tip_down", "tip_up", "clearance", "peak_stop_force",
+                                    "peak_stop_force_probe", "impacts")])
+    write_csv(os.path.join(out, "runs.csv"),
+              names + ["exit", "wall_time", "simulated_time", "host", "tip_lowest", "tip_lowest_probe", "tip_lowest_time",
+                       "tip_highest", "tip_highest_probe", "tip_highest_time", "tip_down", "tip_up", "clearance",
+                       "peak_stop_force", "peak_stop_force_probe", "impacts"], rows)
+    measures = [(k, label) for k, label in ENVELOPE_MEASURES
+                if any(np.isfinite(r["measures"][k]) for r in runs)]
+    plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])
+    elapsed = time.time() - started
+    cpu = sum(r["seconds"] for r in runs if r["seconds"] == r["seconds"])
+    lines = [f"# Envelope: {scenario['name']}", "", scenario.get("description", ""), "",
+             f"{len(runs)} runs over " + " × ".join(f"{n} ({len(a['values'])} values)" for n, a in zip(names, axes)) +
+             f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
+             f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
+             f"one after the other (processes' wall time).", "",
+             "![envelope](envelope.png)", "",
+             "Tip heights are the tip probes' values (lowest and highest over the run and the probes, e.g. the "
+             "blades; down/up: the largest excursion from a tip's height at the start)" +
+             (f"; clearance above the plane at {spec['clearance_height']:g} m" if "clearance_height" in spec else "") +
+             "; stop force: " + ("a step's impulse over the step (impulse probes)" if spec.get("impulse_probes") else
+                                 "the force probes as they are") +
+             "; impacts: runs of non-zero contact samples.", "",
+             "| " + " | ".join(names) + " | exit | lowest tip [m] (probe, t [s]) | highest tip [m] | down / up [m] | "
+             "clearance [m] | peak stop force | impacts | wall [s] |",
+             "|" + "---|" * (len(names) + 8)]
+    for r in runs:
+        m = r["measures"]
+        exit_text = "0" if r["code"] == 0 else f"**{r['code']}** (t = {fmt((r['summary'] or {}).get('simulated_time', float('nan')))} s)"
+        lines.append("| " + " | ".join(f"{v:g}" for v in r["point"]) + f" | {exit_text} | {fmt(m['tip_lowest'])} "
+                     f"({m['tip_lowest_probe']}, {fmt(m['tip_lowest_time'])}) | {fmt(m['tip_highest'])} | "
+                     f"{fmt(m['tip_down'])} / {fmt(m['tip_up'])} | {fmt(m['clearance'])} | {fmt(m['peak_stop_force'])} | "
+                     f"{fmt(m['impacts'])} | {r['wall']:.1f} |")
+    ok = [r for r in runs if r["code"] == 0]
+    if ok:
+        lines += ["", "Worst points (completed runs):", ""]
+        for key, label, worst in (("tip_lowest", "lowest tip", min), ("clearance", "smallest clearance", min),
+                                  ("peak_stop_force", "largest stop force", max), ("impacts", "most impacts", max)):
+            finite = [r for r in ok if np.isfinite(r["measures"][key])]
+            if finite:
+                r = worst(finite, key=lambda x: x["measures"][key])
+                lines.append(f"- {label}: {fmt(r['measures'][key])} at {r['id']}")
+    lines += ["", failures_section(runs)]
+    write_report(out, lines)
+    return {"runs": runs}
+
+
+def plot_envelope(runs, axes, names, measures, path, title):
+    """One panel per measure: against the axis (one axis), a polar map (second axis in degrees),
+    or a coloured grid (two axes); failed runs marked with a cross."""
+    if not measures:
+        return
+    polar = len(axes) == 2 and axes[1].get("unit") == "deg"
+    fig = plt.figure(figsize=(4.2 * min(len(measures), 3), 3.8 * ((len(measures) + 2) // 3)))
+    for n, (key, label) in enumerate(measures):
+        ax = fig.add_subplot((len(measures) + 2) // 3, min(len(measures), 3), n + 1, projection="polar" if polar else None)
+        values = np.array([r["measures"][key] for r in runs], dtype=float)
+        failed = np.array([r["code"] != 0 for r in runs])
+        if len(axes) == 1:
+            x = np.array([r["point"][0] for r in runs])
+            order = np.argsort(x)
+            ax.plot(x[order], values[order], "o-")
+            ax.plot(x[failed], values[failed], "rx", ms=9, label="failed run")
+            ax.set_xlabel(f"{names[0]} [{axes[0].get('unit', '')}]")
+            ax.set_ylabel(label)
+        else:
+            a0 = np.array([r["point"][0] for r in runs])
+            a1 = np.array([r["point"][1] for r in runs])
+            if polar:
+                theta, radius = np.radians(a1), a0
+                sc = ax.scatter(theta, radius, c=values, s=140, cmap="viridis", edgecolors="k")
+                ax.set_rlabel_position(90)
+                ax.set_title(f"{label}\n(angle: {names[1]}, radius: {names[0]} [{axes[0].get('unit', '')}])", fontsize=8)
+            else:
+                sc = ax.scatter(a1, a0, c=values, s=160, marker="s", cmap="viridis", edgecolors="k")
+                for values_of, scale in ((a1, ax.set_xscale), (a0, ax.set_yscale)):
+                    if values_of.min() > 0 and values_of.max() >= 50 * values_of.min():
+                        scale("log")  # values over decades (a stiffness, a step)
+                ax.set_xlabel(f"{names[1]} [{axes[1].get('unit', '')}]")
+                ax.set_ylabel(f"{names[0]} [{axes[0].get('unit', '')}]")
+                ax.set_title(label, fontsize=9)
+            ax.scatter((np.radians(a1) if polar else a1)[failed], a0[failed], marker="x", c="r", s=90)
+            for th, rr, v in zip(np.radians(a1) if polar else a1, a0, values):
+                if np.isfinite(v):
+                    ax.annotate(f"{v:.3g}", (th, rr), fontsize=6, ha="center", va="bottom", xytext=(0, 7),
+                                textcoords="offset points")
+            fig.colorbar(sc, ax=ax, shrink=0.7)
+    fig.suptitle(f"{title}: envelope (red crosses: failed runs)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 STUDIES = {"convergence": study_convergence, "work-precision": study_work_precision,
            "coupling": study_coupling, "stability": study_stability, "modes": study_modes,
-           "compare": study_compare, "timing": study_timing}
+           "compare": study_compare, "timing": study_timing, "envelope": study_envelope}
 
 
 def main():

@@ -1,7 +1,10 @@
 // scripts/cosim study end to end on tiny scenes: the convergence study measures CGα's order on
 // a closed-form oscillator and writes its CSV, plot and report; the stability study keeps going
 // past a failing scene and reports it.
+#include <cmath>
 #include <cstdlib>
+#include <map>
+#include <utility>
 #include <string>
 
 #include "tests/integration/launch.h"
@@ -77,6 +80,47 @@ TEST(Study, TimingRunsEachVariantAloneWithAndWithoutOutputAndRatesThePeer) {
                   out / "log_bad.txt"),
             2);
   EXPECT_NE(Slurp(out / "log_bad.txt").find("study.peer"), std::string::npos);
+}
+
+TEST(Study, EnvelopeSweepsTwoAxesOnALocalClusterOfTwoWorkersAndKeepsFailedPoints) {
+  // tests/data/envelope/pendulum.pbtxt: Hunt–Crossley stiffness (1e7, 1e8) × restitution
+  // (0.5, 0.9, 1.5), six runs on a local Dask cluster of two workers, each shipped its scenario
+  // folder and returning its outputs. Restitution 1.5 is bad input: those two runs fail with
+  // exit 2 and stay rows of runs.csv. The measures hold for physical reasons: the 1 m rod's
+  // tip cannot go below −1 m and reaches it where the stop is (vertical), 0.1 m above the
+  // clearance plane; one impact in 0.7 s; and at equal impact speed and restitution a Hertzian
+  // (exponent 1.5) contact's peak force scales as K^(2/5): ten times K, 10^0.4 = 2.51 times.
+  const fs::path out = TempDir("study_envelope");
+  ASSERT_EQ(Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/pendulum.pbtxt --out " +
+                      out.string(),
+                  out / "log.txt"),
+            0)
+      << Slurp(out / "log.txt");
+  EXPECT_NE(Slurp(out / "log.txt").find("local Dask cluster (2 workers)"), std::string::npos) << Slurp(out / "log.txt");
+  const Table runs = ReadTable(out / "runs.csv");
+  ASSERT_EQ(runs.size(), 6u);
+  const std::vector<double> k = runs.Column("stiffness"), e = runs.Column("restitution"), code = runs.Column("exit"),
+                            lowest = runs.Column("tip_lowest"), clearance = runs.Column("clearance"),
+                            force = runs.Column("peak_stop_force"), impacts = runs.Column("impacts");
+  std::map<std::pair<double, double>, double> peak;
+  for (size_t i = 0; i < runs.size(); ++i) {
+    if (e[i] > 1.0) {
+      EXPECT_EQ(code[i], 2.0) << i;
+      continue;
+    }
+    EXPECT_EQ(code[i], 0.0) << i;
+    EXPECT_NEAR(lowest[i], -1.0, 1e-4) << i;
+    EXPECT_NEAR(clearance[i], 0.1, 1e-4) << i;
+    EXPECT_EQ(impacts[i], 1.0) << i;
+    peak[{k[i], e[i]}] = force[i];
+  }
+  for (double restitution : {0.5, 0.9}) {
+    EXPECT_NEAR(peak.at({1e8, restitution}) / peak.at({1e7, restitution}), std::pow(10.0, 0.4), 0.03) << restitution;
+  }
+  EXPECT_TRUE(fs::exists(out / "envelope.png"));
+  EXPECT_TRUE(fs::exists(out / "runs" / "p0" / "history.csv"));  // outputs brought back from the workers
+  const std::string report = Slurp(out / "report.md");
+  EXPECT_NE(report.find("exit 2 (bad input)"), std::string::npos) << report;
 }
 
 TEST(Study, BadArgumentsAreRefused) {

@@ -636,6 +636,8 @@ def results(runner, out_root, sets, reuse=False):
             ("compare", "puma_gust", "scenarios/puma/gust.pbtxt"),
             ("compare", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
             ("timing", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
+            # The still rotor's blade-sailing envelope (issue 19): gust peak × direction.
+            ("envelope", "puma_gust", "scenarios/puma/gust.pbtxt"),
             # The co-simulated impact response under step refinement (issue 16, item 7): the gust's
             # first 5 s (lift-off at 2.97 s, back on the droop stop at 4.42 s), error from 4.3 s.
             ("convergence", "puma_gust_impact", "scenarios/puma/gust.pbtxt",

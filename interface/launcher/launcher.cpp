@@ -6,6 +6,7 @@
 #include <unistd.h>
 #include <zmq.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -20,6 +21,7 @@
 #include "interface/run/run_output.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/coupling_plan.h"
+#include "interface/visual/visual_frame.h"
 
 extern char** environ;
 
@@ -306,6 +308,24 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     WriteKilledSummary(plan[i], cli, children[i].signal, why);
   }
   if (contact_failure != 0) PassContactFailureOn(plan[failed_contact], contact_failure, plan[last]);
+
+  // A coupled run's visual output: scene.pvd, every process's series as a part of one scene
+  // (ParaView opens all of it at once), with whatever frames each wrote, failed run or not.
+  if (plan.size() > 1 && std::filesystem::exists(plan[last].out + "/visual.pvd")) {
+    std::vector<std::pair<std::string, std::string>> series;
+    for (const ProcessPlan& p : plan) {
+      const std::string pvd = p.out + "/visual.pvd";
+      if (!std::filesystem::exists(pvd)) continue;
+      const std::string prefix = p.out == plan[last].out ? "" : std::filesystem::path(p.out).filename().string() + "/";
+      series.emplace_back(prefix, pvd);
+    }
+    std::rotate(series.begin(), series.end() - 1, series.end());  // the smooth side first (part 0)
+    try {
+      WriteScenePvd(plan[last].out + "/scene.pvd", series);
+    } catch (const Error& e) {
+      std::cerr << "cosim: " << e.what() << "\n";
+    }
+  }
 
   if (contact_failure != 0) return contact_failure;
   if (children[last].code != 0) return children[last].code;

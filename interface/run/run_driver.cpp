@@ -231,6 +231,19 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     simulation->Probe(&values);
     for (size_t c = 0; c < values.size(); ++c) values[c] *= scale[c];
   };
+  // output.visual: a frame every `visual_every` steps and at the last (interface/visual).
+  const int visual_every = file->proto().output().visual().every();
+  if (visual_every < 0) {
+    std::cerr << program << ": error: " << file->Where("output.visual.every")
+              << ": output.visual.every: must be >= 0 (0: no visual output), got " << visual_every << "\n";
+    return static_cast<int>(output->Finish(ExitCode::kBadInput, "output.visual.every must be >= 0"));
+  }
+  std::unique_ptr<VisualSeries> visual;
+  auto draw = [&](double time) {
+    VisualFrame frame;
+    simulation->Visual(&frame);
+    visual->Write(frame, time);
+  };
   long long accepted = 0;
   std::chrono::steady_clock::duration step_time{};
   ExitCode code = ExitCode::kOk;
@@ -238,6 +251,10 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   try {
     probe();
     output->WriteRow(span.start, values);
+    if (visual_every > 0) {
+      visual = std::make_unique<VisualSeries>(output->folder());
+      draw(span.start);
+    }
     for (long long k = 0; k < span.steps; ++k) {
       if (TerminationRequested()) throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
       const double t = span.TimeAt(k);
@@ -250,6 +267,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
         probe();
         output->WriteRow(span.TimeAt(accepted), values);
       }
+      if (visual && (accepted % visual_every == 0 || accepted == span.steps)) draw(span.TimeAt(accepted));
     }
   } catch (const Error& e) {
     code = e.code();

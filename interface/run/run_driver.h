@@ -10,6 +10,7 @@
 #include "interface/run/errors.h"
 #include "interface/run/run_output.h"
 #include "interface/scenario/scenario_file.h"
+#include "interface/visual/visual_frame.h"
 
 namespace cosim::interface {
 
@@ -54,6 +55,8 @@ class Simulation {
   // at its end, failed or not (EndOutput throws an Error for a failed write).
   virtual void BeginOutput(const std::string& /*folder*/) {}
   virtual void EndOutput() {}
+  // The scene at the state the probes read, for the visual output (output.visual).
+  virtual void Visual(VisualFrame* /*frame*/) const {}
 };
 
 using SimulationFactory = std::function<std::unique_ptr<Simulation>(const ScenarioFile&, const CommandLine&)>;

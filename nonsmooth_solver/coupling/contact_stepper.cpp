@@ -1,8 +1,11 @@
 #include "nonsmooth_solver/coupling/contact_stepper.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -89,6 +92,45 @@ void ContactStepper::Probe(std::vector<double>* values) const {
         break;
     }
     (*values)[i] = value;
+  }
+}
+
+void ContactStepper::Visual(interface::VisualFrame* frame) const {
+  using interface::VisualFrame;
+  const ContactModel& m = model();
+  const Eigen::VectorXd& x = positions();
+  std::vector<int> node_contact(m.nodes.size(), 0), obstacle_contact(m.obstacles.size(), 0);
+  for (size_t c = 0; c < m.contacts.size(); ++c) {
+    const int k = static_cast<int>(c);
+    if (Gap(k) <= 0.0 || Impulse(k) != 0.0) {
+      node_contact[static_cast<size_t>(m.contacts[c].node)] = 1;
+      obstacle_contact[static_cast<size_t>(m.contacts[c].obstacle)] = 1;
+    }
+  }
+  for (size_t n = 0; n < m.nodes.size(); ++n) {
+    frame->AddCell(VisualFrame::kVertex, {frame->AddPoint(x.segment<3>(3 * static_cast<Eigen::Index>(n)))},
+                   VisualFrame::Kind::kContactNode, static_cast<int>(n), node_contact[n]);
+    frame->Name(VisualFrame::Kind::kContactNode, static_cast<int>(n), m.nodes[n].name);
+  }
+  // A plane is infinite: drawn as the square (its side twice the largest distance of its nodes'
+  // projections from its point, at least 0.2 m) centred on its point, in the plane's tangents.
+  for (size_t o = 0; o < m.obstacles.size(); ++o) {
+    const Obstacle& ob = m.obstacles[o];
+    const Eigen::Vector3d p = ob.PointAt(time(), data()), normal = ob.NormalAt(time(), data());
+    const Eigen::Vector3d t1 = ob.TangentAt(time(), data()), t2 = normal.cross(t1);
+    double half = 0.1;
+    for (const Contact& c : m.contacts) {
+      if (c.obstacle != static_cast<int>(o)) continue;
+      const Eigen::Vector3d d = x.segment<3>(3 * c.node) - p;
+      half = std::max(half, 2.0 * (d - d.dot(normal) * normal).norm());
+    }
+    std::vector<int> corners;
+    for (const auto& [a, b] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{1, 1}, std::pair{-1, 1}}) {
+      corners.push_back(frame->AddPoint(p + half * (a * t1 + b * t2)));
+    }
+    frame->AddCell(VisualFrame::kQuad, corners, VisualFrame::Kind::kObstacle, static_cast<int>(o),
+                   obstacle_contact[o]);
+    frame->Name(VisualFrame::Kind::kObstacle, static_cast<int>(o), ob.name);
   }
 }
 

@@ -30,6 +30,8 @@ class ContactStepper : public interface::Simulation {
   virtual void RestoreStart() = 0;
   // The driven obstacles' frames, which the coupling server sets (model().driven_frames of them).
   virtual ContactData* mutable_data() = 0;
+  virtual const ContactData& data() const = 0;
+  virtual double time() const = 0;  // of the state [s]
   // Force per node [N] (3 × nodes, model order), constant over the next steps.
   virtual void SetExternalForces(const Eigen::VectorXd& forces) = 0;
   virtual const Eigen::VectorXd& positions() const = 0;   // 3 per node
@@ -58,6 +60,10 @@ class ContactStepper : public interface::Simulation {
   // The model's probes, from the state above (the same for every contact method).
   std::vector<std::string> ProbeNames() const override;
   void Probe(std::vector<double>* values) const override;
+  // The contact nodes as vertices and each obstacle as a square patch around the nodes that can
+  // touch it, `in_contact` = 1 on a node (and its plane) whose contact is closed or acted in
+  // the last step (interface/visual).
+  void Visual(interface::VisualFrame* frame) const override;
 };
 
 }  // namespace cosim::nonsmooth

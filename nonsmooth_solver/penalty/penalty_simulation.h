@@ -48,6 +48,8 @@ class PenaltySimulation : public ContactStepper {
   void RestoreStart() override { state_ = saved_; }
   void SetExternalForces(const Eigen::VectorXd& forces) override { external_ = forces; }
   ContactData* mutable_data() override { return &state_.data; }
+  const ContactData& data() const override { return state_.data; }
+  double time() const override { return state_.time; }
   const Eigen::VectorXd& positions() const override { return state_.q; }
   const Eigen::VectorXd& velocities() const override { return state_.v; }
   bool Impact(int node) const override;

@@ -28,6 +28,8 @@ class ContactSimulation : public ContactStepper {
   void RestoreStart() override { integrator_->Restore(start_); }
   void SetExternalForces(const Eigen::VectorXd& forces) override { integrator_->SetExternalForces(forces); }
   ContactData* mutable_data() override { return integrator_->mutable_data(); }
+  const ContactData& data() const override { return integrator_->data(); }
+  double time() const override { return integrator_->time(); }
   const Eigen::VectorXd& positions() const override { return integrator_->positions(); }
   const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
   bool Impact(int node) const override;

@@ -82,12 +82,30 @@ TWIN = "gust_continuous.pbtxt" if GUST else "engage_disengage_continuous.pbtxt"
 PEER = "" if GUST else """
   peer { name: "MBDyn, continuous-contact stops, h = 1e-4 s" wall_time: 787 simulated_time: 52
          source: "../shared/reference/peers.md, median of 715, 787, 830 s on a quiet 2-core machine" }"""
+ENVELOPE = """
+  # `scripts/cosim study envelope`: the blade-sailing envelope of the still rotor over gust peak
+  # × the direction the gust travels (degrees from +x, counter-clockwise; 90° is the paper's,
+  # along +y), the front starting 32.49 m upwind of the hub in every direction (it reaches the
+  # disk at 1 s). Choices: 7 s runs (the gust has passed the disk by 5.6 s); a clearance plane
+  # 2 m below the hub (an illustration of a cabin roof or tail boom: the data have no fuselage).
+  envelope {
+    axes { name: "gust peak" unit: "m/s" values: [15, 25, 35] set: "model.air.gusts[0].profile.cosine_pulse.peak={v}" }
+    axes { name: "gust direction" unit: "deg" values: [0, 45, 90, 135, 180, 225, 270, 315]
+           set: "model.air.gusts[0].direction=[{cos(radians(v))}, {sin(radians(v))}, 0]"
+           set: "model.air.gusts[0].front_direction=[{cos(radians(v))}, {sin(radians(v))}, 0]"
+           set: "model.air.gusts[0].front_origin=[{-32.49 * cos(radians(v))}, {-32.49 * sin(radians(v))}, 0]" }
+    tip_probes: ["blade1_tip_z", "blade2_tip_z", "blade3_tip_z", "blade4_tip_z"]
+    clearance_height: -2
+    impulse_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse", "blade2_droop_impulse", "blade2_antiflap_impulse",
+                     "blade3_droop_impulse", "blade3_antiflap_impulse", "blade4_droop_impulse", "blade4_antiflap_impulse"]
+    set: "numerics.end_time=7"
+  }""" if GUST else ""
 STUDY = f'''# `scripts/cosim study compare` draws blade 1 of both models on the same axes (the paper's
 # Fig. {7 if GUST else 5}) and tables their differences and each stop contact.
 study {{
   probes: ["blade1_flap", "blade1_lag", "blade1_root_shear_z", "blade1_root_flap_moment", "blade1_tip_z"]
   compare {{ name: "co-simulated" contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] }}
-  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}
+  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}{ENVELOPE}
 }}''' if COSIM else ""
 COUPLING_ITERATION = ("coupling { iteration { relaxation: IQN_ILS reuse_steps: 4 displacement_tolerance: 1e-8 reaction_tolerance: 1e-4\n"
                       "                       restart_at_impact: false max_iterations: 50 on_max_iterations: ACCEPT_AND_MARK } }")

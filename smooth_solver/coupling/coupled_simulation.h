@@ -28,6 +28,7 @@ class CoupledSmoothSimulation : public interface::Simulation {
 
   std::vector<std::string> ProbeNames() const override { return simulation_->ProbeNames(); }
   void Probe(std::vector<double>* values) const override { simulation_->Probe(values); }
+  void Visual(interface::VisualFrame* frame) const override { simulation_->Visual(frame); }
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
   void Finish(ExitCode code, const std::string& reason) override;

@@ -181,6 +181,12 @@ double ElasticBody::StrainEnergy(const Eigen::Ref<const Eigen::Matrix3Xd>& x) co
   return energy;
 }
 
+std::vector<double> ElasticBody::VonMisesStress(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const {
+  std::vector<double> stress(elements_.size());
+  for (size_t e = 0; e < elements_.size(); ++e) stress[e] = elements_[e].VonMisesStress(material_, Gather(x, mesh_.elements[e]));
+  return stress;
+}
+
 Eigen::SparseMatrix<double> ElasticBody::MassMatrix() const {
   std::vector<Eigen::Triplet<double>> triplets;
   for (size_t e = 0; e < elements_.size(); ++e) {

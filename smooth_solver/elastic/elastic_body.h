@@ -49,6 +49,8 @@ class ElasticBody {
   void AssembleViscous(const Positions& x, const Positions& v, double retardation, double f_scale,
                        Eigen::Ref<Eigen::VectorXd> f, double k_scale, double c_scale, SparseSink* K, int offset) const;
   double StrainEnergy(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const;
+  // Each element's volume-averaged von Mises stress at node positions x [Pa] (Hex27).
+  std::vector<double> VonMisesStress(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const;
   Eigen::SparseMatrix<double> MassMatrix() const;  // 3 per node, consistent
 
  private:

@@ -212,4 +212,18 @@ double Hex27::StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const 
   return energy;
 }
 
+double Hex27::VonMisesStress(const ElasticMaterial& m, const NodeMatrix& x) const {
+  double integral = 0.0, volume = 0.0;
+  for (size_t g = 0; g < kGauss; ++g) {
+    const Eigen::Matrix3d H = NodeMatrix(x - reference_).lazyProduct(grad_[g].transpose());
+    const Eigen::Matrix3d E = 0.5 * (H + H.transpose() + H.transpose() * H);
+    const Eigen::Matrix3d F = Eigen::Matrix3d::Identity() + H;
+    const Eigen::Matrix3d sigma = F * StVenantKirchhoff(m, E) * F.transpose() / F.determinant();  // Cauchy
+    const Eigen::Matrix3d deviator = sigma - sigma.trace() / 3.0 * Eigen::Matrix3d::Identity();
+    integral += weight_[g] * std::sqrt(1.5 * (deviator.array() * deviator.array()).sum());
+    volume += weight_[g];
+  }
+  return integral / volume;
+}
+
 }  // namespace cosim::smooth

@@ -73,6 +73,9 @@ class Hex27 {
                     ElementVector* f, double k_scale, double c_scale, ElementMatrix* KC) const;
   // Strain energy ∫ ½ E : C : E dV.
   double StrainEnergy(const ElasticMaterial& m, const NodeMatrix& x) const;
+  // The von Mises equivalent of the Cauchy stress σ = F S Fᵀ / det F, averaged over the
+  // element's volume (its Gauss points) [Pa]: what the visual output colours an element by.
+  double VonMisesStress(const ElasticMaterial& m, const NodeMatrix& x) const;
   // Consistent mass matrix (the 27×27 scalar part; the 3×3 blocks are this × I).
   Eigen::Matrix<double, kNodes, kNodes> ScalarMass(double density) const;
   double Volume() const;

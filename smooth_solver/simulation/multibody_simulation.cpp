@@ -10,6 +10,7 @@
 #include <set>
 
 #include "interface/scenario/checks.h"
+#include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
 #include "state.pb.h"
 
@@ -71,6 +72,11 @@ Eigen::Vector3d InFrame(int frame, const Eigen::VectorXd& q, const Eigen::Vector
 MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bool coupled)
     : model_(BuildMultibodyModel(file)) {
   const Checks checks(file);
+  visual_.axis_length = file.proto().output().visual().axis_length();
+  if (!(visual_.axis_length >= 0.0)) {
+    checks.Fail("output.visual.axis_length", "must be >= 0 (0: a quarter of each body's size), got " +
+                                                 interface::FormatNumber(visual_.axis_length));
+  }
   if (!coupled && !model_.interface_points.empty()) {
     // Standalone, nothing would move the imposed points: they would stay where they start.
     checks.Fail("coupling.interface_nodes", "a coupled scene needs its contact processes; smooth_solver alone cannot "
@@ -508,6 +514,10 @@ Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
     }
     default: return Eigen::Vector3d::Zero();
   }
+}
+
+void MultibodySimulation::Visual(interface::VisualFrame* frame) const {
+  DrawScene(model_, *system_, (interpolated_ ? shown_ : integrator_->state()).q, visual_, frame);
 }
 
 void MultibodySimulation::Probe(std::vector<double>* values) const {

@@ -11,6 +11,7 @@
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 #include "smooth_solver/simulation/watchdog.h"
+#include "smooth_solver/simulation/visual_scene.h"
 
 namespace cosim::smooth {
 
@@ -21,6 +22,7 @@ class MultibodySimulation : public interface::Simulation {
 
   std::vector<std::string> ProbeNames() const override;
   void Probe(std::vector<double>* values) const override;
+  void Visual(interface::VisualFrame* frame) const override;
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
   // final_state.pb in the output folder at the end of the run (its last accepted state):
@@ -117,6 +119,7 @@ class MultibodySimulation : public interface::Simulation {
   // Revolute angles unwrapped across ±π: turns added to atan2 per joint.
   std::vector<double> angle_offset_, last_angle_;
   std::string output_folder_, scenario_name_;
+  VisualSettings visual_;
   // The consistent initial configuration of the run (or of the run a restart continues) and its
   // time: the probes' reference, saved with the final state.
   Eigen::VectorXd reference_q_;

@@ -1,0 +1,28 @@
+#pragma once
+// The smooth model drawn for the visual output (interface/visual/visual_frame.h): rigid bodies
+// as their frames and the lines from their origins to their joints' and ties' points, beams as
+// the lines joining their nodes with each node's chordwise section line and the quads between
+// them (a ribbon of the blade), hex27 bodies as their tri-quadratic elements with nodal
+// displacement and each element's von Mises stress, and each coupling tie as the line from
+// its body point to the contact node the peer imposes.
+#include <Eigen/Core>
+
+#include "interface/visual/visual_frame.h"
+#include "smooth_solver/model/multibody_model.h"
+#include "smooth_solver/model/multibody_system.h"
+
+namespace cosim::smooth {
+
+struct VisualSettings {
+  double axis_length = 0.0;  // rigid bodies' frame axes [m]; 0: a quarter of each body's size
+};
+
+void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const Eigen::VectorXd& q,
+               const VisualSettings& settings, interface::VisualFrame* frame);
+
+// VTK's tri-quadratic hexahedron (cell type 29) numbers its nodes: corners, edge midpoints,
+// face centres (−x, +x, −y, +y, −z, +z), centre; entry k is the Hex27 node (i + 3j + 9k)
+// at VTK's node k.
+const std::array<int, 27>& VtkHex27Order();
+
+}  // namespace cosim::smooth

@@ -1,0 +1,155 @@
+#!/usr/bin/python3
+"""Visual output read back with meshio (Debian's python3-meshio), against the runs' histories.
+
+Why these hold: a frame is drawn from the same state as the history row of the same time, so a
+body's origin, a contact node and a hex27 node's displacement must be the probes' values to
+round-off (17 digits written); a hex27 element's reference nodes must sit where VTK's
+tri-quadratic hexahedron puts them (edge nodes at the middle of their corners, face nodes at
+the centre of their four, the centre at the mean of the eight: VTK's documented numbering,
+written out here independently of the writer's table) with a positive volume; the beam ribbon
+has one section per node; and the series' index (visual.pvd, scene.pvd) lists every frame.
+
+Usage: visual_test.py BIN_DIR SOURCE_DIR WORK_DIR
+"""
+import os
+import subprocess
+import sys
+import unittest
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+
+BIN, SOURCE, WORK = sys.argv[1:4]
+KIND = {"body_axis": 0, "body_shape": 1, "beam_axis": 2, "beam_section": 3, "solid": 4, "tie": 5, "node": 6, "obstacle": 7}
+# VTK_TRIQUADRATIC_HEXAHEDRON: nodes 8-19 on the edges, 20-25 on the faces x-, x+, y-, y+, z-, z+.
+EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+FACES = [(0, 3, 4, 7), (1, 2, 5, 6), (0, 1, 4, 5), (2, 3, 6, 7), (0, 1, 2, 3), (4, 5, 6, 7)]
+
+
+def run(name, scenario, *sets):
+    out = os.path.join(WORK, name)
+    args = [os.path.join(BIN, "cosim_launch"), os.path.join(SOURCE, scenario), "--out", out]
+    for s in sets:
+        args += ["--set", s]
+    p = subprocess.run(args, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise AssertionError(f"{scenario}: exit {p.returncode}: {p.stderr}")
+    return out
+
+
+def series(pvd):
+    root = ET.parse(pvd).getroot()
+    return [(float(d.get("timestep")), d.get("file"), int(d.get("part"))) for d in root.iter("DataSet")]
+
+
+def history(folder):
+    return np.genfromtxt(os.path.join(folder, "history.csv"), delimiter=",", names=True)
+
+
+def cells_of(mesh, kind):
+    """(cell type, connectivity) of the cells of one kind."""
+    out = []
+    for block, kinds in zip(mesh.cells, mesh.cell_data["kind"]):
+        for row, k in zip(block.data, kinds):
+            if k == KIND[kind]:
+                out.append((block.type, row))
+    return out
+
+
+class Visual(unittest.TestCase):
+    def test_coupled_drop_body_node_floor_and_tie(self):
+        # Every 5th step to t = 0.35 s: the first impact (t = 0.319 s) is among the frames.
+        out = run("tied_drop", "scenarios/tied_drop.pbtxt", "output.visual.every=5", "numerics.end_time=0.35")
+        smooth, contact = series(os.path.join(out, "visual.pvd")), series(os.path.join(out, "contacts", "visual.pvd"))
+        self.assertEqual(len(smooth), 71)
+        self.assertEqual(len(contact), 71)
+        scene = series(os.path.join(out, "scene.pvd"))
+        self.assertEqual(len(scene), 142)
+        self.assertEqual({part for _, _, part in scene}, {0, 1})
+        h, hc = history(out), history(os.path.join(out, "contacts"))
+        touched = 0
+        for (t, file, _), (tc, file_c, _) in zip(smooth, contact):
+            self.assertEqual(t, tc)
+            row = np.argmin(abs(h["time"] - t))
+            mesh = meshio.read(os.path.join(out, file))
+            self.assertAlmostEqual(float(mesh.field_data["TimeValue"][0]), t, places=12)
+            axes = cells_of(mesh, "body_axis")
+            self.assertEqual(len(axes), 3)  # one body, three axes from its origin
+            self.assertAlmostEqual(mesh.points[axes[0][1][0]][2], h["body_z"][row], delta=1e-12)
+            tie = cells_of(mesh, "tie")
+            self.assertEqual(len(tie), 1)
+            cm = meshio.read(os.path.join(out, "contacts", file_c))
+            nodes = cells_of(cm, "node")
+            self.assertEqual(len(nodes), 1)
+            self.assertAlmostEqual(cm.points[nodes[0][1][0]][2], hc["node_z"][np.argmin(abs(hc["time"] - t))], delta=1e-12)
+            # The tie ends where the contact process put the node (the imposed coordinates).
+            self.assertAlmostEqual(mesh.points[tie[0][1][1]][2], cm.points[nodes[0][1][0]][2], delta=1e-9)
+            self.assertEqual(len(cells_of(cm, "obstacle")), 1)
+            contact_flags = [v for b, k in zip(cm.cell_data["in_contact"], cm.cell_data["kind"]) for v, kk in zip(b, k)
+                             if kk == KIND["node"]]
+            row_c = np.argmin(abs(hc["time"] - t))
+            # In contact exactly when the step's impulse is non-zero or the gap closed.
+            self.assertEqual(contact_flags[0], int(hc["impulse"][row_c] != 0.0 or hc["gap"][row_c] <= 0.0), t)
+            touched += contact_flags[0]
+        with open(os.path.join(out, "contacts", "visual", "legend.csv")) as f:
+            self.assertIn("6,0,node", f.read())
+        self.assertGreaterEqual(touched, 1)  # the impact was drawn
+
+    def test_hex27_blade_nodes_in_vtk_order_with_displacement_and_stress(self):
+        out = run("spinning_blade", "scenarios/spinning_blade.pbtxt", "numerics.end_time=0.1", "output.visual.every=10")
+        frames = series(os.path.join(out, "visual.pvd"))
+        self.assertEqual(len(frames), 6)
+        h = history(out)
+        reference = None
+        for t, file, _ in frames:
+            mesh = meshio.read(os.path.join(out, file))
+            solids = cells_of(mesh, "solid")
+            self.assertGreater(len(solids), 0)
+            self.assertTrue(all(kind == "hexahedron27" for kind, _ in solids))
+            solid_points = np.unique(np.concatenate([c for _, c in solids]))
+            d = mesh.point_data["displacement"][solid_points]
+            X = mesh.points[solid_points] - d  # reference positions: the same in every frame
+            if reference is None:
+                reference = X
+                for _, c in solids:
+                    p = (mesh.points - mesh.point_data["displacement"])[c]
+                    for k, (a, b) in enumerate(EDGES):
+                        np.testing.assert_allclose(p[8 + k], 0.5 * (p[a] + p[b]), atol=1e-12)
+                    for k, face in enumerate(FACES):
+                        np.testing.assert_allclose(p[20 + k], p[list(face)].mean(axis=0), atol=1e-12)
+                    np.testing.assert_allclose(p[26], p[:8].mean(axis=0), atol=1e-12)
+                    self.assertGreater(np.linalg.det(np.array([p[1] - p[0], p[3] - p[0], p[4] - p[0]])), 0.0)
+            else:
+                np.testing.assert_allclose(X, reference, atol=1e-9)
+            row = np.argmin(abs(h["time"] - t))
+            tip = np.array([h["tip_x"][row], h["tip_y"][row], h["tip_z"][row]])
+            self.assertLess(np.min(np.linalg.norm(d - tip, axis=1)), 1e-12, f"t = {t}: no node with the tip's displacement")
+            stress = [s for b, k in zip(mesh.cell_data["von_mises"], mesh.cell_data["kind"]) for s, kk in zip(b, k)
+                      if kk == KIND["solid"]]
+            if t > 0:
+                self.assertGreater(max(stress), 0.0)  # spinning up: stressed
+            else:
+                self.assertLess(max(stress), 1e-3)  # the reference configuration: no stress
+
+    def test_beam_as_polyline_and_ribbon(self):
+        out = run("spin_up", "scenarios/beams/spin_up.pbtxt", "numerics.end_time=0.02", "output.visual.every=5")
+        frames = series(os.path.join(out, "visual.pvd"))
+        self.assertEqual(len(frames), 3)
+        mesh = meshio.read(os.path.join(out, frames[-1][1]))
+        axis = cells_of(mesh, "beam_axis")
+        nodes = len(axis) + 1
+        self.assertEqual(nodes, 21)  # 10 quadratic elements: n0 … n20, joined by 20 lines
+        self.assertTrue(all(kind == "line" for kind, _ in axis))
+        sections = cells_of(mesh, "beam_section")
+        self.assertEqual(sum(1 for kind, _ in sections if kind == "line"), nodes)
+        self.assertEqual(sum(1 for kind, _ in sections if kind == "quad"), nodes - 1)
+        h = history(out)
+        # The tip node's radial position in the hub's frame is its distance along the hub's x axis
+        # at this small hub angle: within the hub's rotation over 0.02 s of the history's.
+        tip = mesh.points[axis[-1][1][1]]
+        self.assertAlmostEqual(float(np.hypot(tip[0], tip[1])), float(h["tip_radial"][-1]), delta=1e-3)
+
+
+if __name__ == "__main__":
+    unittest.main(argv=sys.argv[:1], verbosity=2)

@@ -63,13 +63,14 @@ class Runner:
     """Runs cosim_launch processes on Dask workers (distributed_runs: a local cluster of `jobs`
     workers, or the cluster at `scheduler`) and reports progress on stderr."""
 
-    def __init__(self, bin_dir, jobs, scheduler=None):
+    def __init__(self, bin_dir, jobs, scheduler=None, reuse=False):
         self.bin_dir = os.path.abspath(bin_dir)
         self.launch = os.path.join(self.bin_dir, "cosim_launch")
         if not os.access(self.launch, os.X_OK):
             fail(f"{self.launch} not found; build the project first (scripts/cosim setup)")
         self.jobs = max(1, jobs)
         self.scheduler = scheduler
+        self.reuse = reuse  # keep a run whose folder already holds its summary (resuming a study)
         self._cluster = None
 
     def cluster(self):
@@ -81,6 +82,29 @@ class Runner:
             where = f"the Dask scheduler at {self.scheduler}" if self.scheduler else "a local Dask cluster"
             print(f"cosim study: runs go to {where} ({self._cluster.workers()} workers)", file=sys.stderr)
         return self._cluster
+
+    def finished(self, run):
+        """The run's folder holds a summary of this scenario with these overrides (the launcher's
+        endpoints aside): the run as it was, its outputs read again."""
+        summary = read_json(os.path.join(run["out"], "summary.json"))
+        if not summary or "exit_code" not in summary and "status" not in summary:
+            return False
+        overrides = [o for o in summary.get("overrides", []) if ".endpoint=" not in o]
+        if overrides != list(run["sets"]):
+            return False
+        try:
+            name = self.scenario_json(run["scenario"], run["sets"]).get("name")
+        except SystemExit:
+            return False
+        if summary.get("scenario") != name:
+            return False
+        run["summary"] = summary
+        run["code"] = int(summary.get("exit_code", 0))
+        run["seconds"] = float(summary.get("wall_time", float("nan")))
+        run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or run["seconds"]
+        run["host"] = "kept"
+        run["message"] = summary.get("reason", "")
+        return True
 
     def close(self):
         if self._cluster is not None:
@@ -100,11 +124,17 @@ class Runner:
         """runs: list of dicts with id, scenario, sets, out. Adds code, wall, summary, seconds, host."""
         from distributed import as_completed
 
-        cluster = self.cluster()
         total, done = len(runs), 0
         start = time.time()
         futures = {}
+        kept = [r for r in runs if self.reuse and self.finished(r)]
+        for run in kept:
+            done += 1
+            print(f"cosim study: [{done}/{total}] {run['id']}: kept from {run['out']} (--reuse)", file=sys.stderr)
+        cluster = self.cluster() if len(kept) < len(runs) else None
         for run in runs:
+            if run in kept:
+                continue
             folder, name = os.path.split(os.path.abspath(run["scenario"]))
             job = {"scenario": name, "sets": list(run["sets"]), "files": distributed_runs.file_sets(run["sets"]),
                    "bin_dir": self.bin_dir}
@@ -112,7 +142,7 @@ class Runner:
                 futures[cluster.submit(job, folder)] = run
             except ValueError as e:
                 fail(str(e))
-        for future in as_completed(list(futures)):
+        for future in (as_completed(list(futures)) if futures else []):
             run = futures[future]
             try:
                 result = future.result()
@@ -692,6 +722,7 @@ def results(runner, out_root, sets, reuse=False):
               "| SHARCS-like hub, blade tip position under step refinement (CGα paper, Fig. 12) | 2 | radial and in-plane 2.2–2.4; flapwise to 1e-4 of its deflection, monotonically (~1.3) once the solid's high-frequency modes are damped (below) | convergence study |",
               "| SHARCS-like hub, hex27 against beam blade (issue 17) | — | flap 0.08° RMS apart, radial root force 35 N RMS of 11.1 kN (below) | compare study |",
               "| Puma gust, co-simulated impact response as h is refined (issue 16) | — | converges, order 1.6–1.9; flap within 0.044° at h = 1 ms, root shear peak needs h ≤ 0.25 ms (below) | convergence study |",
+              "| Puma blade-sailing envelope, gust peak × direction (issue 19) | — | 24 co-simulated runs in 703 s on 2 cores; four-fold symmetric to the digits shown; at 25 m/s blade lift 0.62 m, smallest clearance to a plane 2 m below the hub at 45°, not at the paper's 90° (below) | envelope study |",
               ""]
     with open(os.path.join(docs, "results.md"), "w") as f:
         f.write("\n".join(header) + "\n" + "".join(sections))
@@ -943,7 +974,10 @@ def axis_sets(axis, value, where):
 
 
 def envelope_point(history, spec, step):
-    """The envelope's measures of one run from its history (what exists of it for a failed run)."""
+    """The envelope's measures of one run from its history (what exists of it for a failed run),
+    over t >= spec.from_time."""
+    start = float(spec.get("from_time", 0.0))
+    history = {p: (t[t >= start], v[t >= start]) for p, (t, v) in history.items()}
     m = {}
     lowest = highest = (float("nan"), "", float("nan"))
     down = up = (float("nan"), "")
@@ -1045,12 +1079,15 @@ def study_envelope(runner, scenario_path, out, sets):
     cpu = sum(r["seconds"] for r in runs if r["seconds"] == r["seconds"])
     lines = [f"# Envelope: {scenario['name']}", "", scenario.get("description", ""), "",
              f"{len(runs)} runs over " + " × ".join(f"{n} ({len(a['values'])} values)" for n, a in zip(names, axes)) +
-             f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
-             f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
-             f"one after the other (processes' wall time).", "",
+             (f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
+              f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
+              f"one after the other (processes' wall time)." if any(r.get("host") != "kept" for r in runs) else
+              f"; every run kept from an earlier study (--reuse): the runs took {cpu:.0f} s one after the other."),
+             "",
              "![envelope](envelope.png)", "",
              "Tip heights are the tip probes' values (lowest and highest over the run and the probes, e.g. the "
-             "blades; down/up: the largest excursion from a tip's height at the start)" +
+             "blades; down/up: the largest excursion from a tip's height at the start" +
+             (f", measured from t = {spec['from_time']:g} s on" if spec.get("from_time") else "") + ")" +
              (f"; clearance above the plane at {spec['clearance_height']:g} m" if "clearance_height" in spec else "") +
              "; stop force: " + ("a step's impulse over the step (impulse probes)" if spec.get("impulse_probes") else
                                  "the force probes as they are") +
@@ -1144,12 +1181,13 @@ def main():
     parser.add_argument("--set", action="append", default=[], metavar="FIELD.PATH=VALUE",
                         help="override applied to every run")
     parser.add_argument("--reuse", action="store_true",
-                        help="results: keep a study's report that is already in the output folder (rerun only the missing)")
+                        help="keep runs already in the output folder with the same scenario and overrides (resume an "
+                             "interrupted study); results: keep a study's report already made")
     parser.add_argument("--bin", default=os.environ.get("COSIM_BIN_DIR", os.path.join(ROOT, "build", "release", "bin")))
     args = parser.parse_args()
     if args.jobs < 1:
         fail(f"--jobs {args.jobs}: expected a positive number of workers")
-    runner = Runner(args.bin, args.jobs, args.scheduler)
+    runner = Runner(args.bin, args.jobs, args.scheduler, args.reuse)
     try:
         if args.kind == "results":
             results(runner, args.out or os.path.join(ROOT, "runs", "study", "results"), args.set, args.reuse)

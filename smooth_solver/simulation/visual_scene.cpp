@@ -68,18 +68,20 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     }
     frame->Name(VisualFrame::Kind::kBodyAxis, static_cast<int>(b), model.bodies[b].name);
   }
-  // Beams: lines between the nodes; each node's section along its chordwise director d2 (a
-  // fourteenth of the span: about a rotor blade's chord), quads between neighbours.
+  // Beams: lines between the nodes; each node's section frame as a line along its chordwise
+  // director d2 (a fourteenth of the span: about a rotor blade's chord) and a quarter as long
+  // along its flapwise d3; quads between neighbouring chord lines (the blade as a ribbon).
   for (size_t m = 0; m < model.beams.size(); ++m) {
     const BeamModel& beam = model.beams[m];
     const double half_chord = (beam.span_end - beam.span_start) / 28.0;
-    std::vector<int> axis, lead, trail;
+    std::vector<int> axis, lead, trail, flap;
     for (int node : beam.node_bodies) {
       const int base = kCoordinatesPerBody * node;
       const Eigen::Vector3d x = q.segment<3>(base), d2 = q.segment<3>(base + 6).normalized();
       axis.push_back(frame->AddPoint(x));
       lead.push_back(frame->AddPoint(x + half_chord * d2));
       trail.push_back(frame->AddPoint(x - half_chord * d2));
+      flap.push_back(frame->AddPoint(x + 0.5 * half_chord * q.segment<3>(base + 9).normalized()));  // d3
     }
     // (Line segments rather than one poly-line: meshio 7 drops VTK's poly-lines.)
     for (size_t i = 0; i + 1 < axis.size(); ++i) {
@@ -87,6 +89,7 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     }
     for (size_t i = 0; i < axis.size(); ++i) {
       frame->AddCell(VisualFrame::kLine, {lead[i], trail[i]}, VisualFrame::Kind::kBeamSection, static_cast<int>(m));
+      frame->AddCell(VisualFrame::kLine, {axis[i], flap[i]}, VisualFrame::Kind::kBeamSection, static_cast<int>(m));
       if (i + 1 < axis.size()) {
         frame->AddCell(VisualFrame::kQuad, {lead[i], lead[i + 1], trail[i + 1], trail[i]},
                        VisualFrame::Kind::kBeamSection, static_cast<int>(m));

@@ -142,7 +142,7 @@ class Visual(unittest.TestCase):
         self.assertEqual(nodes, 21)  # 10 quadratic elements: n0 … n20, joined by 20 lines
         self.assertTrue(all(kind == "line" for kind, _ in axis))
         sections = cells_of(mesh, "beam_section")
-        self.assertEqual(sum(1 for kind, _ in sections if kind == "line"), nodes)
+        self.assertEqual(sum(1 for kind, _ in sections if kind == "line"), 2 * nodes)  # chordwise and flapwise
         self.assertEqual(sum(1 for kind, _ in sections if kind == "quad"), nodes - 1)
         h = history(out)
         # The tip node's radial position in the hub's frame is its distance along the hub's x axis

@@ -34,6 +34,13 @@ double Seconds(int repeats, F&& f) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / repeats;
 }
 
+// Wall time per step of `n` steps of length h from t = 0.
+double SecondsPerStep(cosim::smooth::MultibodySimulation& sim, int n, double h) {
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 0; k < n; ++k) sim.Step(k * h, (k + 1) * h - k * h);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+}
+
 // Discards what it is given (the element work without any scatter).
 class NullSink : public cosim::smooth::SparseSink {
  public:
@@ -136,9 +143,7 @@ int main() {
     const auto file = cosim::interface::ScenarioFile::Parse(hub, "four_blade_hub.pbtxt",
                                                             {std::string("numerics.smooth.integrator=") + integrator});
     MultibodySimulation sim(file);
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < steps; ++k) sim.Step(k * 0.002, (k + 1) * 0.002 - k * 0.002);
-    const double per_step = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / steps;
+    const double per_step = SecondsPerStep(sim, steps, 0.002);
     const MultibodySystem& sys = sim.system();
     if (std::string(integrator) == "CGALPHA") {
       // One elastic force + tangent evaluation of all four blades into a fixed pattern.
@@ -185,9 +190,7 @@ int main() {
   for (const Lever& lever : levers) {
     omp_set_num_threads(lever.threads);
     MultibodySimulation sim(cosim::interface::ScenarioFile::Parse(hub, "four_blade_hub.pbtxt", lever.sets));
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < steps; ++k) sim.Step(k * 0.002, (k + 1) * 0.002 - k * 0.002);
-    const double per_step = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / steps;
+    const double per_step = SecondsPerStep(sim, steps, 0.002);
     std::vector<double> v(3);
     sim.Probe(&v);
     const auto& cg = dynamic_cast<const CgAlpha&>(sim.integrator());
@@ -205,9 +208,7 @@ int main() {
     if (reuse) sets.insert(sets.end(), co_rotated.begin(), co_rotated.end());
     MultibodySimulation sim(cosim::interface::ScenarioFile::Parse(hub, "four_blade_hub.pbtxt", sets));
     const int n = 500;
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < n; ++k) sim.Step(k * 0.001, (k + 1) * 0.001 - k * 0.001);
-    const double per_step = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+    const double per_step = SecondsPerStep(sim, n, 0.001);
     std::vector<double> v(3);
     sim.Probe(&v);
     const auto& cg = dynamic_cast<const CgAlpha&>(sim.integrator());

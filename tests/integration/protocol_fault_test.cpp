@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <exception>
+#include <functional>
 #include <string>
 #include <thread>
 #include <zmq.hpp>
@@ -187,50 +188,65 @@ TEST(ProtocolFaults, ABusyPeerKeepsTheCoordinatorWaitingThroughItsHeartbeats) {
 
 namespace {
 
+// smooth_solver on `scenario` (with the extra `--set` arguments `sets`) coupled to a contact
+// process `process` that this test plays on a Channel it binds: it answers the Hello with a
+// Welcome for the coordinator's nodes, then `play` drives the exchange (any exception there
+// fails the test, and the coordinator is still waited for). Returns smooth_solver's exit code;
+// its outputs are in TestRoot()/name/run, its stderr in TestRoot()/name/stderr.txt.
+int AgainstPlayedPeer(const std::string& name, const std::string& scenario, const std::string& process,
+                      const std::string& sets, const std::function<void(cosim::interface::Channel&)>& play) {
+  const fs::path out = TempDir(name);
+  const std::string endpoint = "ipc://" + (TestRoot() / (name + ".ipc")).string();
+  zmq::context_t context;
+  cosim::interface::Channel peer(&context, {endpoint, true, process, "smooth_solver", 10.0, 0.5});
+  int code = -1;
+  std::thread coordinator([&] {
+    const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) + "/" +
+                                scenario + " --out " + (out / "run").string() + " --set coupling.processes[0].endpoint='\"" +
+                                endpoint + "\"' " + sets + " > " + (out / "stderr.txt").string() + " 2>&1";
+    const int status = std::system(command.c_str());
+    code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  });
+  try {
+    const auto& hello = peer.Receive(cosim::coupling::Envelope::kHello, -1, -1).hello();
+    std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
+    auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
+    for (const auto& n : nodes) welcome->add_interface_nodes(n);
+    peer.Send();
+    play(peer);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "the peer's exchange ended: " << e.what();
+  }
+  coordinator.join();
+  return code;
+}
+
+// Kinematics of one node at (x, 0, z) at rest, for step 0's `iteration`.
+void SendNodeAt(cosim::interface::Channel& peer, int iteration, double x, double z, double vz = 0.0) {
+  auto* k = peer.Outgoing(0, iteration).mutable_kinematics();
+  for (double p : {x, 0.0, z}) k->add_position(p);
+  for (double v : {0.0, 0.0, vz}) k->add_velocity(v);
+  k->add_in_contact(0);
+  peer.Send();
+}
+
 TEST(ProtocolFaults, NonFiniteKinematicsAreThePeersBadMessage) {
   // Coupling data were not checked for finiteness: a NaN position from a contact process gave
   // exit 3 blaming the step size, a NaN velocity was accepted with exit 0. Either is refused now
   // as the peer's bad message (exit 2), naming it.
   for (const bool position : {true, false}) {
     const std::string name = position ? "nan_position" : "nan_velocity";
-    const fs::path out = TempDir(name);
-    const std::string endpoint = "ipc://" + (TestRoot() / (name + ".ipc")).string();
-    zmq::context_t context;
-    cosim::interface::Channel peer(&context, {endpoint, true, "contacts", "smooth_solver", 5.0, 0.5});
-    int code = -1;
-    std::thread coordinator([&] {
-      const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
-                                  "/scenarios/tied_drop.pbtxt --out " + (out / "run").string() +
-                                  " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' > " +
-                                  (out / "stderr.txt").string() + " 2>&1";
-      const int status = std::system(command.c_str());
-      code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    const int code = AgainstPlayedPeer(name, "scenarios/tied_drop.pbtxt", "contacts", "", [&](auto& peer) {
+      peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
+      SendNodeAt(peer, 0, 0.0, position ? std::nan("") : 0.5, position ? 0.0 : std::nan(""));
     });
-    const auto& hello = peer.Receive(cosim::coupling::Envelope::kHello, -1, -1).hello();
-    std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
-    auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
-    for (const auto& n : nodes) welcome->add_interface_nodes(n);
-    peer.Send();
-    peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
-    auto* k = peer.Outgoing(0, 0).mutable_kinematics();
-    for (int i = 0; i < 3; ++i) {
-      k->add_position(position && i == 2 ? std::nan("") : 0.5 * (i == 2));
-      k->add_velocity(!position && i == 2 ? std::nan("") : 0.0);
-    }
-    k->add_in_contact(0);
-    peer.Send();
-    coordinator.join();
-    EXPECT_EQ(code, 2) << Slurp(out / "stderr.txt");
-    const cosim::run::RunSummary s = ReadSummary(out / "run");
+    EXPECT_EQ(code, 2) << Slurp(TestRoot() / name / "stderr.txt");
+    const cosim::run::RunSummary s = ReadSummary(TestRoot() / name / "run");
     EXPECT_NE(s.reason().find("Kinematics from 'contacts' of step 0 has a non-finite value at index 2"),
               std::string::npos)
         << s.reason();
   }
 }
-
-}  // namespace
-
-namespace {
 
 TEST(ProtocolFaults, KinematicsTheSmoothSideCannotSolveAreBackTrackedFrom) {
   // A relaxation's update can send the peers reactions whose answer the smooth side cannot
@@ -240,44 +256,16 @@ TEST(ProtocolFaults, KinematicsTheSmoothSideCannotSolveAreBackTrackedFrom) {
   // The coordinator must take a plain relaxed update from the first iteration instead, and the
   // step then converges on the node held where it was: exit 0, one back-track counted, its
   // iteration logged without an answer.
-  const std::string name = "backtrack";
-  const fs::path out = TempDir(name);
-  const std::string endpoint = "ipc://" + (TestRoot() / (name + ".ipc")).string();
-  zmq::context_t context;
-  cosim::interface::Channel peer(&context, {endpoint, true, "stops", "smooth_solver", 10.0, 0.5});
-  int code = -1;
-  std::thread coordinator([&] {
-    const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
-                                "/scenarios/pendulum_stop.pbtxt --out " + (out / "run").string() +
-                                " --set coupling.processes[0].endpoint='\"" + endpoint + "\"'" +
-                                " --set numerics.end_time=0.0005 > " +
-                                (out / "stderr.txt").string() + " 2>&1";
-    const int status = std::system(command.c_str());
-    code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  });
-  const auto& hello = peer.Receive(cosim::coupling::Envelope::kHello, -1, -1).hello();
-  std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
-  auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
-  for (const auto& n : nodes) welcome->add_interface_nodes(n);
-  peer.Send();
-  auto answer = [&](int iteration, double x) {
-    auto* k = peer.Outgoing(0, iteration).mutable_kinematics();
-    for (int i = 0; i < 3; ++i) {
-      k->add_position(i == 0 ? x : 0.0);  // the tip node rests at (1, 0, 0)
-      k->add_velocity(0.0);
-    }
-    k->add_in_contact(0);
-    peer.Send();
-  };
   int reactions = 0;
-  try {
+  const int code = AgainstPlayedPeer("backtrack", "scenarios/pendulum_stop.pbtxt", "stops", "--set numerics.end_time=0.0005",
+                                     [&](auto& peer) {
     peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
-    answer(0, 1.0);
+    SendNodeAt(peer, 0, 1.0, 0.0);  // the tip node rests at (1, 0, 0)
     for (;;) {
       const cosim::coupling::Envelope& e = peer.ReceiveAny();
       if (e.has_reactions()) {
         ++reactions;
-        answer(e.iteration(), e.iteration() == 1 ? 1e200 : 1.0);
+        SendNodeAt(peer, e.iteration(), e.iteration() == 1 ? 1e200 : 1.0, 0.0);
       } else if (e.has_step_end()) {
         EXPECT_TRUE(e.step_end().accepted());
         peer.Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(true);
@@ -285,16 +273,14 @@ TEST(ProtocolFaults, KinematicsTheSmoothSideCannotSolveAreBackTrackedFrom) {
       } else if (e.has_shutdown()) {
         peer.Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
         peer.Send();
-        break;
+        return;
       } else {
         ADD_FAILURE() << "unexpected message " << e.DebugString();
-        break;
+        return;
       }
     }
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "the peer's exchange ended: " << e.what();
-  }
-  coordinator.join();
+  });
+  const fs::path out = TestRoot() / "backtrack";
   ASSERT_EQ(code, 0) << Slurp(out / "stderr.txt");
   EXPECT_GE(reactions, 2);
   const cosim::run::RunSummary s = ReadSummary(out / "run");

@@ -5,7 +5,7 @@ RUN is a run's output folder written with `output { visual { every: N } }` (or
 `--set output.visual.every=N`): its scene.pvd (a coupled run: every process) or visual.pvd.
 Writes RUN/render/snapshot.png (one frame, 3-D) and RUN/render/animation.gif (the series),
 read with meshio and drawn with matplotlib:
-  rigid bodies   their axes (x red, y green, z blue) and grey lines to their joints
+  rigid bodies   their axes (x red, y green, z blue), grey lines to their joints and their box
   beams          the node line (dark blue) and the chordwise ribbon (light blue)
   hex27 bodies   the elements' edges coloured by von Mises stress
   ties           dashed orange lines from the body point to its contact node
@@ -88,6 +88,9 @@ class Frame:
                             self.quad_contact.append(c)
                         else:
                             self.quads["beam_section"].append(cell)
+                    elif block.type == "hexahedron":  # a rigid body's box
+                        for a, b in HEX_EDGES:
+                            self.lines["body_shape"].append(cell[[a, b]])
                     elif block.type == "hexahedron27":
                         for a, b in HEX_EDGES:
                             self.solid_edges.append(cell[[a, b]])

@@ -23,7 +23,8 @@ class VisualFrame {
  public:
   enum class Kind {
     kBodyAxis = 0,     // a rigid body's frame: three lines from its origin along its axes
-    kBodyShape = 1,    // a rigid body's shape: lines from its origin to its joints' points
+    kBodyShape = 1,    // a rigid body's shape: lines from its origin to its joints' points, and
+                       // the box (in its axes) around them
     kBeamAxis = 2,     // a beam's nodes joined by lines
     kBeamSection = 3,  // a beam: each node's chordwise section line, and quads between them
     kSolid = 4,        // a hex27 element (tri-quadratic hexahedron)
@@ -32,7 +33,7 @@ class VisualFrame {
     kObstacle = 7,     // a stop plane (a square patch around the nodes that can touch it)
   };
   // VTK cell types used.
-  static constexpr int kVertex = 1, kLine = 3, kQuad = 9, kTriQuadraticHexahedron = 29;
+  static constexpr int kVertex = 1, kLine = 3, kQuad = 9, kHexahedron = 12, kTriQuadraticHexahedron = 29;
 
   int AddPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& displacement = Eigen::Vector3d::Zero());
   void AddCell(int vtk_type, const std::vector<int>& points, Kind kind, int entity, int in_contact = 0,

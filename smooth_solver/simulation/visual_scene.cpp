@@ -66,6 +66,22 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
       frame->AddCell(VisualFrame::kLine, {origin, frame->AddPoint(x + axes * s)}, VisualFrame::Kind::kBodyShape,
                      static_cast<int>(b));
     }
+    // Its shape: the box in its own axes around its origin and those points, each side at least
+    // a tenth of its size (0.1 of the axis length for a body with no such points).
+    Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
+    for (const auto& s : attached[b]) {
+      lo = lo.cwiseMin(s);
+      hi = hi.cwiseMax(s);
+    }
+    const double thinnest = 0.05 * (size > 0.0 ? size : length);
+    const Eigen::Vector3d mid = 0.5 * (lo + hi), half = (0.5 * (hi - lo)).cwiseMax(thinnest);
+    std::vector<int> box;
+    for (const auto& c : {Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, -1, -1), Eigen::Vector3d(1, 1, -1),
+                          Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1), Eigen::Vector3d(1, -1, 1),
+                          Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(-1, 1, 1)}) {
+      box.push_back(frame->AddPoint(x + axes * (mid + half.cwiseProduct(c))));  // VTK_HEXAHEDRON's corner order
+    }
+    frame->AddCell(VisualFrame::kHexahedron, box, VisualFrame::Kind::kBodyShape, static_cast<int>(b));
     frame->Name(VisualFrame::Kind::kBodyAxis, static_cast<int>(b), model.bodies[b].name);
   }
   // Beams: lines between the nodes; each node's section frame as a line along its chordwise

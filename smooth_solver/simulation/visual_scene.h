@@ -1,6 +1,7 @@
 #pragma once
 // The smooth model drawn for the visual output (interface/visual/visual_frame.h): rigid bodies
-// as their frames and the lines from their origins to their joints' and ties' points, beams as
+// as their frames, the lines from their origins to their joints' and ties' points and the box
+// around those points in the body's axes, beams as
 // the lines joining their nodes with each node's chordwise section line and the quads between
 // them (a ribbon of the blade), hex27 bodies as their tri-quadratic elements with nodal
 // displacement and each element's von Mises stress, and each coupling tie as the line from

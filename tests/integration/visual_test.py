@@ -76,6 +76,9 @@ class Visual(unittest.TestCase):
             self.assertAlmostEqual(float(mesh.field_data["TimeValue"][0]), t, places=12)
             axes = cells_of(mesh, "body_axis")
             self.assertEqual(len(axes), 3)  # one body, three axes from its origin
+            box = [c for kind, c in cells_of(mesh, "body_shape") if kind == "hexahedron"]
+            self.assertEqual(len(box), 1)  # its box, centred on the origin (its only point is the tie's, there)
+            np.testing.assert_allclose(mesh.points[box[0]].mean(axis=0), mesh.points[axes[0][1][0]], atol=1e-12)
             self.assertAlmostEqual(mesh.points[axes[0][1][0]][2], h["body_z"][row], delta=1e-12)
             tie = cells_of(mesh, "tie")
             self.assertEqual(len(tie), 1)

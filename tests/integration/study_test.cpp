@@ -1,11 +1,13 @@
 // scripts/cosim study end to end on tiny scenes: the convergence study measures CGα's order on
 // a closed-form oscillator and writes its CSV, plot and report; the stability study keeps going
 // past a failing scene and reports it.
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <map>
 #include <utility>
 #include <string>
+#include <thread>
 
 #include "tests/integration/launch.h"
 
@@ -121,6 +123,48 @@ TEST(Study, EnvelopeSweepsTwoAxesOnALocalClusterOfTwoWorkersAndKeepsFailedPoints
   EXPECT_TRUE(fs::exists(out / "runs" / "p0" / "history.csv"));  // outputs brought back from the workers
   const std::string report = Slurp(out / "report.md");
   EXPECT_NE(report.find("exit 2 (bad input)"), std::string::npos) << report;
+}
+
+TEST(Study, RunsGoToTheClusterOfAGivenScheduler) {
+  // A cluster as it would run on other machines: dask-scheduler and a dask-worker started by
+  // hand (here on this machine, the worker in a folder of its own with COSIM_BIN_DIR naming the
+  // build), the study given --scheduler. The runs' scenario folder travels to the worker and
+  // their outputs come back into the study folder (runs.csv, each run's history).
+  const fs::path dir = TempDir("study_cluster");
+  const fs::path file = dir / "scheduler.json", worker = dir / "worker";
+  fs::create_directories(worker);
+  ASSERT_EQ(std::system(("dask-scheduler --scheduler-file " + file.string() + " --port 0 --no-dashboard > " +
+                         (dir / "scheduler.log").string() + " 2>&1 & echo $! > " + (dir / "scheduler.pid").string())
+                            .c_str()),
+            0);
+  ASSERT_EQ(std::system(("cd " + worker.string() + " && COSIM_BIN_DIR=" + std::string(COSIM_BIN_DIR) +
+                         " dask-worker --scheduler-file " + file.string() + " --nworkers 1 --nthreads 1 --no-dashboard > " +
+                         (dir / "worker.log").string() + " 2>&1 & echo $! > " + (dir / "worker.pid").string())
+                            .c_str()),
+            0);
+  std::string address;
+  for (int k = 0; k < 200 && address.empty(); ++k) {  // the scheduler writes its address when it listens
+    const std::string json = fs::exists(file) ? Slurp(file) : "";
+    const auto at = json.find("\"address\": \"");
+    if (at != std::string::npos) address = json.substr(at + 12, json.find('"', at + 12) - at - 12);
+    if (address.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  const fs::path out = dir / "study";
+  const int code = address.empty() ? -1
+                                   : Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/pendulum.pbtxt" +
+                                               " --scheduler " + address + " --out " + out.string(),
+                                           dir / "log.txt");
+  for (const char* pid : {"worker.pid", "scheduler.pid"}) {  // stopped, and waited for (10 s, then killed)
+    std::system(("p=$(cat " + (dir / pid).string() +
+                 "); kill $p 2> /dev/null; for i in $(seq 50); do kill -0 $p 2> /dev/null || break; sleep 0.2; done; "
+                 "kill -9 $p 2> /dev/null")
+                    .c_str());
+  }
+  ASSERT_FALSE(address.empty()) << Slurp(dir / "scheduler.log");
+  ASSERT_EQ(code, 0) << Slurp(dir / "log.txt") << Slurp(dir / "worker.log");
+  EXPECT_NE(Slurp(dir / "log.txt").find("the Dask scheduler at " + address), std::string::npos) << Slurp(dir / "log.txt");
+  EXPECT_EQ(ReadTable(out / "runs.csv").size(), 6u);
+  EXPECT_TRUE(fs::exists(out / "runs" / "p0" / "history.csv"));
 }
 
 TEST(Study, BadArgumentsAreRefused) {

@@ -1,7 +1,10 @@
 #include "smooth_solver/simulation/visual_scene.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include "smooth_solver/constraints/bilinear_constraints.h"
@@ -130,6 +133,28 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
                      stress[el]);
     }
     frame->Name(VisualFrame::Kind::kSolid, static_cast<int>(e), system.elastic[e]->name);
+  }
+  // Continuous contacts (monolithic scenes): the body point as a vertex, its plane as a square
+  // around the point's projection (side 4 × their in-plane distance, at least 0.2 m); both in
+  // contact while the gap is closed. (Joint stops are angles: nothing to draw.)
+  int contact = 0;
+  for (const ForceSpec& f : model.forces) {
+    if (f.kind != ForceSpec::Kind::kContact) continue;
+    const Eigen::Vector3d p = LinearVector::Point(f.body1, f.point1).Value(q);
+    const Eigen::Vector3d c = LinearVector::Point(f.plane_body, f.plane_point).Value(q);
+    const Eigen::Vector3d n = LinearVector::Direction(f.plane_body, f.plane_normal).Value(q).normalized();
+    const int closed = n.dot(p - c) <= 0.0 ? 1 : 0;
+    frame->AddCell(VisualFrame::kVertex, {frame->AddPoint(p)}, VisualFrame::Kind::kContactNode, contact, closed);
+    const Eigen::Vector3d d = p - c, t1 = n.unitOrthogonal(), t2 = n.cross(t1);
+    const double half = std::max(0.1, 2.0 * (d - d.dot(n) * n).norm());
+    std::vector<int> corners;
+    for (const auto& [a, b] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{1, 1}, std::pair{-1, 1}}) {
+      corners.push_back(frame->AddPoint(c + half * (a * t1 + b * t2)));
+    }
+    frame->AddCell(VisualFrame::kQuad, corners, VisualFrame::Kind::kObstacle, contact, closed);
+    frame->Name(VisualFrame::Kind::kContactNode, contact, f.name);
+    frame->Name(VisualFrame::Kind::kObstacle, contact, f.name);
+    ++contact;
   }
   // Ties: the body point and the node the peer imposes (3 imposed coordinates per point).
   const auto& imposed = system.data().imposed;

@@ -135,6 +135,26 @@ class Visual(unittest.TestCase):
             else:
                 self.assertLess(max(stress), 1e-3)  # the reference configuration: no stress
 
+    def test_continuous_contact_point_and_plane_in_contact_while_the_gap_is_closed(self):
+        # pendulum_stop_continuous: the tip body against the stop plane x = 0 (Hunt–Crossley):
+        # the first impact near t = 0.51 s lasts a few steps; drawn every step around it.
+        out = run("pendulum_continuous", "scenarios/pendulum_stop_continuous.pbtxt", "numerics.end_time=0.53",
+                  "output.visual.every=10", "output.every=10")
+        h = history(out)
+        closed = 0
+        for t, file, _ in series(os.path.join(out, "visual.pvd")):
+            mesh = meshio.read(os.path.join(out, file))
+            (_, point), = cells_of(mesh, "node")
+            (_, plane), = cells_of(mesh, "obstacle")
+            flags = {k: v for b, kinds in zip(mesh.cell_data["in_contact"], mesh.cell_data["kind"]) for v, k in zip(b, kinds)}
+            tip_x = h["tip_x"][np.argmin(abs(h["time"] - t))]
+            self.assertAlmostEqual(mesh.points[point[0]][0], tip_x, delta=1e-12)
+            self.assertEqual(flags[KIND["node"]], int(tip_x <= 0.0), t)
+            self.assertEqual(flags[KIND["obstacle"]], flags[KIND["node"]])
+            np.testing.assert_allclose(mesh.points[plane][:, 0], 0.0, atol=1e-12)  # the plane x = 0
+            closed += flags[KIND["node"]]
+        self.assertGreaterEqual(closed, 1)
+
     def test_beam_as_polyline_and_ribbon(self):
         out = run("spin_up", "scenarios/beams/spin_up.pbtxt", "numerics.end_time=0.02", "output.visual.every=5")
         frames = series(os.path.join(out, "visual.pvd"))

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <utility>
 
 #include "interface/run/errors.h"
 
@@ -57,6 +58,15 @@ void VisualFrame::AddCell(int vtk_type, const std::vector<int>& points, Kind kin
   entity_.push_back(entity);
   in_contact_.push_back(in_contact);
   von_mises_.push_back(von_mises);
+}
+
+void VisualFrame::AddSquare(const Eigen::Vector3d& centre, const Eigen::Vector3d& t1, const Eigen::Vector3d& t2,
+                            double half, Kind kind, int entity, int in_contact) {
+  const int first = points();
+  for (const auto& [a, b] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{1, 1}, std::pair{-1, 1}}) {
+    AddPoint(centre + half * (a * t1 + b * t2));
+  }
+  AddCell(kQuad, {first, first + 1, first + 2, first + 3}, kind, entity, in_contact);
 }
 
 void VisualFrame::Name(Kind kind, int entity, const std::string& name) {

@@ -38,6 +38,10 @@ class VisualFrame {
   int AddPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& displacement = Eigen::Vector3d::Zero());
   void AddCell(int vtk_type, const std::vector<int>& points, Kind kind, int entity, int in_contact = 0,
                double von_mises = 0.0);
+  // A plane drawn as the square of half-side `half` about `centre` spanned by the unit vectors
+  // t1, t2 (a stop plane, infinite in the model).
+  void AddSquare(const Eigen::Vector3d& centre, const Eigen::Vector3d& t1, const Eigen::Vector3d& t2, double half,
+                 Kind kind, int entity, int in_contact);
   // The entity's name in visual/legend.csv (first frame); index = its order within its kind.
   void Name(Kind kind, int entity, const std::string& name);
 

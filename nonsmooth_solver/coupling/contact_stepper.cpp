@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <utility>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -124,12 +123,7 @@ void ContactStepper::Visual(interface::VisualFrame* frame) const {
       const Eigen::Vector3d d = x.segment<3>(3 * c.node) - p;
       half = std::max(half, 2.0 * (d - d.dot(normal) * normal).norm());
     }
-    std::vector<int> corners;
-    for (const auto& [a, b] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{1, 1}, std::pair{-1, 1}}) {
-      corners.push_back(frame->AddPoint(p + half * (a * t1 + b * t2)));
-    }
-    frame->AddCell(VisualFrame::kQuad, corners, VisualFrame::Kind::kObstacle, static_cast<int>(o),
-                   obstacle_contact[o]);
+    frame->AddSquare(p, t1, t2, half, VisualFrame::Kind::kObstacle, static_cast<int>(o), obstacle_contact[o]);
     frame->Name(VisualFrame::Kind::kObstacle, static_cast<int>(o), ob.name);
   }
 }

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <set>
-#include <utility>
 #include <vector>
 
 #include "smooth_solver/constraints/bilinear_constraints.h"
@@ -147,11 +146,7 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     frame->AddCell(VisualFrame::kVertex, {frame->AddPoint(p)}, VisualFrame::Kind::kContactNode, contact, closed);
     const Eigen::Vector3d d = p - c, t1 = n.unitOrthogonal(), t2 = n.cross(t1);
     const double half = std::max(0.1, 2.0 * (d - d.dot(n) * n).norm());
-    std::vector<int> corners;
-    for (const auto& [a, b] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{1, 1}, std::pair{-1, 1}}) {
-      corners.push_back(frame->AddPoint(c + half * (a * t1 + b * t2)));
-    }
-    frame->AddCell(VisualFrame::kQuad, corners, VisualFrame::Kind::kObstacle, contact, closed);
+    frame->AddSquare(c, t1, t2, half, VisualFrame::Kind::kObstacle, contact, closed);
     frame->Name(VisualFrame::Kind::kContactNode, contact, f.name);
     frame->Name(VisualFrame::Kind::kObstacle, contact, f.name);
     ++contact;

@@ -98,12 +98,7 @@ class Runner:
             return False
         if summary.get("scenario") != name:
             return False
-        run["summary"] = summary
-        run["code"] = int(summary.get("exit_code", 0))
-        run["seconds"] = float(summary.get("wall_time", float("nan")))
-        run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or run["seconds"]
-        run["host"] = "kept"
-        run["message"] = summary.get("reason", "")
+        record(run, int(summary.get("exit_code", 0)), float(summary.get("wall_time", float("nan"))), "kept")
         return True
 
     def close(self):
@@ -152,22 +147,25 @@ class Runner:
             shutil.rmtree(run["out"], ignore_errors=True)
             if result["outputs"] is not None:
                 distributed_runs.unpack(result["outputs"], run["out"])
-            run["seconds"] = result["seconds"]
-            run["code"] = result["code"]
-            run["host"] = result["host"]
-            run["summary"] = read_json(os.path.join(run["out"], "summary.json"))
-            # What failed: the run's own reason (the coordinator's), else its last word.
-            reason = (run["summary"] or {}).get("reason", "")
-            run["message"] = reason or (result["stderr"].strip().splitlines() or [""])[-1]
-            # The time in the time steps (the method's cost, without process start and output), else
-            # the process's.
-            summary = run["summary"] or {}
-            run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or run["seconds"]
+            record(run, result["code"], result["seconds"], result["host"], result["stderr"])
             done += 1
             status = "ok" if run["code"] == 0 else f"FAILED (exit {run['code']}: {EXIT_MEANING.get(run['code'], '?')})"
             print(f"cosim study: [{done}/{total}] {run['id']}: {status}; {total - done} left, "
                   f"{time.time() - start:.1f} s so far", file=sys.stderr)
         return runs
+
+
+def record(run, code, seconds, host, stderr=""):
+    """A run's outcome into its dict, from its output folder: code, seconds (the process's),
+    host, summary, message and wall."""
+    run["code"], run["seconds"], run["host"] = code, seconds, host
+    run["summary"] = read_json(os.path.join(run["out"], "summary.json"))
+    summary = run["summary"] or {}
+    # What failed: the run's own reason (the coordinator's), else its last word.
+    run["message"] = summary.get("reason", "") or (stderr.strip().splitlines() or [""])[-1]
+    # The time in the time steps (the method's cost, without process start and output), else
+    # the process's.
+    run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or seconds
 
 
 def run_scenario(scenario_path, run):

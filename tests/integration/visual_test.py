@@ -155,6 +155,13 @@ class Visual(unittest.TestCase):
             closed += flags[KIND["node"]]
         self.assertGreaterEqual(closed, 1)
 
+    def test_a_run_without_visual_output_leaves_none_of_an_earlier_runs(self):
+        out = run("rerun", "scenarios/tied_drop.pbtxt", "output.visual.every=100", "numerics.end_time=0.2")
+        self.assertTrue(os.path.isfile(os.path.join(out, "scene.pvd")))
+        run("rerun", "scenarios/tied_drop.pbtxt", "numerics.end_time=0.2")
+        for stale in ("scene.pvd", "visual.pvd", "visual", "contacts/visual.pvd", "contacts/visual"):
+            self.assertFalse(os.path.exists(os.path.join(out, stale)), stale)
+
     def test_beam_as_polyline_and_ribbon(self):
         out = run("spin_up", "scenarios/beams/spin_up.pbtxt", "numerics.end_time=0.02", "output.visual.every=5")
         frames = series(os.path.join(out, "visual.pvd"))

@@ -1016,6 +1016,10 @@ def envelope_point(history, spec, step):
     return m
 
 
+# envelope_point's measures, in runs.csv's order.
+ENVELOPE_COLUMNS = ["tip_lowest", "tip_lowest_probe", "tip_lowest_time", "tip_highest", "tip_highest_probe",
+                    "tip_highest_time", "tip_down", "tip_up", "clearance", "peak_stop_force", "peak_stop_force_probe",
+                    "impacts"]
 ENVELOPE_MEASURES = [("tip_lowest", "lowest tip [m]"), ("tip_highest", "highest tip [m]"),
                      ("clearance", "smallest clearance [m]"), ("peak_stop_force", "peak stop force"),
                      ("impacts", "stop impacts")]
@@ -1062,14 +1066,9 @@ def study_envelope(runner, scenario_path, out, sets):
         m = envelope_point(read_histories(r["out"]), spec, float(step))
         r["measures"] = m
         rows.append(list(r["point"]) + [r["code"], r["wall"], summary.get("simulated_time", float("nan")),
-                                        r.get("host", "")] +
-                    [m[k] for k in ("tip_lowest", "tip_lowest_probe", "tip_lowest_time", "tip_highest", "tip_highest_probe",
-                                    "tip_highest_time", "tip_down", "tip_up", "clearance", "peak_stop_force",
-                                    "peak_stop_force_probe", "impacts")])
-    write_csv(os.path.join(out, "runs.csv"),
-              names + ["exit", "wall_time", "simulated_time", "host", "tip_lowest", "tip_lowest_probe", "tip_lowest_time",
-                       "tip_highest", "tip_highest_probe", "tip_highest_time", "tip_down", "tip_up", "clearance",
-                       "peak_stop_force", "peak_stop_force_probe", "impacts"], rows)
+                                        r.get("host", "")] + [m[k] for k in ENVELOPE_COLUMNS])
+    write_csv(os.path.join(out, "runs.csv"), names + ["exit", "wall_time", "simulated_time", "host"] + ENVELOPE_COLUMNS,
+              rows)
     measures = [(k, label) for k, label in ENVELOPE_MEASURES
                 if any(np.isfinite(r["measures"][k]) for r in runs)]
     plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])

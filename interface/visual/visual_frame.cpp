@@ -28,9 +28,8 @@ void Close(std::unique_ptr<std::FILE, FileCloser> f, const std::string& path) {
   if (std::fclose(f.release()) != 0 || failed) throw InputError("visual output: writing " + path + " failed");
 }
 
-template <typename T>
-void IntArray(std::FILE* f, const char* name, const std::vector<T>& values) {
-  std::fprintf(f, "        <DataArray type=\"Int32\" Name=\"%s\" format=\"ascii\">\n         ", name);
+void IntArray(std::FILE* f, const char* name, const std::vector<int>& values, const char* type = "Int32") {
+  std::fprintf(f, "        <DataArray type=\"%s\" Name=\"%s\" format=\"ascii\">\n         ", type, name);
   for (size_t i = 0; i < values.size(); ++i) std::fprintf(f, "%s%d", (i % 16 == 15) ? "\n         " : " ", values[i]);
   std::fprintf(f, "\n        </DataArray>\n");
 }
@@ -87,9 +86,8 @@ void VisualFrame::WriteVtu(const std::string& path, double time) const {
   std::fprintf(f.get(), "      </Points>\n      <Cells>\n");
   IntArray(f.get(), "connectivity", connectivity_);
   IntArray(f.get(), "offsets", offsets_);
-  std::fprintf(f.get(), "        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n         ");
-  for (size_t i = 0; i < type_.size(); ++i) std::fprintf(f.get(), "%s%d", (i % 16 == 15) ? "\n         " : " ", type_[i]);
-  std::fprintf(f.get(), "\n        </DataArray>\n      </Cells>\n");
+  IntArray(f.get(), "types", type_, "UInt8");
+  std::fprintf(f.get(), "      </Cells>\n");
   std::fprintf(f.get(), "      <PointData Vectors=\"displacement\">\n");
   Vectors(f.get(), "displacement", displacement_);
   std::fprintf(f.get(), "      </PointData>\n      <CellData Scalars=\"kind\">\n");

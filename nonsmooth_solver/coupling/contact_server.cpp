@@ -88,6 +88,9 @@ void ContactServer::Answer(const Envelope& e) {
   welcome->set_process_name(channel_->options().self);
   welcome->set_solver(simulation_->SolverName());
   for (const auto& name : hello.interface_nodes()) welcome->add_interface_nodes(name);
+  jacobians_ = simulation_->SupportsInterfaceJacobians();
+  if (jacobians_) simulation_->EnableInterfaceJacobians();
+  welcome->set_interface_jacobians(jacobians_);
   channel_->Send();
 }
 
@@ -96,6 +99,7 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
   // This iteration's end frames (as the smooth side imposes its coordinates after restoring).
   for (size_t i = 0; i < moving_.size(); ++i) Frame(i).end = frame_ends_[i];
   simulation_->SetExternalForces(external_);
+  if (jacobians_) simulation_->SetInterfaceStiffness(stiffness_, reference_);
   try {
     simulation_->StepTentatively(t_, h_);
   } catch (const Error& e) {
@@ -112,6 +116,21 @@ void ContactServer::TentativeStep(int64_t step, int iteration) {
       k->add_velocity(v(3 * node + i));
     }
     k->add_in_contact(simulation_->Impact(node) ? 1 : 0);
+  }
+  if (jacobians_) {
+    const Eigen::VectorXd* applied = simulation_->AppliedForces();
+    const bool sensitive = simulation_->Sensitivities(h_, &sensitivity_position_, &sensitivity_velocity_);
+    for (int node : nodes_) {
+      if (applied != nullptr) {
+        for (int i = 0; i < 3; ++i) k->add_applied_force((*applied)(3 * node + i));
+      }
+      if (sensitive) {
+        for (int i = 0; i < 9; ++i) {
+          k->add_position_sensitivity(sensitivity_position_(9 * node + i));
+          k->add_velocity_sensitivity(sensitivity_velocity_(9 * node + i));
+        }
+      }
+    }
   }
   k->set_time_to_contact(simulation_->TimeToContact(resting_speed_));
   channel_->Send();
@@ -179,6 +198,42 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
       external_(3 * nodes_[n] + i) = f;
     }
   }
+  // The smooth side's linearisation (protocol 3): both vectors or neither, every value finite.
+  const int nodes = static_cast<int>(nodes_.size());
+  if (reactions.stiffness_size() == 0 && reactions.position_size() == 0) {
+    stiffness_.resize(0);
+    reference_.resize(0);
+    return;
+  }
+  auto refuse = [&](const std::string& what) {
+    throw InputError(std::string("coupling: ") + where + " from '" + channel_->options().peer + "' " + what);
+  };
+  if (reactions.stiffness_size() != 9 * nodes || reactions.position_size() != 3 * nodes) {
+    refuse("has " + std::to_string(reactions.stiffness_size()) + " stiffness and " +
+           std::to_string(reactions.position_size()) + " position values; expected 9 and 3 per interface node (" +
+           std::to_string(9 * nodes) + " and " + std::to_string(3 * nodes) + "), or none of either");
+  }
+  const Eigen::Index model_nodes = external_.size() / 3;
+  stiffness_ = Eigen::VectorXd::Zero(9 * model_nodes);
+  reference_ = Eigen::VectorXd::Zero(3 * model_nodes);
+  for (int n = 0; n < nodes; ++n) {
+    for (int i = 0; i < 9; ++i) {
+      const double e = reactions.stiffness(9 * n + i);
+      if (!std::isfinite(e)) {
+        refuse(".stiffness[" + std::to_string(9 * n + i) + "] is " + interface::FormatNumber(e) +
+               "; expected a finite stiffness [N/m]");
+      }
+      stiffness_(9 * nodes_[static_cast<size_t>(n)] + i) = e;
+    }
+    for (int i = 0; i < 3; ++i) {
+      const double x = reactions.position(3 * n + i);
+      if (!std::isfinite(x)) {
+        refuse(".position[" + std::to_string(3 * n + i) + "] is " + interface::FormatNumber(x) +
+               "; expected a finite position [m]");
+      }
+      reference_(3 * nodes_[static_cast<size_t>(n)] + i) = x;
+    }
+  }
 }
 
 void ContactServer::Handshake() { Answer(channel_->Receive(Envelope::kHello, -1, -1)); }
@@ -188,10 +243,19 @@ void ContactServer::Run() {
   ServeShutdown();  // every message up to the coordinator's Shutdown
 }
 
+const Envelope& ContactServer::Next() {
+  if (has_deferred_) {
+    has_deferred_ = false;
+    return deferred_;
+  }
+  return channel_->ReceiveAny();
+}
+
 void ContactServer::ServeStep(int64_t step, double t, double h) {
   while (true) {
-    const Envelope& e = channel_->ReceiveAny();
-    if (e.has_step_begin() &&
+    const Envelope& e = Next();
+    // (A StepBegin that accepts the step under way is checked when it begins its own.)
+    if (e.has_step_begin() && step_ < 0 &&
         (e.step() != step || std::abs(e.step_begin().time() - t) > 1e-9 * std::max(1.0, std::abs(t)) ||
          std::abs(e.step_begin().step() - h) > 1e-12 * std::max(1.0, h))) {
       throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
@@ -220,8 +284,8 @@ void ContactServer::ThrowStopped(const std::string& before) const {
 void ContactServer::ServeUntil(double time) {
   const double eps = 1e-12 * std::max(1.0, std::abs(time));
   while (accepted_time_ < time - eps) {
-    const Envelope& e = channel_->ReceiveAny();
-    if (e.has_step_begin() &&
+    const Envelope& e = Next();
+    if (e.has_step_begin() && step_ < 0 &&
         std::abs(e.step_begin().time() - accepted_time_) > 1e-12 * std::max(1.0, std::abs(accepted_time_))) {
       throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
                        interface::FormatNumber(e.step_begin().time()) + " s from '" + channel_->options().peer +
@@ -233,14 +297,42 @@ void ContactServer::ServeUntil(double time) {
 }
 
 void ContactServer::ServeShutdown() {
-  while (Handle(channel_->ReceiveAny()) != Outcome::kShutdown) {
+  while (Handle(Next()) != Outcome::kShutdown) {
   }
+}
+
+void ContactServer::AcceptStep() {
+  simulation_->CheckAccepted(t_ + h_);  // (the caller reports a failure)
+  last_accepted_ = step_;
+  accepted_time_ = t_ + h_;
+  ++accepted_;
+  step_ = -1;
+  if (on_accept) on_accept(accepted_time_);
 }
 
 ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
   const std::string peer = channel_->options().peer;
   switch (e.body_case()) {
     case Envelope::kStepBegin: {
+      if (step_ >= 0) {
+        // Protocol 3: the next step's StepBegin accepts the step under way (its StepEnd folded
+        // into it). Accepted here; begun by the next call, once the caller has recorded this one.
+        if (e.step() != step_ + 1) {
+          throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
+                           "' while step " + std::to_string(step_) + " is under way; expected step " +
+                           std::to_string(step_ + 1) + " (which accepts it) or a message of step " +
+                           std::to_string(step_));
+        }
+        try {
+          AcceptStep();
+        } catch (const Error& failure) {
+          StopOnFailure(failure, e.step(), e.iteration());
+          throw;
+        }
+        deferred_ = e;
+        has_deferred_ = true;
+        return Outcome::kAccepted;
+      }
       if (e.step() != last_accepted_ + 1) {
         throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
                          "', expected step " + std::to_string(last_accepted_ + 1));
@@ -280,26 +372,30 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       const bool accepted = e.step_end().accepted();
       if (accepted) {
         try {
-          simulation_->CheckAccepted(t_ + h_);
+          AcceptStep();
         } catch (const Error& failure) {
           StopOnFailure(failure, e.step(), e.iteration());
           throw;
         }
-        last_accepted_ = step_;
-        accepted_time_ = t_ + h_;
-        ++accepted_;
-        if (on_accept) on_accept(t_ + h_);
       } else {
         simulation_->RestoreStart();  // the nodes' state and the frames at the step's start
         ++rejected_;
         for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
+        step_ = -1;
       }
-      step_ = -1;
       channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);
       channel_->Send();
       return accepted ? Outcome::kAccepted : Outcome::kContinue;
     }
     case Envelope::kShutdown: {
+      if (step_ >= 0 && e.shutdown().has_last_accepted_step() && e.shutdown().last_accepted_step() >= step_) {
+        // The coordinator accepted the step under way and ended the run before another began:
+        // accepted here, the Shutdown answered by the next call (after the caller's record).
+        AcceptStep();
+        deferred_ = e;
+        has_deferred_ = true;
+        return Outcome::kAccepted;
+      }
       coordinator_exit_code_ = e.shutdown().exit_code();
       coordinator_reason_ = e.shutdown().reason();
       channel_->Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);

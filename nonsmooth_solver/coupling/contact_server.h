@@ -10,7 +10,15 @@
 //   Reactions i → Kinematics i back to the checkpoint, reactions set, one step
 //   StepEnd    → StepEnd      accepted: keep the last tentative step; rejected: back to the
 //                             checkpoint
-//   Shutdown   → Shutdown     end of the run
+//   StepBegin of the next step, while a step waits for its StepEnd: accepts it (protocol 3:
+//                             the coordinator folds the StepEnd of an accepted step into the
+//                             next StepBegin); the StepBegin is then served by the next
+//                             ServeStep, after the caller has recorded the accepted step
+//   Shutdown   → Shutdown     end of the run (accepting a waiting step up to its
+//                             last_accepted_step)
+// With interface Jacobians (ContactStepper::SupportsInterfaceJacobians, Welcome.interface_jacobians)
+// each step takes Reactions.stiffness as an implicit force law and Kinematics carries the held
+// force and the nodes' sensitivities (docs/protocol.md).
 //
 // A step that fails (NumericalError) is reported to the coordinator with Shutdown(exit 3) before
 // the error goes on up. Accepted steps are counted; `on_accept` (if set) is called after each,
@@ -54,6 +62,8 @@ class ContactServer {
   void Answer(const coupling::Envelope& hello);
   enum class Outcome { kContinue, kAccepted, kShutdown };
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
+  const coupling::Envelope& Next();              // a deferred message first, else the channel's next
+  void AcceptStep();                             // the step under way is accepted
   void TentativeStep(int64_t step, int iteration);
   void StopOnFailure(const Error& e, int64_t step, int iteration);  // Shutdown with its code and reason
   // The coordinator's Shutdown came before `before` (a step, a time): ends this process with it.
@@ -72,6 +82,15 @@ class ContactServer {
   std::string scenario_name_;
   std::vector<int> nodes_;
   Eigen::VectorXd external_;  // 3 per model node: the interface nodes' reactions, 0 elsewhere
+  // Reactions.stiffness and .position in model order (9 and 3 per model node, 0 elsewhere);
+  // empty when the last Reactions had none.
+  Eigen::VectorXd stiffness_, reference_;
+  bool jacobians_ = false;  // the stepper supports them (and was told so)
+  // A message that ended a step (a StepBegin accepting the one under way, a Shutdown) and is
+  // served by the next call.
+  coupling::Envelope deferred_;
+  bool has_deferred_ = false;
+  Eigen::VectorXd sensitivity_position_, sensitivity_velocity_;  // scratch
   double t_ = 0.0, h_ = 0.0;
   int64_t step_ = -1;          // the step under way
   int64_t last_accepted_ = -1;

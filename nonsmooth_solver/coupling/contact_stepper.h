@@ -41,6 +41,22 @@ class ContactStepper : public interface::Simulation {
   // coordinator restarts the smooth integrator's acceleration history after an impact.
   virtual bool Impact(int node) const = 0;
   virtual std::string SolverName() const = 0;  // for the Welcome
+
+  // Interface Jacobians (protocol version 3, docs/protocol.md): a method that can take the
+  // coordinator's linearised smooth side as an implicit force law on its nodes and report its
+  // nodes' sensitivities says so (the Welcome's interface_jacobians) and is switched on once.
+  virtual bool SupportsInterfaceJacobians() const { return false; }
+  virtual void EnableInterfaceJacobians() {}
+  // The smooth side's linearisation for the next steps: `stiffness` 9 per node (row-major
+  // ∂force/∂position, zero for a node without), `reference` 3 per node; empty: none.
+  virtual void SetInterfaceStiffness(const Eigen::VectorXd& /*stiffness*/, const Eigen::VectorXd& /*reference*/) {}
+  // After a step: the force held on each node (3 per node), and the sensitivities of the nodes'
+  // end positions and velocities to a constant force on them (9 per node, row-major) at the
+  // step's contact set. Null: the method has none (the external forces were held as given).
+  virtual const Eigen::VectorXd* AppliedForces() const { return nullptr; }
+  virtual bool Sensitivities(double /*h*/, Eigen::VectorXd* /*position*/, Eigen::VectorXd* /*velocity*/) const {
+    return false;
+  }
   virtual double Gap(int contact) const = 0;      // [m] at the current time
   virtual double GapRate(int contact) const = 0;  // [m/s] at the current time
   virtual double Impulse(int contact) const = 0;  // [N s] over the last step

@@ -19,11 +19,27 @@
 // activation_gap (the index set of the NSCD method, as in Siconos' MoreauJeanOSI with γ = 1/2;
 // the small positive threshold keeps resting contacts active through round-off).
 //
+// Interface Jacobians (co-simulation, docs/protocol.md): the coordinator may linearise the smooth
+// side as a force law f_i = f̂_i + E_i (q_{i,k+1} − x̂_i) on interface node i, held over the step
+// at the node's end position. Taken implicitly (q_{k+1} = q_k + h(θ v_{k+1} + (1−θ) v_k)), it
+// adds −h²θ E_i to the node's block of M̂ and f̂_i + E_i (q_k + h(1−θ) v_k − x̂_i) to its force;
+// the LCP then sees the node as tied to the smooth model over the step and finds the contact set
+// of the coupled pair. Back, the integrator reports the force it held (applied_forces) and the
+// sensitivity of each node's end velocity to a constant force on it at the contact set it found,
+// without E (velocity_sensitivity; the position's is hθ times it):
+//   ∂v/∂f = h M̂⁻¹ + M̂⁻¹ G_B ∂z_B/∂f,  ∂z_B/∂f = −A_BB⁻¹ ∂b_B/∂f,  ∂b/∂f = Gᵀ h M̂⁻¹ on the
+// impulse rows (0 on the sliding multipliers'), B the LCP's basic variables (z > 0): the
+// derivative of the piecewise-affine map f ↦ v_{k+1} on the piece the solution lies in, exact for
+// the frictionless and the polyhedral-friction LCP. With Siconos' fc3d (exact cone) a sticking
+// contact fixes its three directions and a sliding one its normal velocity, its impulse along
+// n − μ s with the sliding direction s turning with the tangential velocity (exact on the piece).
+//
 // Nodes linked by springs form groups (ContactModel::groups); M̂ is block diagonal over
 // groups, so each group's M̂ is factored apart (once per step size), and contacts of
 // different groups do not interact: with split_independent_lcps each group's contacts make
 // an LCP of their own, which has the same solution as the one block-diagonal LCP.
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <Eigen/Geometry>
 #include <Eigen/Core>
 
@@ -57,6 +73,18 @@ class MoreauJean {
   // An external force per node [N], held constant over the next steps (the coupling peer's
   // reaction). Size 3 × nodes.
   void SetExternalForces(const Eigen::Ref<const Eigen::VectorXd>& forces) { external_ = forces; }
+  // The smooth side's linearisation (see the top): `stiffness` 9 per node (E_i row-major, zero
+  // for a node without), `reference` 3 per node (x̂_i). Held until cleared.
+  void SetInterfaceStiffness(const Eigen::Ref<const Eigen::VectorXd>& stiffness,
+                             const Eigen::Ref<const Eigen::VectorXd>& reference);
+  void ClearInterfaceStiffness() { stiffness_.resize(0); }
+  // The force held on each node over the last step: external + E (q_{k+1} − x̂) (3 per node).
+  const Eigen::VectorXd& applied_forces() const { return applied_; }
+  // Whether each step computes velocity_sensitivity (off by default: a standalone run needs none).
+  void set_compute_sensitivities(bool on) { sensitivities_on_ = on; }
+  // ∂v_{k+1}/∂f of each node for a constant force f on it (9 per node, row-major 3 × 3), at the
+  // last step's contact set, without the interface stiffness (see the top).
+  const Eigen::VectorXd& velocity_sensitivity() const { return velocity_sensitivity_; }
 
   const Eigen::VectorXd& positions() const { return q_; }   // 3 per node, model order
   const Eigen::VectorXd& velocities() const { return v_; }  // 3 per node
@@ -115,6 +143,11 @@ class MoreauJean {
     Eigen::MatrixXd m_hat_matrix;
     Eigen::VectorXd m_hat_diagonal;
     double factored_h = -1.0;
+    Eigen::MatrixXd m_hat_inverse;  // M̂⁻¹ without the interface stiffness (sensitivities), with factored_h
+    // This step's M̂ − h²θ E (an interface stiffness on one of the group's nodes): LU, since E
+    // need not be symmetric.
+    bool coupled = false;
+    Eigen::PartialPivLU<Eigen::MatrixXd> m_hat_coupled;
     Eigen::VectorXd q, v, fe0, fe1, rhs, v_free;
     Eigen::MatrixXd G, Y;        // dofs × (max columns)
     int columns = 0;             // impulse columns this step (0: no active contact)
@@ -131,6 +164,12 @@ class MoreauJean {
   };
 
   void FreeVelocity(int group, double t, double h);
+  // x ← M̂⁻¹ x for the group's M̂ of this step (with the interface stiffness, if any).
+  void SolveMHat(const GroupWork& w, Eigen::Ref<Eigen::MatrixXd> x) const;
+  // velocity_sensitivity_ of the groups' nodes: free (no active contact) or after the contact
+  // problem of `groups` was solved (A_, z_ hold it).
+  void FreeSensitivity(int group, double h);
+  void ContactSensitivity(const std::vector<int>& groups, int size, double t1, double h);
   // Builds G (and Y = M̂⁻¹ G) for the group's active contacts.
   void BuildColumns(int group, double t1);
   // Assembles and solves the contact problem of `groups`, then updates their v_free.
@@ -142,6 +181,9 @@ class MoreauJean {
   LcpSolver lcp_;
   double time_ = 0.0;
   Eigen::VectorXd q_, v_, impulse_, external_;
+  Eigen::VectorXd stiffness_, reference_, applied_;  // interface stiffness (empty: none), x̂, held force
+  bool sensitivities_on_ = false;
+  Eigen::VectorXd velocity_sensitivity_;
   Eigen::MatrixXd friction_impulse_;
   std::vector<GroupWork> work_;
   std::vector<ActiveContact> active_;  // all groups, this step

@@ -54,4 +54,18 @@ void ContactSimulation::FillSummary(run::RunSummary* summary) const {
   counters["contacts"] = static_cast<double>(model_->contacts.size());
 }
 
+void ContactSimulation::SetInterfaceStiffness(const Eigen::VectorXd& stiffness, const Eigen::VectorXd& reference) {
+  if (stiffness.size() == 0) {
+    integrator_->ClearInterfaceStiffness();
+  } else {
+    integrator_->SetInterfaceStiffness(stiffness, reference);
+  }
+}
+
+bool ContactSimulation::Sensitivities(double h, Eigen::VectorXd* position, Eigen::VectorXd* velocity) const {
+  *velocity = integrator_->velocity_sensitivity();
+  *position = (h * model_->theta) * *velocity;
+  return true;
+}
+
 }  // namespace cosim::nonsmooth

@@ -37,6 +37,14 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
   for (const InterfacePoint& p : system.interface_points) {
     for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
   }
+  const size_t points = system.interface_points.size();
+  for (auto* blocks : {&sensitivity_, &stiffness_, &response_, &response_compliance_, &factorized_compliance_}) {
+    blocks->assign(points, Eigen::Matrix3d::Zero());
+  }
+  applied_ = sent_position_ = accepted_position_ = accepted_velocity_ = accepted_acceleration_ = x_;
+  sent_frames_.resize(peers_.size());
+  contact_.assign(points, false);
+  was_contact_ = contact_;
   // Until the first step: where the points are, at rest.
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
     for (int j = 0; j < 3; ++j) position_(3 * static_cast<Eigen::Index>(k) + j) = data->imposed[3 * k + j].value;
@@ -46,8 +54,10 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
 namespace {
 
 // Body `body`'s frame in `state` (natural coordinates [x, u, v, w]: R = [u v w]), advanced by
-// `ahead` seconds at constant velocity and angular velocity ω = ½ Σ u_i × u̇_i.
-void FillFrame(int body, const DaeState& state, double ahead, coupling::Frame* frame) {
+// `ahead` seconds at constant velocity and angular velocity ω = ½ Σ u_i × u̇_i; returns its
+// origin and rotation.
+std::pair<Eigen::Vector3d, Eigen::Matrix3d> FillFrame(int body, const DaeState& state, double ahead,
+                                                      coupling::Frame* frame) {
   const Eigen::Index o = kCoordinatesPerBody * body;
   if (!state.q.segment<kCoordinatesPerBody>(o).allFinite() || !state.qdot.segment<kCoordinatesPerBody>(o).allFinite()) {
     throw NumericalError("coupling: the frame of body " + std::to_string(body) +
@@ -69,22 +79,34 @@ void FillFrame(int body, const DaeState& state, double ahead, coupling::Frame* f
     frame->add_angular_velocity(omega(i));
     for (int j = 0; j < 3; ++j) frame->add_rotation(R(i, j));
   }
+  return {c, R};
 }
+
+using Block = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
 
 }  // namespace
 
-void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t) {
-  ConsistentAccelerations(system_, t, &state, &coupling_rows_);
+void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const std::vector<int>& points) {
+  std::vector<int> rows;
+  for (int k : points) {
+    for (int j = 0; j < 3; ++j) rows.push_back(system_.interface_points[static_cast<size_t>(k)].first_row + j);
+  }
+  ConsistentAccelerations(system_, t, &state, &rows);
   integrator_->Restart(state);
-  // The coupling rows' multipliers are 0 there, and a = q̈: the filtered multipliers too.
-  lambda_start_.setZero();
-  filtered_start_.setZero();
+  // The freed rows' multipliers are 0 there, and a = q̈: their filtered multipliers too; the
+  // others' are the state's.
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+    lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), state.lambda);
+  }
+  filtered_start_ = lambda_start_;
 }
 
 void Coordinator::Handshake(const std::string& scenario_name, double start_time, double step) {
   // The start: accelerations with the coupling rows left out (free interface points, λ = 0),
   // a_0 = q̈_0 (a shifted start would impose end-of-step coordinates at the wrong time).
-  RestartWithCouplingRowsFree(integrator_->state(), start_time);
+  std::vector<int> every_point(system_.interface_points.size());
+  for (size_t k = 0; k < every_point.size(); ++k) every_point[k] = static_cast<int>(k);
+  RestartWithCouplingRowsFree(integrator_->state(), start_time, every_point);
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     const Eigen::Vector3d a = system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
     for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
@@ -102,6 +124,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     }
     peer.channel->Send();
   }
+  jacobians_ = settings_.interface_jacobians && n_ > 0;
   for (Peer& peer : peers_) {
     const auto& welcome = peer.channel->Receive(Envelope::kWelcome, -1, -1).welcome();
     if (welcome.interface_nodes_size() != static_cast<int>(peer.points.size())) {
@@ -109,11 +132,23 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
                        std::to_string(welcome.interface_nodes_size()) + " interface nodes, expected " +
                        std::to_string(peer.points.size()));
     }
+    peer.jacobians = welcome.interface_jacobians();
+    jacobians_ = jacobians_ && peer.jacobians;
+  }
+  // The interface points' motion at the start (the first step's predicted positions).
+  const DaeState& start = integrator_->state();
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    const LinearVector& point = system_.interface_points[k].point;
+    accepted_position_.segment<3>(o) = point.Value(start.q);
+    accepted_velocity_.segment<3>(o) = point.Rate(start.qdot);
+    accepted_acceleration_.segment<3>(o) = point.Rate(start.qddot);
   }
 }
 
 void Coordinator::ReceiveKinematics(int iteration) {
   in_contact_ = false;
+  std::fill(contact_.begin(), contact_.end(), false);
   time_to_contact_ = std::numeric_limits<double>::infinity();
   for (Peer& peer : peers_) {
     const auto& k = peer.channel->Receive(Envelope::kKinematics, step_, iteration).kinematics();
@@ -131,7 +166,15 @@ void Coordinator::ReceiveKinematics(int iteration) {
                          interface::FormatNumber(k.velocity(i)) + "); expected finite numbers");
       }
     }
-    for (int c : k.in_contact()) in_contact_ = in_contact_ || c != 0;
+    if (k.in_contact_size() != 0 && k.in_contact_size() != static_cast<int>(peer.points.size())) {
+      throw InputError("coupling: Kinematics.in_contact from '" + peer.channel->options().peer + "' has " +
+                       std::to_string(k.in_contact_size()) + " values; expected one per interface node (" +
+                       std::to_string(peer.points.size()) + ") or none");
+    }
+    for (int i = 0; i < k.in_contact_size(); ++i) {
+      contact_[static_cast<size_t>(peer.points[static_cast<size_t>(i)])] = k.in_contact(i) != 0;
+      in_contact_ = in_contact_ || k.in_contact(i) != 0;
+    }
     // An older peer that does not say: a contact is always possible.
     const double ttc = k.has_time_to_contact() ? k.time_to_contact() : 0.0;
     if (std::isnan(ttc) || ttc < 0.0) {
@@ -145,7 +188,37 @@ void Coordinator::ReceiveKinematics(int iteration) {
         const Eigen::Index v = 3 * peer.points[i] + j;
         position_(v) = k.position(3 * static_cast<int>(i) + j);
         velocity_(v) = k.velocity(3 * static_cast<int>(i) + j);
+        applied_(v) = x_(v);  // (a peer that does not say held the force it was sent)
       }
+    }
+    if (!jacobians_) continue;
+    // The force it held and its sensitivities (protocol 3): 3 and 9 per node, finite.
+    auto check = [&](const char* field, int size, int want, bool optional,
+                     const google::protobuf::RepeatedField<double>& values) {
+      if (size == 0 && optional) return false;
+      if (size != want) {
+        throw InputError("coupling: Kinematics." + std::string(field) + " from '" + peer.channel->options().peer +
+                         "' of step " + std::to_string(step_) + " has " + std::to_string(size) + " values; expected " +
+                         std::to_string(want) + (optional ? " or none" : " (its Welcome offered interface Jacobians)"));
+      }
+      for (int i = 0; i < size; ++i) {
+        if (!std::isfinite(values.Get(i))) {
+          throw InputError("coupling: Kinematics." + std::string(field) + "[" + std::to_string(i) + "] from '" +
+                           peer.channel->options().peer + "' of step " + std::to_string(step_) + " is " +
+                           interface::FormatNumber(values.Get(i)) + "; expected a finite number");
+        }
+      }
+      return true;
+    };
+    const int nodes = static_cast<int>(peer.points.size());
+    const bool applied = check("applied_force", k.applied_force_size(), 3 * nodes, true, k.applied_force());
+    check("position_sensitivity", k.position_sensitivity_size(), 9 * nodes, false, k.position_sensitivity());
+    for (int i = 0; i < nodes; ++i) {
+      const int p = peer.points[static_cast<size_t>(i)];
+      if (applied) {
+        for (int j = 0; j < 3; ++j) applied_(3 * p + j) = k.applied_force(3 * i + j);
+      }
+      sensitivity_[static_cast<size_t>(p)] = Block(k.position_sensitivity().data() + 9 * i);
     }
   }
 }
@@ -169,7 +242,7 @@ int Coordinator::Step(double t, double h) {
     }
     ++marked_;
   }
-  Accept(t, h, attempt.converged);
+  Accept(t, h);
   return attempt.iterations;
 }
 
@@ -179,6 +252,248 @@ std::string Coordinator::NoConvergence(double t, double h) const {
          interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
          interface::FormatNumber(log_.back().displacement_change) +
          " m; raise coupling.iteration.max_iterations, choose AITKEN or IQN_ILS, or shorten the step";
+}
+
+void Coordinator::BeginStep(double t, double h, const DaeState& frames) {
+  // With interface Jacobians the frames are the pre-solve's at the step's end; without, the
+  // start's advanced by h.
+  const double ahead = jacobians_ ? 0.0 : h;
+  for (size_t q = 0; q < peers_.size(); ++q) {
+    Peer& peer = peers_[q];
+    auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();  // (accepts a pending step)
+    begin->set_time(t);
+    begin->set_step(h);
+    coupling::Reactions* predictor = begin->mutable_predictor();
+    FillReactions(peer, predictor);
+    sent_frames_[q].clear();
+    for (const MovingObstacle& o : peer.obstacles) {
+      sent_frames_[q].push_back(FillFrame(o.body, frames, ahead, predictor->add_obstacle_frames()));
+    }
+    peer.channel->Send();
+  }
+  step_begun_ = true;
+  ReceiveKinematics(0);
+}
+
+void Coordinator::FillReactions(const Peer& peer, coupling::Reactions* reactions) const {
+  for (int p : peer.points) {
+    for (int j = 0; j < 3; ++j) reactions->add_force(x_(3 * p + j));
+    if (!jacobians_) continue;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) reactions->add_stiffness(stiffness_[static_cast<size_t>(p)](r, c));
+    }
+    for (int j = 0; j < 3; ++j) reactions->add_position(sent_position_(3 * p + j));
+  }
+}
+
+void Coordinator::Exchange(int iteration, const DaeState& frames) {
+  for (size_t q = 0; q < peers_.size(); ++q) {
+    Peer& peer = peers_[q];
+    auto* r = peer.channel->Outgoing(step_, iteration).mutable_reactions();
+    FillReactions(peer, r);
+    sent_frames_[q].clear();
+    for (const MovingObstacle& o : peer.obstacles) {
+      sent_frames_[q].push_back(FillFrame(o.body, frames, 0.0, r->add_obstacle_frames()));
+    }
+    peer.channel->Send();
+  }
+  ReceiveKinematics(iteration);
+}
+
+void Coordinator::ReactionsFromSolve() {
+  const Eigen::VectorXd& lambda = integrator_->state().lambda;
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+    lambda_end_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
+  }
+  // STEP_AVERAGE: the multipliers through CGα's acceleration filter
+  // (1 − α_m) λ̃₁ + α_m λ̃₀ = (1 − α_f) λ₁ + α_f λ₀, weighted as its velocity update,
+  // (1 − γ) λ̃₀ + γ λ̃₁: h times it is the momentum the smooth side exchanged with the node
+  // over the step. END_OF_STEP: λ₁.
+  filtered_end_ = ((1.0 - integrator_->alpha_f()) * lambda_end_ + integrator_->alpha_f() * lambda_start_ -
+                   integrator_->alpha_m() * filtered_start_) /
+                  (1.0 - integrator_->alpha_m());
+  if (settings_.step_average_reaction) {
+    x_tilde_ = (1.0 - integrator_->gamma()) * filtered_start_ + integrator_->gamma() * filtered_end_;
+  } else {
+    x_tilde_ = lambda_end_;
+  }
+}
+
+double Coordinator::ReactionPerMultiplier() const {
+  // ∂x̃/∂λ₁ of the two forms above.
+  if (!settings_.step_average_reaction) return 1.0;
+  return integrator_->gamma() * (1.0 - integrator_->alpha_f()) / (1.0 - integrator_->alpha_m());
+}
+
+Eigen::Vector3d Coordinator::ReactionConstant(int point) const {
+  if (!settings_.step_average_reaction) return Eigen::Vector3d::Zero();
+  const Eigen::Index o = 3 * static_cast<Eigen::Index>(point);
+  const double g = integrator_->gamma(), am = integrator_->alpha_m(), af = integrator_->alpha_f();
+  return (1.0 - g) * filtered_start_.segment<3>(o) +
+         g * (af * lambda_start_.segment<3>(o) - am * filtered_start_.segment<3>(o)) / (1.0 - am);
+}
+
+void Coordinator::ImposeModel(double h) {
+  // k(x) = k̃ + S (x − x̃) with x = κ λ + x_c on the rows p(q) − k − cλ = 0 (Schweizer & Lu's
+  // coupling through the constraint, with the peer's answer linearised: Kübler & Schiehlen).
+  const double kappa = ReactionPerMultiplier();
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    const Eigen::Matrix3d& S = sensitivity_[k];
+    const Eigen::Vector3d value =
+        position_.segment<3>(o) + S * (ReactionConstant(static_cast<int>(k)) - applied_.segment<3>(o));
+    for (int j = 0; j < 3; ++j) {
+      ImposedCoordinate& c = data_->imposed[static_cast<size_t>(o + j)];
+      c.value = value(j);
+      c.rate = velocity_(o + j);
+      c.acceleration = (velocity_(o + j) - start_velocity_(o + j)) / h;
+    }
+    data_->interface_compliance[k] = kappa * S;
+  }
+}
+
+void Coordinator::DropStaleFactorization() {
+  // A reused matrix holds the compliance of its factorisation; one far from today's (a contact
+  // that opened or closed changes the normal compliance from h²θ/m to 0) would make the
+  // modified Newton crawl through the tie.
+  for (size_t k = 0; k < factorized_compliance_.size(); ++k) {
+    const Eigen::Matrix3d& now = data_->interface_compliance[k];
+    const Eigen::Matrix3d& then = factorized_compliance_[k];
+    const double size = std::max(now.norm(), then.norm());
+    if (size > 0.0 && (now - then).norm() > 0.25 * size) {
+      integrator_->DropFactorization();
+      return;
+    }
+  }
+}
+
+void Coordinator::UpdateStiffness(double h) {
+  // The solve with the peers' models gives D_c = ∂x/∂k̃ = (I − D S)⁻¹ D (S = C/κ of the
+  // factorisation), so the smooth side's own D = D_c (I + S D_c)⁻¹. Only the point's own peer's
+  // model is taken out; the other points follow theirs (their peers answer as linearised).
+  if (!integrator_->has_factorization()) return;
+  const double kappa = ReactionPerMultiplier();
+  if (integrator_->factorizations() != response_factorizations_ || h != response_h_) {
+    for (size_t k = 0; k < response_.size(); ++k) {
+      response_[k] = integrator_->InterfaceResponse(static_cast<int>(k), h);
+      response_compliance_[k] = factorized_compliance_[k];
+    }
+    response_factorizations_ = integrator_->factorizations();
+    response_h_ = h;
+  }
+  for (size_t k = 0; k < response_.size(); ++k) {
+    const Eigen::Matrix3d Dc = kappa * response_[k];
+    const Eigen::Matrix3d S = response_compliance_[k] / kappa;
+    stiffness_[k] = Dc * (Eigen::Matrix3d::Identity() + S * Dc).inverse();
+    if (!stiffness_[k].allFinite()) stiffness_[k].setZero();  // (no linearisation rather than a bad one)
+  }
+}
+
+double Coordinator::FrameDrift(const DaeState& state) const {
+  double drift = 0.0;
+  for (size_t q = 0; q < peers_.size(); ++q) {
+    for (size_t i = 0; i < peers_[q].obstacles.size(); ++i) {
+      coupling::Frame frame;
+      const auto [c, R] = FillFrame(peers_[q].obstacles[i].body, state, 0.0, &frame);
+      const auto& [c0, R0] = sent_frames_[q][i];
+      for (int p : peers_[q].points) {
+        const Eigen::Vector3d k = position_.segment<3>(3 * p);
+        drift = std::max(drift, ((c - c0) + (R * R0.transpose() - Eigen::Matrix3d::Identity()) * (k - c0))
+                                    .lpNorm<Eigen::Infinity>());
+      }
+    }
+  }
+  return drift;
+}
+
+bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::string* failure) {
+  const long long before = integrator_->factorizations();
+  try {
+    newton_ += integrator_->Step(t, h, guess);
+  } catch (const NumericalError& e) {
+    *failure = e.what();
+    return false;
+  }
+  if (jacobians_ && integrator_->factorizations() != before) factorized_compliance_ = data_->interface_compliance;
+  iterate_ = integrator_->state();  // equal sizes: no allocation once warm
+  ReactionsFromSolve();
+  return true;
+}
+
+bool Coordinator::Linearise(double t, double h, std::string* failure) {
+  // The nodes' positions predicted from the accepted steps (no acceleration after an impact)
+  // and x_ (the reactions predicted); the smooth step solved with the peers' last affine answers
+  // about them gives a point (x̂, k̂) of the smooth side's own response, and its matrix the
+  // slope E: the peers then solve their contact problems for the linearised coupled pair.
+  for (Eigen::Index v = 0; v < n_; ++v) {
+    velocity_(v) = accepted_velocity_(v) + h * accepted_acceleration_(v);
+    position_(v) = accepted_position_(v) + h * accepted_velocity_(v) + 0.5 * h * h * accepted_acceleration_(v);
+  }
+  applied_ = x_;
+  integrator_->Restore(start_);
+  ImposeModel(h);
+  DropStaleFactorization();
+  if (!SolveStep(t, h, nullptr, failure)) {
+    integrator_->Restore(start_);
+    return false;
+  }
+  for (size_t k = 0; k < sensitivity_.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    sent_position_.segment<3>(o) =
+        position_.segment<3>(o) + sensitivity_[k] * (x_tilde_.segment<3>(o) - x_.segment<3>(o));
+  }
+  x_ = x_tilde_;
+  UpdateStiffness(h);
+  return true;
+}
+
+bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
+  // The smooth step solved with the peers' answers as affine in the force; it agrees with them
+  // once its force x* is the one they held (x̃) — then the kinematics it assumed, k̃ + S (x* − x̃),
+  // are theirs — and the obstacles' frames are those they stepped with. A force mismatch below
+  // what displacement_tolerance makes through the smooth side's own stiffness at the node
+  // (‖E‖ displacement_tolerance: 0.2 N for a 2e8 N/m tie at 1e-9 m) is within the kinematic
+  // tolerance: a node resting on its stop through a stiff tie has its force only to that (5e-15 m
+  // of position round-off is 1e-6 N).
+  const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
+  record->reaction_residual = n_ > 0 ? (x_tilde_ - applied_).lpNorm<Eigen::Infinity>() : 0.0;
+  double mismatch = FrameDrift(iterate_);
+  bool forces_agree = true;
+  for (size_t k = 0; k < sensitivity_.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    const Eigen::Vector3d dx = x_tilde_.segment<3>(o) - applied_.segment<3>(o);
+    mismatch = std::max(mismatch, (sensitivity_[k] * dx).lpNorm<Eigen::Infinity>());
+    const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
+    forces_agree = forces_agree && dx.lpNorm<Eigen::Infinity>() <= std::max(settings_.reaction_tolerance * scale, floor);
+  }
+  record->displacement_change = mismatch;
+  return forces_agree && record->displacement_change <= settings_.displacement_tolerance;
+}
+
+bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record,
+                                      bool* skipped) {
+  const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
+  record->reaction_residual = n_ > 0 ? (x_tilde_ - x_).lpNorm<Eigen::Infinity>() : 0.0;
+  record->displacement_change = iteration == 0 ? std::numeric_limits<double>::infinity()
+                                               : (position_ - previous_position_).lpNorm<Eigen::Infinity>();
+  // Round-off: once the peers' kinematics no longer change beyond round-off, the smooth
+  // side's answer x̃ cannot settle closer than its own jitter between the last two iterations
+  // (a stiff tie turns 1e-17 m of position round-off into 1e-9 N of reaction): a residual
+  // within that jitter passes, whatever the reaction tolerance asks.
+  const double position_roundoff =
+      64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, position_.lpNorm<Eigen::Infinity>());
+  const bool at_roundoff = iteration > 0 && n_ > 0 && record->displacement_change <= position_roundoff &&
+                           record->reaction_residual <= (x_tilde_ - previous_x_tilde_).lpNorm<Eigen::Infinity>();
+  const bool within = record->reaction_residual <= settings_.reaction_tolerance * scale;
+  bool converged = (within || at_roundoff) && (iteration > 0 ? record->displacement_change <= settings_.displacement_tolerance
+                                                             : record->reaction_residual == 0.0);
+  // coupling.iteration.free_flight_margin: no contact can close within the step: the first
+  // iteration is accepted if its reaction residual meets the tolerance, without the second
+  // iteration that would confirm the kinematics (the displacement test).
+  *skipped = iteration == 0 && !converged && free_flight && within;
+  converged = converged || *skipped;
+  if (converged && at_roundoff && !within) ++at_roundoff_;
+  return converged;
 }
 
 Coordinator::Attempt Coordinator::Try(double t, double h) {
@@ -192,25 +507,6 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   // residual is the prediction error times the tie's gain, so this is worth an iteration per step.
   const double ratio = accepted_h_ > 0.0 ? h / accepted_h_ : 1.0;
   x_ = accepted_steps_ >= 2 ? Eigen::VectorXd(accepted_x_ + ratio * (accepted_x_ - previous_accepted_x_)) : accepted_x_;
-  for (Peer& peer : peers_) {
-    auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();
-    begin->set_time(t);
-    begin->set_step(h);
-    for (int p : peer.points) {
-      for (int j = 0; j < 3; ++j) begin->mutable_predictor()->add_force(x_(3 * p + j));
-    }
-    for (const MovingObstacle& o : peer.obstacles) {
-      FillFrame(o.body, integrator_->state(), h, begin->mutable_predictor()->add_obstacle_frames());
-    }
-    peer.channel->Send();
-  }
-  ReceiveKinematics(0);
-  // coupling.iteration.free_flight_margin: no contact can close within the step (every peer's
-  // time to contact beyond free_flight_margin steps from the step's end, none acting): the
-  // first iteration is accepted if its reaction residual meets the tolerance, without the
-  // second iteration that would confirm the kinematics (the displacement test).
-  const bool free_flight =
-      settings_.free_flight_margin > 0.0 && !in_contact_ && time_to_contact_ > settings_.free_flight_margin * h;
   newton_ = 0;
   // This side failed in iteration `at` (every peer waits for its next message): the integrator back
   // at the step's start; the caller rejects the step (adaptive) or ends the run.
@@ -221,34 +517,37 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
     return result;
   };
-  // Sends the reactions x_ for `iteration` to every peer (obstacle frames from `frames`) and
-  // receives the kinematics they answer with.
-  auto exchange = [&](int iteration, const DaeState& frames) {
-    for (Peer& peer : peers_) {
-      auto* r = peer.channel->Outgoing(step_, iteration).mutable_reactions();
-      for (int p : peer.points) {
-        for (int j = 0; j < 3; ++j) r->add_force(x_(3 * p + j));
-      }
-      for (const MovingObstacle& o : peer.obstacles) FillFrame(o.body, frames, 0.0, r->add_obstacle_frames());
-      peer.channel->Send();
-    }
-    ReceiveKinematics(iteration);
-  };
+  if (jacobians_) {
+    std::string why;
+    // (A failed pre-solve sends nothing of the step: the peers still wait for its StepBegin.)
+    if (!Linearise(t, h, &why)) return failed(-1, std::move(why));
+    BeginStep(t, h, iterate_);
+  } else {
+    BeginStep(t, h, integrator_->state());
+  }
+  const bool free_flight = !jacobians_ && settings_.free_flight_margin > 0.0 && !in_contact_ &&
+                           time_to_contact_ > settings_.free_flight_margin * h;
   int iteration = 0, backtracks = 0;
   for (;; ++iteration) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
-    Impose(h);
-    try {
-      newton_ += integrator_->Step(t, h, settings_.warm_start && iteration > 0 ? &iterate_ : nullptr);
-    } catch (const NumericalError& e) {
+    if (jacobians_) {
+      ImposeModel(h);
+      DropStaleFactorization();
+    } else {
+      Impose(h);
+    }
+    const bool warm = jacobians_ || (settings_.warm_start && iteration > 0);
+    std::string why;
+    if (!SolveStep(t, h, warm ? &iterate_ : nullptr, &why)) {
       // The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps)
       // sent the peers reactions whose kinematics this side cannot solve (observed: the Puma
       // gust's lift-off at 2.975 s: reactions that moved the node 32 m, Newton diverging to
       // |q| ~ 1e158). Back-track from the last iteration that solved: first the plain relaxed
       // update from it with the secants forgotten (the method's first-iteration ω), then halving
       // towards it; ask the peers again — up to kMaxBacktracks times a step, within max_iterations.
-      if (iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
-        return failed(iteration, e.what());
+      if (jacobians_ || iteration == 0 || backtracks >= kMaxBacktracks ||
+          iteration + 1 >= settings_.max_iterations) {
+        return failed(iteration, std::move(why));
       }
       ++backtracks;
       ++backtracks_;
@@ -266,27 +565,10 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
         record.relaxation_factor = 0.5;
       }
       log_.push_back(record);
-      exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
+      Exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
       continue;
     }
-    iterate_ = integrator_->state();  // equal sizes: no allocation once warm
     solved_x_ = x_;
-    const Eigen::VectorXd& lambda = integrator_->state().lambda;
-    for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-      lambda_end_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
-    }
-    // STEP_AVERAGE: the multipliers through CGα's acceleration filter
-    // (1 − α_m) λ̃₁ + α_m λ̃₀ = (1 − α_f) λ₁ + α_f λ₀, weighted as its velocity update,
-    // (1 − γ) λ̃₀ + γ λ̃₁: h times it is the momentum the smooth side exchanged with the node
-    // over the step. END_OF_STEP: λ₁.
-    filtered_end_ = ((1.0 - integrator_->alpha_f()) * lambda_end_ + integrator_->alpha_f() * lambda_start_ -
-                     integrator_->alpha_m() * filtered_start_) /
-                    (1.0 - integrator_->alpha_m());
-    if (settings_.step_average_reaction) {
-      x_tilde_ = (1.0 - integrator_->gamma()) * filtered_start_ + integrator_->gamma() * filtered_end_;
-    } else {
-      x_tilde_ = lambda_end_;
-    }
     if (!x_tilde_.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
@@ -297,51 +579,54 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     CouplingIterationRecord record;
     record.step = step_;
     record.iteration = iteration;
-    record.reaction_residual = n_ > 0 ? (x_tilde_ - x_).lpNorm<Eigen::Infinity>() : 0.0;
-    record.displacement_change = iteration == 0 ? std::numeric_limits<double>::infinity()
-                                                : (position_ - previous_position_).lpNorm<Eigen::Infinity>();
-    const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
-    // Round-off: once the peers' kinematics no longer change beyond round-off, the smooth
-    // side's answer x̃ cannot settle closer than its own jitter between the last two iterations
-    // (a stiff tie turns 1e-17 m of position round-off into 1e-9 N of reaction): a residual
-    // within that jitter passes, whatever the reaction tolerance asks.
-    const double position_roundoff =
-        64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, position_.lpNorm<Eigen::Infinity>());
-    const bool at_roundoff = iteration > 0 && n_ > 0 && record.displacement_change <= position_roundoff &&
-                             record.reaction_residual <= (x_tilde_ - previous_x_tilde_).lpNorm<Eigen::Infinity>();
-    result.converged = (record.reaction_residual <= settings_.reaction_tolerance * scale || at_roundoff) &&
-                       (iteration > 0 ? record.displacement_change <= settings_.displacement_tolerance
-                                      : record.reaction_residual == 0.0);
-    if (iteration == 0 && !result.converged && free_flight &&
-        record.reaction_residual <= settings_.reaction_tolerance * scale) {
-      result.converged = result.free_flight = true;
+    bool skipped = false;
+    result.converged = jacobians_ ? JacobianConverged(&record) : RelaxationConverged(iteration, free_flight, &record, &skipped);
+    if (skipped) {
+      result.free_flight = true;
       ++free_flight_;
     }
-    if (result.converged && at_roundoff && record.reaction_residual > settings_.reaction_tolerance * scale) ++at_roundoff_;
     previous_x_tilde_ = x_tilde_;
     if (result.converged || iteration + 1 >= settings_.max_iterations) {
       record.relaxation_factor = 0.0;
       log_.push_back(record);
       break;
     }
-    relaxation_.Next(x_, x_tilde_, &x_next_);
-    record.relaxation_factor = relaxation_.last_factor();
+    if (jacobians_) {
+      // The next linearisation point: the smooth side's force and the kinematics it assumed.
+      for (size_t k = 0; k < sensitivity_.size(); ++k) {
+        const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+        sent_position_.segment<3>(o) =
+            position_.segment<3>(o) + sensitivity_[k] * (x_tilde_.segment<3>(o) - applied_.segment<3>(o));
+      }
+      x_ = x_tilde_;
+      UpdateStiffness(h);
+      record.relaxation_factor = 1.0;
+    } else {
+      relaxation_.Next(x_, x_tilde_, &x_next_);
+      record.relaxation_factor = relaxation_.last_factor();
+      x_ = x_next_;
+    }
     log_.push_back(record);
-    x_ = x_next_;
     previous_position_ = position_;
-    exchange(iteration + 1, integrator_->state());
+    Exchange(iteration + 1, integrator_->state());
   }
   last_iteration_ = iteration;
   result.iterations = iteration + 1;
-  result.impact = in_contact_ && !was_in_contact_;
+  result.impact = !Impacts().empty();
   result.contact = in_contact_;
   result.time_to_contact = time_to_contact_;
   return result;
 }
 
-void Coordinator::Accept(double t, double h, bool converged) {
+void Coordinator::Accept(double t, double h) {
   previous_accepted_x_ = accepted_x_;
-  accepted_x_ = x_;
+  accepted_x_ = jacobians_ ? applied_ : x_;  // the force the peers held
+  // The nodes' motion for the next step's prediction (no acceleration across an impact's jump).
+  const std::vector<int> impacts = Impacts();
+  accepted_acceleration_ = (velocity_ - accepted_velocity_) / h;
+  for (int k : impacts) accepted_acceleration_.segment<3>(3 * k).setZero();
+  accepted_position_ = position_;
+  accepted_velocity_ = velocity_;
   accepted_h_ = h;
   ++accepted_steps_;
   lambda_start_ = lambda_end_;
@@ -349,23 +634,37 @@ void Coordinator::Accept(double t, double h, bool converged) {
   // A new contact (an impact): the points take their nodes' velocities and the history restarts,
   // unless the scenario keeps the smooth model going (restart_at_impact = false: a regularised
   // tie then carries the velocity jump over the next steps; scenario.proto).
-  if (in_contact_ && !was_in_contact_ && settings_.restart_at_impact) {
+  // Only the points whose node's contact closed in this step are freed: the rest of the model
+  // (another blade resting on its stop) keeps its reactions and accelerations.
+  if (!impacts.empty() && settings_.restart_at_impact) {
     DaeState after = integrator_->state();
     ProjectVelocities(system_, t + h, &after);  // the points move with their nodes
-    RestartWithCouplingRowsFree(std::move(after), t + h);
-    accepted_x_.setZero();  // the impact's reaction does not carry over
+    RestartWithCouplingRowsFree(std::move(after), t + h, impacts);
+    for (int k : impacts) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
     accepted_steps_ = 0;
     relaxation_.Forget();   // nor do the secants of the interface map before it
   }
-  was_in_contact_ = in_contact_;
-  EndStep(true, converged);
+  was_contact_ = contact_;
+  // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
+  // last_accepted_step at the end): no StepEnd round trip.
+  step_begun_ = false;
+  last_accepted_ = step_;
   ++step_;
+}
+
+std::vector<int> Coordinator::Impacts() const {
+  std::vector<int> points;
+  for (size_t k = 0; k < contact_.size(); ++k) {
+    if (contact_[k] && !was_contact_[k]) points.push_back(static_cast<int>(k));
+  }
+  return points;
 }
 
 void Coordinator::Reject() {
   integrator_->Restore(start_);
   relaxation_.Forget();  // secants of a step of another length
-  EndStep(false, false);
+  if (step_begun_) EndStep(false, false);  // (a pre-solve that failed sent nothing of the step)
+  step_begun_ = false;
   ++rejected_;
 }
 
@@ -385,6 +684,7 @@ void Coordinator::Shutdown(int exit_code, const std::string& reason, bool wait_f
     auto* stop = peer.channel->Outgoing(-1, 0).mutable_shutdown();
     stop->set_exit_code(exit_code);
     stop->set_reason(reason);
+    stop->set_last_accepted_step(last_accepted_);
     peer.channel->Send();
   }
   if (!wait_for_replies) return;

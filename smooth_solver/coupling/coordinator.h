@@ -41,6 +41,11 @@ struct CouplingSettings {
   bool stop_at_max_iterations = true;    // false: accept and mark the step
   bool restart_at_impact = true;         // see scenario.proto, CouplingIteration
   bool warm_start = true;                // Newton from the last coupling iteration's end (scenario.proto)
+  // Interface Jacobians (docs/protocol.md) with every peer that offers them: the peers take the
+  // smooth side's linearisation as an implicit force law and answer with their sensitivities,
+  // which the smooth step takes as a compliance on the interface rows (a Newton iteration on
+  // the interface). false: the relaxation above with every peer.
+  bool interface_jacobians = true;
   // > 0: a step whose peers report no contact within this many steps of its end is accepted
   // after its first iteration if the reaction residual meets the tolerance (scenario.proto,
   // CouplingIteration.free_flight_margin); 0: always confirm with a second iteration.
@@ -68,6 +73,7 @@ class Coordinator {
     interface::Channel* channel;
     std::vector<int> points;  // indices into MultibodySystem::interface_points, in Hello order
     std::vector<MovingObstacle> obstacles = {};
+    bool jacobians = false;   // its Welcome offered interface Jacobians
   };
   // `data`: the system's changing state (its owner's mutable_data()), where the interface
   // rows' imposed coordinates are written; the integrator's checkpoints hold it.
@@ -95,13 +101,15 @@ class Coordinator {
     double time_to_contact = 0.0;  // the peers' earliest, from the step's end [s]
   };
   Attempt Try(double t, double h);
-  void Accept(double t, double h, bool converged);
+  void Accept(double t, double h);
   void Reject();
   std::string NoConvergence(double t, double h) const;  // the reason of an unconverged step
   long long rejected_steps() const { return rejected_; }
   long long free_flight_steps() const { return free_flight_; }  // steps accepted after one iteration
   // Coupling iterations whose smooth solve failed and were redone with a halved update.
   long long backtracks() const { return backtracks_; }
+  // Whether the steps iterate with interface Jacobians (every peer offered them).
+  bool interface_jacobians() const { return jacobians_; }
   // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
   // `wait_for_replies`, waits for each one's Shutdown.
   void Shutdown(int exit_code, const std::string& reason, bool wait_for_replies = true);
@@ -115,10 +123,48 @@ class Coordinator {
 
  private:
   void Impose(double h);  // k → the interface rows' imposed coordinates
-  // CGα from `state` at t, its accelerations with the coupling rows left out (λ = 0 there).
-  void RestartWithCouplingRowsFree(DaeState state, double t);
+  // CGα from `state` at t, its accelerations with the coupling rows of `points` left out.
+  void RestartWithCouplingRowsFree(DaeState state, double t, const std::vector<int>& points);
+  // The interface points whose node's contact closed in this step (in contact, not in the last
+  // accepted one): impacts.
+  std::vector<int> Impacts() const;
   void ReceiveKinematics(int iteration);
   void EndStep(bool accepted, bool converged);  // StepEnd to every peer, and their replies
+
+  // The stages of a step (Try).
+  // Sends StepBegin (iteration 0's reactions: x_, and with interface Jacobians the stiffness
+  // and positions of the smooth side's linearisation) and receives the kinematics.
+  void BeginStep(double t, double h, const DaeState& frames);
+  // Reactions of `iteration` (x_, the frames of `frames`) to every peer, and their kinematics.
+  void Exchange(int iteration, const DaeState& frames);
+  void FillReactions(const Peer& peer, coupling::Reactions* reactions) const;  // x_ (and E, k̂)
+  // One CGα solve of the step (from `guess`, or the predictor): iterate_ and x̃ from it; false
+  // (and why) if Newton failed.
+  bool SolveStep(double t, double h, const DaeState* guess, std::string* failure);
+  // The convergence tests of an iteration (filling the record's residuals).
+  bool JacobianConverged(CouplingIterationRecord* record) const;
+  bool RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record, bool* skipped);
+  // x̃ (and the filtered multipliers) from the integrator's state after a solve.
+  void ReactionsFromSolve();
+  // Interface Jacobians: the multipliers' share of the reaction sent, x = κ λ + x_c.
+  double ReactionPerMultiplier() const;
+  Eigen::Vector3d ReactionConstant(int point) const;
+  // The peers' affine answer k(x) = k̃ + S (x − x̃) on the interface rows: imposed position
+  // k̃ + S (x_c − x̃) and compliance κ S (SystemData); rates and accelerations from ṽ.
+  void ImposeModel(double h);
+  // The smooth side's linearisation for the peers: stiffness E = ∂x/∂k of each point with its
+  // own peer's compliance taken out, from the last factorisation (cached while it lasts).
+  void UpdateStiffness(double h);
+  // A new factorisation when a peer's compliance moved far from the one in the reused matrix
+  // (a contact opened or closed): the modified Newton would crawl.
+  void DropStaleFactorization();
+  // How far the moving obstacles' frames at `state` are from those the peers stepped with, at
+  // their nodes [m].
+  double FrameDrift(const DaeState& state) const;
+  // With interface Jacobians: the pre-solve of a step (the smooth side alone, its interface
+  // points following the peers' last affine answers from predicted positions) that gives the
+  // linearisation point x̂, k̂ sent with StepBegin. false: the solve failed (failure set).
+  bool Linearise(double t, double h, std::string* failure);
 
   const MultibodySystem& system_;
   SystemData* data_;
@@ -130,6 +176,7 @@ class Coordinator {
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
   long long step_ = 0;
+  long long last_accepted_ = -1;
   int n_ = 0;  // interface values: 3 per point
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions
   Eigen::VectorXd solved_x_;  // the reactions of the step's last coupling iteration that solved
@@ -142,13 +189,27 @@ class Coordinator {
   // (accepted) and end (this iteration).
   Eigen::VectorXd lambda_start_, lambda_end_, filtered_start_, filtered_end_;
   Eigen::VectorXd position_, velocity_, previous_position_, start_velocity_;  // kinematics
-  bool in_contact_ = false, was_in_contact_ = false;  // any interface node, this / last step
+  bool in_contact_ = false;                    // any interface node, this iteration
+  std::vector<bool> contact_, was_contact_;    // per interface point: this iteration, the last accepted step
   std::vector<int> coupling_rows_;  // the interface points' constraint rows
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;
   long long at_roundoff_ = 0;
   Eigen::VectorXd previous_x_tilde_;  // x̃ of the previous iteration
   int newton_ = 0;
+  // Interface Jacobians (per interface point): the peers' position and velocity sensitivities,
+  // the force they held x̃ (applied_), the stiffness E and positions k̂ sent, the smooth side's
+  // response ∂λ/∂x with the compliance it was factorised with, and the peers' compliance in the
+  // last factorised matrix.
+  bool jacobians_ = false;
+  bool step_begun_ = false;  // the step under way was sent to the peers (its StepBegin)
+  std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_compliance_, factorized_compliance_;
+  Eigen::VectorXd applied_, sent_position_;
+  Eigen::VectorXd accepted_position_, accepted_velocity_, accepted_acceleration_;
+  long long response_factorizations_ = -1, compliance_factorizations_ = -1;
+  double response_h_ = 0.0;
+  // The moving obstacles' frames the peers stepped with (origin, rotation), peer by peer.
+  std::vector<std::vector<std::pair<Eigen::Vector3d, Eigen::Matrix3d>>> sent_frames_;
 };
 
 }  // namespace cosim::smooth

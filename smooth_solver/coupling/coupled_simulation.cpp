@@ -126,6 +126,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   settings.stop_at_max_iterations = it.on_max_iterations() == sc::Coupling::CouplingIteration::STOP;
   settings.restart_at_impact = it.restart_at_impact();
   settings.warm_start = it.warm_start();
+  settings.interface_jacobians = it.interface_jacobians();
   settings.free_flight_margin = it.free_flight_margin();
   if (!(settings.free_flight_margin >= 0.0) || !std::isfinite(settings.free_flight_margin)) {
     checks.Fail("coupling.iteration.free_flight_margin",
@@ -199,7 +200,7 @@ void CoupledSmoothSimulation::StepAdaptively(double until) {
     return outcome;
   };
   hooks.accept = [&](double from, double step) {
-    coordinator_->Accept(from, step, true);
+    coordinator_->Accept(from, step);
     WriteIterations();
     coupling_.Add(last.iterations);
   };

@@ -23,6 +23,12 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   system.constraints.Jacobian(system.q0, always, &pattern, n, 1.0);
   system.constraints.JacobianTranspose(system.q0, always, &pattern, n, 1.0);
   for (int i = 0; i < n + m; ++i) pattern.Add(i, i, 0.0);  // keep the diagonal structurally present
+  // An interface point's rows: the 3 × 3 block of the peer's compliance (interface Jacobians).
+  for (const InterfacePoint& p : system.interface_points) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) pattern.Add(n + p.first_row + r, n + p.first_row + c, 0.0);
+    }
+  }
   return pattern.Build(n + m, n + m);
 }
 
@@ -180,6 +186,28 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
   system_.constraints.AddComplianceDiagonal(&sink, n, 1.0 / bh2);
+  // The peers' compliance on the interface rows (interface Jacobians): −C/(βh²) likewise.
+  const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
+  for (size_t k = 0; k < compliance.size(); ++k) {
+    if (compliance[k].isZero(0.0)) continue;
+    const int row = n + system_.interface_points[k].first_row;
+    sink.AddBlock3(row, row, -compliance[k] / bh2);
+  }
+}
+
+Eigen::Matrix3d CgAlpha::InterfaceResponse(int k, double h) {
+  // A change δx of the imposed position changes the rows' residual by −δx, so the Newton
+  // correction is S⁻¹ [0; δx e_rows] and λ moves by its multiplier part / βh².
+  const int n = system_.coordinates;
+  const int row = n + system_.interface_points[static_cast<size_t>(k)].first_row;
+  Eigen::Matrix3d response;
+  for (int j = 0; j < 3; ++j) {
+    delta_.setZero();
+    delta_(row + j) = 1.0;
+    SolveAt(delta_, state_.q);
+    response.col(j) = delta_.segment<3>(row) / (coef_.beta * h * h);
+  }
+  return response;
 }
 
 void CgAlpha::ConstraintRows(double t1, bool phi_known) {
@@ -197,6 +225,12 @@ void CgAlpha::ConstraintRows(double t1, bool phi_known) {
   }
   for (size_t i = 0; i < cs.compliance.size(); ++i) {
     rows_(static_cast<Eigen::Index>(i)) -= cs.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
+  }
+  const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
+  for (size_t k = 0; k < compliance.size(); ++k) {
+    if (compliance[k].isZero(0.0)) continue;
+    const int row = system_.interface_points[k].first_row;
+    rows_.segment<3>(row) -= compliance[k] * next_.lambda.segment<3>(row);
   }
 }
 
@@ -323,13 +357,15 @@ Eigen::Matrix3d CgAlpha::FrameAxes(const Eigen::VectorXd& q) const {
   return axes;
 }
 
-void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) {
+void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) { SolveAt(x, next_.q); }
+
+void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
   if (settings_.frame_body < 0) {
     lu_.SolveInPlace(x);
     return;
   }
   // x = T S₀⁻¹ Tᵀ x with T = R on every coordinate triple and multiplier triple, R = F F₀ᵀ.
-  const Eigen::Matrix3d R = FrameAxes(next_.q) * factorized_axes_.transpose();
+  const Eigen::Matrix3d R = FrameAxes(q) * factorized_axes_.transpose();
   const int n = system_.coordinates;
   auto rotate = [&](const Eigen::Matrix3d& r) {
     for (int k = 0; k < n; k += 3) x.segment<3>(k) = r * x.segment<3>(k);

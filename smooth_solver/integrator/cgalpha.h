@@ -126,6 +126,14 @@ class CgAlpha : public SmoothIntegrator {
   // Newton matrices assembled and factorised over all steps so far (cost accounting; with
   // jacobian_max_age = 0 one per Newton iteration).
   long long factorizations() const { return factorizations_; }
+  // With the last factorised Newton matrix, at the present state: ∂λ/∂x of interface point k's
+  // multipliers with respect to its imposed position x (3 × 3; the peers' compliance in the
+  // matrix included) — the smooth side's interface stiffness (interface Jacobians). Needs a
+  // factorisation of step h (some step has been taken).
+  Eigen::Matrix3d InterfaceResponse(int k, double h);
+  bool has_factorization() const { return factorized_; }
+  // The next step assembles and factorises a fresh matrix (the model changed under a reused one).
+  void DropFactorization() { factorized_ = false; }
 
   // Starts again from `state` (consistent), a_n = q̈_n, without the shifted start-up: for a
   // coupled run, where the imposed coordinates are end-of-step values and a shift step would
@@ -215,6 +223,7 @@ class CgAlpha : public SmoothIntegrator {
   // x ← S⁻¹ x with the factorisation in lu_, co-rotated with settings_.frame_body (see there)
   // from its axes when the matrix was assembled to their value at next_.q.
   void Solve(Eigen::Ref<Eigen::VectorXd> x);
+  void SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q);  // co-rotated to q's frame axes
   Eigen::Matrix3d FrameAxes(const Eigen::VectorXd& q) const;
   Eigen::Matrix3d factorized_axes_ = Eigen::Matrix3d::Identity();
   // Newton workspace.

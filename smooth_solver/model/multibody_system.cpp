@@ -436,6 +436,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   // constant), and the regularisation c on their rows.
   if (!model.interface_points.empty()) {
     sys.mutable_data()->imposed.resize(3 * model.interface_points.size());  // (never resized again)
+    sys.mutable_data()->interface_compliance.assign(model.interface_points.size(), Eigen::Matrix3d::Zero());
     ConstraintSet& cs = sys.constraints;
     cs.compliance.resize(cs.constraints.size(), 0.0);
     for (size_t k = 0; k < model.interface_points.size(); ++k) {

@@ -34,6 +34,10 @@ struct SystemData {
   // 3 per interface point (x, y, z): the end-of-step values the peer imposes; the coupling rows'
   // drives point at these (their addresses never change after the build).
   std::vector<ImposedCoordinate> imposed;
+  // One per interface point: the peer's compliance as the coordinator linearised it, ∂x/∂λ of
+  // the imposed position x with respect to the point's multipliers (interface Jacobians,
+  // docs/protocol.md): the coupling rows read p(q) − x − (cI + C)λ = 0. Zero without.
+  std::vector<Eigen::Matrix3d> interface_compliance;
   // δ̇⁻ of each UnilateralContact (force_elements.h), by its memory slot.
   std::vector<double> impact_speed;
   // One per rotor of the air loads.
@@ -42,6 +46,7 @@ struct SystemData {
   // Whether `other` has this object's sizes (belongs to the same system).
   bool SameShape(const SystemData& other) const {
     return other.imposed.size() == imposed.size() && other.impact_speed.size() == impact_speed.size() &&
+           other.interface_compliance.size() == interface_compliance.size() &&
            other.rotors.size() == rotors.size();
   }
   // Copies `other` into this object's storage (same sizes: no reallocation, so the drives'
@@ -51,6 +56,7 @@ struct SystemData {
       throw std::logic_error("SystemData::CopyFrom: the two objects belong to different systems");
     }
     std::copy(other.imposed.begin(), other.imposed.end(), imposed.begin());
+    std::copy(other.interface_compliance.begin(), other.interface_compliance.end(), interface_compliance.begin());
     std::copy(other.impact_speed.begin(), other.impact_speed.end(), impact_speed.begin());
     std::copy(other.rotors.begin(), other.rotors.end(), rotors.begin());
   }

@@ -64,7 +64,7 @@ PrivateFolder::~PrivateFolder() {
 std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLine& cli,
                                        const std::vector<std::string>& arguments, const std::string& ipc_folder) {
   const scenario::Model& model = file.proto().model();
-  const bool smooth = model.bodies_size() > 0 || model.elastic_bodies_size() > 0;
+  const bool smooth = model.bodies_size() > 0 || model.elastic_bodies_size() > 0 || model.beams_size() > 0;
   const bool contact = model.contact_nodes_size() > 0;
   if (!smooth && !contact) {
     file.Fail("model", "the scene has neither rigid/elastic bodies nor contact nodes; nothing to simulate");

@@ -158,8 +158,10 @@ class Coordinator {
   // A new factorisation when a peer's compliance moved far from the one in the reused matrix
   // (a contact opened or closed): the modified Newton would crawl.
   void DropStaleFactorization();
+  // The axes of the body carrying interface point `point` in `state` (identity for an elastic node).
+  Eigen::Matrix3d BodyAxes(int point, const DaeState& state) const;
   // How far the moving obstacles' frames at `state` are from those the peers stepped with, at
-  // their nodes [m].
+  // their nodes in contact [m].
   double FrameDrift(const DaeState& state) const;
   // With interface Jacobians: the pre-solve of a step (the smooth side alone, its interface
   // points following the peers' last affine answers from predicted positions) that gives the
@@ -203,7 +205,9 @@ class Coordinator {
   // last factorised matrix.
   bool jacobians_ = false;
   bool step_begun_ = false;  // the step under way was sent to the peers (its StepBegin)
-  std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_compliance_, factorized_compliance_;
+  // response_: the point's own stiffness D from the last factorisation, response_axes_: its body's
+  // axes then.
+  std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_, factorized_compliance_;
   Eigen::VectorXd applied_, sent_position_;
   Eigen::VectorXd accepted_position_, accepted_velocity_, accepted_acceleration_;
   long long response_factorizations_ = -1, compliance_factorizations_ = -1;

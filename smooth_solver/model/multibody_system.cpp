@@ -444,6 +444,11 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       InterfacePoint ip;
       ip.contact_node = spec.contact_node;
       ip.first_row = cs.size();
+      ip.elastic = spec.elastic >= 0;
+      ip.body = spec.elastic >= 0 ? -1 : spec.body;
+      for (const BeamModel& beam : model.beams) {  // a beam's node is a body of the model too
+        for (int b : beam.node_bodies) ip.elastic = ip.elastic || (spec.elastic < 0 && b == spec.body);
+      }
       if (spec.elastic >= 0) {  // an elastic body's node: its three coordinates
         ip.point.terms.push_back({sys.elastic_offset[static_cast<size_t>(spec.elastic)] + 3 * spec.elastic_node, 1.0});
       } else {

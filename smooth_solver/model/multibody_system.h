@@ -42,6 +42,8 @@ struct InterfacePoint {
   std::string contact_node;
   int first_row = 0;         // its three rows (x, y, z)
   LinearVector point;        // p(q)
+  bool elastic = false;      // a node of an elastic (hex27) body or of a beam
+  int body = -1;             // the rigid body (a beam's node included) it is a point of; -1: an elastic node
 };
 
 struct MultibodySystem {

@@ -340,7 +340,7 @@ TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   // processes over ipc. The body (smooth history) and the node (contacts/history.csv) are at
   // the same height at every step (the coincidence constraint, to the Newton tolerance), the
   // pair rebounds to e² × 0.5 m = 0.32 m (observed 0.319997: the θ-method's discrete
-  // energy), and every step converged in a few coupling iterations (observed 2.8 on average).
+  // energy), and every step converged.
   const fs::path out = TempDir("tied_drop");
   const Result r = Launch(kScenarios + "/tied_drop.pbtxt --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
@@ -349,8 +349,10 @@ TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   EXPECT_EQ(contacts.status(), "ok");
   EXPECT_EQ(smooth.steps(), 1000);
   EXPECT_EQ(contacts.steps(), 1000);
-  EXPECT_GT(smooth.coupling_iterations().mean_per_step(), 1.0);
-  EXPECT_LE(smooth.coupling_iterations().max_per_step(), 10);
+  // With interface Jacobians (the default, issue 30) every step is one exchange, the impact's
+  // included (observed 1.000; Aitken took 2.8).
+  EXPECT_EQ(smooth.coupling_iterations().mean_per_step(), 1.0);
+  EXPECT_LE(smooth.coupling_iterations().max_per_step(), 1);
   const auto body = ReadHistory(out / "history.csv"), node = ReadHistory(out / "contacts" / "history.csv");
   ASSERT_EQ(body.size(), node.size());
   double worst = 0.0, peak = 0.0;

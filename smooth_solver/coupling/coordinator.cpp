@@ -38,7 +38,7 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
     for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
   }
   const size_t points = system.interface_points.size();
-  for (auto* blocks : {&sensitivity_, &stiffness_, &response_, &response_axes_, &factorized_compliance_}) {
+  for (auto* blocks : {&sensitivity_, &stiffness_, &response_, &response_axes_}) {
     blocks->assign(points, Eigen::Matrix3d::Zero());
   }
   applied_ = sent_position_ = accepted_position_ = accepted_velocity_ = accepted_acceleration_ = x_;
@@ -352,33 +352,15 @@ void Coordinator::ImposeModel(double h) {
   }
 }
 
-void Coordinator::DropStaleFactorization() {
-  // A reused matrix holds the compliance of its factorisation; one far from today's (a contact
-  // that opened or closed changes the normal compliance from h²θ/m to 0) would make the
-  // modified Newton crawl through the tie.
-  for (size_t k = 0; k < factorized_compliance_.size(); ++k) {
-    const Eigen::Matrix3d& now = data_->interface_compliance[k];
-    const Eigen::Matrix3d& then = factorized_compliance_[k];
-    const double size = std::max(now.norm(), then.norm());
-    if (size > 0.0 && (now - then).norm() > 0.25 * size) {
-      integrator_->DropFactorization();
-      return;
-    }
-  }
-}
-
 void Coordinator::UpdateStiffness(double h) {
-  // The solve with the peers' models gives D_c = ∂x/∂k̃ = (I − D S)⁻¹ D (S = C/κ of the
-  // factorisation), so the smooth side's own D = D_c (I + S D_c)⁻¹. Only the point's own peer's
-  // model is taken out; the other points follow theirs (their peers answer as linearised).
+  // The smooth side's own response D = ∂λ/∂k (CgAlpha::InterfaceResponse: the peers' compliance
+  // not in it; the other points held where they are), x = κλ + x_c.
   if (!integrator_->has_factorization()) return;
   const double kappa = ReactionPerMultiplier();
   const DaeState& state = integrator_->state();
   if (integrator_->factorizations() != response_factorizations_ || h != response_h_) {
     for (size_t k = 0; k < response_.size(); ++k) {
-      const Eigen::Matrix3d Dc = kappa * integrator_->InterfaceResponse(static_cast<int>(k), h);
-      const Eigen::Matrix3d S = factorized_compliance_[k] / kappa;
-      response_[k] = Dc * (Eigen::Matrix3d::Identity() + S * Dc).inverse();
+      response_[k] = kappa * integrator_->InterfaceResponse(static_cast<int>(k), h);
       if (!response_[k].allFinite()) response_[k].setZero();  // (no linearisation rather than a bad one)
       response_axes_[k] = BodyAxes(static_cast<int>(k), state);
     }
@@ -421,14 +403,12 @@ double Coordinator::FrameDrift(const DaeState& state) const {
 }
 
 bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::string* failure) {
-  const long long before = integrator_->factorizations();
   try {
     newton_ += integrator_->Step(t, h, guess);
   } catch (const NumericalError& e) {
     *failure = e.what();
     return false;
   }
-  if (jacobians_ && integrator_->factorizations() != before) factorized_compliance_ = data_->interface_compliance;
   iterate_ = integrator_->state();  // equal sizes: no allocation once warm
   ReactionsFromSolve();
   return true;
@@ -446,7 +426,6 @@ bool Coordinator::Linearise(double t, double h, std::string* failure) {
   applied_ = x_;
   integrator_->Restore(start_);
   ImposeModel(h);
-  DropStaleFactorization();
   if (!SolveStep(t, h, nullptr, failure)) {
     integrator_->Restore(start_);
     return false;
@@ -546,7 +525,6 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
     if (jacobians_) {
       ImposeModel(h);
-      DropStaleFactorization();
     } else {
       Impose(h);
     }

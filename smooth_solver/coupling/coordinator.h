@@ -155,9 +155,6 @@ class Coordinator {
   // The smooth side's linearisation for the peers: stiffness E = ∂x/∂k of each point with its
   // own peer's compliance taken out, from the last factorisation (cached while it lasts).
   void UpdateStiffness(double h);
-  // A new factorisation when a peer's compliance moved far from the one in the reused matrix
-  // (a contact opened or closed): the modified Newton would crawl.
-  void DropStaleFactorization();
   // The axes of the body carrying interface point `point` in `state` (identity for an elastic node).
   Eigen::Matrix3d BodyAxes(int point, const DaeState& state) const;
   // How far the moving obstacles' frames at `state` are from those the peers stepped with, at
@@ -207,7 +204,7 @@ class Coordinator {
   bool step_begun_ = false;  // the step under way was sent to the peers (its StepBegin)
   // response_: the point's own stiffness D from the last factorisation, response_axes_: its body's
   // axes then.
-  std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_, factorized_compliance_;
+  std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_;
   Eigen::VectorXd applied_, sent_position_;
   Eigen::VectorXd accepted_position_, accepted_velocity_, accepted_acceleration_;
   long long response_factorizations_ = -1, compliance_factorizations_ = -1;

@@ -151,6 +151,8 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
       any_velocity_row_ = any_velocity_row_ || velocity_row_[static_cast<size_t>(i)] != 0;
     }
   }
+  woodbury_ = settings.frame_body < 0 && !system.interface_points.empty();
+  factorized_compliance_.assign(system.interface_points.size(), Eigen::Matrix3d::Zero());
   // (Φ_q q̇)_q has the coordinates of Φ_q in every row: the pattern is the index-3 one.
   S_ = SaddlePattern(system);
   lu_.Analyze(S_);  // once: the pattern never changes
@@ -186,28 +188,78 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
   system_.constraints.AddComplianceDiagonal(&sink, n, 1.0 / bh2);
-  // The peers' compliance on the interface rows (interface Jacobians): −C/(βh²) likewise.
+  // The peers' compliance on the interface rows (interface Jacobians): −C/(βh²) likewise — in
+  // the matrix only with co-rotated reuse; otherwise it is added to every solve by Woodbury's
+  // identity (Solve), so that a change of the peers' contact sets needs no new factorisation.
   const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
-  for (size_t k = 0; k < compliance.size(); ++k) {
-    if (compliance[k].isZero(0.0)) continue;
-    const int row = n + system_.interface_points[k].first_row;
-    sink.AddBlock3(row, row, -compliance[k] / bh2);
+  if (!woodbury_) {
+    factorized_compliance_ = compliance;
+    for (size_t k = 0; k < compliance.size(); ++k) {
+      if (compliance[k].isZero(0.0)) continue;
+      const int row = n + system_.interface_points[k].first_row;
+      sink.AddBlock3(row, row, -compliance[k] / bh2);
+    }
   }
+}
+
+void CgAlpha::FactorizeInterfaceColumns() {
+  // Y = J⁻¹ P (P: the interface rows' unit columns) and W = Pᵀ Y, once per factorisation.
+  const int n = system_.coordinates, m = system_.constraints.size();
+  const int points = static_cast<int>(system_.interface_points.size());
+  woodbury_y_.resize(n + m, 3 * points);
+  woodbury_w_.resize(3 * points, 3 * points);
+  for (int k = 0; k < points; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      auto column = woodbury_y_.col(3 * k + j);
+      column.setZero();
+      column(n + system_.interface_points[static_cast<size_t>(k)].first_row + j) = 1.0;
+      lu_.SolveInPlace(column);
+    }
+  }
+  for (int k = 0; k < points; ++k) {
+    woodbury_w_.middleRows(3 * k, 3) = woodbury_y_.middleRows(n + system_.interface_points[static_cast<size_t>(k)].first_row, 3);
+  }
+}
+
+void CgAlpha::AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x) {
+  // (J − P Ĉ Pᵀ)⁻¹ r = z + Y Ĉ (I − W Ĉ)⁻¹ Pᵀ z with z = J⁻¹ r, Ĉ = C/(βh²) the peers'
+  // compliance per point (Woodbury's identity in the form that allows a singular Ĉ: a node
+  // resting on its plane has no normal compliance).
+  const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
+  bool any = false;
+  for (const Eigen::Matrix3d& c : compliance) any = any || !c.isZero(0.0);
+  if (!any) return;
+  const int n = system_.coordinates, points = static_cast<int>(compliance.size());
+  const double bh2 = coef_.beta * h_factorized_ * h_factorized_;
+  woodbury_c_.setZero(3 * points, 3 * points);
+  woodbury_g_.resize(3 * points);
+  for (int k = 0; k < points; ++k) {
+    woodbury_c_.block<3, 3>(3 * k, 3 * k) = compliance[static_cast<size_t>(k)] / bh2;
+    woodbury_g_.segment<3>(3 * k) = x.segment<3>(n + system_.interface_points[static_cast<size_t>(k)].first_row);
+  }
+  const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(3 * points, 3 * points) - woodbury_w_ * woodbury_c_;
+  const Eigen::VectorXd u = woodbury_c_ * M.partialPivLu().solve(woodbury_g_);
+  x.noalias() += woodbury_y_ * u;
 }
 
 Eigen::Matrix3d CgAlpha::InterfaceResponse(int k, double h) {
   // A change δx of the imposed position changes the rows' residual by −δx, so the Newton
-  // correction is S⁻¹ [0; δx e_rows] and λ moves by its multiplier part / βh².
+  // correction is J⁻¹ [0; δx e_rows] and λ moves by its multiplier part / βh² — with J the
+  // smooth model's own matrix (the peers' compliance not in it).
   const int n = system_.coordinates;
-  const int row = n + system_.interface_points[static_cast<size_t>(k)].first_row;
+  const int row = system_.interface_points[static_cast<size_t>(k)].first_row;
+  const double bh2 = coef_.beta * h * h;
+  if (woodbury_) return woodbury_w_.block<3, 3>(3 * k, 3 * k) / bh2;
+  // The compliance C_f is in the matrix: D_c = (I − D C_f)⁻¹ D, so D = D_c (I + C_f D_c)⁻¹.
   Eigen::Matrix3d response;
   for (int j = 0; j < 3; ++j) {
     delta_.setZero();
-    delta_(row + j) = 1.0;
+    delta_(n + row + j) = 1.0;
     SolveAt(delta_, state_.q);
-    response.col(j) = delta_.segment<3>(row) / (coef_.beta * h * h);
+    response.col(j) = delta_.segment<3>(n + row) / bh2;
   }
-  return response;
+  const Eigen::Matrix3d& c = factorized_compliance_[static_cast<size_t>(k)];
+  return response * (Eigen::Matrix3d::Identity() + c * response).inverse();
 }
 
 void CgAlpha::ConstraintRows(double t1, bool phi_known) {
@@ -321,6 +373,16 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
   if (guess != nullptr) next_ = *guess;  // assignments of equal sizes: no allocation
 
+  // With the peers' compliance in the matrix (co-rotated reuse), a matrix whose compliance is far
+  // from today's (a contact opened or closed: the normal compliance between h²θ/m and 0) would
+  // make the modified Newton crawl through the tie.
+  if (!woodbury_ && factorized_) {
+    const std::vector<Eigen::Matrix3d>& now = system_.data().interface_compliance;
+    for (size_t k = 0; k < now.size(); ++k) {
+      const double size = std::max(now[k].norm(), factorized_compliance_[k].norm());
+      if (size > 0.0 && (now[k] - factorized_compliance_[k]).norm() > 0.25 * size) factorized_ = false;
+    }
+  }
   // Same h up to the round-off of t_{k+1} − t_k on the run's time grid.
   const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && std::abs(h - h_factorized_) <= 1e-9 * h &&
                      age_ < settings_.jacobian_max_age;
@@ -362,6 +424,7 @@ void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) { SolveAt(x, next_.q); }
 void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
   if (settings_.frame_body < 0) {
     lu_.SolveInPlace(x);
+    if (woodbury_) AddComplianceCorrection(x);
     return;
   }
   // x = T S₀⁻¹ Tᵀ x with T = R on every coordinate triple and multiplier triple, R = F F₀ᵀ.
@@ -419,6 +482,7 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
       factorized_ = true;
       h_factorized_ = h;
       age_ = 0;
+      if (woodbury_) FactorizeInterfaceColumns();
     }
     delta_ = -residual_;
     Solve(delta_);

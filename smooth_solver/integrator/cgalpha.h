@@ -127,13 +127,11 @@ class CgAlpha : public SmoothIntegrator {
   // jacobian_max_age = 0 one per Newton iteration).
   long long factorizations() const { return factorizations_; }
   // With the last factorised Newton matrix, at the present state: ∂λ/∂x of interface point k's
-  // multipliers with respect to its imposed position x (3 × 3; the peers' compliance in the
-  // matrix included) — the smooth side's interface stiffness (interface Jacobians). Needs a
-  // factorisation of step h (some step has been taken).
+  // multipliers with respect to its imposed position x (3 × 3), the smooth model's own (the
+  // peers' compliance, SystemData::interface_compliance, taken out) — the smooth side's interface
+  // stiffness (interface Jacobians). Needs a factorisation of step h (some step has been taken).
   Eigen::Matrix3d InterfaceResponse(int k, double h);
   bool has_factorization() const { return factorized_; }
-  // The next step assembles and factorises a fresh matrix (the model changed under a reused one).
-  void DropFactorization() { factorized_ = false; }
 
   // Starts again from `state` (consistent), a_n = q̈_n, without the shifted start-up: for a
   // coupled run, where the imposed coordinates are end-of-step values and a shift step would
@@ -223,6 +221,16 @@ class CgAlpha : public SmoothIntegrator {
   // x ← S⁻¹ x with the factorisation in lu_, co-rotated with settings_.frame_body (see there)
   // from its axes when the matrix was assembled to their value at next_.q.
   void Solve(Eigen::Ref<Eigen::VectorXd> x);
+  // The peers' compliance on the interface rows without factorising it (docs/protocol.md,
+  // "Interface Jacobians"): Woodbury's identity over the 3 × points interface columns
+  // J⁻¹P = Y, W = PᵀY, made once per factorisation. Not with co-rotated reuse (frame_body), whose
+  // matrix holds the compliance instead (factorized_compliance_: the one it holds).
+  void FactorizeInterfaceColumns();
+  void AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x);
+  bool woodbury_ = false;
+  Eigen::MatrixXd woodbury_y_, woodbury_w_, woodbury_c_;
+  Eigen::VectorXd woodbury_g_;
+  std::vector<Eigen::Matrix3d> factorized_compliance_;
   void SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q);  // co-rotated to q's frame axes
   Eigen::Matrix3d FrameAxes(const Eigen::VectorXd& q) const;
   Eigen::Matrix3d factorized_axes_ = Eigen::Matrix3d::Identity();

@@ -97,6 +97,70 @@ TEST(ContactServer, IterationsRestartFromTheStepStartAndOnlyAcceptedStepsCount) 
   EXPECT_NEAR(h.simulation.integrator().time(), dt, 1e-15);
 }
 
+TEST(ContactServer, TheNextStepBeginAcceptsAStepAndShutdownSaysWhichWasTheLast) {
+  // Protocol 3: an accepted step gets no StepEnd; the StepBegin of the next step accepts it, and
+  // Shutdown.last_accepted_step accepts a step waiting when the run ends (or not, when the
+  // coordinator had not accepted it). The free ball's Kinematics carry the interface
+  // Jacobians: the force held (the predictor's, no stiffness sent) and the sensitivities of a
+  // free 1 kg point, ∂v/∂f = h/m and ∂q/∂f = hθ h/m on the diagonal.
+  for (const int64_t last : {int64_t{2}, int64_t{1}}) {
+    SCOPED_TRACE(last);
+    Harness h;
+    h.Hello("ball");
+    EXPECT_TRUE(h.smooth.Receive(Envelope::kWelcome, -1, -1).welcome().interface_jacobians());
+    const double g = 9.81, dt = 0.005;
+    for (int64_t step = 0; step < 3; ++step) {
+      auto* begin = h.smooth.Outgoing(step, 0).mutable_step_begin();
+      begin->set_time(static_cast<double>(step) * dt);
+      begin->set_step(dt);
+      for (double f : {0.0, 0.0, g}) begin->mutable_predictor()->add_force(f);  // held still
+      h.smooth.Send();
+      const coupling::Kinematics& k = h.smooth.Receive(Envelope::kKinematics, step, 0).kinematics();
+      EXPECT_NEAR(k.position(2), 1.0, 1e-14);
+      ASSERT_EQ(k.applied_force_size(), 3);
+      EXPECT_EQ(k.applied_force(2), g);
+      ASSERT_EQ(k.velocity_sensitivity_size(), 9);
+      ASSERT_EQ(k.position_sensitivity_size(), 9);
+      EXPECT_NEAR(k.velocity_sensitivity(0), dt, 1e-15);
+      EXPECT_NEAR(k.position_sensitivity(8), 0.5 * dt * dt, 1e-15);
+      EXPECT_EQ(k.velocity_sensitivity(1), 0.0);
+      EXPECT_EQ(h.server.accepted_steps(), step);  // the StepBegin accepted the step before
+    }
+    auto* stop = h.smooth.Outgoing(-1, 0).mutable_shutdown();
+    stop->set_last_accepted_step(last);
+    h.smooth.Send();
+    h.smooth.Receive(Envelope::kShutdown, -1, -1);
+    h.thread.join();
+    if (h.failure) std::rethrow_exception(h.failure);
+    EXPECT_EQ(h.server.accepted_steps(), last + 1);
+  }
+}
+
+TEST(ContactServer, TheCoordinatorsStiffnessIsHeldAsAForceLawAtTheNodesEndPosition) {
+  // Reactions.stiffness and .position (the smooth side linearised): the ball is held by
+  // f = f̂ + E (z_end − ẑ) with E = −1e4 N/m, f̂ = m g, ẑ = 0.99 m: a spring pulling it down
+  // towards 0.99 m over the step. The force it reports held is the law at its end position.
+  Harness h;
+  h.Hello("ball");
+  h.smooth.Receive(Envelope::kWelcome, -1, -1);
+  const double g = 9.81, dt = 0.005, E = -1e4;
+  auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
+  begin->set_time(0.0);
+  begin->set_step(dt);
+  for (double f : {0.0, 0.0, g}) begin->mutable_predictor()->add_force(f);
+  for (int i = 0; i < 9; ++i) begin->mutable_predictor()->add_stiffness(i == 8 ? E : 0.0);
+  for (double x : {0.0, 0.0, 0.99}) begin->mutable_predictor()->add_position(x);
+  h.smooth.Send();
+  const coupling::Kinematics& k = h.smooth.Receive(Envelope::kKinematics, 0, 0).kinematics();
+  const double z = k.position(2);
+  EXPECT_LT(z, 1.0);  // pulled down
+  EXPECT_NEAR(k.applied_force(2), g + E * (z - 0.99), 1e-9);
+  // Implicitly: (m − h²θE) v = h (f̂ + E (z₀ − ẑ)) − h m g from rest, z = z₀ + hθ v.
+  const double v = dt * (g + E * (1.0 - 0.99) - g) / (1.0 - dt * dt * 0.5 * E);
+  EXPECT_NEAR(z, 1.0 + 0.5 * dt * v, 1e-12);
+  h.Finish();
+}
+
 TEST(ContactServer, ARejectedStepIsRedoneWithAnotherLengthFromTheSameStart) {
   // The adaptive step's protocol: the coordinator rejects a step (StepEnd accepted = false) and
   // begins the same step again, shorter. The redone step starts from the rejected one's start

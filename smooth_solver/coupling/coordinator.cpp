@@ -250,8 +250,35 @@ std::string Coordinator::NoConvergence(double t, double h) const {
   return "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
          std::to_string(step_) + " (t = " + interface::FormatNumber(t + h) + " s): reaction residual " +
          interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
-         interface::FormatNumber(log_.back().displacement_change) +
-         " m; raise coupling.iteration.max_iterations, choose AITKEN or IQN_ILS, or shorten the step";
+         interface::FormatNumber(log_.back().displacement_change) + " m; " + CouplingState() +
+         (jacobians_ ? "; raise coupling.iteration.max_iterations"
+                     : "; raise coupling.iteration.max_iterations, choose another relaxation, or shorten the step");
+}
+
+std::string Coordinator::CouplingState() const {
+  // Which interface nodes are in contact (closing in this step or resting), and where the two
+  // sides disagree most: the coupling's side of a failed step.
+  std::string contacts;
+  for (size_t k = 0; k < contact_.size(); ++k) {
+    if (!contact_[k]) continue;
+    contacts += (contacts.empty() ? "" : ", ") + std::string("'") + system_.interface_points[k].contact_node + "'" +
+                (was_contact_[k] ? " (resting)" : " (closing in this step)");
+  }
+  std::string worst;
+  double largest = -1.0;
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    const double d = (x_tilde_.segment<3>(o) - (jacobians_ ? applied_ : x_).segment<3>(o)).lpNorm<Eigen::Infinity>();
+    if (d > largest) {
+      largest = d;
+      worst = "node '" + system_.interface_points[k].contact_node + "' (force " +
+              interface::FormatNumber(x_tilde_.segment<3>(o).norm()) + " N, position " +
+              "[" + interface::FormatNumber(position_(o)) + ", " + interface::FormatNumber(position_(o + 1)) + ", " +
+              interface::FormatNumber(position_(o + 2)) + "] m)";
+    }
+  }
+  return "interface nodes in contact: " + (contacts.empty() ? std::string("none") : contacts) +
+         (worst.empty() ? "" : "; largest force mismatch " + interface::FormatNumber(largest) + " N at " + worst);
 }
 
 void Coordinator::BeginStep(double t, double h, const DaeState& frames) {
@@ -427,8 +454,13 @@ bool Coordinator::Linearise(double t, double h, std::string* failure) {
   integrator_->Restore(start_);
   ImposeModel(h);
   if (!SolveStep(t, h, nullptr, failure)) {
+    // The predicted node positions with the last answers' compliance were more than CGα could
+    // take (observed: the Puma gust at h = 2 ms, 6.638 s, a blade landing on its stop): the
+    // predictions themselves (x_0, k_pred) serve as the linearisation point, with the last E.
     integrator_->Restore(start_);
-    return false;
+    sent_position_ = position_;
+    ++linearisation_fallbacks_;
+    return true;
   }
   for (size_t k = 0; k < sensitivity_.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
@@ -513,7 +545,10 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   if (jacobians_) {
     std::string why;
     // (A failed pre-solve sends nothing of the step: the peers still wait for its StepBegin.)
-    if (!Linearise(t, h, &why)) return failed(-1, std::move(why));
+    if (!Linearise(t, h, &why)) {
+      return failed(-1, "coupling: the smooth step to t = " + interface::FormatNumber(t + h) +
+                            " s that linearises the interface failed (" + CouplingState() + "): " + why);
+    }
     BeginStep(t, h, iterate_);
   } else {
     BeginStep(t, h, integrator_->state());
@@ -531,6 +566,12 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     const bool warm = jacobians_ || (settings_.warm_start && iteration > 0);
     std::string why;
     if (!SolveStep(t, h, warm ? &iterate_ : nullptr, &why)) {
+      if (jacobians_) {
+        // The smooth step could not take the contact processes' answers: say which.
+        return failed(iteration, "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
+                                     interface::FormatNumber(t + h) + " s: the smooth step with the contact processes' "
+                                     "answers failed (" + CouplingState() + "): " + why);
+      }
       // The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps)
       // sent the peers reactions whose kinematics this side cannot solve (observed: the Puma
       // gust's lift-off at 2.975 s: reactions that moved the node 32 m, Newton diverging to

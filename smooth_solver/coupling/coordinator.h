@@ -104,10 +104,14 @@ class Coordinator {
   void Accept(double t, double h);
   void Reject();
   std::string NoConvergence(double t, double h) const;  // the reason of an unconverged step
+  // The interface nodes in contact and the largest force mismatch, for a failed step's reason.
+  std::string CouplingState() const;
   long long rejected_steps() const { return rejected_; }
   long long free_flight_steps() const { return free_flight_; }  // steps accepted after one iteration
   // Coupling iterations whose smooth solve failed and were redone with a halved update.
   long long backtracks() const { return backtracks_; }
+  // Steps whose linearising pre-solve failed and that took the predictions as the point instead.
+  long long linearisation_fallbacks() const { return linearisation_fallbacks_; }
   // Whether the steps iterate with interface Jacobians (every peer offered them).
   bool interface_jacobians() const { return jacobians_; }
   // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
@@ -207,7 +211,8 @@ class Coordinator {
   std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_;
   Eigen::VectorXd applied_, sent_position_;
   Eigen::VectorXd accepted_position_, accepted_velocity_, accepted_acceleration_;
-  long long response_factorizations_ = -1, compliance_factorizations_ = -1;
+  long long linearisation_fallbacks_ = 0;
+  long long response_factorizations_ = -1;
   double response_h_ = 0.0;
   // The moving obstacles' frames the peers stepped with (origin, rotation), peer by peer.
   std::vector<std::vector<std::pair<Eigen::Vector3d, Eigen::Matrix3d>>> sent_frames_;

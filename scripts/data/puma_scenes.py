@@ -224,19 +224,21 @@ patterns {{
 # paper's 1e-4 s — the co-simulated impacts need no small step (Moreau–Jean), and the continuous
 # law's contact at K = 1e9 lasts ~20 ms on the droop stop; the Newton matrix is reused over up
 # to 20 steps (and every coupling iteration) while it contracts the corrections 4× or better.
-# The CGα paper's index-3 form, in both scenes: the hub's Ωh = 0.028 is below the ~0.04 where
-# that form stops damping its velocity-constraint mode (docs/design.md, "Spinning bodies"), and
-# the default projected form's position projection diverged in the co-simulated scenes when a
-# blade left its stop (the tie's impulse; observed: the gust at 5.9 s with h = 1 ms, 7.5 s with
-# 0.5 ms; with INDEX3 the gust runs through — measured again with interface Jacobians and the
-# 0.1 kg node: the projected form runs the gust at 1 ms but its projection diverges at 6.03 s at
-# 2 ms). Co-simulated: the coupling's defaults (interface Jacobians, a step accepted only
-# converged, a new contact restarts the blade's history with its point at its node's velocity,
-# resting contacts kept in the LCP while pressed).
+# {'''The default (projected) constraint form: measured with interface Jacobians and the 0.1 kg
+# pads, it runs the gust at h = 1 ms (1.008 exchanges a step, 27 s) and at 2 ms (2.69 a step,
+# its linearising pre-solve falling back to the predictions in 4096 steps), the engagement at
+# 1 ms (2.05 a step, 313 s); the CGα paper's index-3 form took the engagement in 1.54 exchanges
+# a step (262 s) and the gust at 1 ms in 1.003 (25 s), but lost the lag links' velocity-level
+# rigidity at 2 ms (the watchdog at 6.646 s, blade 3 landing). Before the interface Jacobians the
+# projected form's position projection diverged when a blade left its stop (the gust at 5.9 s).
+# The coupling's defaults: interface Jacobians, a step accepted only converged, a new contact
+# restarts the blade's history with its point at its node's velocity, resting contacts kept in
+# the LCP while pressed.''' if COSIM else '''The CGα paper's index-3 form: the hub's Ωh = 0.028 is below the ~0.04 where that form stops
+# damping its velocity-constraint mode (docs/design.md, "Spinning bodies").'''}
 numerics {{
   end_time: {15 if GUST else 50}
   step: 1e-3
-  smooth {{ rho_inf: 0.6 jacobian_max_age: 20 constraint_form: INDEX3 }}
+  smooth {{ rho_inf: 0.6 jacobian_max_age: 20{'' if COSIM else ' constraint_form: INDEX3'} }}
 }}
 output {{
   every: 2

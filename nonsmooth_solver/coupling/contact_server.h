@@ -1,8 +1,8 @@
 #pragma once
 // The contact process's side of the coupling protocol (proto/coupling.proto): it answers the
 // coordinator (smooth_solver) message by message, each coupling iteration one tentative
-// step of its ContactStepper (Moreau–Jean or penalty) from the step's start with the reactions it was sent as external forces on
-// the interface nodes [rotor-sailing paper, Section 2]:
+// step of its ContactStepper (Moreau–Jean or penalty) from the step's start with the reactions it was sent as external
+// forces on the interface nodes [rotor-sailing paper, Section 2]:
 //
 //   Hello      → Welcome      the interface nodes are looked up (unknown: InputError, exit 2)
 //   StepBegin  → Kinematics 0 a checkpoint of the step's start, and a tentative step with the
@@ -62,8 +62,8 @@ class ContactServer {
   void Answer(const coupling::Envelope& hello);
   enum class Outcome { kContinue, kAccepted, kShutdown };
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
-  const coupling::Envelope& Next();              // a deferred message first, else the channel's next
-  void AcceptStep();                             // the step under way is accepted
+  const coupling::Envelope& Next();             // a deferred message first, else the channel's next
+  void AcceptStep();                            // the step under way is accepted
   void TentativeStep(int64_t step, int iteration);
   void StopOnFailure(const Error& e, int64_t step, int iteration);  // Shutdown with its code and reason
   // The coordinator's Shutdown came before `before` (a step, a time): ends this process with it.

@@ -171,8 +171,9 @@ void MoreauJean::FreeVelocity(int group_index, double t, double h) {
     if (w.coupled) {
       w.m_hat_coupled.compute(coupled);
       if (!(std::abs(w.m_hat_coupled.determinant()) > 0.0) || !std::isfinite(w.m_hat_coupled.determinant())) {
-        throw NumericalError("iteration matrix M + hθC + h²θ²K − h²θE with the coordinator's interface stiffness E "
-                             "is singular");
+        throw NumericalError(
+            "iteration matrix M + hθC + h²θ²K − h²θE with the coordinator's interface stiffness E "
+            "is singular");
       }
     }
   }
@@ -277,9 +278,9 @@ void MoreauJean::ContactSensitivity(const std::vector<int>& groups, int size, do
     }
   } else {
     // Per contact with a normal impulse: sticking fixes its three directions; sliding fixes its
-    // normal velocity (De Saxcé's modified velocity u_n + μ|u_t| is then μ|u_t|), its impulse r_n (n − μ s) along the sliding direction s = u_t/|u_t| =
-    // −r_t/(μ r_n), which turns with the tangential velocity: δ(r_n μ s) = μ r_n/|u_t| (P_t − s sᵀ) δv
-    // (P_t = I − n nᵀ), a positive semi-definite term added to M̂.
+    // normal velocity (De Saxcé's modified velocity u_n + μ|u_t| is then μ|u_t|), its impulse r_n (n − μ s) along the
+    // sliding direction s = u_t/|u_t| = −r_t/(μ r_n), which turns with the tangential velocity: δ(r_n μ s) = μ
+    // r_n/|u_t| (P_t − s sᵀ) δv (P_t = I − n nᵀ), a positive semi-definite term added to M̂.
     Eigen::MatrixXd Mhat = Eigen::MatrixXd::Zero(dofs, dofs);
     std::vector<Eigen::Index> node_row(model_.nodes.size(), -1);
     {
@@ -560,9 +561,9 @@ void MoreauJean::Step(double t, double h) {
       v_.segment<3>(3 * i) = w.v_free.segment<3>(o);
       applied_.segment<3>(3 * i) = external_.segment<3>(3 * i);
       if (w.coupled) {  // the held force at the end position (see the header)
-        applied_.segment<3>(3 * i) += Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
-                                          stiffness_.data() + 9 * i) *
-                                      (q_.segment<3>(3 * i) - reference_.segment<3>(3 * i));
+        applied_.segment<3>(3 * i) +=
+            Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(stiffness_.data() + 9 * i) *
+            (q_.segment<3>(3 * i) - reference_.segment<3>(3 * i));
       }
     }
   }

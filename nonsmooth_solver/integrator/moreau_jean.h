@@ -39,10 +39,9 @@
 // different groups do not interact: with split_independent_lcps each group's contacts make
 // an LCP of their own, which has the same solution as the one block-diagonal LCP.
 #include <Eigen/Cholesky>
-#include <Eigen/LU>
-#include <Eigen/Geometry>
 #include <Eigen/Core>
-
+#include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <vector>
 
 #include "nonsmooth_solver/model/contact_model.h"

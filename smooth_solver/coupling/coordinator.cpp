@@ -96,7 +96,8 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   // The freed rows' multipliers are 0 there, and a = q̈: their filtered multipliers too; the
   // others' are the state's.
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), state.lambda);
+    lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) =
+        system_.InterfaceReaction(static_cast<int>(k), state.lambda);
   }
   filtered_start_ = lambda_start_;
 }
@@ -272,8 +273,8 @@ std::string Coordinator::CouplingState() const {
     if (d > largest) {
       largest = d;
       worst = "node '" + system_.interface_points[k].contact_node + "' (force " +
-              interface::FormatNumber(x_tilde_.segment<3>(o).norm()) + " N, position " +
-              "[" + interface::FormatNumber(position_(o)) + ", " + interface::FormatNumber(position_(o + 1)) + ", " +
+              interface::FormatNumber(x_tilde_.segment<3>(o).norm()) + " N, position " + "[" +
+              interface::FormatNumber(position_(o)) + ", " + interface::FormatNumber(position_(o + 1)) + ", " +
               interface::FormatNumber(position_(o + 2)) + "] m)";
     }
   }
@@ -421,8 +422,9 @@ double Coordinator::FrameDrift(const DaeState& state) const {
       for (int p : peers_[q].points) {
         if (!contact_[static_cast<size_t>(p)]) continue;  // (a node off its planes does not feel them move)
         const Eigen::Vector3d k = position_.segment<3>(3 * p);
-        drift = std::max(drift, ((c - c0) + (R * R0.transpose() - Eigen::Matrix3d::Identity()) * (k - c0))
-                                    .lpNorm<Eigen::Infinity>());
+        drift = std::max(
+            drift,
+            ((c - c0) + (R * R0.transpose() - Eigen::Matrix3d::Identity()) * (k - c0)).lpNorm<Eigen::Infinity>());
       }
     }
   }
@@ -489,14 +491,14 @@ bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
     const Eigen::Vector3d dx = x_tilde_.segment<3>(o) - applied_.segment<3>(o);
     mismatch = std::max(mismatch, (sensitivity_[k] * dx).lpNorm<Eigen::Infinity>());
     const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
-    forces_agree = forces_agree && dx.lpNorm<Eigen::Infinity>() <= std::max(settings_.reaction_tolerance * scale, floor);
+    forces_agree =
+        forces_agree && dx.lpNorm<Eigen::Infinity>() <= std::max(settings_.reaction_tolerance * scale, floor);
   }
   record->displacement_change = mismatch;
   return forces_agree && record->displacement_change <= settings_.displacement_tolerance;
 }
 
-bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record,
-                                      bool* skipped) {
+bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record, bool* skipped) {
   const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
   record->reaction_residual = n_ > 0 ? (x_tilde_ - x_).lpNorm<Eigen::Infinity>() : 0.0;
   record->displacement_change = iteration == 0 ? std::numeric_limits<double>::infinity()
@@ -510,8 +512,9 @@ bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingI
   const bool at_roundoff = iteration > 0 && n_ > 0 && record->displacement_change <= position_roundoff &&
                            record->reaction_residual <= (x_tilde_ - previous_x_tilde_).lpNorm<Eigen::Infinity>();
   const bool within = record->reaction_residual <= settings_.reaction_tolerance * scale;
-  bool converged = (within || at_roundoff) && (iteration > 0 ? record->displacement_change <= settings_.displacement_tolerance
-                                                             : record->reaction_residual == 0.0);
+  bool converged =
+      (within || at_roundoff) && (iteration > 0 ? record->displacement_change <= settings_.displacement_tolerance
+                                                : record->reaction_residual == 0.0);
   // coupling.iteration.free_flight_margin: no contact can close within the step: the first
   // iteration is accepted if its reaction residual meets the tolerance, without the second
   // iteration that would confirm the kinematics (the displacement test).
@@ -568,9 +571,11 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (!SolveStep(t, h, warm ? &iterate_ : nullptr, &why)) {
       if (jacobians_) {
         // The smooth step could not take the contact processes' answers: say which.
-        return failed(iteration, "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
-                                     interface::FormatNumber(t + h) + " s: the smooth step with the contact processes' "
-                                     "answers failed (" + CouplingState() + "): " + why);
+        return failed(iteration, "coupling iteration " + std::to_string(iteration) +
+                                     " of the step to t = " + interface::FormatNumber(t + h) +
+                                     " s: the smooth step with the contact processes' "
+                                     "answers failed (" +
+                                     CouplingState() + "): " + why);
       }
       // The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps)
       // sent the peers reactions whose kinematics this side cannot solve (observed: the Puma
@@ -578,8 +583,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       // |q| ~ 1e158). Back-track from the last iteration that solved: first the plain relaxed
       // update from it with the secants forgotten (the method's first-iteration ω), then halving
       // towards it; ask the peers again — up to kMaxBacktracks times a step, within max_iterations.
-      if (jacobians_ || iteration == 0 || backtracks >= kMaxBacktracks ||
-          iteration + 1 >= settings_.max_iterations) {
+      if (jacobians_ || iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
         return failed(iteration, std::move(why));
       }
       ++backtracks;
@@ -613,7 +617,8 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     record.step = step_;
     record.iteration = iteration;
     bool skipped = false;
-    result.converged = jacobians_ ? JacobianConverged(&record) : RelaxationConverged(iteration, free_flight, &record, &skipped);
+    result.converged =
+        jacobians_ ? JacobianConverged(&record) : RelaxationConverged(iteration, free_flight, &record, &skipped);
     if (skipped) {
       result.free_flight = true;
       ++free_flight_;

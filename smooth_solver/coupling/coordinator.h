@@ -73,7 +73,7 @@ class Coordinator {
     interface::Channel* channel;
     std::vector<int> points;  // indices into MultibodySystem::interface_points, in Hello order
     std::vector<MovingObstacle> obstacles = {};
-    bool jacobians = false;   // its Welcome offered interface Jacobians
+    bool jacobians = false;  // its Welcome offered interface Jacobians
   };
   // `data`: the system's changing state (its owner's mutable_data()), where the interface
   // rows' imposed coordinates are written; the integrator's checkpoints hold it.
@@ -192,8 +192,8 @@ class Coordinator {
   // (accepted) and end (this iteration).
   Eigen::VectorXd lambda_start_, lambda_end_, filtered_start_, filtered_end_;
   Eigen::VectorXd position_, velocity_, previous_position_, start_velocity_;  // kinematics
-  bool in_contact_ = false;                    // any interface node, this iteration
-  std::vector<bool> contact_, was_contact_;    // per interface point: this iteration, the last accepted step
+  bool in_contact_ = false;                                                   // any interface node, this iteration
+  std::vector<bool> contact_, was_contact_;  // per interface point: this iteration, the last accepted step
   std::vector<int> coupling_rows_;  // the interface points' constraint rows
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;

@@ -219,7 +219,8 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
   summary->mutable_counters()->insert({"coupling_backtracks", static_cast<double>(coordinator_->backtracks())});
   summary->mutable_counters()->insert(
       {"coupling_linearisation_fallbacks", static_cast<double>(coordinator_->linearisation_fallbacks())});
-  summary->mutable_counters()->insert({"coupling_interface_jacobians", coordinator_->interface_jacobians() ? 1.0 : 0.0});
+  summary->mutable_counters()->insert(
+      {"coupling_interface_jacobians", coordinator_->interface_jacobians() ? 1.0 : 0.0});
 }
 
 void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {

@@ -217,7 +217,8 @@ void CgAlpha::FactorizeInterfaceColumns() {
     }
   }
   for (int k = 0; k < points; ++k) {
-    woodbury_w_.middleRows(3 * k, 3) = woodbury_y_.middleRows(n + system_.interface_points[static_cast<size_t>(k)].first_row, 3);
+    woodbury_w_.middleRows(3 * k, 3) =
+        woodbury_y_.middleRows(n + system_.interface_points[static_cast<size_t>(k)].first_row, 3);
   }
 }
 

@@ -46,8 +46,7 @@ struct SystemData {
   // Whether `other` has this object's sizes (belongs to the same system).
   bool SameShape(const SystemData& other) const {
     return other.imposed.size() == imposed.size() && other.impact_speed.size() == impact_speed.size() &&
-           other.interface_compliance.size() == interface_compliance.size() &&
-           other.rotors.size() == rotors.size();
+           other.interface_compliance.size() == interface_compliance.size() && other.rotors.size() == rotors.size();
   }
   // Copies `other` into this object's storage (same sizes: no reallocation, so the drives'
   // pointers into `imposed` stay valid).

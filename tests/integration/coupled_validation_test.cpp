@@ -425,7 +425,9 @@ TEST(CoupledStep, FreeFlightSkipsTheConfirmingIterationAndLosesNothing) {
   const std::string relaxed = " --set coupling.iteration.interface_jacobians=false";
   ASSERT_EQ(Launch(kScenarios + "/tied_drop.pbtxt --out " + full.string() + relaxed).code, 0);
   ASSERT_EQ(Launch(kScenarios + "/tied_drop.pbtxt --out " + skipping.string() + relaxed +
-                   " --set coupling.iteration.free_flight_margin=2").code, 0);
+                   " --set coupling.iteration.free_flight_margin=2")
+                .code,
+            0);
   const cosim::run::RunSummary a = ReadSummary(full), b = ReadSummary(skipping);
   EXPECT_GT(b.counters().at("coupling_free_flight_steps"), 20.0);
   EXPECT_LT(b.coupling_iterations().total(), a.coupling_iterations().total());
@@ -449,7 +451,9 @@ TEST(CoupledStep, NewtonFromTheLastCouplingIterateGivesTheSameRunWithFewerIterat
   const fs::path cold = TempDir("warm_start_off"), warm = TempDir("warm_start_on");
   const std::string relaxed = " --set coupling.iteration.interface_jacobians=false";
   ASSERT_EQ(Launch(kScenarios + "/pendulum_stop.pbtxt --out " + cold.string() + relaxed +
-                   " --set coupling.iteration.warm_start=false").code, 0);
+                   " --set coupling.iteration.warm_start=false")
+                .code,
+            0);
   ASSERT_EQ(Launch(kScenarios + "/pendulum_stop.pbtxt --out " + warm.string() + relaxed).code, 0);
   const auto cold_newton = ReadSummary(cold).newton_iterations().total();
   const auto warm_newton = ReadSummary(warm).newton_iterations().total();
@@ -541,7 +545,8 @@ struct Rebound {
   double time = 0.0, before = 0.0, after = 0.0;
 };
 Rebound AntiFlapRebound(const Table& t) {
-  const std::vector<double> time = t.Column("time"), flap = t.Column("blade1_flap"), rate = t.Column("blade1_flap_rate");
+  const std::vector<double> time = t.Column("time"), flap = t.Column("blade1_flap"),
+                            rate = t.Column("blade1_flap_rate");
   Rebound r;
   size_t k = 1;
   while (k < time.size() && !(time[k] > 0.15 && flap[k] >= 5.0)) ++k;
@@ -601,9 +606,11 @@ TEST(SmallRotor, ABladeThrownOntoItsAntiFlapStopReboundsWithTheStopsRestitution)
   ASSERT_EQ(Launch(kScenarios + "/small_rotor/anti_flap_impact_continuous.pbtxt --out " + twin.string()).code, 0);
   const Table smooth = ReadTable(out / "history.csv"), continuous = ReadTable(twin / "history.csv");
   const Rebound hit = AntiFlapRebound(smooth), hit_twin = AntiFlapRebound(continuous);
-  std::printf("anti-flap stop (5 deg) passed at %.4f s: %.3f -> %.3f rad/s (continuous %.4f s: %.3f -> %.3f); %.3f exchanges per step\n",
-              hit.time, hit.before, hit.after, hit_twin.time, hit_twin.before, hit_twin.after,
-              ReadSummary(out).coupling_iterations().mean_per_step());
+  std::printf(
+      "anti-flap stop (5 deg) passed at %.4f s: %.3f -> %.3f rad/s (continuous %.4f s: %.3f -> %.3f); %.3f exchanges "
+      "per step\n",
+      hit.time, hit.before, hit.after, hit_twin.time, hit_twin.before, hit_twin.after,
+      ReadSummary(out).coupling_iterations().mean_per_step());
   ASSERT_GT(hit.before, 2.0);
   // Measured where the blade passes 5° down again, the ratio includes the stop's contact and a
   // little flight above 5° (observed 0.533 co-simulated, whose tie lets the blade 0.16° past the
@@ -626,7 +633,8 @@ TEST(ElasticInterface, AHex27TipStrikesItsStopAndComesToRestWithDefaultNumerics)
   // fail the step after the impact). The tip falls 2 mm onto the stop, bounces, and rests; then
   // the clamp and the stop carry the weight of beam and node, 26.5851 N (observed 26.58510).
   const fs::path out = TempDir("hex27_tip_on_stop");
-  const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/impacts/hex27_tip_on_stop.pbtxt --out " + out.string());
+  const Result r =
+      Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/impacts/hex27_tip_on_stop.pbtxt --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
   const Table smooth = ReadTable(out / "history.csv"), stop = ReadTable(out / "stop" / "history.csv");
   const double root = smooth.Column("root_force_z").back(), pad = stop.Column("impulse").back() / 1e-3;

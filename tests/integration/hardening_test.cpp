@@ -437,8 +437,9 @@ TEST(Hardening, CoordinatorsNonFiniteReactionsAreItsOwnNumericalFailure) {
       << s.reason();
   const cosim::run::RunSummary relaxed =
       RunTo("coordinator_inf_relaxed",
-            kTiedDrop + " --set coupling.iteration.interface_jacobians=false --set 'model.forces=[{ name: \"push\" load "
-                        "{ body: \"body\" force: [{ constant: 0 }, { constant: 0 }, { constant: -1.7e308 }] } }]'",
+            kTiedDrop +
+                " --set coupling.iteration.interface_jacobians=false --set 'model.forces=[{ name: \"push\" load "
+                "{ body: \"body\" force: [{ constant: 0 }, { constant: 0 }, { constant: -1.7e308 }] } }]'",
             3);
   EXPECT_EQ(relaxed.reason().find("'contacts' stopped"), std::string::npos) << relaxed.reason();
   EXPECT_NE(relaxed.reason().find("step 1 from t = 0 s: CGα"), std::string::npos) << relaxed.reason();
@@ -453,8 +454,9 @@ TEST(Hardening, ReactionToleranceBelowRoundOffDoesNotStallTheCoupling) {
   const fs::path out = TempDir("roundoff_stall");
   // (The relaxation's test; with interface Jacobians a force mismatch within the tie's stiffness
   // times the displacement tolerance passes by construction.)
-  const Result r = Launch(kTiedDrop + " --out " + out.string() + " --set numerics.step=0.0003 --set numerics.end_time=0.6" +
-                          " --set coupling.iteration.interface_jacobians=false");
+  const Result r =
+      Launch(kTiedDrop + " --out " + out.string() + " --set numerics.step=0.0003 --set numerics.end_time=0.6" +
+             " --set coupling.iteration.interface_jacobians=false");
   ASSERT_EQ(r.code, 0) << r.output;
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_GT(s.counters().at("coupling_steps_at_roundoff"), 0.0);

@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
-
 #include <string>
 #include <vector>
 
@@ -72,14 +71,21 @@ TEST(InterfaceJacobian, NodeSensitivityIsTheStepsOwnDerivativeOnEachPieceOfTheCo
   const std::vector<Piece> pieces = {
       {"free flight", R"(contacts { obstacle: "floor" restitution: 0.5 })", {}, {0, 0, 10}},
       {"resting, frictionless", R"(contacts { obstacle: "floor" restitution: 0.5 })", {}, {1, 2, -5}},
-      {"resting in a wedge", R"(contacts { obstacle: "floor" restitution: 0 } contacts { obstacle: "wall" restitution: 0 })",
-       {}, {-3, 1, -5}},
+      {"resting in a wedge",
+       R"(contacts { obstacle: "floor" restitution: 0 } contacts { obstacle: "wall" restitution: 0 })",
+       {},
+       {-3, 1, -5}},
       {"sliding, polyhedral cone", R"(contacts { obstacle: "floor" restitution: 0 friction: 0.3 })", {}, {0, 0, -5}},
-      {"sticking, polyhedral cone", R"(contacts { obstacle: "floor" restitution: 0 friction: 0.9 })",
-       {"model.contact_nodes[0].velocity=[0.0001, 0, 0]"}, {0.2, 0.1, -5}},
-      {"sliding, fc3d", R"(contacts { obstacle: "floor" restitution: 0 friction: 0.3 })",
-       {"numerics.nonsmooth.friction_model=SICONOS_FC3D", "numerics.nonsmooth.lcp.tolerance=1e-15"}, {0, 0, -5}},
-      {"sticking, fc3d", R"(contacts { obstacle: "floor" restitution: 0 friction: 0.9 })",
+      {"sticking, polyhedral cone",
+       R"(contacts { obstacle: "floor" restitution: 0 friction: 0.9 })",
+       {"model.contact_nodes[0].velocity=[0.0001, 0, 0]"},
+       {0.2, 0.1, -5}},
+      {"sliding, fc3d",
+       R"(contacts { obstacle: "floor" restitution: 0 friction: 0.3 })",
+       {"numerics.nonsmooth.friction_model=SICONOS_FC3D", "numerics.nonsmooth.lcp.tolerance=1e-15"},
+       {0, 0, -5}},
+      {"sticking, fc3d",
+       R"(contacts { obstacle: "floor" restitution: 0 friction: 0.9 })",
        {"numerics.nonsmooth.friction_model=SICONOS_FC3D", "model.contact_nodes[0].velocity=[0.0001, 0, 0]"},
        {0.2, 0.1, -5}},
   };
@@ -89,7 +95,9 @@ TEST(InterfaceJacobian, NodeSensitivityIsTheStepsOwnDerivativeOnEachPieceOfTheCo
     const Eigen::Matrix3d analytic = Sensitivity(model, p.force, h);
     const Eigen::Matrix3d numeric = FiniteDifference(model, p.force, h, 1e-4);
     EXPECT_LE((analytic - numeric).norm(), 1e-7 * std::max(analytic.norm(), h / 0.2))
-        << "analytic\n" << analytic << "\nfinite differences\n" << numeric;
+        << "analytic\n"
+        << analytic << "\nfinite differences\n"
+        << numeric;
   }
   // The free node: h/m on the diagonal; resting on the floor: nothing along z.
   const Eigen::Matrix3d free = Sensitivity(NodeModel(pieces[0].contacts), pieces[0].force, h);

@@ -117,10 +117,11 @@ TEST(CoupledStep, TiedBodyBouncesAsOneBall) {
       most = std::max(most, run.iterations[static_cast<size_t>(k)]);
       total += run.iterations[static_cast<size_t>(k)];
     }
-    std::printf("tied drop (%s): |z_coupled − z_ball| <= %.2e m, lowest z %.4f m, %.3f exchanges per step, at most %d\n",
-                jacobians ? "Jacobians" : "Aitken", worst, lowest, total / 600.0, most);
+    std::printf(
+        "tied drop (%s): |z_coupled − z_ball| <= %.2e m, lowest z %.4f m, %.3f exchanges per step, at most %d\n",
+        jacobians ? "Jacobians" : "Aitken", worst, lowest, total / 600.0, most);
     EXPECT_LT(worst, 1e-9);
-    EXPECT_LT(lowest, 0.01);  // it did reach the floor
+    EXPECT_LT(lowest, 0.01);        // it did reach the floor
     EXPECT_GT(run.z.back(), 0.05);  // and rebounded
     if (jacobians) {
       EXPECT_EQ(most, 1);

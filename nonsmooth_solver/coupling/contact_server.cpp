@@ -216,24 +216,22 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
   const Eigen::Index model_nodes = external_.size() / 3;
   stiffness_ = Eigen::VectorXd::Zero(9 * model_nodes);
   reference_ = Eigen::VectorXd::Zero(3 * model_nodes);
-  for (int n = 0; n < nodes; ++n) {
-    for (int i = 0; i < 9; ++i) {
-      const double e = reactions.stiffness(9 * n + i);
-      if (!std::isfinite(e)) {
-        refuse(".stiffness[" + std::to_string(9 * n + i) + "] is " + interface::FormatNumber(e) +
-               "; expected a finite stiffness [N/m]");
+  // `per` values of each interface node into its model node's place in `out`, each finite.
+  auto copy = [&](const google::protobuf::RepeatedField<double>& in, int per, const char* field, const char* unit,
+                  Eigen::VectorXd* out) {
+    for (int n = 0; n < nodes; ++n) {
+      for (int i = 0; i < per; ++i) {
+        const double v = in.Get(per * n + i);
+        if (!std::isfinite(v)) {
+          refuse(std::string(".") + field + "[" + std::to_string(per * n + i) + "] is " + interface::FormatNumber(v) +
+                 "; expected a finite number [" + unit + "]");
+        }
+        (*out)(per * nodes_[static_cast<size_t>(n)] + i) = v;
       }
-      stiffness_(9 * nodes_[static_cast<size_t>(n)] + i) = e;
     }
-    for (int i = 0; i < 3; ++i) {
-      const double x = reactions.position(3 * n + i);
-      if (!std::isfinite(x)) {
-        refuse(".position[" + std::to_string(3 * n + i) + "] is " + interface::FormatNumber(x) +
-               "; expected a finite position [m]");
-      }
-      reference_(3 * nodes_[static_cast<size_t>(n)] + i) = x;
-    }
-  }
+  };
+  copy(reactions.stiffness(), 9, "stiffness", "N/m", &stiffness_);
+  copy(reactions.position(), 3, "position", "m", &reference_);
 }
 
 void ContactServer::Handshake() { Answer(channel_->Receive(Envelope::kHello, -1, -1)); }

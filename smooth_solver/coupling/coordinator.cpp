@@ -464,14 +464,19 @@ bool Coordinator::Linearise(double t, double h, std::string* failure) {
     ++linearisation_fallbacks_;
     return true;
   }
+  LineariseAtSolve(h);  // (applied_ = x_: the predictor's force)
+  return true;
+}
+
+void Coordinator::LineariseAtSolve(double h) {
+  // The last smooth solve's force x* and the kinematics it assumed, k̃ + S (x* − x̃).
   for (size_t k = 0; k < sensitivity_.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
     sent_position_.segment<3>(o) =
-        position_.segment<3>(o) + sensitivity_[k] * (x_tilde_.segment<3>(o) - x_.segment<3>(o));
+        position_.segment<3>(o) + sensitivity_[k] * (x_tilde_.segment<3>(o) - applied_.segment<3>(o));
   }
   x_ = x_tilde_;
   UpdateStiffness(h);
-  return true;
 }
 
 bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
@@ -630,14 +635,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       break;
     }
     if (jacobians_) {
-      // The next linearisation point: the smooth side's force and the kinematics it assumed.
-      for (size_t k = 0; k < sensitivity_.size(); ++k) {
-        const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-        sent_position_.segment<3>(o) =
-            position_.segment<3>(o) + sensitivity_[k] * (x_tilde_.segment<3>(o) - applied_.segment<3>(o));
-      }
-      x_ = x_tilde_;
-      UpdateStiffness(h);
+      LineariseAtSolve(h);
       record.relaxation_factor = 1.0;
     } else {
       relaxation_.Next(x_, x_tilde_, &x_next_);

@@ -168,6 +168,8 @@ class Coordinator {
   // points following the peers' last affine answers from predicted positions) that gives the
   // linearisation point x̂, k̂ sent with StepBegin. false: the solve failed (failure set).
   bool Linearise(double t, double h, std::string* failure);
+  // The point sent next (x̂, k̂) from the last solve, and the stiffness E there.
+  void LineariseAtSolve(double h);
 
   const MultibodySystem& system_;
   SystemData* data_;

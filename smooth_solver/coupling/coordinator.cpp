@@ -432,6 +432,7 @@ double Coordinator::FrameDrift(const DaeState& state) const {
 }
 
 bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::string* failure) {
+  if (guess != nullptr && !iterate_solved_) guess = nullptr;  // (the step's predictor instead)
   try {
     newton_ += integrator_->Step(t, h, guess);
   } catch (const NumericalError& e) {
@@ -439,6 +440,7 @@ bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::stri
     return false;
   }
   iterate_ = integrator_->state();  // equal sizes: no allocation once warm
+  iterate_solved_ = true;
   ReactionsFromSolve();
   return true;
 }
@@ -462,6 +464,7 @@ bool Coordinator::Linearise(double t, double h, std::string* failure) {
     integrator_->Restore(start_);
     sent_position_ = position_;
     ++linearisation_fallbacks_;
+    iterate_solved_ = false;  // (no solve of this step to start Newton from)
     return true;
   }
   LineariseAtSolve(h);  // (applied_ = x_: the predictor's force)
@@ -531,6 +534,7 @@ bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingI
 
 Coordinator::Attempt Coordinator::Try(double t, double h) {
   Attempt result;
+  iterate_solved_ = false;
   log_.clear();  // this step's records (the capacity stays: no allocation once warm)
   integrator_->SaveTo(&start_);
   for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = data_->imposed[static_cast<size_t>(v)].rate;

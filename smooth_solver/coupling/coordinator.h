@@ -179,6 +179,7 @@ class Coordinator {
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
+  bool iterate_solved_ = false;  // iterate_ is a solve of the step under way
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
   long long step_ = 0;
   long long last_accepted_ = -1;

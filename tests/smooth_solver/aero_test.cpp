@@ -3,6 +3,7 @@
 // momentum theory, a flapping blade's aerodynamic damping and coning, a still rotor in a
 // crosswind, and the Pitt–Peters inflow's response.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -49,7 +50,9 @@ class IdealAirfoil : public Airfoil {
 };
 
 std::string WriteFile(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
+  // One file per test process: ctest runs the tests of this file in parallel processes, and a
+  // table rewritten by one while another reads it failed ("the table ends before the header line").
+  const std::string path = ::testing::TempDir() + std::to_string(::getpid()) + "_" + name;
   std::ofstream(path) << text;
   return path;
 }

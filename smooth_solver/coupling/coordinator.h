@@ -1,6 +1,15 @@
 #pragma once
-// The coordinator of a coupled step (rotor-sailing paper, Section 2): Gauss–Seidel between the
-// contact processes and the smooth model, inside every time step, until both agree.
+// The coordinator of a coupled step (rotor-sailing paper, Section 2): the contact processes and
+// the smooth model iterate inside every time step until both agree.
+//
+// With interface Jacobians (the default when every peer offers them; docs/protocol.md): a
+// pre-solve linearises the smooth side (x̂, k̂, E = ∂x/∂k per node), the peers step with that
+// implicit force law and answer with the force they held and their sensitivities S, and the
+// smooth step solves with k = k̃ + S (x − x̃) on its interface rows; the step is accepted when its
+// force is the one the peers held (Linearise, BeginStep, SolveStep, JacobianConverged; a
+// Newton iteration on the interface, one exchange a step while no contact set changes).
+//
+// Without (a relaxation, issue 6):
 //
 //   StepBegin → every peer: predicted reactions x_0 (extrapolated from the accepted steps) and
 //               obstacle frames (the bodies' frames advanced by their velocities) → k_0

@@ -291,19 +291,18 @@ void Coordinator::BeginStep(double t, double h, const DaeState& frames) {
     auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();  // (accepts a pending step)
     begin->set_time(t);
     begin->set_step(h);
-    coupling::Reactions* predictor = begin->mutable_predictor();
-    FillReactions(peer, predictor);
-    sent_frames_[q].clear();
-    for (const MovingObstacle& o : peer.obstacles) {
-      sent_frames_[q].push_back(FillFrame(o.body, frames, ahead, predictor->add_obstacle_frames()));
-    }
+    FillReactions(q, frames, ahead, begin->mutable_predictor());
     peer.channel->Send();
   }
-  step_begun_ = true;
   ReceiveKinematics(0);
 }
 
-void Coordinator::FillReactions(const Peer& peer, coupling::Reactions* reactions) const {
+void Coordinator::FillReactions(size_t q, const DaeState& frames, double ahead, coupling::Reactions* reactions) {
+  const Peer& peer = peers_[q];
+  sent_frames_[q].clear();
+  for (const MovingObstacle& o : peer.obstacles) {
+    sent_frames_[q].push_back(FillFrame(o.body, frames, ahead, reactions->add_obstacle_frames()));
+  }
   for (int p : peer.points) {
     for (int j = 0; j < 3; ++j) reactions->add_force(x_(3 * p + j));
     if (!jacobians_) continue;
@@ -317,12 +316,7 @@ void Coordinator::FillReactions(const Peer& peer, coupling::Reactions* reactions
 void Coordinator::Exchange(int iteration, const DaeState& frames) {
   for (size_t q = 0; q < peers_.size(); ++q) {
     Peer& peer = peers_[q];
-    auto* r = peer.channel->Outgoing(step_, iteration).mutable_reactions();
-    FillReactions(peer, r);
-    sent_frames_[q].clear();
-    for (const MovingObstacle& o : peer.obstacles) {
-      sent_frames_[q].push_back(FillFrame(o.body, frames, 0.0, r->add_obstacle_frames()));
-    }
+    FillReactions(q, frames, 0.0, peer.channel->Outgoing(step_, iteration).mutable_reactions());
     peer.channel->Send();
   }
   ReceiveKinematics(iteration);
@@ -445,7 +439,7 @@ bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::stri
   return true;
 }
 
-bool Coordinator::Linearise(double t, double h, std::string* failure) {
+void Coordinator::Linearise(double t, double h) {
   // The nodes' positions predicted from the accepted steps (no acceleration after an impact)
   // and x_ (the reactions predicted); the smooth step solved with the peers' last affine answers
   // about them gives a point (x̂, k̂) of the smooth side's own response, and its matrix the
@@ -457,7 +451,8 @@ bool Coordinator::Linearise(double t, double h, std::string* failure) {
   applied_ = x_;
   integrator_->Restore(start_);
   ImposeModel(h);
-  if (!SolveStep(t, h, nullptr, failure)) {
+  std::string failure;
+  if (!SolveStep(t, h, nullptr, &failure)) {
     // The predicted node positions with the last answers' compliance were more than CGα could
     // take (observed: the Puma gust at h = 2 ms, 6.638 s, a blade landing on its stop): the
     // predictions themselves (x_0, k_pred) serve as the linearisation point, with the last E.
@@ -465,10 +460,9 @@ bool Coordinator::Linearise(double t, double h, std::string* failure) {
     sent_position_ = position_;
     ++linearisation_fallbacks_;
     iterate_solved_ = false;  // (no solve of this step to start Newton from)
-    return true;
+    return;
   }
   LineariseAtSolve(h);  // (applied_ = x_: the predictor's force)
-  return true;
 }
 
 void Coordinator::LineariseAtSolve(double h) {
@@ -555,12 +549,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     return result;
   };
   if (jacobians_) {
-    std::string why;
-    // (A failed pre-solve sends nothing of the step: the peers still wait for its StepBegin.)
-    if (!Linearise(t, h, &why)) {
-      return failed(-1, "coupling: the smooth step to t = " + interface::FormatNumber(t + h) +
-                            " s that linearises the interface failed (" + CouplingState() + "): " + why);
-    }
+    Linearise(t, h);
     BeginStep(t, h, iterate_);
   } else {
     BeginStep(t, h, integrator_->state());
@@ -697,7 +686,6 @@ void Coordinator::Accept(double t, double h) {
   was_contact_ = contact_;
   // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
   // last_accepted_step at the end): no StepEnd round trip.
-  step_begun_ = false;
   last_accepted_ = step_;
   ++step_;
 }
@@ -713,8 +701,7 @@ std::vector<int> Coordinator::Impacts() const {
 void Coordinator::Reject() {
   integrator_->Restore(start_);
   relaxation_.Forget();  // secants of a step of another length
-  if (step_begun_) EndStep(false, false);  // (a pre-solve that failed sent nothing of the step)
-  step_begun_ = false;
+  EndStep(false, false);
   ++rejected_;
 }
 

@@ -150,7 +150,9 @@ class Coordinator {
   void BeginStep(double t, double h, const DaeState& frames);
   // Reactions of `iteration` (x_, the frames of `frames`) to every peer, and their kinematics.
   void Exchange(int iteration, const DaeState& frames);
-  void FillReactions(const Peer& peer, coupling::Reactions* reactions) const;  // x_ (and E, k̂)
+  // Peer q's reactions x_ (and E, k̂) and the frames of `frames` advanced `ahead` (recorded in
+  // sent_frames_): the body of a StepBegin's predictor or of a Reactions.
+  void FillReactions(size_t q, const DaeState& frames, double ahead, coupling::Reactions* reactions);
   // One CGα solve of the step (from `guess`, or the predictor): iterate_ and x̃ from it; false
   // (and why) if Newton failed.
   bool SolveStep(double t, double h, const DaeState* guess, std::string* failure);
@@ -175,8 +177,8 @@ class Coordinator {
   double FrameDrift(const DaeState& state) const;
   // With interface Jacobians: the pre-solve of a step (the smooth side alone, its interface
   // points following the peers' last affine answers from predicted positions) that gives the
-  // linearisation point x̂, k̂ sent with StepBegin. false: the solve failed (failure set).
-  bool Linearise(double t, double h, std::string* failure);
+  // linearisation point x̂, k̂ sent with StepBegin; if it fails, the predictions are the point.
+  void Linearise(double t, double h);
   // The point sent next (x̂, k̂) from the last solve, and the stiffness E there.
   void LineariseAtSolve(double h);
 
@@ -217,7 +219,6 @@ class Coordinator {
   // response ∂λ/∂x with the compliance it was factorised with, and the peers' compliance in the
   // last factorised matrix.
   bool jacobians_ = false;
-  bool step_begun_ = false;  // the step under way was sent to the peers (its StepBegin)
   // response_: the point's own stiffness D from the last factorisation, response_axes_: its body's
   // axes then.
   std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_;

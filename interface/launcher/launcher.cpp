@@ -88,8 +88,8 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLi
   for (const ContactProcessPlan& process : processes) {
     if (!process.endpoint.empty()) continue;
     const std::string endpoint = "ipc://" + ipc_folder + "/" + std::to_string(process.index) + ".ipc";
-    common.insert(common.end(), {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" +
-                                              endpoint + "\""});
+    common.insert(common.end(),
+                  {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" + endpoint + "\""});
   }
   const auto [server_public, server_secret] = CurveKeyPair();
   const auto [client_public, client_secret] = CurveKeyPair();
@@ -99,13 +99,20 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLi
     std::vector<std::string> contact_args = common;
     const std::string folder = out + "/" + process.name;
     contact_args.insert(contact_args.end(), {"--process", process.name, "--out", folder});
-    plan.push_back(ProcessPlan{process.program, contact_args, folder, "contact process '" + process.name + "'",
-                               {variable(kCurveServerPublic, server_public), variable(kCurveServerSecret, server_secret),
-                                variable(kCurveClientPublic, client_public)}});
+    plan.push_back(
+        ProcessPlan{process.program,
+                    contact_args,
+                    folder,
+                    "contact process '" + process.name + "'",
+                    {variable(kCurveServerPublic, server_public), variable(kCurveServerSecret, server_secret),
+                     variable(kCurveClientPublic, client_public)}});
   }
   std::vector<std::string> smooth_args = common;
   if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});
-  plan.push_back(ProcessPlan{"smooth_solver", smooth_args, out, "smooth_solver",
+  plan.push_back(ProcessPlan{"smooth_solver",
+                             smooth_args,
+                             out,
+                             "smooth_solver",
                              {variable(kCurveServerPublic, server_public), variable(kCurveClientPublic, client_public),
                               variable(kCurveClientSecret, client_secret)}});
   return plan;
@@ -116,11 +123,11 @@ namespace {
 struct Child {
   pid_t pid = -1;
   bool ended = false;
-  int code = 0;    // the run contract's code (a signal: 4)
-  int signal = 0;  // the signal that killed it, or 0
+  int code = 0;             // the run contract's code (a signal: 4)
+  int signal = 0;           // the signal that killed it, or 0
   bool terminated = false;  // SIGTERM sent
   Clock::time_point terminated_at;
-  bool killed = false;      // SIGKILL sent
+  bool killed = false;  // SIGKILL sent
 };
 
 // The time of the last row of a history.csv and the number of rows (0 if none).
@@ -147,8 +154,8 @@ void WriteKilledSummary(const ProcessPlan& p, const CommandLine& cli, int signal
   s.set_status("failed");
   s.set_exit_code(static_cast<int>(ExitCode::kPeerFailure));
   s.set_reason(p.name + " was killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")" + why +
-               "; summary written by the launcher; history.csv holds its rows up to t = " + FormatNumber(time) + " s (" +
-               std::to_string(rows) + " rows)");
+               "; summary written by the launcher; history.csv holds its rows up to t = " + FormatNumber(time) +
+               " s (" + std::to_string(rows) + " rows)");
   WriteSummaryJson(s, p.out + "/summary.json");
 }
 
@@ -302,9 +309,9 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
   // Summaries the processes could not write, and the run's when a contact process failed first.
   for (size_t i = 0; i < children.size(); ++i) {
     if (children[i].signal == 0) continue;
-    const std::string why = children[i].killed ? " (the launcher's, after it ignored SIGTERM for " +
-                                                     FormatNumber(kGraceSeconds) + " s)"
-                                               : "";
+    const std::string why =
+        children[i].killed ? " (the launcher's, after it ignored SIGTERM for " + FormatNumber(kGraceSeconds) + " s)"
+                           : "";
     WriteKilledSummary(plan[i], cli, children[i].signal, why);
   }
   if (contact_failure != 0) PassContactFailureOn(plan[failed_contact], contact_failure, plan[last]);

@@ -1,7 +1,6 @@
 #include "nonsmooth_solver/coupling/contact_server.h"
 
 #include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -63,8 +62,9 @@ void ContactServer::Answer(const Envelope& e) {
     const std::string& name = hello.moving_obstacles(i);
     const auto it = needed.find(name);
     if (it == needed.end()) {
-      throw InputError("coupling: Hello.moving_obstacles[" + std::to_string(i) + "] from '" + peer + "' is '" + name +
-                       "', which is not an obstacle attached to a body that this process's nodes touch (or is listed twice)");
+      throw InputError(
+          "coupling: Hello.moving_obstacles[" + std::to_string(i) + "] from '" + peer + "' is '" + name +
+          "', which is not an obstacle attached to a body that this process's nodes touch (or is listed twice)");
     }
     const Obstacle& found = *it->second;
     needed.erase(it);
@@ -179,8 +179,8 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
                      std::to_string(moving_.size()) + ", one per moving obstacle");
   }
   for (size_t i = 0; i < moving_.size(); ++i) {
-    frame_ends_[i] =
-        ReadFrame(reactions.obstacle_frames(static_cast<int>(i)), std::string(where) + ".obstacle_frames[" + std::to_string(i) + "]");
+    frame_ends_[i] = ReadFrame(reactions.obstacle_frames(static_cast<int>(i)),
+                               std::string(where) + ".obstacle_frames[" + std::to_string(i) + "]");
   }
   const auto& force = reactions.force();
   if (force.size() != 3 * static_cast<int>(nodes_.size())) {
@@ -192,8 +192,9 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
     for (int i = 0; i < 3; ++i) {
       const double f = force.Get(3 * static_cast<int>(n) + i);
       if (!std::isfinite(f)) {
-        throw InputError(std::string("coupling: ") + where + ".force[" + std::to_string(3 * n + static_cast<size_t>(i)) +
-                         "] from '" + channel_->options().peer + "' is " + interface::FormatNumber(f) + "; expected a finite force [N]");
+        throw InputError(std::string("coupling: ") + where + ".force[" +
+                         std::to_string(3 * n + static_cast<size_t>(i)) + "] from '" + channel_->options().peer +
+                         "' is " + interface::FormatNumber(f) + "; expected a finite force [N]");
       }
       external_(3 * nodes_[n] + i) = f;
     }
@@ -256,11 +257,11 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
     if (e.has_step_begin() && step_ < 0 &&
         (e.step() != step || std::abs(e.step_begin().time() - t) > 1e-9 * std::max(1.0, std::abs(t)) ||
          std::abs(e.step_begin().step() - h) > 1e-12 * std::max(1.0, h))) {
-      throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
-                       interface::FormatNumber(e.step_begin().time()) + " s, h = " + interface::FormatNumber(e.step_begin().step()) +
-                       " s from '" + channel_->options().peer + "', expected step " + std::to_string(step) +
-                       " at t = " + interface::FormatNumber(t) + " s, h = " + interface::FormatNumber(h) +
-                       " s: both sides must read the same numerics");
+      throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) +
+                       " at t = " + interface::FormatNumber(e.step_begin().time()) + " s, h = " +
+                       interface::FormatNumber(e.step_begin().step()) + " s from '" + channel_->options().peer +
+                       "', expected step " + std::to_string(step) + " at t = " + interface::FormatNumber(t) +
+                       " s, h = " + interface::FormatNumber(h) + " s: both sides must read the same numerics");
     }
     const Outcome outcome = Handle(e);
     if (outcome == Outcome::kAccepted && last_accepted_ == step) return;
@@ -285,10 +286,10 @@ void ContactServer::ServeUntil(double time) {
     const Envelope& e = Next();
     if (e.has_step_begin() && step_ < 0 &&
         std::abs(e.step_begin().time() - accepted_time_) > 1e-12 * std::max(1.0, std::abs(accepted_time_))) {
-      throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " at t = " +
-                       interface::FormatNumber(e.step_begin().time()) + " s from '" + channel_->options().peer +
-                       "', expected a step from the last accepted one's end, t = " +
-                       interface::FormatNumber(accepted_time_) + " s");
+      throw InputError(
+          "coupling: StepBegin of step " + std::to_string(e.step()) +
+          " at t = " + interface::FormatNumber(e.step_begin().time()) + " s from '" + channel_->options().peer +
+          "', expected a step from the last accepted one's end, t = " + interface::FormatNumber(accepted_time_) + " s");
     }
     if (Handle(e) == Outcome::kShutdown) ThrowStopped("t = " + interface::FormatNumber(time) + " s");
   }
@@ -336,8 +337,8 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
                          "', expected step " + std::to_string(last_accepted_ + 1));
       }
       if (!(e.step_begin().step() > 0.0)) {
-        throw InputError("coupling: StepBegin.step from '" + peer + "' is " + interface::FormatNumber(e.step_begin().step()) +
-                         "; expected a positive step [s]");
+        throw InputError("coupling: StepBegin.step from '" + peer + "' is " +
+                         interface::FormatNumber(e.step_begin().step()) + "; expected a positive step [s]");
       }
       step_ = e.step();
       t_ = e.step_begin().time();

@@ -41,21 +41,21 @@ class ContactServer {
   void Run();
 
   // The same, step by step (a contact process inside the run driver's time loop):
-  void Handshake();                              // Hello → Welcome
+  void Handshake();                                  // Hello → Welcome
   void ServeStep(int64_t step, double t, double h);  // until step `step` (t, h) is accepted
   // Adaptive steps (numerics.adaptive): the coordinator chooses each step and may reject it;
   // serves until an accepted step ends at `time` or later (each StepBegin must start where the
   // last accepted step ended). Returns at once if one already has.
   void ServeUntil(double time);
   double accepted_time() const { return accepted_time_; }  // end of the last accepted step
-  void ServeShutdown();                          // the coordinator's Shutdown → reply
+  void ServeShutdown();                                    // the coordinator's Shutdown → reply
 
   std::function<void(double time)> on_accept;
   // numerics.adaptive.resting_speed [m/s] (Kinematics.time_to_contact; ContactStepper::TimeToContact).
   void set_resting_speed(double speed) { resting_speed_ = speed; }
   long long accepted_steps() const { return accepted_; }
   long long tentative_steps() const { return tentative_; }
-  long long rejected_steps() const { return rejected_; }  // StepEnd(accepted = false): adaptive steps
+  long long rejected_steps() const { return rejected_; }              // StepEnd(accepted = false): adaptive steps
   const std::vector<int>& interface_nodes() const { return nodes_; }  // model node indices
 
  private:
@@ -71,7 +71,7 @@ class ContactServer {
   // Checked, into external_ and the moving obstacles' end frames.
   void SetReactions(const coupling::Reactions& reactions, const char* where);
   BodyFrame ReadFrame(const coupling::Frame& frame, const std::string& where) const;  // checked
-  std::vector<int> moving_;  // ContactData::frames index of each Hello.moving_obstacles entry
+  std::vector<int> moving_;            // ContactData::frames index of each Hello.moving_obstacles entry
   std::vector<BodyFrame> frame_ends_;  // the frames at the step's end the last Reactions (or predictor) gave
   DrivenFrame& Frame(size_t i) { return simulation_->mutable_data()->frames[static_cast<size_t>(moving_[i])]; }
   int coordinator_exit_code_ = 0;
@@ -92,7 +92,7 @@ class ContactServer {
   bool has_deferred_ = false;
   Eigen::VectorXd sensitivity_position_, sensitivity_velocity_;  // scratch
   double t_ = 0.0, h_ = 0.0;
-  int64_t step_ = -1;          // the step under way
+  int64_t step_ = -1;  // the step under way
   int64_t last_accepted_ = -1;
   double accepted_time_ = 0.0;
   double resting_speed_ = 0.0;

@@ -3,7 +3,6 @@
 // method: Moreau–Jean with an LCP (ContactSimulation) or a penalty law (PenaltySimulation).
 // It is also a run-contract Simulation (probes, summary), so the same program runs standalone.
 #include <Eigen/Core>
-
 #include <string>
 #include <vector>
 

@@ -52,7 +52,7 @@ struct MoreauJeanStats {
   long long lcp_solves = 0;
   long long lcp_iterations = 0;  // summed solver iterations (LCP or fc3d)
   long long lcp_fallbacks = 0;
-  long long activations = 0;     // contacts in an index set, summed over steps
+  long long activations = 0;  // contacts in an index set, summed over steps
   int max_step_lcp_iterations = 0;
   int last_step_lcp_iterations = 0;
   int last_step_active = 0;
@@ -93,7 +93,7 @@ class MoreauJean {
   const Eigen::MatrixXd& friction_impulses() const { return friction_impulse_; }
   double time() const { return time_; }
   double Gap(int contact) const;
-  double GapRate(int contact) const;  // [m/s] at the current time (the node's velocity against the plane's)
+  double GapRate(int contact) const;       // [m/s] at the current time (the node's velocity against the plane's)
   double KineticEnergy(int node) const;    // node < 0: all nodes
   double PotentialEnergy(int node) const;  // gravity and springs; node < 0: all (node springs included)
   const MoreauJeanStats& stats() const { return stats_; }
@@ -133,9 +133,9 @@ class MoreauJean {
   // Constant matrices and scratch of one node group, sized once.
   struct GroupWork {
     int dofs = 0;
-    Eigen::VectorXd mass;        // per dof
-    Eigen::MatrixXd K, C;        // dofs × dofs
-    Eigen::VectorXd f_rest;      // constant part of the spring forces
+    Eigen::VectorXd mass;            // per dof
+    Eigen::MatrixXd K, C;            // dofs × dofs
+    Eigen::VectorXd f_rest;          // constant part of the spring forces
     bool has_linear_forces = false;  // K or C non-zero
     bool diagonal = true;            // M̂ diagonal (no node springs): solve by division
     Eigen::LLT<Eigen::MatrixXd> m_hat;
@@ -148,15 +148,15 @@ class MoreauJean {
     bool coupled = false;
     Eigen::PartialPivLU<Eigen::MatrixXd> m_hat_coupled;
     Eigen::VectorXd q, v, fe0, fe1, rhs, v_free;
-    Eigen::MatrixXd G, Y;        // dofs × (max columns)
-    int columns = 0;             // impulse columns this step (0: no active contact)
-    int column_offset = 0;       // first column in the assembled problem
+    Eigen::MatrixXd G, Y;   // dofs × (max columns)
+    int columns = 0;        // impulse columns this step (0: no active contact)
+    int column_offset = 0;  // first column in the assembled problem
   };
   // Where one active contact's unknowns sit in the assembled problem.
   struct ActiveContact {
     int contact = 0;
     int group = 0;
-    int normal_column = 0;   // column within its group
+    int normal_column = 0;    // column within its group
     int tangent_columns = 0;  // polyhedral facets (0 without friction)
     int lambda_row = -1;      // sliding multiplier row (polyhedral friction), in the problem
     double u0 = 0.0;          // normal velocity at the start of the step

@@ -14,7 +14,7 @@ ContactSimulation::ContactSimulation(const interface::ScenarioFile& file, const 
   if (lcp->fallback_size() == 0) {
     for (LcpAlgorithm a : model_->lcp.fallbacks) {
       lcp->add_fallback(a == LcpAlgorithm::kEnumerative ? scenario::LcpSettings::ENUMERATIVE
-                                                         : scenario::LcpSettings::NEWTON_FB);
+                                                        : scenario::LcpSettings::NEWTON_FB);
     }
   }
   integrator_ = std::make_unique<MoreauJean>(*model_, numerics_.start_time());
@@ -42,9 +42,8 @@ void ContactSimulation::FillSummary(run::RunSummary* summary) const {
   summary->set_max_constraint_violation(max_penetration_);
   auto* lcp = summary->mutable_lcp_iterations();
   lcp->set_total(static_cast<double>(s.lcp_iterations));
-  lcp->set_mean_per_step(summary->steps() > 0 ? static_cast<double>(s.lcp_iterations) /
-                                                    static_cast<double>(summary->steps())
-                                              : 0.0);
+  lcp->set_mean_per_step(
+      summary->steps() > 0 ? static_cast<double>(s.lcp_iterations) / static_cast<double>(summary->steps()) : 0.0);
   lcp->set_max_per_step(s.max_step_lcp_iterations);
   auto& counters = *summary->mutable_counters();
   counters["lcp_solves"] = static_cast<double>(s.lcp_solves);

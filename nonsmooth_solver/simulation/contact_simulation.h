@@ -4,10 +4,10 @@
 #include <memory>
 #include <set>
 
-#include "nonsmooth_solver/integrator/moreau_jean.h"
-#include "nonsmooth_solver/model/contact_model.h"
 #include "interface/run/run_driver.h"
 #include "nonsmooth_solver/coupling/contact_stepper.h"
+#include "nonsmooth_solver/integrator/moreau_jean.h"
+#include "nonsmooth_solver/model/contact_model.h"
 
 namespace cosim::nonsmooth {
 

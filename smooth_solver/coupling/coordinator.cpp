@@ -19,8 +19,8 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
       integrator_(integrator),
       peers_(std::move(peers)),
       settings_(settings),
-      relaxation_(settings.relaxation, 3 * static_cast<int>(system.interface_points.size()),
-                  settings.relaxation_factor, -1, settings.reuse_steps) {
+      relaxation_(settings.relaxation, 3 * static_cast<int>(system.interface_points.size()), settings.relaxation_factor,
+                  -1, settings.reuse_steps) {
   n_ = 3 * static_cast<int>(system.interface_points.size());
   x_ = Eigen::VectorXd::Zero(n_);
   x_tilde_ = x_;
@@ -607,9 +607,10 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (!x_tilde_.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
-      return failed(iteration, "coupling: the smooth model's reactions on the interface nodes are not finite after "
-                               "coupling iteration " + std::to_string(iteration) + " of the step to t = " +
-                               interface::FormatNumber(t + h) + " s");
+      return failed(iteration,
+                    "coupling: the smooth model's reactions on the interface nodes are not finite after "
+                    "coupling iteration " +
+                        std::to_string(iteration) + " of the step to t = " + interface::FormatNumber(t + h) + " s");
     }
     CouplingIterationRecord record;
     record.step = step_;
@@ -681,7 +682,7 @@ void Coordinator::Accept(double t, double h) {
     RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
     for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
     accepted_steps_ = 0;
-    relaxation_.Forget();   // nor do the secants of the interface map before it
+    relaxation_.Forget();  // nor do the secants of the interface map before it
   }
   was_contact_ = contact_;
   // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's

@@ -227,9 +227,9 @@ patterns {{
 # law's contact at K = 1e9 lasts ~20 ms on the droop stop; the Newton matrix is reused over up
 # to 20 steps (and every coupling iteration) while it contracts the corrections 4× or better.
 # {'''The default (projected) constraint form: measured with interface Jacobians and the 0.1 kg
-# pads, it runs the gust at h = 1 ms (1.008 exchanges a step, 27 s) and at 2 ms (2.69 a step,
-# its linearising pre-solve falling back to the predictions in 4096 steps), the engagement at
-# 1 ms (2.05 a step, 313 s); the CGα paper's index-3 form took the engagement in 1.54 exchanges
+# pads, it runs the gust at h = 1 ms (1.008 exchanges a step, 27 s) and at 2 ms (1.028 a step),
+# the engagement at 1 ms (2.04 a step, 273–360 s) and at 2 ms (1.34 a step, 303 s: its Newton
+# reuses the matrix less); the CGα paper's index-3 form took the engagement in 1.54 exchanges
 # a step (262 s) and the gust at 1 ms in 1.003 (25 s), but lost the lag links' velocity-level
 # rigidity at 2 ms (the watchdog at 6.646 s, blade 3 landing). Before the interface Jacobians the
 # projected form's position projection diverged when a blade left its stop (the gust at 5.9 s).

@@ -16,9 +16,7 @@ namespace cosim::interface {
 
 namespace {
 
-double Now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double Now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 // Seconds as ZeroMQ's int milliseconds, saturated (the scenario bounds the timeouts anyway).
 int Milliseconds(double seconds) {
@@ -41,8 +39,9 @@ CurveKeys CurveKeysFromEnvironment() {
     const char* value = std::getenv(name);
     const std::string key = value == nullptr ? "" : value;
     if (!key.empty() && !ValidKey(key)) {
-      throw InputError(std::string("environment: ") + name + " is not a CURVE key (40 Z85 characters, as "
-                                                              "zmq_curve_keypair makes them)");
+      throw InputError(std::string("environment: ") + name +
+                       " is not a CURVE key (40 Z85 characters, as "
+                       "zmq_curve_keypair makes them)");
     }
     return key;
   };
@@ -56,15 +55,24 @@ CurveKeys CurveKeysFromEnvironment() {
 
 std::string BodyName(coupling::Envelope::BodyCase body) {
   switch (body) {
-    case coupling::Envelope::kHello: return "Hello";
-    case coupling::Envelope::kWelcome: return "Welcome";
-    case coupling::Envelope::kStepBegin: return "StepBegin";
-    case coupling::Envelope::kReactions: return "Reactions";
-    case coupling::Envelope::kKinematics: return "Kinematics";
-    case coupling::Envelope::kStepEnd: return "StepEnd";
-    case coupling::Envelope::kShutdown: return "Shutdown";
-    case coupling::Envelope::kHeartbeat: return "Heartbeat";
-    case coupling::Envelope::BODY_NOT_SET: return "a message without body";
+    case coupling::Envelope::kHello:
+      return "Hello";
+    case coupling::Envelope::kWelcome:
+      return "Welcome";
+    case coupling::Envelope::kStepBegin:
+      return "StepBegin";
+    case coupling::Envelope::kReactions:
+      return "Reactions";
+    case coupling::Envelope::kKinematics:
+      return "Kinematics";
+    case coupling::Envelope::kStepEnd:
+      return "StepEnd";
+    case coupling::Envelope::kShutdown:
+      return "Shutdown";
+    case coupling::Envelope::kHeartbeat:
+      return "Heartbeat";
+    case coupling::Envelope::BODY_NOT_SET:
+      return "a message without body";
   }
   return "an unknown message";
 }
@@ -200,8 +208,8 @@ void Channel::Authenticate() {
       }
       if (frames.size() < 6) continue;  // not a ZAP request: REP needs a reply anyway
       const bool curve = frames[5].to_string() == "CURVE";
-      const bool ours = curve && frames.size() >= 7 && frames[6].size() == 32 &&
-                        std::memcmp(frames[6].data(), expected, 32) == 0;
+      const bool ours =
+          curve && frames.size() >= 7 && frames[6].size() == 32 && std::memcmp(frames[6].data(), expected, 32) == 0;
       zap_->send(zmq::str_buffer("1.0"), zmq::send_flags::sndmore);
       zap_->send(frames[1], zmq::send_flags::sndmore);
       zap_->send(zmq::buffer(std::string(ours ? "200" : "400")), zmq::send_flags::sndmore);
@@ -309,11 +317,12 @@ const coupling::Envelope& Channel::Receive(coupling::Envelope::BodyCase expected
     // this side with the same code; anything else is a peer failure.
     const int code = e.shutdown().exit_code();
     ThrowAs(PeerOutcome(code), "coupling: '" + options_.peer + "' stopped (exit code " + std::to_string(code) +
-                          ") while this side waited for " + awaiting + ": " + e.shutdown().reason());
+                                   ") while this side waited for " + awaiting + ": " +
+                                   EchoedText(e.shutdown().reason()));
   }
   if (e.body_case() != expected || (step >= 0 && e.step() != step) || (iteration >= 0 && e.iteration() != iteration)) {
-    throw InputError("coupling: out-of-order message from '" + options_.peer + "': got " + Describe(e) +
-                     ", expected " + awaiting);
+    throw InputError("coupling: out-of-order message from '" + options_.peer + "': got " + Describe(e) + ", expected " +
+                     awaiting);
   }
   return e;
 }

@@ -12,6 +12,14 @@ std::string FormatNumber(double value) {
   return std::string(buffer, result.ptr);
 }
 
+std::string EchoedText(const std::string& text) {
+  constexpr size_t kLimit = 200;
+  if (text.size() <= kLimit) return text;
+  size_t cut = kLimit;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // not inside a UTF-8 character
+  return text.substr(0, cut) + "… (" + std::to_string(text.size()) + " bytes)";
+}
+
 void Checks::Require(const std::string& path, bool has, const std::string& what) const {
   if (!has) Fail(path, "missing; expected " + what);
 }
@@ -33,8 +41,8 @@ double Checks::NonNegative(const std::string& path, double value, const std::str
 
 double Checks::InRange(const std::string& path, bool has, double value, double lo, double hi, bool lo_open,
                        bool hi_open) const {
-  const std::string range = std::string(lo_open ? "(" : "[") + FormatNumber(lo) + ", " + FormatNumber(hi) +
-                            (hi_open ? ")" : "]");
+  const std::string range =
+      std::string(lo_open ? "(" : "[") + FormatNumber(lo) + ", " + FormatNumber(hi) + (hi_open ? ")" : "]");
   Require(path, has, "a value in " + range);
   const bool above = lo_open ? value > lo : value >= lo;
   const bool below = hi_open ? value < hi : value <= hi;
@@ -53,7 +61,8 @@ Eigen::Vector3d Checks::Vector3(const std::string& path, const google::protobuf:
   return v;
 }
 
-Eigen::Vector3d Checks::Direction(const std::string& path, const google::protobuf::RepeatedField<double>& values) const {
+Eigen::Vector3d Checks::Direction(const std::string& path,
+                                  const google::protobuf::RepeatedField<double>& values) const {
   const Eigen::Vector3d v = Vector3(path, values, std::nullopt);
   const double norm = v.norm();
   if (!(norm > 1e-12)) {
@@ -91,9 +100,7 @@ std::string Checks::Name(const std::string& path, bool has, const std::string& v
   return value;
 }
 
-std::string ElementPath(const std::string& list, int index) {
-  return list + "[" + std::to_string(index) + "]";
-}
+std::string ElementPath(const std::string& list, int index) { return list + "[" + std::to_string(index) + "]"; }
 
 std::string NameTable::Declare(const std::string& path, bool has, const std::string& name) {
   Add(path, checks_.Name(path, has, name));
@@ -108,11 +115,16 @@ int ProbeComponent(const Checks& checks, const std::string& path, const scenario
     return 0;
   }
   switch (p.component()) {
-    case scenario::Probe::X: return 0;
-    case scenario::Probe::Y: return 1;
-    case scenario::Probe::Z: return 2;
-    case scenario::Probe::NORM: return 3;
-    default: checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
+    case scenario::Probe::X:
+      return 0;
+    case scenario::Probe::Y:
+      return 1;
+    case scenario::Probe::Z:
+      return 2;
+    case scenario::Probe::NORM:
+      return 3;
+    default:
+      checks.Fail(path + ".component", "this quantity is a vector; give X, Y, Z or NORM");
   }
 }
 

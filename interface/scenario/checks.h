@@ -2,9 +2,9 @@
 // Validation helpers shared by the solvers' model builders. Each check either returns the
 // validated value or throws InputError through ScenarioFile::Fail, naming the place, the
 // value found and what is expected.
-#include <Eigen/Core>
 #include <google/protobuf/repeated_field.h>
 
+#include <Eigen/Core>
 #include <map>
 #include <optional>
 #include <string>
@@ -15,6 +15,11 @@ namespace cosim::interface {
 
 // Shortest text that reads back to the same double.
 std::string FormatNumber(double value);
+
+// A peer's or user's text as it may be echoed into a message, a log or a summary: whole up to
+// 200 bytes, else its first 200 (cut at a character boundary) and its length, so that a 20 MB
+// name cannot make a 20 MB summary.
+std::string EchoedText(const std::string& text);
 
 // The field path of element `index` of a repeated field: ElementPath("model.bodies", 2) is
 // "model.bodies[2]".
@@ -32,8 +37,8 @@ class Checks {
   double Positive(const std::string& path, bool has, double value, const std::string& unit) const;
   double NonNegative(const std::string& path, double value, const std::string& unit) const;
   // value in [lo, hi] (closed) unless the bound is marked open.
-  double InRange(const std::string& path, bool has, double value, double lo, double hi,
-                 bool lo_open = false, bool hi_open = false) const;
+  double InRange(const std::string& path, bool has, double value, double lo, double hi, bool lo_open = false,
+                 bool hi_open = false) const;
   // A 3-vector given as [x, y, z]; `fallback` used when the list is empty (absent).
   Eigen::Vector3d Vector3(const std::string& path, const google::protobuf::RepeatedField<double>& values,
                           const std::optional<Eigen::Vector3d>& fallback) const;

@@ -22,11 +22,14 @@ void ContactServer::Answer(const Envelope& e) {
   const coupling::Hello& hello = e.hello();
   const std::string peer = channel_->options().peer;
   if (hello.scenario_name() != scenario_name_) {
-    throw InputError("coupling: '" + peer + "' runs scenario '" + hello.scenario_name() + "', this process read '" +
-                     scenario_name_ + "'; both sides must read the same scenario");
+    throw InputError("coupling: '" + peer + "' runs scenario '" + interface::EchoedText(hello.scenario_name()) +
+                     "', this process read '" + scenario_name_ + "'; both sides must read the same scenario");
   }
   const auto& model_nodes = simulation_->model().nodes;
   nodes_.clear();
+  if (hello.interface_nodes_size() == 0) {
+    throw InputError("coupling: Hello from '" + peer + "' names no interface node; expected at least one");
+  }
   for (int i = 0; i < hello.interface_nodes_size(); ++i) {
     const std::string& name = hello.interface_nodes(i);
     int found = -1;
@@ -37,13 +40,22 @@ void ContactServer::Answer(const Envelope& e) {
       std::string known;
       for (const auto& n : model_nodes) known += (known.empty() ? "" : ", ") + n.name;
       throw InputError("coupling: Hello.interface_nodes[" + std::to_string(i) + "] from '" + peer +
-                       "' names contact node '" + name + "', which this process does not have; known: " + known);
+                       "' names contact node '" + interface::EchoedText(name) +
+                       "', which this process does not have; known: " + known);
+    }
+    if (std::find(nodes_.begin(), nodes_.end(), found) != nodes_.end()) {
+      throw InputError("coupling: Hello.interface_nodes[" + std::to_string(i) + "] from '" + peer +
+                       "' names contact node '" + name + "' a second time; expected each node once");
     }
     nodes_.push_back(found);
   }
-  if (!(hello.step() > 0.0)) {
+  if (!(hello.step() > 0.0) || !std::isfinite(hello.step())) {
     throw InputError("coupling: Hello.step from '" + peer + "' is " + interface::FormatNumber(hello.step()) +
-                     "; expected a positive step [s]");
+                     "; expected a positive, finite step [s]");
+  }
+  if (!std::isfinite(hello.start_time())) {
+    throw InputError("coupling: Hello.start_time from '" + peer + "' is " +
+                     interface::FormatNumber(hello.start_time()) + "; expected a finite time [s]");
   }
   // Obstacles attached to smooth bodies: the Hello lists them with their start frames, in
   // which their scenario geometry (global, at the start) becomes fixed.
@@ -255,8 +267,8 @@ void ContactServer::ServeStep(int64_t step, double t, double h) {
     const Envelope& e = Next();
     // (A StepBegin that accepts the step under way is checked when it begins its own.)
     if (e.has_step_begin() && step_ < 0 &&
-        (e.step() != step || std::abs(e.step_begin().time() - t) > 1e-9 * std::max(1.0, std::abs(t)) ||
-         std::abs(e.step_begin().step() - h) > 1e-12 * std::max(1.0, h))) {
+        (e.step() != step || !(std::abs(e.step_begin().time() - t) <= 1e-9 * std::max(1.0, std::abs(t))) ||
+         !(std::abs(e.step_begin().step() - h) <= 1e-12 * std::max(1.0, h)))) {  // (NaN fails)
       throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) +
                        " at t = " + interface::FormatNumber(e.step_begin().time()) + " s, h = " +
                        interface::FormatNumber(e.step_begin().step()) + " s from '" + channel_->options().peer +
@@ -285,7 +297,7 @@ void ContactServer::ServeUntil(double time) {
   while (accepted_time_ < time - eps) {
     const Envelope& e = Next();
     if (e.has_step_begin() && step_ < 0 &&
-        std::abs(e.step_begin().time() - accepted_time_) > 1e-12 * std::max(1.0, std::abs(accepted_time_))) {
+        !(std::abs(e.step_begin().time() - accepted_time_) <= 1e-12 * std::max(1.0, std::abs(accepted_time_)))) {
       throw InputError(
           "coupling: StepBegin of step " + std::to_string(e.step()) +
           " at t = " + interface::FormatNumber(e.step_begin().time()) + " s from '" + channel_->options().peer +
@@ -336,9 +348,13 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
         throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
                          "', expected step " + std::to_string(last_accepted_ + 1));
       }
-      if (!(e.step_begin().step() > 0.0)) {
+      if (!(e.step_begin().step() > 0.0) || !std::isfinite(e.step_begin().step())) {
         throw InputError("coupling: StepBegin.step from '" + peer + "' is " +
-                         interface::FormatNumber(e.step_begin().step()) + "; expected a positive step [s]");
+                         interface::FormatNumber(e.step_begin().step()) + "; expected a positive, finite step [s]");
+      }
+      if (!std::isfinite(e.step_begin().time())) {
+        throw InputError("coupling: StepBegin.time from '" + peer + "' is " +
+                         interface::FormatNumber(e.step_begin().time()) + "; expected a finite time [s]");
       }
       step_ = e.step();
       t_ = e.step_begin().time();
@@ -396,7 +412,7 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
         return Outcome::kAccepted;
       }
       coordinator_exit_code_ = e.shutdown().exit_code();
-      coordinator_reason_ = e.shutdown().reason();
+      coordinator_reason_ = interface::EchoedText(e.shutdown().reason());
       channel_->Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
       channel_->Send();
       return Outcome::kShutdown;

@@ -128,10 +128,24 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
   jacobians_ = settings_.interface_jacobians && n_ > 0;
   for (Peer& peer : peers_) {
     const auto& welcome = peer.channel->Receive(Envelope::kWelcome, -1, -1).welcome();
+    const std::string& name = peer.channel->options().peer;
+    if (welcome.process_name() != name) {
+      throw InputError("coupling: the Welcome from the process addressed as '" + name + "' names itself '" +
+                       interface::EchoedText(welcome.process_name()) + "'; expected '" + name + "'");
+    }
     if (welcome.interface_nodes_size() != static_cast<int>(peer.points.size())) {
-      throw InputError("coupling: '" + peer.channel->options().peer + "' welcomed " +
-                       std::to_string(welcome.interface_nodes_size()) + " interface nodes, expected " +
-                       std::to_string(peer.points.size()));
+      throw InputError("coupling: '" + name + "' welcomed " + std::to_string(welcome.interface_nodes_size()) +
+                       " interface nodes, expected " + std::to_string(peer.points.size()));
+    }
+    // The same nodes in the same order: the k-th reaction goes to the k-th node named.
+    for (int i = 0; i < welcome.interface_nodes_size(); ++i) {
+      const std::string& asked =
+          system_.interface_points[static_cast<size_t>(peer.points[static_cast<size_t>(i)])].contact_node;
+      if (welcome.interface_nodes(i) != asked) {
+        throw InputError("coupling: Welcome.interface_nodes[" + std::to_string(i) + "] from '" + name + "' is '" +
+                         interface::EchoedText(welcome.interface_nodes(i)) + "'; the Hello asked for '" + asked +
+                         "' there (the nodes, in the Hello's order)");
+      }
     }
     peer.jacobians = welcome.interface_jacobians();
     jacobians_ = jacobians_ && peer.jacobians;

@@ -44,9 +44,8 @@ Outcome AgainstFakePeer(const std::string& name, const std::function<std::string
     const fs::path log = out / "stderr.txt";
     const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) +
                                 "/scenarios/tied_drop.pbtxt --out " + (out / "run").string() +
-                                " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' --set coupling.timeout=20 " +
-                                extra + " > " +
-                                log.string() + " 2>&1";
+                                " --set coupling.processes[0].endpoint='\"" + endpoint +
+                                "\"' --set coupling.timeout=20 " + extra + " > " + log.string() + " 2>&1";
     const int status = std::system(command.c_str());
     outcome.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     outcome.output = Slurp(log);
@@ -86,19 +85,54 @@ TEST(ProtocolFaults, WrongVersionPeerIsRefusedAtHandshake) {
   EXPECT_LT(o.seconds, 10.0);  // refused at once, not after the 20 s timeout
 }
 
+// A contact process's Welcome, from fields a test sets.
+std::string WelcomeBytes(const std::string& process, const std::vector<std::string>& nodes) {
+  cosim::coupling::Envelope welcome;
+  welcome.set_protocol_version(cosim::coupling::PROTOCOL_VERSION_CURRENT);
+  welcome.set_sender(process);
+  welcome.set_step(-1);
+  welcome.mutable_welcome()->set_process_name(process);
+  for (const auto& node : nodes) welcome.mutable_welcome()->add_interface_nodes(node);
+  return welcome.SerializeAsString();
+}
+
+TEST(ProtocolFaults, AWelcomeNamingOtherNodesIsRefused) {
+  // Issue 32, item 2: only the count was compared, so a contact process with a node-order bug
+  // (or another scene's nodes) was coupled to the wrong nodes and the run ended "ok". The
+  // Hello asked for "node"; this Welcome names "other".
+  const Outcome o =
+      AgainstFakePeer("welcome_nodes", [](const std::string&) { return WelcomeBytes("contacts", {"other"}); });
+  EXPECT_EQ(o.code, 2) << o.output;
+  EXPECT_NE(o.output.find("Welcome.interface_nodes[0] from 'contacts' is 'other'; the Hello asked for 'node' there"),
+            std::string::npos)
+      << o.output;
+}
+
+TEST(ProtocolFaults, AWelcomeFromAProcessOfAnotherNameIsRefused) {
+  // Issue 32, item 2: the process that answers must be the one the Hello addressed.
+  const Outcome o = AgainstFakePeer("welcome_name", [](const std::string&) { return WelcomeBytes("stops", {"node"}); });
+  EXPECT_EQ(o.code, 2) << o.output;
+  EXPECT_NE(o.output.find("the Welcome from the process addressed as 'contacts' names itself 'stops'"),
+            std::string::npos)
+      << o.output;
+}
+
 TEST(ProtocolFaults, SilentPeerEndsTheRunWithinTheTimeout) {
   // A contact process that welcomes the coordinator and then says nothing (it hung, or died on
   // another machine where no launcher watches it): the coordinator gives up after
   // coupling.timeout (here 2 s) with exit code 4, naming the peer and what it waited for.
-  const Outcome o = AgainstFakePeer("silent", [](const std::string&) {
-    cosim::coupling::Envelope welcome;
-    welcome.set_protocol_version(cosim::coupling::PROTOCOL_VERSION_CURRENT);
-    welcome.set_sender("contacts");
-    welcome.set_step(-1);
-    welcome.mutable_welcome()->set_process_name("contacts");
-    welcome.mutable_welcome()->add_interface_nodes("node");
-    return welcome.SerializeAsString();
-  }, "--set coupling.timeout=2");
+  const Outcome o = AgainstFakePeer(
+      "silent",
+      [](const std::string&) {
+        cosim::coupling::Envelope welcome;
+        welcome.set_protocol_version(cosim::coupling::PROTOCOL_VERSION_CURRENT);
+        welcome.set_sender("contacts");
+        welcome.set_step(-1);
+        welcome.mutable_welcome()->set_process_name("contacts");
+        welcome.mutable_welcome()->add_interface_nodes("node");
+        return welcome.SerializeAsString();
+      },
+      "--set coupling.timeout=2");
   EXPECT_EQ(o.code, 4) << o.output;
   EXPECT_NE(o.output.find("no message from 'contacts'"), std::string::npos) << o.output;
   EXPECT_GT(o.seconds, 1.9);
@@ -106,7 +140,8 @@ TEST(ProtocolFaults, SilentPeerEndsTheRunWithinTheTimeout) {
 }
 
 TEST(ProtocolFaults, MalformedMessageIsRefusedWithoutACrash) {
-  const Outcome o = AgainstFakePeer("malformed", [](const std::string&) { return std::string("\xff\xff\xff not protobuf", 17); });
+  const Outcome o =
+      AgainstFakePeer("malformed", [](const std::string&) { return std::string("\xff\xff\xff not protobuf", 17); });
   EXPECT_EQ(o.code, 2) << o.output;
   EXPECT_NE(o.output.find("malformed message"), std::string::npos) << o.output;
   EXPECT_NE(o.output.find("'contacts'"), std::string::npos) << o.output;
@@ -134,7 +169,8 @@ TEST(ProtocolFaults, AContactProcessRefusingItsPartStopsTheRunAtOnce) {
   const cosim::run::RunSummary smooth = ReadSummary(out);
   EXPECT_EQ(smooth.status(), "failed");
   EXPECT_EQ(smooth.exit_code(), 2);
-  EXPECT_NE(smooth.reason().find("contact process 'stops2' (penalty_solver) failed with exit code 2"), std::string::npos)
+  EXPECT_NE(smooth.reason().find("contact process 'stops2' (penalty_solver) failed with exit code 2"),
+            std::string::npos)
       << smooth.reason();
   EXPECT_NE(smooth.reason().find("numerics.penalty.stiffness"), std::string::npos) << smooth.reason();
 }
@@ -167,6 +203,7 @@ TEST(ProtocolFaults, ABusyPeerKeepsTheCoordinatorWaitingThroughItsHeartbeats) {
   std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
   std::this_thread::sleep_for(std::chrono::seconds(3));  // busy: three timeouts
   auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
+  welcome->set_process_name("contacts");  // (the process the Hello addressed: the coordinator checks)
   for (const auto& n : nodes) welcome->add_interface_nodes(n);
   peer.Send();
   std::this_thread::sleep_for(std::chrono::seconds(2));  // the coordinator waits for Kinematics meanwhile
@@ -202,15 +239,18 @@ int AgainstPlayedPeer(const std::string& name, const std::string& scenario, cons
   int code = -1;
   std::thread coordinator([&] {
     const std::string command = std::string(COSIM_BIN_DIR) + "/smooth_solver " + std::string(COSIM_SOURCE_DIR) + "/" +
-                                scenario + " --out " + (out / "run").string() + " --set coupling.processes[0].endpoint='\"" +
-                                endpoint + "\"' " + sets + " > " + (out / "stderr.txt").string() + " 2>&1";
+                                scenario + " --out " + (out / "run").string() +
+                                " --set coupling.processes[0].endpoint='\"" + endpoint + "\"' " + sets + " > " +
+                                (out / "stderr.txt").string() + " 2>&1";
     const int status = std::system(command.c_str());
     code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   });
   try {
     const auto& hello = peer.Receive(cosim::coupling::Envelope::kHello, -1, -1).hello();
     std::vector<std::string> nodes(hello.interface_nodes().begin(), hello.interface_nodes().end());
+    const std::string addressed = hello.process_name();
     auto* welcome = peer.Outgoing(-1, 0).mutable_welcome();
+    welcome->set_process_name(addressed);  // (the process the Hello addressed: the coordinator checks)
     for (const auto& n : nodes) welcome->add_interface_nodes(n);
     peer.Send();
     play(peer);
@@ -257,29 +297,29 @@ TEST(ProtocolFaults, KinematicsTheSmoothSideCannotSolveAreBackTrackedFrom) {
   // step then converges on the node held where it was: exit 0, one back-track counted, its
   // iteration logged without an answer.
   int reactions = 0;
-  const int code = AgainstPlayedPeer("backtrack", "scenarios/pendulum_stop.pbtxt", "stops", "--set numerics.end_time=0.0005",
-                                     [&](auto& peer) {
-    peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
-    SendNodeAt(peer, 0, 1.0, 0.0);  // the tip node rests at (1, 0, 0)
-    for (;;) {
-      const cosim::coupling::Envelope& e = peer.ReceiveAny();
-      if (e.has_reactions()) {
-        ++reactions;
-        SendNodeAt(peer, e.iteration(), e.iteration() == 1 ? 1e200 : 1.0, 0.0);
-      } else if (e.has_step_end()) {
-        EXPECT_TRUE(e.step_end().accepted());
-        peer.Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(true);
-        peer.Send();
-      } else if (e.has_shutdown()) {
-        peer.Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
-        peer.Send();
-        return;
-      } else {
-        ADD_FAILURE() << "unexpected message " << e.DebugString();
-        return;
-      }
-    }
-  });
+  const int code = AgainstPlayedPeer(
+      "backtrack", "scenarios/pendulum_stop.pbtxt", "stops", "--set numerics.end_time=0.0005", [&](auto& peer) {
+        peer.Receive(cosim::coupling::Envelope::kStepBegin, 0, 0);
+        SendNodeAt(peer, 0, 1.0, 0.0);  // the tip node rests at (1, 0, 0)
+        for (;;) {
+          const cosim::coupling::Envelope& e = peer.ReceiveAny();
+          if (e.has_reactions()) {
+            ++reactions;
+            SendNodeAt(peer, e.iteration(), e.iteration() == 1 ? 1e200 : 1.0, 0.0);
+          } else if (e.has_step_end()) {
+            EXPECT_TRUE(e.step_end().accepted());
+            peer.Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(true);
+            peer.Send();
+          } else if (e.has_shutdown()) {
+            peer.Outgoing(-1, 0).mutable_shutdown()->set_exit_code(0);
+            peer.Send();
+            return;
+          } else {
+            ADD_FAILURE() << "unexpected message " << e.DebugString();
+            return;
+          }
+        }
+      });
   const fs::path out = TestRoot() / "backtrack";
   ASSERT_EQ(code, 0) << Slurp(out / "stderr.txt");
   EXPECT_GE(reactions, 2);

@@ -2,15 +2,19 @@
 // contact_server), driven over inproc by a test coordinator: the handshake, tentative steps
 // that start again from the step's start at every iteration, accept and reject, and refusals.
 #include "nonsmooth_solver/coupling/contact_server.h"
-#include "nonsmooth_solver/simulation/contact_simulation.h"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <exception>
+#include <functional>
+#include <limits>
 #include <thread>
 #include <zmq.hpp>
 
 #include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
+#include "nonsmooth_solver/simulation/contact_simulation.h"
 
 namespace cosim::nonsmooth {
 namespace {
@@ -28,8 +32,12 @@ const interface::ScenarioFile& Ball() {
 struct Harness {
   zmq::context_t context;
   ContactSimulation simulation{Ball()};
-  interface::Channel contact{&context, {"inproc://server", true, "contacts", "smooth", 2.0, 0.5}};
-  interface::Channel smooth{&context, {"inproc://server", false, "smooth", "contacts", 2.0, 0.5}};
+  interface::Channel contact {
+    &context, { "inproc://server", true, "contacts", "smooth", 2.0, 0.5 }
+  };
+  interface::Channel smooth {
+    &context, { "inproc://server", false, "smooth", "contacts", 2.0, 0.5 }
+  };
   ContactServer server{&simulation, &contact, "bouncing_ball"};
   std::exception_ptr failure;
   std::thread thread{[this] {
@@ -48,6 +56,18 @@ struct Harness {
     hello->add_interface_nodes(node);
     hello->set_step(0.005);
     smooth.Send();
+  }
+  // The refusal the server ended with (empty if none).
+  std::string Refusal() {
+    thread.join();
+    if (!failure) return "";
+    try {
+      std::rethrow_exception(failure);
+    } catch (const InputError& e) {
+      return e.what();
+    } catch (const std::exception& e) {
+      return std::string("not an input error: ") + e.what();
+    }
   }
   const coupling::Kinematics& Iterate(int64_t step, int iteration, double fz) {
     auto* r = smooth.Outgoing(step, iteration).mutable_reactions();
@@ -207,6 +227,78 @@ TEST(ContactServer, UnknownInterfaceNodeIsRefusedNamingIt) {
   }
 }
 
+// Issue 32, item 1: a coordinator's invalid Hello was welcomed (an infinite step, a start time
+// that is not a number, a node named twice, no node at all) and its text echoed whole. Each
+// Hello below is played as it was sent and must be refused naming the field and the value.
+std::string RefusalOfHello(const std::function<void(coupling::Hello*)>& edit) {
+  Harness h;
+  auto* hello = h.smooth.Outgoing(-1, 0).mutable_hello();
+  hello->set_scenario_name("bouncing_ball");
+  hello->add_interface_nodes("ball");
+  hello->set_step(0.005);
+  edit(hello);
+  h.smooth.Send();
+  return h.Refusal();
+}
+
+TEST(ContactServer, AHelloWithAStepOrStartThatIsNotFiniteIsRefused) {
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              m->set_step(std::numeric_limits<double>::infinity());
+            }).find("Hello.step from 'smooth' is inf; expected a positive, finite step [s]"),
+            std::string::npos);
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              m->set_start_time(std::nan(""));
+            }).find("Hello.start_time from 'smooth' is nan; expected a finite time [s]"),
+            std::string::npos);
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              m->set_start_time(-std::numeric_limits<double>::infinity());
+            }).find("Hello.start_time from 'smooth' is -inf"),
+            std::string::npos);
+}
+
+TEST(ContactServer, AHelloNamingANodeTwiceOrNoneIsRefused) {
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              m->add_interface_nodes("ball");
+            }).find("Hello.interface_nodes[1] from 'smooth' names contact node 'ball' a second time"),
+            std::string::npos);
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              m->clear_interface_nodes();
+            }).find("Hello from 'smooth' names no interface node"),
+            std::string::npos);
+}
+
+TEST(ContactServer, APeersLongTextIsEchoedCut) {
+  // A 20 MB scenario name made a 20 MB summary.json and log.txt: the refusal quotes 200 bytes
+  // and says how long the name was.
+  const std::string refusal =
+      RefusalOfHello([](coupling::Hello* m) { m->set_scenario_name(std::string(20000000, 'x')); });
+  EXPECT_NE(refusal.find("(20000000 bytes)"), std::string::npos);
+  EXPECT_LT(refusal.size(), 1000u);
+}
+
+TEST(EchoedText, CutsAtACharacterBoundary) {
+  // 199 ASCII bytes and then "é" (2 bytes, straddling the 200-byte limit): the cut falls before
+  // it, never inside it, so the echoed text stays valid UTF-8.
+  const std::string text = std::string(199, 'a') + "é" + std::string(50, 'b');
+  EXPECT_EQ(interface::EchoedText(text), std::string(199, 'a') + "… (251 bytes)");
+  EXPECT_EQ(interface::EchoedText("short"), "short");
+}
+
+TEST(ContactServer, AStepBeginAtATimeThatIsNotANumberIsRefused) {
+  // Issue 32, item 1: StepBegin.time = NaN was answered (|NaN − t| > tol is false) and a whole
+  // run ended "ok" with nan in the contact history.
+  Harness h;
+  h.Hello("ball");
+  h.smooth.Receive(Envelope::kWelcome, -1, -1);
+  auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
+  begin->set_time(std::nan(""));
+  begin->set_step(0.005);
+  h.smooth.Send();
+  const std::string refusal = h.Refusal();
+  EXPECT_NE(refusal.find("StepBegin.time from 'smooth' is nan; expected a finite time [s]"), std::string::npos)
+      << refusal;
+}
+
 TEST(ContactServer, ReactionsOfTheWrongSizeAreRefused) {
   Harness h;
   h.Hello("ball");
@@ -223,8 +315,9 @@ TEST(ContactServer, ReactionsOfTheWrongSizeAreRefused) {
   try {
     std::rethrow_exception(h.failure);
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("Reactions.force from 'smooth' has 1 values; expected 3 per interface node, 3"),
-              std::string::npos)
+    EXPECT_NE(
+        std::string(e.what()).find("Reactions.force from 'smooth' has 1 values; expected 3 per interface node, 3"),
+        std::string::npos)
         << e.what();
   }
 }

@@ -318,7 +318,18 @@ void Coordinator::FillReactions(size_t q, const DaeState& frames, double ahead, 
     sent_frames_[q].push_back(FillFrame(o.body, frames, ahead, reactions->add_obstacle_frames()));
   }
   for (int p : peer.points) {
-    for (int j = 0; j < 3; ++j) reactions->add_force(x_(3 * p + j));
+    // This side's own numbers: a non-finite one is its numerical failure (exit 3), not a
+    // message for the peer to refuse as bad input.
+    const Eigen::Vector3d force = x_.segment<3>(3 * p);
+    if (!force.allFinite() || (jacobians_ && !(stiffness_[static_cast<size_t>(p)].allFinite() &&
+                                               sent_position_.segment<3>(3 * p).allFinite()))) {
+      throw NumericalError("coupling: the reaction of interface node '" +
+                           system_.interface_points[static_cast<size_t>(p)].contact_node + "' is not finite (force [" +
+                           interface::FormatNumber(force(0)) + ", " + interface::FormatNumber(force(1)) + ", " +
+                           interface::FormatNumber(force(2)) + "] N) in step " + std::to_string(step_) +
+                           ": the smooth step has failed");
+    }
+    for (int j = 0; j < 3; ++j) reactions->add_force(force(j));
     if (!jacobians_) continue;
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) reactions->add_stiffness(stiffness_[static_cast<size_t>(p)](r, c));

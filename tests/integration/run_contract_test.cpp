@@ -66,8 +66,11 @@ TEST(RunContract, SpinningHardCasesEndHonestly) {
     const char* scene;
     int code;
     double before;  // a failed run stops before this time [s]
-  } cases[] = {{"spinning_body", 0, 0}, {"free_shaft_rotor", 0, 0}, {"flat_disc_top", 0, 0},
-               {"spinning_body_index3", 3, 0.1}, {"free_shaft_rotor_index3", 3, 1.0}};
+  } cases[] = {{"spinning_body", 0, 0},
+               {"free_shaft_rotor", 0, 0},
+               {"flat_disc_top", 0, 0},
+               {"spinning_body_index3", 3, 0.1},
+               {"free_shaft_rotor_index3", 3, 1.0}};
   for (const auto& c : cases) {
     const fs::path out = TempDir(c.scene);
     const Result r = Launch(kScenarios + "/hard/" + c.scene + ".pbtxt --out " + out.string());
@@ -116,9 +119,9 @@ TEST(RunContract, BouncingBallSummaryAndOverrides) {
 // A broken scenario: a base that runs, with one change applied by text replacement.
 struct BadInput {
   std::string name;
-  std::string base;               // scenario file the change is applied to
-  std::string from, to;           // replacement in the bouncing ball scenario ("" = none)
-  std::string extra_arguments;    // after the scenario and --out
+  std::string base;                 // scenario file the change is applied to
+  std::string from, to;             // replacement in the bouncing ball scenario ("" = none)
+  std::string extra_arguments;      // after the scenario and --out
   std::vector<std::string> expect;  // substrings of the error message
 };
 void PrintTo(const BadInput& c, std::ostream* os) { *os << c.name; }
@@ -143,7 +146,8 @@ TEST_P(BadInputTest, ExitsTwoNamingThePlace) {
   std::ofstream(file) << text;
   const Result r = Launch(file.string() + " --out " + (dir / "out").string() + " " + c.extra_arguments);
   EXPECT_EQ(r.code, 2) << r.output;
-  for (const std::string& s : c.expect) EXPECT_NE(r.output.find(s), std::string::npos) << "expected '" << s << "' in:\n" << r.output;
+  for (const std::string& s : c.expect)
+    EXPECT_NE(r.output.find(s), std::string::npos) << "expected '" << s << "' in:\n" << r.output;
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -151,107 +155,260 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         BadInput{"syntax", kBall, "mass: 1", "mass: = 1", "", {"broken.pbtxt:17:", "Expected"}},
         BadInput{"unknown_field", kBall, "mass: 1", "masss: 1", "", {"broken.pbtxt:17:", "no field named \"masss\""}},
-        BadInput{"zero_mass", kBall, "mass: 1", "mass: 0", "",
+        BadInput{"zero_mass",
+                 kBall,
+                 "mass: 1",
+                 "mass: 0",
+                 "",
                  {"broken.pbtxt:17:5", "model.contact_nodes[0].mass", "must be positive (kg), got 0"}},
-        BadInput{"negative_step", kBall, "step: 0.005", "step: -0.005", "",
+        BadInput{"negative_step",
+                 kBall,
+                 "step: 0.005",
+                 "step: -0.005",
+                 "",
                  {"numerics.step", "must be positive (s), got -0.005"}},
-        BadInput{"end_before_start", kBall, "end_time: 10", "end_time: 10 start_time: 20", "",
+        BadInput{"end_before_start",
+                 kBall,
+                 "end_time: 10",
+                 "end_time: 10 start_time: 20",
+                 "",
                  {"numerics.end_time", "must be after start_time = 20 s, got 10"}},
-        BadInput{"restitution", kBall, "restitution: 0.9", "restitution: 1.3", "",
+        BadInput{"restitution",
+                 kBall,
+                 "restitution: 0.9",
+                 "restitution: 1.3",
+                 "",
                  {"broken.pbtxt:19:", "restitution", "must be in [0, 1], got 1.3"}},
-        BadInput{"zero_normal", kBall, "normal: [0, 0, 1]", "normal: [0, 0, 0]", "",
+        BadInput{"zero_normal",
+                 kBall,
+                 "normal: [0, 0, 1]",
+                 "normal: [0, 0, 0]",
+                 "",
                  {"model.obstacles[0].normal", "non-zero direction"}},
-        BadInput{"missing_obstacle", kBall, "obstacle: \"ground\"", "obstacle: \"floor\"", "",
+        BadInput{"missing_obstacle",
+                 kBall,
+                 "obstacle: \"ground\"",
+                 "obstacle: \"floor\"",
+                 "",
                  {"model.contact_nodes[0].contacts[0].obstacle", "no obstacle named 'floor'; known: ground"}},
-        BadInput{"theta", kBall, "theta: 0.5", "theta: 1.5", "", {"numerics.nonsmooth.theta", "must be in (0, 1], got 1.5"}},
-        BadInput{"unknown_probe_entity", kBall, "entity: \"ball\" component: Z }", "entity: \"bal\" component: Z }", "",
+        BadInput{
+            "theta", kBall, "theta: 0.5", "theta: 1.5", "", {"numerics.nonsmooth.theta", "must be in (0, 1], got 1.5"}},
+        BadInput{"unknown_probe_entity",
+                 kBall,
+                 "entity: \"ball\" component: Z }",
+                 "entity: \"bal\" component: Z }",
+                 "",
                  {"output.probes[0].entity", "no contact node named 'bal'"}},
-        BadInput{"duplicate_probe", kBall, "name: \"vz\"", "name: \"z\"", "", {"output.probes[1].name", "already used"}},
-        BadInput{"unwritable_out", kBall, "", "", "--out /proc/cosim_cannot_write",
+        BadInput{
+            "duplicate_probe", kBall, "name: \"vz\"", "name: \"z\"", "", {"output.probes[1].name", "already used"}},
+        BadInput{"unwritable_out",
+                 kBall,
+                 "",
+                 "",
+                 "--out /proc/cosim_cannot_write",
                  {"/proc/cosim_cannot_write", "cannot create the output folder"}},
-        BadInput{"bad_set", kBall, "", "", "--set numerics.stepp=1", {"--set numerics.stepp=1", "has no field 'stepp'"}},
-        BadInput{"set_value", kBall, "", "", "--set model.contact_nodes[ball].mass=-2",
+        BadInput{
+            "bad_set", kBall, "", "", "--set numerics.stepp=1", {"--set numerics.stepp=1", "has no field 'stepp'"}},
+        BadInput{"set_value",
+                 kBall,
+                 "",
+                 "",
+                 "--set model.contact_nodes[ball].mass=-2",
                  {"--set model.contact_nodes[ball].mass=-2", "must be positive (kg), got -2"}},
         BadInput{"unknown_option", kBall, "", "", "--fast", {"unknown option '--fast'"}},
-        BadInput{"missing_body", kPendulum, "body2: \"arm\"", "body2: \"hub\"", "",
+        BadInput{"missing_body",
+                 kPendulum,
+                 "body2: \"arm\"",
+                 "body2: \"hub\"",
+                 "",
                  {"broken.pbtxt:11:5", "model.joints[0].body2", "no body named 'hub'; known: arm"}},
-        BadInput{"drive_units", kPendulum, "axis: [0, 1, 0]",
-                 "axis: [0, 1, 0]\n    drive { quantity: SPEED function { constant: 1 } }", "",
+        BadInput{"drive_units",
+                 kPendulum,
+                 "axis: [0, 1, 0]",
+                 "axis: [0, 1, 0]\n    drive { quantity: SPEED function { constant: 1 } }",
+                 "",
                  {"model.joints[0].drive.quantity", "a revolute joint's coordinate is an angle [rad]; SPEED"}},
-        BadInput{"unknown_solver", kBall, "solver: LEMKE", "solver: FAST", "",
+        BadInput{"unknown_solver",
+                 kBall,
+                 "solver: LEMKE",
+                 "solver: FAST",
+                 "",
                  {"broken.pbtxt:", "Unknown enumeration value of \"FAST\""}},
-        BadInput{"watchdog_window", kPendulum, "step: 0.001 }", "step: 0.001 smooth { watchdog { energy_window: 0 } } }", "",
+        BadInput{"watchdog_window",
+                 kPendulum,
+                 "step: 0.001 }",
+                 "step: 0.001 smooth { watchdog { energy_window: 0 } } }",
+                 "",
                  {"numerics.smooth.watchdog.energy_window", "must be >= 1 step, got 0"}},
-        BadInput{"watchdog_rate", kPendulum, "step: 0.001 }", "step: 0.001 smooth { watchdog { rigidity_rate: -1 } } }", "",
+        BadInput{"watchdog_rate",
+                 kPendulum,
+                 "step: 0.001 }",
+                 "step: 0.001 smooth { watchdog { rigidity_rate: -1 } } }",
+                 "",
                  {"numerics.smooth.watchdog.rigidity_rate", "got -1"}},
-        BadInput{"rho_inf", kPendulum, "step: 0.001 }", "step: 0.001 smooth { rho_inf: 1.5 } }", "",
+        BadInput{"rho_inf",
+                 kPendulum,
+                 "step: 0.001 }",
+                 "step: 0.001 smooth { rho_inf: 1.5 } }",
+                 "",
                  {"numerics.smooth.rho_inf", "must be in [0, 1], got 1.5"}},
-        BadInput{"inertia_not_physical", kPendulum, "inertia: [0.001, 0.08, 0.08]", "inertia: [0.001, 0.08, 0.2]", "",
+        BadInput{"inertia_not_physical",
+                 kPendulum,
+                 "inertia: [0.001, 0.08, 0.08]",
+                 "inertia: [0.001, 0.08, 0.2]",
+                 "",
                  {"model.bodies[0].inertia", "triangle inequality"}},
-        BadInput{"poisson_half", kCantilever, "poisson: 0.3", "poisson: 0.5", "",
+        BadInput{"poisson_half",
+                 kCantilever,
+                 "poisson: 0.3",
+                 "poisson: 0.5",
+                 "",
                  {"model.elastic_bodies[0].material.poisson", "must be in (-1, 0.5), got 0.5"}},
-        BadInput{"zero_young", kCantilever, "young: 1.792e12", "young: 0", "",
+        BadInput{"zero_young",
+                 kCantilever,
+                 "young: 1.792e12",
+                 "young: 0",
+                 "",
                  {"model.elastic_bodies[0].material.young", "must be positive (Pa), got 0"}},
-        BadInput{"clamp_outside", kCantilever, "clamps { body: \"ground\" face: \"root\" }",
-                 "clamps { body: \"ground\" nodes { index: [0, 9999] } }", "",
+        BadInput{"clamp_outside",
+                 kCantilever,
+                 "clamps { body: \"ground\" face: \"root\" }",
+                 "clamps { body: \"ground\" nodes { index: [0, 9999] } }",
+                 "",
                  {"model.elastic_bodies[0].clamps[0].nodes.index[1]", "node 9999 is outside the body"}},
-        BadInput{"unknown_face", kCantilever, "face: \"root\"", "face: \"middle\"", "",
+        BadInput{"unknown_face",
+                 kCantilever,
+                 "face: \"root\"",
+                 "face: \"middle\"",
+                 "",
                  {"model.elastic_bodies[0].clamps[0].face", "expected \"root\" or \"tip\", got 'middle'"}},
-        BadInput{"negative_retardation", kCantilever, "face: \"root\" }", "face: \"root\" }\n    retardation_time: -1", "",
+        BadInput{"negative_retardation",
+                 kCantilever,
+                 "face: \"root\" }",
+                 "face: \"root\" }\n    retardation_time: -1",
+                 "",
                  {"model.elastic_bodies[0].retardation_time", "got -1"}},
-        BadInput{"factor_in_static", kCantilever, "force: [0, 1e4, 0]",
-                 "force: [0, 1e4, 0] factor { constant: 2 }", "",
+        BadInput{"factor_in_static",
+                 kCantilever,
+                 "force: [0, 1e4, 0]",
+                 "force: [0, 1e4, 0] factor { constant: 2 }",
+                 "",
                  {"model.elastic_bodies[0].loads[0].factor", "applies to DYNAMIC analyses"}},
-        BadInput{"negative_friction", kBall, "restitution: 0.9", "restitution: 0.9 friction: -1", "",
+        BadInput{"negative_friction",
+                 kBall,
+                 "restitution: 0.9",
+                 "restitution: 0.9 friction: -1",
+                 "",
                  {"friction", "must be >= 0"}},
         // Hardening (issue 13): an index too large for any integer type is no element (it
         // threw std::out_of_range: abort, 134).
-        BadInput{"huge_index", kBall, "", "", "--set 'model.contact_nodes[99999999999999999999].mass=2'",
+        BadInput{"huge_index",
+                 kBall,
+                 "",
+                 "",
+                 "--set 'model.contact_nodes[99999999999999999999].mass=2'",
                  {"'contact_nodes' has 1 elements and none matches [99999999999999999999]"}},
         // Every number of the schema is finite, wherever it is (file or --set): NaN and inf
         // passed the range checks written as `value < lo` in several fields.
-        BadInput{"nan_in_file", kBall, "restitution: 0.9", "restitution: nan", "",
-                 {"broken.pbtxt:19:", "model.contact_nodes[0].contacts[0].restitution", "must be a finite number, got nan"}},
-        BadInput{"inf_by_set", kPendulum, "", "", "--set 'model.gravity=[0, 0, -inf]'",
+        BadInput{
+            "nan_in_file",
+            kBall,
+            "restitution: 0.9",
+            "restitution: nan",
+            "",
+            {"broken.pbtxt:19:", "model.contact_nodes[0].contacts[0].restitution", "must be a finite number, got nan"}},
+        BadInput{"inf_by_set",
+                 kPendulum,
+                 "",
+                 "",
+                 "--set 'model.gravity=[0, 0, -inf]'",
                  {"--set model.gravity=[0, 0, -inf]", "model.gravity[2]", "must be a finite number, got -inf"}},
         BadInput{"inf_timeout", kBall, "", "", "--set coupling.timeout=inf", {"coupling.timeout", "got inf"}},
         // Far from t = 0 a small step does not advance the clock: t + h == t.
-        BadInput{"time_resolution", kBall, "", "", "--set numerics.start_time=-1e15 --set numerics.end_time=-999999999999999.875",
+        BadInput{"time_resolution",
+                 kBall,
+                 "",
+                 "",
+                 "--set numerics.start_time=-1e15 --set numerics.end_time=-999999999999999.875",
                  {"numerics.step", "below what times of 1e+15 s resolve"}},
         // The name becomes the output folder runs/<name>: it must be a name.
-        BadInput{"escaping_name", kBall, "name: \"bouncing_ball\"", "name: \"../../escaped\"", "",
+        BadInput{"escaping_name",
+                 kBall,
+                 "name: \"bouncing_ball\"",
+                 "name: \"../../escaped\"",
+                 "",
                  {"broken.pbtxt:", "name: '../../escaped' contains '/'"}},
         BadInput{"blank_in_name", kBall, "name: \"bouncing_ball\"", "name: \"a b\"", "", {"name: 'a b' contains ' '"}},
         BadInput{"empty_name", kBall, "name: \"bouncing_ball\"", "name: \"\"", "", {"name: must not be empty"}},
-        BadInput{"dot_dot_node", kBall, "name: \"ball\"", "name: \"..\"", "",
+        BadInput{"dot_dot_node",
+                 kBall,
+                 "name: \"ball\"",
+                 "name: \"..\"",
+                 "",
                  {"model.contact_nodes[0].name: '..' is not a name"}},
         BadInput{"empty_out", kBall, "", "", "--out ''", {"--out is given an empty string"}},
         // Timeouts beyond ZeroMQ's int milliseconds overflowed static_cast<int>(1000 * timeout)
         // and ZeroMQ's option threw: both solvers aborted.
-        BadInput{"huge_timeout", kTiedDrop, "", "", "--set coupling.timeout=3e6",
+        BadInput{"huge_timeout",
+                 kTiedDrop,
+                 "",
+                 "",
+                 "--set coupling.timeout=3e6",
                  {"coupling.timeout", "must be in (0, 1e+06], got 3e+06"}},
-        BadInput{"heartbeat_past_timeout", kTiedDrop, "", "", "--set coupling.heartbeat=6",
+        BadInput{"heartbeat_past_timeout",
+                 kTiedDrop,
+                 "",
+                 "",
+                 "--set coupling.heartbeat=6",
                  {"coupling.heartbeat", "must be in (0, 5], got 6"}},
         // Endpoints: a port out of range bound another port; inproc:// between two processes
         // waited out the timeout and ended as a peer failure.
-        BadInput{"tcp_port", kTiedDrop, "", "", "--set 'coupling.processes[0].endpoint=\"tcp://127.0.0.1:99999\"'",
+        BadInput{"tcp_port",
+                 kTiedDrop,
+                 "",
+                 "",
+                 "--set 'coupling.processes[0].endpoint=\"tcp://127.0.0.1:99999\"'",
                  {"coupling.processes[0].endpoint", "the port '99999' is not a number in 1..65535"}},
-        BadInput{"inproc", kTiedDrop, "", "", "--set 'coupling.processes[0].endpoint=\"inproc://x\"'",
+        BadInput{"inproc",
+                 kTiedDrop,
+                 "",
+                 "",
+                 "--set 'coupling.processes[0].endpoint=\"inproc://x\"'",
                  {"coupling.processes[0].endpoint", "inproc:// joins threads of one process"}},
-        BadInput{"ipc_too_long", kTiedDrop, "", "",
+        BadInput{"ipc_too_long",
+                 kTiedDrop,
+                 "",
+                 "",
                  "--set 'coupling.processes[0].endpoint=\"ipc:///tmp/" + std::string(110, 'x') + "\"'",
                  {"coupling.processes[0].endpoint", "a Unix socket's path holds at most 107"}},
         // Legal but huge meshes: bad_alloc, or a signed overflow in the mesh builder and SIGSEGV.
-        BadInput{"huge_beam_along", kCantilever, "", "", "--set model.elastic_bodies[0].beam.elements_along=2147483647",
-                 {"model.elastic_bodies[0].beam: elements_along × elements_across² = 2147483647 hex27 elements; at most"}},
-        BadInput{"huge_beam_across", kCantilever, "", "", "--set model.elastic_bodies[0].beam.elements_across=46341",
+        BadInput{
+            "huge_beam_along",
+            kCantilever,
+            "",
+            "",
+            "--set model.elastic_bodies[0].beam.elements_along=2147483647",
+            {"model.elastic_bodies[0].beam: elements_along × elements_across² = 2147483647 hex27 elements; at most"}},
+        BadInput{"huge_beam_across",
+                 kCantilever,
+                 "",
+                 "",
+                 "--set model.elastic_bodies[0].beam.elements_across=46341",
                  {"model.elastic_bodies[0].beam: elements_along × elements_across²", "at most 1e+05"}},
         // A probe on a contact node whose quantity the contact process does not record was
         // dropped in a coupled run (exit 0, no column anywhere).
-        BadInput{"coupled_contact_probe", kTiedDrop, "", "",
-                 "--set 'output.probes=[{ name: \"node_acceleration\" quantity: ACCELERATION entity: \"node\" component: Z }]'",
+        BadInput{"coupled_contact_probe",
+                 kTiedDrop,
+                 "",
+                 "",
+                 "--set 'output.probes=[{ name: \"node_acceleration\" quantity: ACCELERATION entity: \"node\" "
+                 "component: Z }]'",
                  {"output.probes[0].quantity", "a contact process records POSITION", "got ACCELERATION"}},
-        BadInput{"dot_process", kTiedDrop, "", "", "--set coupling.processes[0].name=.",
+        BadInput{"dot_process",
+                 kTiedDrop,
+                 "",
+                 "",
+                 "--set coupling.processes[0].name=.",
                  {"coupling.processes[0].name: '.' is not a name"}}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) { return param_info.param.name; });
 
@@ -315,9 +472,9 @@ TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   // history.csv keeps every row before it.
   const fs::path out = TempDir("numerical_failure");
   const Result r = Launch(kScenarios + "/wedge.pbtxt --out " + out.string() +
-                       " --set numerics.nonsmooth.lcp.solver=PGS --set numerics.nonsmooth.lcp.max_iterations=1"
-                       " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set numerics.nonsmooth.lcp.fallback=[NONE]"
-                       " --set output.every=1");
+                          " --set numerics.nonsmooth.lcp.solver=PGS --set numerics.nonsmooth.lcp.max_iterations=1"
+                          " --set numerics.nonsmooth.lcp.tolerance=1e-14 --set numerics.nonsmooth.lcp.fallback=[NONE]"
+                          " --set output.every=1");
   ASSERT_EQ(r.code, 3) << r.output;
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(s.status(), "failed");
@@ -333,7 +490,6 @@ TEST(RunContract, NumericalFailureKeepsOutputsUpToTheLastAcceptedStep) {
   while (std::getline(history, line)) ++rows;
   EXPECT_EQ(rows, s.steps() + 1);  // the initial row plus one per accepted step
 }
-
 
 TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   // scenarios/tied_drop.pbtxt through the launcher: smooth_solver and nonsmooth_solver as two
@@ -449,6 +605,25 @@ TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {
   const auto rows = ReadHistory(out / "history.csv");
   EXPECT_EQ(static_cast<long>(rows.size()), smooth.steps() + 1);
   EXPECT_GT(smooth.steps(), 10);
+}
+
+TEST(RunContract, TheCoordinatorsOwnNonFiniteReactionIsANumericalFailure) {
+  // Issue 32, item 5: with gravity at -1e308 the relaxed reaction became NaN and was sent as it
+  // was; the contact process refused the message and the run ended with exit 2, bad input.
+  // The side that made the number reports it: exit 3, naming the node. (With interface
+  // Jacobians the contact process's node overflows first: exit 3 from there.)
+  for (const std::string jacobians : {"false", "true"}) {
+    SCOPED_TRACE("interface_jacobians " + jacobians);
+    const fs::path out = TempDir("nan_reaction_" + jacobians);
+    const Result r =
+        Launch(kScenarios + "/tied_drop.pbtxt --out " + out.string() +
+               " --set 'model.gravity=[0, 0, -1e308]' --set coupling.iteration.interface_jacobians=" + jacobians);
+    EXPECT_EQ(r.code, 3) << r.output;
+    if (jacobians == "false") {
+      EXPECT_NE(r.output.find("the reaction of interface node 'node' is not finite"), std::string::npos) << r.output;
+    }
+    EXPECT_EQ(ReadSummary(out).exit_code(), 3);
+  }
 }
 
 }  // namespace

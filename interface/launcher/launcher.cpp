@@ -318,11 +318,14 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
 
   // A coupled run's visual output: scene.pvd, every process's series as a part of one scene
   // (ParaView opens all of it at once), with whatever frames each wrote, failed run or not.
-  if (plan.size() > 1 && std::filesystem::exists(plan[last].out + "/visual.pvd")) {
+  // (The error_code forms: an output path the processes refused, e.g. longer than PATH_MAX,
+  // must not turn their exit code 2 into the launcher's own failure.)
+  std::error_code unreadable;
+  if (plan.size() > 1 && std::filesystem::exists(plan[last].out + "/visual.pvd", unreadable)) {
     std::vector<std::pair<std::string, std::string>> series;
     for (const ProcessPlan& p : plan) {
       const std::string pvd = p.out + "/visual.pvd";
-      if (!std::filesystem::exists(pvd)) continue;
+      if (!std::filesystem::exists(pvd, unreadable)) continue;
       const std::string prefix = p.out == plan[last].out ? "" : std::filesystem::path(p.out).filename().string() + "/";
       series.emplace_back(prefix, pvd);
     }

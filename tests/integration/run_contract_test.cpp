@@ -626,4 +626,13 @@ TEST(RunContract, TheCoordinatorsOwnNonFiniteReactionIsANumericalFailure) {
   }
 }
 
+TEST(RunContract, AnOutputPathLongerThanPathMaxIsBadInputForACoupledRun) {
+  // Issue 32, item 9: both processes refused the path with exit 2, and then the launcher's
+  // own look for their visual output threw (std::filesystem: "File name too long"): exit 4.
+  const std::string out = "/tmp/" + std::string(5000, 'a');
+  const Result r = Launch(kScenarios + "/tied_drop.pbtxt --out " + out);
+  EXPECT_EQ(r.code, 2) << r.output.substr(0, 2000);
+  EXPECT_EQ(r.output.find("filesystem error"), std::string::npos) << r.output.substr(0, 2000);
+}
+
 }  // namespace

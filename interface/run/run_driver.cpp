@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -31,8 +31,9 @@ CommandLine ParseCommandLine(const std::vector<std::string>& arguments) {
       return arguments[++i];
     };
     auto nonempty = [&](const std::string& flag, std::string v) {
-      if (v.empty()) throw InputError("command line: " + flag + " is given an empty string; expected " +
-                                      (flag == "--out" ? "a folder" : "a contact process name"));
+      if (v.empty())
+        throw InputError("command line: " + flag + " is given an empty string; expected " +
+                         (flag == "--out" ? "a folder" : "a contact process name"));
       return v;
     };
     if (a == "--out") {
@@ -58,9 +59,7 @@ CommandLine ParseCommandLine(const std::vector<std::string>& arguments) {
   return cli;
 }
 
-double TimeSpan::TimeAt(long long k) const {
-  return k >= steps ? end : start + static_cast<double>(k) * step;
-}
+double TimeSpan::TimeAt(long long k) const { return k >= steps ? end : start + static_cast<double>(k) * step; }
 
 TimeSpan ValidateTimeSpan(const ScenarioFile& file) {
   const Checks checks(file);
@@ -72,8 +71,8 @@ TimeSpan ValidateTimeSpan(const ScenarioFile& file) {
   checks.Require("numerics.end_time", n.has_end_time(), "the end time [s]");
   span.end = n.end_time();
   if (!(span.end > span.start) || !std::isfinite(span.end)) {
-    checks.Fail("numerics.end_time", "must be after start_time = " + FormatNumber(span.start) + " s, got " +
-                                         FormatNumber(span.end));
+    checks.Fail("numerics.end_time",
+                "must be after start_time = " + FormatNumber(span.start) + " s, got " + FormatNumber(span.end));
   }
   span.step = checks.Positive("numerics.step", n.has_step(), n.step(), "s");
   const double count = (span.end - span.start) / span.step;
@@ -114,8 +113,7 @@ double Seconds(std::chrono::steady_clock::duration d) { return std::chrono::dura
 
 }  // namespace
 
-void WriteFailureSummary(const std::string& program, const CommandLine& cli, ExitCode code,
-                         const std::string& reason) {
+void WriteFailureSummary(const std::string& program, const CommandLine& cli, ExitCode code, const std::string& reason) {
   if (cli.out.empty()) return;
   try {
     RunOutput failed(cli.out, {});
@@ -181,17 +179,17 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets));
     span = ValidateTimeSpan(*file);
     simulation = factory(*file, cli);
-    output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(*file) : cli.out,
-                                         simulation->ProbeNames());
+    output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(*file) : cli.out, simulation->ProbeNames());
     simulation->BeginOutput(output->folder());
   } catch (const Error& e) {
     return fail_before_start(e.code(), e.what());
   } catch (const std::bad_alloc&) {
-    return fail_before_start(ExitCode::kBadInput, "the model does not fit in memory (out of memory while building "
-                                                  "it); reduce its size");
+    return fail_before_start(ExitCode::kBadInput,
+                             "the model does not fit in memory (out of memory while building "
+                             "it); reduce its size");
   } catch (const std::exception& e) {
-    return fail_before_start(ExitCode::kNumericalFailure, std::string("unexpected error while building the model: ") +
-                                                              e.what());
+    return fail_before_start(ExitCode::kNumericalFailure,
+                             std::string("unexpected error while building the model: ") + e.what());
   }
 
   run::RunSummary& summary = output->summary();
@@ -203,13 +201,13 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
 
   const int every = file->proto().output().has_every() ? file->proto().output().every() : 1;
   if (every < 1) {
-    std::cerr << program << ": error: " << file->Where("output.every")
-              << ": output.every: must be >= 1, got " << every << "\n";
+    std::cerr << program << ": error: " << file->Where("output.every") << ": output.every: must be >= 1, got " << every
+              << "\n";
     return static_cast<int>(output->Finish(ExitCode::kBadInput, "output.every must be >= 1"));
   }
 
-  output->Log(program + ": scenario '" + summary.scenario() + "', " + std::to_string(span.steps) +
-              " steps of " + FormatNumber(span.step) + " s, output in " + output->folder());
+  output->Log(program + ": scenario '" + summary.scenario() + "', " + std::to_string(span.steps) + " steps of " +
+              FormatNumber(span.step) + " s, output in " + output->folder());
   std::vector<double> values(static_cast<size_t>(output->probe_count()));
   // Each column's Probe.scale (1 for columns that are not scenario probes, e.g. a MODES table).
   std::vector<double> scale(values.size(), 1.0);
@@ -227,9 +225,20 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
       }
     }
   }
+  const std::vector<std::string> probe_names = simulation->ProbeNames();
+  // A probe that is no longer finite ends the run as a numerical failure (exit 3) before its row
+  // is written: "ok" with inf in a history is no result (issue 32: an initial joint coordinate of
+  // 1e308 ran to the end that way).
   auto probe = [&]() {
     simulation->Probe(&values);
-    for (size_t c = 0; c < values.size(); ++c) values[c] *= scale[c];
+    for (size_t c = 0; c < values.size(); ++c) {
+      values[c] *= scale[c];
+      if (!std::isfinite(values[c])) {
+        throw NumericalError("probe '" + (c < probe_names.size() ? probe_names[c] : std::to_string(c)) + "' is " +
+                             FormatNumber(values[c]) +
+                             ": the solution is no longer finite (an input too large, or the step too long)");
+      }
+    }
   };
   // output.visual: a frame every `visual_every` steps and at the last (interface/visual).
   const int visual_every = file->proto().output().visual().every();
@@ -256,7 +265,8 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
       draw(span.start);
     }
     for (long long k = 0; k < span.steps; ++k) {
-      if (TerminationRequested()) throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
+      if (TerminationRequested())
+        throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
       const double t = span.TimeAt(k);
       const double h = span.TimeAt(k + 1) - t;
       const auto t0 = std::chrono::steady_clock::now();
@@ -271,8 +281,8 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     }
   } catch (const Error& e) {
     code = e.code();
-    reason = "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) +
-             " s: " + e.what();
+    reason =
+        "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) + " s: " + e.what();
   } catch (const std::exception& e) {
     code = ExitCode::kNumericalFailure;
     reason = "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) +
@@ -298,8 +308,8 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   simulation->FillSummary(&summary);
   // Iteration statistics a solver does not report were not performed: write them as zeros
   // so every summary has the same fields.
-  for (run::IterationStats* stats : {summary.mutable_newton_iterations(), summary.mutable_coupling_iterations(),
-                                     summary.mutable_lcp_iterations()}) {
+  for (run::IterationStats* stats :
+       {summary.mutable_newton_iterations(), summary.mutable_coupling_iterations(), summary.mutable_lcp_iterations()}) {
     if (!stats->has_total()) IterationCounter().Fill(stats);
   }
   summary.set_wall_time(Seconds(std::chrono::steady_clock::now() - wall_start));

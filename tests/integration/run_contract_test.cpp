@@ -635,4 +635,15 @@ TEST(RunContract, AnOutputPathLongerThanPathMaxIsBadInputForACoupledRun) {
   EXPECT_EQ(r.output.find("filesystem error"), std::string::npos) << r.output.substr(0, 2000);
 }
 
+TEST(RunContract, AProbeThatIsNoLongerFiniteEndsTheRunAsANumericalFailure) {
+  // Issue 32, item 6: sharcs/hub_beam with model.joints[1].initial_coordinate=1e308 ended
+  // exit 0 "ok" with inf in every row of a probe. The row is not written; exit 3 names the probe.
+  const fs::path out = TempDir("inf_probe");
+  const Result r = Launch(kScenarios + "/sharcs/hub_beam.pbtxt --out " + out.string() +
+                          " --set model.joints[1].initial_coordinate=1e308");
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("probe 'flap' is inf"), std::string::npos) << r.output;
+  EXPECT_EQ(ReadSummary(out).exit_code(), 3);
+}
+
 }  // namespace

@@ -1,5 +1,6 @@
 #include "interface/launcher/launcher.h"
 
+#include <fcntl.h>
 #include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -54,11 +55,40 @@ PrivateFolder::PrivateFolder() {
   }
   path_ = pattern;
   chmod(path_.c_str(), S_IRWXU);  // mkdtemp's 0700 is masked by the umask; this is not
+  // The janitor: `sh -c 'read _; rm -rf -- "$0"' FOLDER` reading a pipe whose write end only
+  // this process holds (close-on-exec: the solvers do not inherit it). It is exec'd at once
+  // (nothing but async-signal-safe calls between fork and exec) and ignores the signals a
+  // terminal sends the whole group, so that it outlives the launcher it watches.
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0) return;  // (no janitor: the destructor still cleans up)
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(fds[0], STDIN_FILENO);  // (dup2 clears close-on-exec on the copy)
+    const int null = open("/dev/null", O_WRONLY);
+    if (null >= 0) {
+      dup2(null, STDOUT_FILENO);
+      dup2(null, STDERR_FILENO);
+    }
+    signal(SIGINT, SIG_IGN);
+    signal(SIGTERM, SIG_IGN);
+    signal(SIGHUP, SIG_IGN);
+    execl("/bin/sh", "sh", "-c", "read _; rm -rf -- \"$0\"", pattern.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  close(fds[0]);
+  if (pid < 0) {
+    close(fds[1]);
+    return;
+  }
+  janitor_pipe_ = fds[1];
+  janitor_ = pid;
 }
 
 PrivateFolder::~PrivateFolder() {
   std::error_code ignored;
   std::filesystem::remove_all(path_, ignored);
+  if (janitor_pipe_ >= 0) close(janitor_pipe_);  // the janitor finds the folder gone and ends
+  if (janitor_ > 0) waitpid(janitor_, nullptr, 0);
 }
 
 std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLine& cli,

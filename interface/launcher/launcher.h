@@ -14,15 +14,17 @@
 namespace cosim::interface {
 
 struct ProcessPlan {
-  std::string program;                 // executable name, next to cosim_launch
-  std::vector<std::string> arguments;  // after the program name
-  std::string out;                     // its output folder
-  std::string name;                    // for messages: the program, or the contact process's name
+  std::string program;                   // executable name, next to cosim_launch
+  std::vector<std::string> arguments;    // after the program name
+  std::string out;                       // its output folder
+  std::string name;                      // for messages: the program, or the contact process's name
   std::vector<std::string> environment;  // NAME=VALUE added to (and replacing) the launcher's
 };
 
 // A folder only this user can enter (mode 0700 whatever the umask), for a coupled run's ipc
-// sockets; removed with everything in it when the object goes.
+// sockets; removed with everything in it when the object goes — and, should the launcher be
+// killed (SIGKILL: no destructor runs), by a janitor process that waits on a pipe from it and
+// removes the folder when the pipe closes, whatever ended the launcher.
 class PrivateFolder {
  public:
   PrivateFolder();  // PeerError if it cannot be made
@@ -33,6 +35,8 @@ class PrivateFolder {
 
  private:
   std::string path_;
+  int janitor_pipe_ = -1;  // the write end; the janitor's stdin is the read end
+  pid_t janitor_ = -1;
 };
 
 // Single-solver scenes run one process: contact nodes only -> nonsmooth_solver; rigid or

@@ -527,4 +527,24 @@ TEST(Hardening, ExtremeLcpDataDoNotCrashSiconos) {
   EXPECT_NE(r.output.find("probe 'kinetic_energy' is inf"), std::string::npos) << r.output;
 }
 
+TEST(Hardening, ALauncherKilledWithSigkillLeavesNoSocketFolder) {
+  // Issue 32, item 7: SIGKILL to `cosim run` left /tmp/cosim-XXXXXX/ and its ipc files behind
+  // (6 of 6 tries): no destructor runs. Its janitor process removes the folder when the
+  // launcher's pipe closes, however the launcher ended.
+  const fs::path out = TempDir("sigkill_launcher");
+  Background run = StartLongTiedDrop(out);
+  ASSERT_NE(WaitForProgram("smooth_solver", out), -1);
+  const std::string log = Slurp(out.string() + ".txt");
+  const size_t at = log.find("coupling sockets in ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const std::string folder = log.substr(at + 20, log.find(' ', at + 20) - at - 20);
+  ASSERT_EQ(folder.rfind("/tmp/cosim-", 0), 0u) << folder;
+  ASSERT_TRUE(fs::exists(folder));
+  kill(run.pid, SIGKILL);
+  EXPECT_EQ(run.Wait(10.0), -SIGKILL);
+  const auto t0 = Clock::now();
+  while (fs::exists(folder) && SecondsSince(t0) < 5.0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_FALSE(fs::exists(folder)) << folder;
+}
+
 }  // namespace

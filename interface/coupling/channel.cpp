@@ -257,8 +257,8 @@ std::string Channel::Describe(const coupling::Envelope& e) const {
          std::to_string(e.iteration());
 }
 
-const coupling::Envelope& Channel::Wait(const std::string& awaiting) {
-  double deadline = Now() + options_.timeout;
+const coupling::Envelope& Channel::Wait(const std::string& awaiting, double timeout) {
+  double deadline = Now() + timeout;
   zmq::message_t message;
   while (true) {
     const double left = deadline - Now();
@@ -305,13 +305,18 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting) {
   }
 }
 
-const coupling::Envelope& Channel::ReceiveAny() { return Wait("its next message"); }
+const coupling::Envelope& Channel::ReceiveAny() { return Wait("its next message", options_.timeout); }
 
 const coupling::Envelope& Channel::Receive(coupling::Envelope::BodyCase expected, int64_t step, int iteration) {
+  return Receive(expected, step, iteration, options_.timeout);
+}
+
+const coupling::Envelope& Channel::Receive(coupling::Envelope::BodyCase expected, int64_t step, int iteration,
+                                           double timeout) {
   std::string awaiting = BodyName(expected);
   if (step >= 0) awaiting += " of step " + std::to_string(step);
   if (iteration >= 0) awaiting += ", iteration " + std::to_string(iteration);
-  const coupling::Envelope& e = Wait(awaiting);
+  const coupling::Envelope& e = Wait(awaiting, timeout);
   if (e.has_shutdown() && expected != coupling::Envelope::kShutdown) {
     // The peer's own failure is the run's: its bad input (2) or numerical failure (3) ends
     // this side with the same code; anything else is a peer failure.

@@ -48,6 +48,10 @@ inline constexpr const char* kCurveServerPublic = "COSIM_CURVE_SERVER_PUBLIC";
 inline constexpr const char* kCurveServerSecret = "COSIM_CURVE_SERVER_SECRET";
 inline constexpr const char* kCurveClientPublic = "COSIM_CURVE_CLIENT_PUBLIC";
 inline constexpr const char* kCurveClientSecret = "COSIM_CURVE_CLIENT_SECRET";
+// Set ("1") by the launcher for the contact processes it starts: they wait for the Hello
+// without coupling.timeout, since the launcher stops them if the coordinator ends before it
+// (a coordinator building a large model says nothing for longer than any timeout).
+inline constexpr const char* kSupervisedVariable = "COSIM_SUPERVISED";
 struct CurveKeys {
   std::string server_public, server_secret, client_public, client_secret;
   bool empty() const {
@@ -58,13 +62,13 @@ struct CurveKeys {
 CurveKeys CurveKeysFromEnvironment();
 
 struct ChannelOptions {
-  std::string endpoint;   // tcp://host:port, ipc://path or inproc://name
-  bool bind = false;      // the contact process binds, the coordinator connects
-  std::string self;       // this process's name (Envelope.sender)
-  std::string peer;       // the peer's name, for messages
-  double timeout = 10.0;  // [s] without any message from the peer
-  double heartbeat = 1.0; // [s] between heartbeats (ZMTP and the heartbeat thread)
-  CurveKeys keys = {};    // empty: no CURVE security
+  std::string endpoint;    // tcp://host:port, ipc://path or inproc://name
+  bool bind = false;       // the contact process binds, the coordinator connects
+  std::string self;        // this process's name (Envelope.sender)
+  std::string peer;        // the peer's name, for messages
+  double timeout = 10.0;   // [s] without any message from the peer
+  double heartbeat = 1.0;  // [s] between heartbeats (ZMTP and the heartbeat thread)
+  CurveKeys keys = {};     // empty: no CURVE security
 };
 
 class Channel {
@@ -84,6 +88,9 @@ class Channel {
   // The next message that is not a heartbeat, parsed and checked: its body must be `expected`,
   // and its step and iteration the given ones (checked when >= 0 / >= 0).
   const coupling::Envelope& Receive(coupling::Envelope::BodyCase expected, int64_t step, int iteration);
+  // The same, waiting at most `timeout` seconds (infinity: until a message, a termination
+  // request or the peer's end) instead of options().timeout.
+  const coupling::Envelope& Receive(coupling::Envelope::BodyCase expected, int64_t step, int iteration, double timeout);
   // As Receive, but any body is accepted (the contact process's main loop dispatches on it).
   const coupling::Envelope& ReceiveAny();
 
@@ -95,7 +102,7 @@ class Channel {
   zmq::socket_t& socket() { return *socket_; }
 
  private:
-  const coupling::Envelope& Wait(const std::string& awaiting);
+  const coupling::Envelope& Wait(const std::string& awaiting, double timeout);
   std::string Describe(const coupling::Envelope& e) const;
   void HeartbeatIfDue();  // with the socket's mutex held
   void PumpHeartbeats();  // the heartbeat thread

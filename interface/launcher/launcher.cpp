@@ -135,7 +135,7 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLi
                     folder,
                     "contact process '" + process.name + "'",
                     {variable(kCurveServerPublic, server_public), variable(kCurveServerSecret, server_secret),
-                     variable(kCurveClientPublic, client_public)}});
+                     variable(kCurveClientPublic, client_public), variable(kSupervisedVariable, "1")}});
   }
   std::vector<std::string> smooth_args = common;
   if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});

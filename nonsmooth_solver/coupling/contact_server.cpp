@@ -3,6 +3,8 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <map>
 #include <set>
 
@@ -247,7 +249,15 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
   copy(reactions.position(), 3, "position", "m", &reference_);
 }
 
-void ContactServer::Handshake() { Answer(channel_->Receive(Envelope::kHello, -1, -1)); }
+void ContactServer::Handshake() {
+  // Under the launcher the Hello is awaited as long as it takes (the coordinator may build a
+  // large model first; the launcher stops this process if the coordinator ends); started by
+  // hand, for coupling.timeout.
+  const char* supervised = std::getenv(interface::kSupervisedVariable);
+  const bool wait = supervised != nullptr && std::string(supervised) == "1";
+  Answer(channel_->Receive(Envelope::kHello, -1, -1,
+                           wait ? std::numeric_limits<double>::infinity() : channel_->options().timeout));
+}
 
 void ContactServer::Run() {
   Handshake();

@@ -20,6 +20,7 @@
 #include <zmq.hpp>
 
 #include "coupling.pb.h"
+#include "interface/coupling/channel.h"
 #include "tests/integration/launch.h"
 
 namespace {
@@ -545,6 +546,32 @@ TEST(Hardening, ALauncherKilledWithSigkillLeavesNoSocketFolder) {
   const auto t0 = Clock::now();
   while (fs::exists(folder) && SecondsSince(t0) < 5.0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_FALSE(fs::exists(folder)) << folder;
+}
+
+TEST(Hardening, AContactProcessUnderTheLauncherWaitsForAHelloAsLongAsItTakes) {
+  // Issue 32, item 3: the Puma gust with 200 blades failed as "peer died" — its contact
+  // processes waited coupling.timeout (10 s) for the Hello while the coordinator was still
+  // building its model. Played here with a contact process and no coordinator, timeout 1 s:
+  // started by the launcher (COSIM_SUPERVISED=1) it is still waiting after 3 s and ends at once
+  // when the launcher stops it (SIGTERM, exit 4); started by hand it gives up after the timeout.
+  const fs::path dir = TempDir("hello_wait");
+  const std::string endpoint = "ipc://" + (dir / "c.ipc").string();
+  auto start = [&](const std::string& name) {
+    return Start("nonsmooth_solver",
+                 {kTiedDrop, "--process", "contacts", "--out", (dir / name).string(), "--set",
+                  "coupling.processes[0].endpoint=\"" + endpoint + "\"", "--set", "coupling.timeout=1"},
+                 dir / (name + ".txt"));
+  };
+  setenv(cosim::interface::kSupervisedVariable, "1", 1);
+  Background supervised = start("supervised");
+  unsetenv(cosim::interface::kSupervisedVariable);
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  EXPECT_EQ(waitpid(supervised.pid, nullptr, WNOHANG), 0) << Slurp(dir / "supervised.txt");  // still waiting
+  kill(supervised.pid, SIGTERM);
+  EXPECT_EQ(supervised.Wait(3.0), 4) << Slurp(dir / "supervised.txt");
+  Background by_hand = start("by_hand");
+  EXPECT_EQ(by_hand.Wait(5.0), 4);
+  EXPECT_NE(Slurp(dir / "by_hand.txt").find("no message from"), std::string::npos) << Slurp(dir / "by_hand.txt");
 }
 
 }  // namespace

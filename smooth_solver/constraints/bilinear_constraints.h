@@ -9,7 +9,6 @@
 //     φ(q, t) = Σ_j w_j(t) A_j(q)·B_j(q) + c(t),
 // so that Φ_q, the Hessians (constant), Φ_t and Φ_tt follow exactly and cheaply.
 #include <Eigen/Core>
-
 #include <limits>
 #include <string>
 #include <vector>
@@ -154,7 +153,8 @@ class ConstraintSet {
                          double scale) const;
   // Φ_qᵀ λ into `out` (size n, accumulated).
   void AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
-                                 const Eigen::Ref<const Eigen::VectorXd>& lambda, Eigen::Ref<Eigen::VectorXd> out) const;
+                                 const Eigen::Ref<const Eigen::VectorXd>& lambda,
+                                 Eigen::Ref<Eigen::VectorXd> out) const;
   // Φ_q v into `out` (size m). `rows` (optional): only the rows flagged non-zero, 0 elsewhere
   // (here and in VelocityConstraintJacobian and TimeDerivative).
   void JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t, const Eigen::Ref<const Eigen::VectorXd>& v,
@@ -169,9 +169,9 @@ class ConstraintSet {
                         double t, Eigen::Ref<Eigen::VectorXd> xi) const;
   // ∂(Φ_q v + Φ_t)/∂q into `sink` at (row_offset + i, column): the derivative of the velocity
   // constraint with respect to the positions (index-2 formulations).
-  void VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& v,
-                                  double t, SparseSink* sink, int row_offset, double scale = 1.0,
-                                  const std::vector<char>* rows = nullptr) const;
+  void VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                  const Eigen::Ref<const Eigen::VectorXd>& v, double t, SparseSink* sink,
+                                  int row_offset, double scale = 1.0, const std::vector<char>* rows = nullptr) const;
   // Φ_t (size m): the velocity constraint is Φ_q q̇ + Φ_t = 0.
   void TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi_t,
                       const std::vector<char>* rows = nullptr) const;

@@ -45,11 +45,11 @@ struct CouplingSettings {
   double reaction_tolerance = 1e-6;      // relative to max(1 N, |x̃|)
   interface::Relaxation::Method relaxation = interface::Relaxation::Method::kAitken;
   double relaxation_factor = 0.5;
-  int reuse_steps = 0;                   // IQN-ILS: columns of that many earlier steps kept
-  bool step_average_reaction = false;    // false: λ at the step's end (see scenario.proto)
-  bool stop_at_max_iterations = true;    // false: accept and mark the step
-  bool restart_at_impact = true;         // see scenario.proto, CouplingIteration
-  bool warm_start = true;                // Newton from the last coupling iteration's end (scenario.proto)
+  int reuse_steps = 0;                 // IQN-ILS: columns of that many earlier steps kept
+  bool step_average_reaction = false;  // false: λ at the step's end (see scenario.proto)
+  bool stop_at_max_iterations = true;  // false: accept and mark the step
+  bool restart_at_impact = true;       // see scenario.proto, CouplingIteration
+  bool warm_start = true;              // Newton from the last coupling iteration's end (scenario.proto)
   // Interface Jacobians (docs/protocol.md) with every peer that offers them: the peers take the
   // smooth side's linearisation as an implicit force law and answer with their sensitivities,
   // which the smooth step takes as a compliance on the interface rows (a Newton iteration on
@@ -65,8 +65,8 @@ struct CouplingSettings {
 struct CouplingIterationRecord {
   long long step = 0;
   int iteration = 0;
-  double reaction_residual = 0.0;      // |x̃ − x|∞ [N]
-  double displacement_change = 0.0;    // |k_i − k_{i−1}|∞ on positions [m] (∞ at i = 0)
+  double reaction_residual = 0.0;    // |x̃ − x|∞ [N]
+  double displacement_change = 0.0;  // |k_i − k_{i−1}|∞ on positions [m] (∞ at i = 0)
   double relaxation_factor = 0.0;
 };
 
@@ -102,11 +102,11 @@ class Coordinator {
   // every peer and the integrator back at the step's start; the next Try may take another h).
   struct Attempt {
     int iterations = 0;
-    bool converged = false;    // within the tolerances (or free flight)
-    bool free_flight = false;  // accepted after one iteration: no contact reachable (free_flight_margin)
-    std::string failure;       // a failed Newton solve (integrator restored): reject or stop
-    bool impact = false;       // a node's contact closed in the step (its velocity jumped)
-    bool contact = false;      // an impulsive contact acted in the step
+    bool converged = false;        // within the tolerances (or free flight)
+    bool free_flight = false;      // accepted after one iteration: no contact reachable (free_flight_margin)
+    std::string failure;           // a failed Newton solve (integrator restored): reject or stop
+    bool impact = false;           // a node's contact closed in the step (its velocity jumped)
+    bool contact = false;          // an impulsive contact acted in the step
     double time_to_contact = 0.0;  // the peers' earliest, from the step's end [s]
   };
   Attempt Try(double t, double h);
@@ -190,13 +190,13 @@ class Coordinator {
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
-  bool iterate_solved_ = false;  // iterate_ is a solve of the step under way
+  bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
   long long step_ = 0;
   long long last_accepted_ = -1;
-  int n_ = 0;  // interface values: 3 per point
+  int n_ = 0;                                                                // interface values: 3 per point
   Eigen::VectorXd x_, x_tilde_, x_next_, accepted_x_, previous_accepted_x_;  // reactions
-  Eigen::VectorXd solved_x_;  // the reactions of the step's last coupling iteration that solved
+  Eigen::VectorXd solved_x_;      // the reactions of the step's last coupling iteration that solved
   long long accepted_steps_ = 0;  // since the start or the last impact (for the predictor)
   double accepted_h_ = 0.0;       // the last accepted step's length
   double time_to_contact_ = 0.0;  // the peers' earliest, from the last Kinematics
@@ -208,7 +208,7 @@ class Coordinator {
   Eigen::VectorXd position_, velocity_, previous_position_, start_velocity_;  // kinematics
   bool in_contact_ = false;                                                   // any interface node, this iteration
   std::vector<bool> contact_, was_contact_;  // per interface point: this iteration, the last accepted step
-  std::vector<int> coupling_rows_;  // the interface points' constraint rows
+  std::vector<int> coupling_rows_;           // the interface points' constraint rows
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;
   long long at_roundoff_ = 0;

@@ -51,8 +51,9 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   const interface::Checks checks(file);
   const sc::Coupling& coupling = file.proto().coupling();
   if (simulation_->cgalpha() == nullptr) {
-    checks.Fail("numerics.smooth.integrator", "a coupled run needs CGALPHA (its steps are repeated per coupling "
-                                              "iteration from a checkpoint)");
+    checks.Fail("numerics.smooth.integrator",
+                "a coupled run needs CGALPHA (its steps are repeated per coupling "
+                "iteration from a checkpoint)");
   }
   const interface::ChannelTiming timing = interface::ReadChannelTiming(file);
   const interface::CurveKeys keys = interface::CurveKeysFromEnvironment();
@@ -103,10 +104,17 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   settings.reaction_tolerance =
       checks.Positive("coupling.iteration.reaction_tolerance", true, it.reaction_tolerance(), "dimensionless");
   switch (it.relaxation()) {
-    case sc::Coupling::CouplingIteration::CONSTANT: settings.relaxation = interface::Relaxation::Method::kConstant; break;
-    case sc::Coupling::CouplingIteration::AITKEN: settings.relaxation = interface::Relaxation::Method::kAitken; break;
-    case sc::Coupling::CouplingIteration::IQN_ILS: settings.relaxation = interface::Relaxation::Method::kIqnIls; break;
-    default: checks.Fail("coupling.iteration.relaxation", "expected CONSTANT, AITKEN or IQN_ILS");
+    case sc::Coupling::CouplingIteration::CONSTANT:
+      settings.relaxation = interface::Relaxation::Method::kConstant;
+      break;
+    case sc::Coupling::CouplingIteration::AITKEN:
+      settings.relaxation = interface::Relaxation::Method::kAitken;
+      break;
+    case sc::Coupling::CouplingIteration::IQN_ILS:
+      settings.relaxation = interface::Relaxation::Method::kIqnIls;
+      break;
+    default:
+      checks.Fail("coupling.iteration.relaxation", "expected CONSTANT, AITKEN or IQN_ILS");
   }
   settings.relaxation_factor =
       checks.InRange("coupling.iteration.relaxation_factor", true, it.relaxation_factor(), 0.0, 2.0);
@@ -146,7 +154,8 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     }
   }
 
-  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(), std::move(peers), settings);
+  coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(),
+                                               std::move(peers), settings);
   start_time_ = file.proto().numerics().start_time();
   step_ = file.proto().numerics().step();
   span_ = interface::ValidateTimeSpan(file);

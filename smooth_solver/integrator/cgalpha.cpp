@@ -80,7 +80,8 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   std::vector<Row> mode(static_cast<size_t>(n + m), Row::kKept);
   bool special = false;
   for (int i = 0; i < m; ++i) {
-    if (system.constraints.Compliance(static_cast<size_t>(i)) != 0.0) mode[static_cast<size_t>(n + i)] = Row::kCompliant, special = true;
+    if (system.constraints.Compliance(static_cast<size_t>(i)) != 0.0)
+      mode[static_cast<size_t>(n + i)] = Row::kCompliant, special = true;
   }
   if (free_rows != nullptr) {
     for (int i : *free_rows) mode[static_cast<size_t>(n + i)] = Row::kFree, special = true;
@@ -173,7 +174,7 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   // The elastic force and its tangent in one pass (force_ holds the other forces already).
   elastic_.Add(state_.q, next_.q, force_, bh2, &sink);
   AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);  // βh² β' M
-  system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);      // βh² Σ λ_i ∂²φ_i/∂q²
+  system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);           // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
   system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink,
                           /*include_elastic=*/false);
@@ -319,8 +320,9 @@ bool CgAlpha::ProjectPositions(double t1) {
     // the Newton tolerance after 10 solves.
     if (k >= 10 && violation <= settings_.tolerance) return true;
     if (k == 30 || !std::isfinite(violation)) {
-      failure_ = "CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) + " s (|Φ| = " +
-                 interface::FormatNumber(violation) + " after " + std::to_string(k) + " solves); reduce the step";
+      failure_ = "CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) +
+                 " s (|Φ| = " + interface::FormatNumber(violation) + " after " + std::to_string(k) +
+                 " solves); reduce the step";
       return false;
     }
     previous = violation;
@@ -401,7 +403,8 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
   }
   if (converged) {
     // Accept: a_{n+1} from Eq. (3).
-    a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
+    a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) /
+         (1.0 - coef_.alpha_m);
     elastic_.Accept(state_.q, next_.q);
     std::swap(state_, next_);
     ++age_;
@@ -516,7 +519,8 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
     // reuse", and the four-bar of JacobianReuse ends 3e-6 away instead of 5e-8.)
     bool accurate = true;
     if (!fresh && settings_.frame_body >= 0) {
-      const double rho = std::min(std::isfinite(previous_dq) ? dq_norm / previous_dq : settings_.reuse_contraction, 0.9);
+      const double rho =
+          std::min(std::isfinite(previous_dq) ? dq_norm / previous_dq : settings_.reuse_contraction, 0.9);
       accurate = rho / (1.0 - rho) * dq_norm <= kReusedErrorShare * dq_tolerance;
     }
     if (dq_norm <= dq_tolerance && accurate && phi_norm <= settings_.tolerance) return true;

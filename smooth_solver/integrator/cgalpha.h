@@ -15,10 +15,10 @@
 //     q_{n+1} ← q_{n+1} + δ,  [βh² H, Φ_qᵀ; G, 0] [δ; μ] = [0; −Φ],
 //   a correction of the size of one step's drift, O(h³), so the order stays 2. Only curved rows
 //   (Φ_q changing with q) take the velocity form; linear rows, and the rows of coupling interface
-//   nodes (imposed coordinates, optionally Tikhonov-regularised), stay at position level. The index-3 form leaves the velocity-level form of curved constraints
-//   (the rigidity rows u·u = 1, ... of natural coordinates, revolute axes) to the Newmark update,
-//   whose normal-velocity mode has the amplification 1 − γ/β ≈ −0.999 at ρ∞ = 0.9: a body
-//   spinning at Ωh > 0.04 turns that mode into growth (energy ×1e3 in 2 s at Ωh = 0.3).
+//   nodes (imposed coordinates, optionally Tikhonov-regularised), stay at position level. The index-3 form leaves the
+//   velocity-level form of curved constraints (the rigidity rows u·u = 1, ... of natural coordinates, revolute axes) to
+//   the Newmark update, whose normal-velocity mode has the amplification 1 − γ/β ≈ −0.999 at ρ∞ = 0.9: a body spinning
+//   at Ωh > 0.04 turns that mode into growth (energy ×1e3 in 2 s at Ωh = 0.3).
 //
 // with the elastic bodies' internal force in f as the GEMM effective end-point force f̃_{n+1}
 // (ElasticStepForce: equivalent to the paper's Eq. (30)),
@@ -43,7 +43,6 @@
 // that would give γ < ½ for ρ∞ < 1, an unstable scheme, so the names there are swapped.)
 #include <Eigen/Core>
 #include <Eigen/SparseLU>
-
 #include <string>
 #include <vector>
 
@@ -70,9 +69,9 @@ enum class ConstraintForm {
 };
 
 struct CgAlphaSettings {
-  double rho_inf = 0.9;            // ρ∞ ∈ [0, 1]; 1 = no numerical dissipation
+  double rho_inf = 0.9;  // ρ∞ ∈ [0, 1]; 1 = no numerical dissipation
   ConstraintForm form = ConstraintForm::kIndex2Projected;
-  double tolerance = 1e-6;         // on |Δq|∞ (relative to 1 + |q|∞) and |Φ|∞
+  double tolerance = 1e-6;  // on |Δq|∞ (relative to 1 + |q|∞) and |Φ|∞
   int max_iterations = 20;
   // Elastic bodies: the GEMM midpoint internal force (Eq. (30)); false: the generalised-α
   // end-point force of Eq. (12).
@@ -197,7 +196,7 @@ class CgAlpha : public SmoothIntegrator {
   CgAlphaSettings settings_;
   AlphaCoefficients coef_;
   DaeState state_;
-  Eigen::VectorXd a_;  // acceleration-like variable a_n
+  Eigen::VectorXd a_;         // acceleration-like variable a_n
   ElasticStepForce elastic_;  // f̃_n of the elastic bodies
   bool started_ = false;
   // Per constraint row: 1 where the velocity form closes the step (INDEX2_PROJECTED: the curved

@@ -192,7 +192,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
     const LinearVector v = LinearVector::Direction(b, Eigen::Vector3d::UnitY());
     const LinearVector w = LinearVector::Direction(b, Eigen::Vector3d::UnitZ());
     const std::pair<const LinearVector*, const LinearVector*> pairs[6] = {{&u, &u}, {&v, &v}, {&w, &w},
-                                                                         {&u, &v}, {&u, &w}, {&v, &w}};
+                                                                          {&u, &v}, {&u, &w}, {&v, &w}};
     const char* names[6] = {"u.u", "v.v", "w.w", "u.v", "u.w", "v.w"};
     for (int k = 0; k < 6; ++k) {
       ScalarConstraint c;
@@ -237,8 +237,9 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
         const Eigen::Vector3d X = body.mesh().nodes.col(node);
         LinearVector at_node;
         at_node.terms.push_back({o + 3 * node, 1.0});
-        const LinearVector at_body = clamp.rigid_body < 0 ? LinearVector::Constant(X)
-                                                          : LinearVector::Point(clamp.rigid_body, f.R.transpose() * (X - f.x));
+        const LinearVector at_body = clamp.rigid_body < 0
+                                         ? LinearVector::Constant(X)
+                                         : LinearVector::Point(clamp.rigid_body, f.R.transpose() * (X - f.x));
         sys.elastic_clamp_rows.back().emplace_back(sys.constraints.size(), node);
         sys.constraints.vector_triples.push_back(sys.constraints.size());
         for (int k = 0; k < 3; ++k) {
@@ -313,7 +314,8 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       // (with the sign convention Φ = p1 − p2).
       const char* axes[3] = {"x", "y", "z"};
       cs.vector_triples.push_back(cs.size());
-      for (int k = 0; k < 3; ++k) add(std::string("point_") + axes[k], p1 - p2, LinearVector::Constant(Eigen::Vector3d::Unit(k)));
+      for (int k = 0; k < 3; ++k)
+        add(std::string("point_") + axes[k], p1 - p2, LinearVector::Constant(Eigen::Vector3d::Unit(k)));
     }
     measure.has_point_rows = point_rows;
     switch (j.type) {
@@ -397,7 +399,8 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       case ForceSpec::Kind::kJointSpring: {
         const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
         // Coordinates are measured from the initial poses; a given rest is in the joint's own.
-        const double rest = f.has_rest ? f.rest - model.joints[static_cast<size_t>(f.joint)].initial_coordinate : f.rest;
+        const double rest =
+            f.has_rest ? f.rest - model.joints[static_cast<size_t>(f.joint)].initial_coordinate : f.rest;
         if (m.rotational) {
           sys.forces.push_back(std::make_unique<CoordinateSpring>(m.b1, m.c1, m.b2, f.stiffness, f.damping, rest));
         } else {
@@ -419,7 +422,8 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
       }
       case ForceSpec::Kind::kJointStop: {
         const JointMeasure& m = sys.joints[static_cast<size_t>(f.joint)];
-        const double offset = model.joints[static_cast<size_t>(f.joint)].initial_coordinate;  // stops in the joint's own
+        const double offset =
+            model.joints[static_cast<size_t>(f.joint)].initial_coordinate;  // stops in the joint's own
         for (int side : {1, -1}) {
           if (side > 0 ? !f.has_lower : !f.has_upper) continue;
           auto stop = std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),

@@ -6,7 +6,6 @@
 // second moments J̄ = ½ tr(I) E − I of its inertia tensor I about the centre of mass.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
-
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,10 +23,10 @@ namespace cosim::smooth {
 
 // What a probe needs to measure a joint: its coordinate and its reaction.
 struct JointMeasure {
-  int first_row = 0;       // first constraint row of the joint (its point coincidence rows
-                           // come first when it has them)
+  int first_row = 0;  // first constraint row of the joint (its point coincidence rows
+                      // come first when it has them)
   bool has_point_rows = false;
-  int row_count = 0;       // rows of the joint, its drive included
+  int row_count = 0;  // rows of the joint, its drive included
   int body1 = -1, body2 = -1;
   // Revolute: angle of b2 from b1 towards c1 about the axis. Prismatic: (p2 − p1)·a1.
   LinearVector b1, c1, b2;
@@ -40,10 +39,10 @@ struct JointMeasure {
 // peer. The multipliers of those rows are the force the smooth model exerts on the node.
 struct InterfacePoint {
   std::string contact_node;
-  int first_row = 0;         // its three rows (x, y, z)
-  LinearVector point;        // p(q)
-  bool elastic = false;      // a node of an elastic (hex27) body or of a beam
-  int body = -1;             // the rigid body (a beam's node included) it is a point of; -1: an elastic node
+  int first_row = 0;     // its three rows (x, y, z)
+  LinearVector point;    // p(q)
+  bool elastic = false;  // a node of an elastic (hex27) body or of a beam
+  int body = -1;         // the rigid body (a beam's node included) it is a point of; -1: an elastic node
 };
 
 struct MultibodySystem {
@@ -82,7 +81,8 @@ struct MultibodySystem {
   // mutable_data() (a const system cannot), CGα's checkpoints save and restore it.
   const SystemData& data() const { return *data_; }
   SystemData* mutable_data() { return data_.get(); }
-  std::unique_ptr<SystemData> data_ = std::make_unique<SystemData>();  // (on the heap: its address is bound into the elements)
+  std::unique_ptr<SystemData> data_ =
+      std::make_unique<SystemData>();  // (on the heap: its address is bound into the elements)
   // Force [N] the smooth model exerts on interface node k, from the multipliers.
   Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
     return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);
@@ -110,7 +110,8 @@ struct MultibodySystem {
   // multipliers): the force from the point-coincidence rows (a joint without them, prismatic:
   // the generalised force all its rows put on body2's position), the moment (a pure couple, the
   // same about any point) from the orientation and drive rows.
-  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, double t) const;
+  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
+                                     double t) const;
   Eigen::Vector3d JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
                                       double t) const;
   // Position of body b's centre of mass, its axes (columns u, v, w).

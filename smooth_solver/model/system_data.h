@@ -8,7 +8,6 @@
 // adaptive step's error test, a coupling iteration that fails) leaves no trace
 // (like Pinocchio's Data or MuJoCo's mjData).
 #include <Eigen/Core>
-
 #include <algorithm>
 #include <stdexcept>
 #include <vector>

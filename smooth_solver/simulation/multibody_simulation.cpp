@@ -10,8 +10,8 @@
 #include <set>
 
 #include "interface/scenario/checks.h"
-#include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
+#include "smooth_solver/simulation/visual_scene.h"
 #include "state.pb.h"
 
 namespace cosim::smooth {
@@ -39,11 +39,11 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
   }
   if (s.coordinates() != system.coordinates || s.constraints() != system.constraints.size() ||
       s.q_size() != system.coordinates || s.qdot_size() != system.coordinates ||
-      s.reference_q_size() != system.coordinates ||
-      s.angle_offsets_size() != static_cast<int>(joints)) {
-    checks.Fail(place, "'" + path.string() + "' holds a state of " + std::to_string(s.coordinates()) + " coordinates and " +
-                           std::to_string(s.constraints()) + " constraints (scenario '" + s.scenario() + "'); this scene has " +
-                           std::to_string(system.coordinates) + " and " + std::to_string(system.constraints.size()) +
+      s.reference_q_size() != system.coordinates || s.angle_offsets_size() != static_cast<int>(joints)) {
+    checks.Fail(place, "'" + path.string() + "' holds a state of " + std::to_string(s.coordinates()) +
+                           " coordinates and " + std::to_string(s.constraints()) + " constraints (scenario '" +
+                           s.scenario() + "'); this scene has " + std::to_string(system.coordinates) + " and " +
+                           std::to_string(system.constraints.size()) +
                            ": expected a state written by a run of the same scene");
   }
   if (std::abs(s.time() - start_time) > 1e-9 * std::max(1.0, std::abs(start_time))) {
@@ -53,7 +53,8 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
   }
   for (int i = 0; i < s.q_size(); ++i) {
     if (!std::isfinite(s.q(i)) || !std::isfinite(s.qdot(i))) {
-      checks.Fail(place, "'" + path.string() + "' has a non-finite coordinate or velocity at index " + std::to_string(i));
+      checks.Fail(place,
+                  "'" + path.string() + "' has a non-finite coordinate or velocity at index " + std::to_string(i));
     }
   }
   return s;
@@ -74,13 +75,14 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   const Checks checks(file);
   visual_.axis_length = file.proto().output().visual().axis_length();
   if (!(visual_.axis_length >= 0.0)) {
-    checks.Fail("output.visual.axis_length", "must be >= 0 (0: a quarter of each body's size), got " +
-                                                 interface::FormatNumber(visual_.axis_length));
+    checks.Fail("output.visual.axis_length",
+                "must be >= 0 (0: a quarter of each body's size), got " + interface::FormatNumber(visual_.axis_length));
   }
   if (!coupled && !model_.interface_points.empty()) {
     // Standalone, nothing would move the imposed points: they would stay where they start.
-    checks.Fail("coupling.interface_nodes", "a coupled scene needs its contact processes; smooth_solver alone cannot "
-                                            "run it (the coupled run through scripts/cosim run is issue 6, in progress)");
+    checks.Fail("coupling.interface_nodes",
+                "a coupled scene needs its contact processes; smooth_solver alone cannot "
+                "run it (the coupled run through scripts/cosim run is issue 6, in progress)");
   }
   std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
   std::map<std::string, int> elastic_index;
@@ -115,27 +117,32 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   settings.rho_inf = checks.InRange("numerics.smooth.rho_inf", true, s.rho_inf(), 0.0, 1.0);
   settings.tolerance = checks.Positive("numerics.smooth.newton_tolerance", true, s.newton_tolerance(), "dimensionless");
   if (s.newton_max_iterations() < 1) {
-    checks.Fail("numerics.smooth.newton_max_iterations", "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
+    checks.Fail("numerics.smooth.newton_max_iterations",
+                "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
   }
   settings.max_iterations = s.newton_max_iterations();
   if (s.jacobian_max_age() < 0) {
-    checks.Fail("numerics.smooth.jacobian_max_age", "must be >= 0 steps (0 = a fresh Newton matrix every iteration), got " +
-                                                        std::to_string(s.jacobian_max_age()));
+    checks.Fail(
+        "numerics.smooth.jacobian_max_age",
+        "must be >= 0 steps (0 = a fresh Newton matrix every iteration), got " + std::to_string(s.jacobian_max_age()));
   }
   settings.jacobian_max_age = s.jacobian_max_age();
   if (s.elastic_force() != sc::SmoothSettings::GEMM && s.elastic_force() != sc::SmoothSettings::END_POINT) {
     checks.Fail("numerics.smooth.elastic_force", "expected GEMM or END_POINT");
   }
   settings.gemm = s.elastic_force() == sc::SmoothSettings::GEMM;
-  if (s.constraint_form() != sc::SmoothSettings::INDEX3 && s.constraint_form() != sc::SmoothSettings::INDEX2_PROJECTED) {
+  if (s.constraint_form() != sc::SmoothSettings::INDEX3 &&
+      s.constraint_form() != sc::SmoothSettings::INDEX2_PROJECTED) {
     checks.Fail("numerics.smooth.constraint_form", "expected INDEX3 or INDEX2_PROJECTED");
   }
-  settings.form = s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
+  settings.form =
+      s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
   const sc::AdaptiveStep& adaptive = numerics_.adaptive();
   if (adaptive.enabled()) {
     if (s.integrator() != sc::SmoothSettings::CGALPHA) {
-      checks.Fail("numerics.adaptive", "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
-                                       "own); set enabled: false");
+      checks.Fail("numerics.adaptive",
+                  "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
+                  "own); set enabled: false");
     }
     adaptive_.on = true;
     adaptive_.land = coupled;
@@ -157,13 +164,17 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   }
   const sc::Watchdog& w = s.watchdog();
   WatchdogSettings watchdog;
-  watchdog.rigidity_rate = checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
-  watchdog.energy_growth = checks.NonNegative("numerics.smooth.watchdog.energy_growth", w.energy_growth(), "dimensionless; 0 = off");
+  watchdog.rigidity_rate =
+      checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
+  watchdog.energy_growth =
+      checks.NonNegative("numerics.smooth.watchdog.energy_growth", w.energy_growth(), "dimensionless; 0 = off");
   if (w.energy_window() < 1) {
-    checks.Fail("numerics.smooth.watchdog.energy_window", "must be >= 1 step, got " + std::to_string(w.energy_window()));
+    checks.Fail("numerics.smooth.watchdog.energy_window",
+                "must be >= 1 step, got " + std::to_string(w.energy_window()));
   }
   watchdog.energy_window = w.energy_window();
-  if (w.energy_check() != sc::Watchdog::AUTO && w.energy_check() != sc::Watchdog::ON && w.energy_check() != sc::Watchdog::OFF) {
+  if (w.energy_check() != sc::Watchdog::AUTO && w.energy_check() != sc::Watchdog::ON &&
+      w.energy_check() != sc::Watchdog::OFF) {
     checks.Fail("numerics.smooth.watchdog.energy_check", "expected AUTO, ON or OFF");
   }
 
@@ -175,7 +186,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     if (it == body_index.end()) {
       checks.Fail("numerics.smooth.jacobian_frame", "no rigid body named '" + s.jacobian_frame() + "'");
     } else if (s.jacobian_max_age() == 0) {
-      checks.Fail("numerics.smooth.jacobian_frame", "set, but numerics.smooth.jacobian_max_age is 0 (no matrix is reused)");
+      checks.Fail("numerics.smooth.jacobian_frame",
+                  "set, but numerics.smooth.jacobian_max_age is 0 (no matrix is reused)");
     } else {
       settings.frame_body = it->second;
     }
@@ -184,7 +196,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   std::map<std::string, int> beam_index;
   for (size_t b = 0; b < model_.beams.size(); ++b) beam_index[model_.beams[b].name] = static_cast<int>(b);
   std::map<std::string, int> surface_index, rotor_index;
-  for (size_t k = 0; k < model_.aero.surfaces.size(); ++k) surface_index[model_.aero.surfaces[k].name] = static_cast<int>(k);
+  for (size_t k = 0; k < model_.aero.surfaces.size(); ++k)
+    surface_index[model_.aero.surfaces[k].name] = static_cast<int>(k);
   for (size_t k = 0; k < model_.aero.rotors.size(); ++k) rotor_index[model_.aero.rotors[k].name] = static_cast<int>(k);
   interface::NameTable probe_names(checks, "probe");
   const sc::Output& output = file.proto().output();
@@ -214,40 +227,93 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       return it->second;
     };
     switch (p.quantity()) {
-      case sc::Probe::POSITION: spec.kind = Kind::kPosition; break;
-      case sc::Probe::VELOCITY: spec.kind = Kind::kVelocity; break;
-      case sc::Probe::ACCELERATION: spec.kind = Kind::kAcceleration; break;
-      case sc::Probe::ANGULAR_VELOCITY: spec.kind = Kind::kAngularVelocity; break;
-      case sc::Probe::JOINT_COORDINATE: spec.kind = Kind::kJointCoordinate; break;
-      case sc::Probe::JOINT_SPEED: spec.kind = Kind::kJointSpeed; break;
-      case sc::Probe::REACTION_FORCE: spec.kind = Kind::kReactionForce; break;
-      case sc::Probe::REACTION_MOMENT: spec.kind = Kind::kReactionMoment; break;
-      case sc::Probe::KINETIC_ENERGY: spec.kind = Kind::kKinetic; break;
-      case sc::Probe::POTENTIAL_ENERGY: spec.kind = Kind::kPotential; break;
-      case sc::Probe::TOTAL_ENERGY: spec.kind = Kind::kTotal; break;
-      case sc::Probe::CONSTRAINT_VIOLATION: spec.kind = Kind::kViolation; break;
-      case sc::Probe::DISPLACEMENT: spec.kind = Kind::kDisplacement; break;
-      case sc::Probe::STRAIN_ENERGY: spec.kind = Kind::kStrainEnergy; break;
-      case sc::Probe::ROTATION: spec.kind = Kind::kRotation; break;
-      case sc::Probe::SECTION_FORCE: spec.kind = Kind::kSectionForce; break;
-      case sc::Probe::SECTION_MOMENT: spec.kind = Kind::kSectionMoment; break;
-      case sc::Probe::AERO_ANGLE_OF_ATTACK: spec.kind = Kind::kAeroAlpha; break;
-      case sc::Probe::AERO_FORCE: spec.kind = Kind::kAeroForce; break;
-      case sc::Probe::AERO_MOMENT: spec.kind = Kind::kAeroMoment; break;
-      case sc::Probe::AERO_MACH: spec.kind = Kind::kAeroMach; break;
-      case sc::Probe::ROTOR_THRUST: spec.kind = Kind::kRotorThrust; break;
-      case sc::Probe::ROTOR_TORQUE: spec.kind = Kind::kRotorTorque; break;
-      case sc::Probe::INFLOW_RATIO: spec.kind = Kind::kInflowRatio; break;
-      case sc::Probe::INDUCED_VELOCITY: spec.kind = Kind::kInducedVelocity; break;
-      case sc::Probe::CONTACT_FORCE: spec.kind = Kind::kContactForce; break;
+      case sc::Probe::POSITION:
+        spec.kind = Kind::kPosition;
+        break;
+      case sc::Probe::VELOCITY:
+        spec.kind = Kind::kVelocity;
+        break;
+      case sc::Probe::ACCELERATION:
+        spec.kind = Kind::kAcceleration;
+        break;
+      case sc::Probe::ANGULAR_VELOCITY:
+        spec.kind = Kind::kAngularVelocity;
+        break;
+      case sc::Probe::JOINT_COORDINATE:
+        spec.kind = Kind::kJointCoordinate;
+        break;
+      case sc::Probe::JOINT_SPEED:
+        spec.kind = Kind::kJointSpeed;
+        break;
+      case sc::Probe::REACTION_FORCE:
+        spec.kind = Kind::kReactionForce;
+        break;
+      case sc::Probe::REACTION_MOMENT:
+        spec.kind = Kind::kReactionMoment;
+        break;
+      case sc::Probe::KINETIC_ENERGY:
+        spec.kind = Kind::kKinetic;
+        break;
+      case sc::Probe::POTENTIAL_ENERGY:
+        spec.kind = Kind::kPotential;
+        break;
+      case sc::Probe::TOTAL_ENERGY:
+        spec.kind = Kind::kTotal;
+        break;
+      case sc::Probe::CONSTRAINT_VIOLATION:
+        spec.kind = Kind::kViolation;
+        break;
+      case sc::Probe::DISPLACEMENT:
+        spec.kind = Kind::kDisplacement;
+        break;
+      case sc::Probe::STRAIN_ENERGY:
+        spec.kind = Kind::kStrainEnergy;
+        break;
+      case sc::Probe::ROTATION:
+        spec.kind = Kind::kRotation;
+        break;
+      case sc::Probe::SECTION_FORCE:
+        spec.kind = Kind::kSectionForce;
+        break;
+      case sc::Probe::SECTION_MOMENT:
+        spec.kind = Kind::kSectionMoment;
+        break;
+      case sc::Probe::AERO_ANGLE_OF_ATTACK:
+        spec.kind = Kind::kAeroAlpha;
+        break;
+      case sc::Probe::AERO_FORCE:
+        spec.kind = Kind::kAeroForce;
+        break;
+      case sc::Probe::AERO_MOMENT:
+        spec.kind = Kind::kAeroMoment;
+        break;
+      case sc::Probe::AERO_MACH:
+        spec.kind = Kind::kAeroMach;
+        break;
+      case sc::Probe::ROTOR_THRUST:
+        spec.kind = Kind::kRotorThrust;
+        break;
+      case sc::Probe::ROTOR_TORQUE:
+        spec.kind = Kind::kRotorTorque;
+        break;
+      case sc::Probe::INFLOW_RATIO:
+        spec.kind = Kind::kInflowRatio;
+        break;
+      case sc::Probe::INDUCED_VELOCITY:
+        spec.kind = Kind::kInducedVelocity;
+        break;
+      case sc::Probe::CONTACT_FORCE:
+        spec.kind = Kind::kContactForce;
+        break;
       default:
-        checks.Fail(path + ".quantity", "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
-                                        "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
-                                        "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY, CONSTRAINT_VIOLATION, DISPLACEMENT, "
-                                        "STRAIN_ENERGY, ROTATION, SECTION_FORCE, SECTION_MOMENT, AERO_ANGLE_OF_ATTACK, "
-                                        "AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, INFLOW_RATIO, "
-                                        "INDUCED_VELOCITY or CONTACT_FORCE, got " +
-                                            sc::Probe::Quantity_Name(p.quantity()));
+        checks.Fail(path + ".quantity",
+                    "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
+                    "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
+                    "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY, CONSTRAINT_VIOLATION, DISPLACEMENT, "
+                    "STRAIN_ENERGY, ROTATION, SECTION_FORCE, SECTION_MOMENT, AERO_ANGLE_OF_ATTACK, "
+                    "AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, INFLOW_RATIO, "
+                    "INDUCED_VELOCITY or CONTACT_FORCE, got " +
+                        sc::Probe::Quantity_Name(p.quantity()));
     }
     if (p.has_frame()) {
       const bool vector = p.quantity() == sc::Probe::POSITION || p.quantity() == sc::Probe::VELOCITY ||
@@ -255,8 +321,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
                           p.quantity() == sc::Probe::DISPLACEMENT || p.quantity() == sc::Probe::ROTATION ||
                           p.quantity() == sc::Probe::REACTION_FORCE || p.quantity() == sc::Probe::REACTION_MOMENT;
       if (!vector) {
-        checks.Fail(path + ".frame", "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, DISPLACEMENT, "
-                                     "ROTATION, REACTION_FORCE and REACTION_MOMENT can be expressed in a body's frame");
+        checks.Fail(path + ".frame",
+                    "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, DISPLACEMENT, "
+                    "ROTATION, REACTION_FORCE and REACTION_MOMENT can be expressed in a body's frame");
       }
       if (p.frame() != "ground") {
         auto it = body_index.find(p.frame());
@@ -329,7 +396,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
         std::map<std::string, int> contact_index;
         for (size_t f = 0; f < model_.forces.size(); ++f) {
           const auto kind = model_.forces[f].kind;
-          if (kind == ForceSpec::Kind::kContact || kind == ForceSpec::Kind::kJointStop) contact_index[model_.forces[f].name] = static_cast<int>(f);
+          if (kind == ForceSpec::Kind::kContact || kind == ForceSpec::Kind::kJointStop)
+            contact_index[model_.forces[f].name] = static_cast<int>(f);
         }
         spec.index = find(contact_index, "continuous contact or joint stop");
         spec.component = interface::ProbeComponent(checks, path, p, false);
@@ -340,7 +408,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
         spec.index = find(joint_index, "joint");
         const JointType type = model_.joints[static_cast<size_t>(spec.index)].type;
         if (type != JointType::kRevolute && type != JointType::kPrismatic) {
-          checks.Fail(path + ".entity", "joint '" + p.entity() + "' has no single coordinate (revolute or prismatic only)");
+          checks.Fail(path + ".entity",
+                      "joint '" + p.entity() + "' has no single coordinate (revolute or prismatic only)");
         }
         spec.component = interface::ProbeComponent(checks, path, p, false);
         break;
@@ -382,7 +451,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
       case Kind::kPotential:
       case Kind::kTotal:
       case Kind::kViolation:
-        if (!p.entity().empty()) checks.Fail(path + ".entity", "this quantity is for the whole system; leave entity out");
+        if (!p.entity().empty())
+          checks.Fail(path + ".entity", "this quantity is for the whole system; leave entity out");
         spec.component = interface::ProbeComponent(checks, path, p, false);
         break;
     }
@@ -397,8 +467,9 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   std::optional<state::SmoothState> restart;
   if (numerics_.has_initial_state()) {
     if (coupled) {
-      checks.Fail("numerics.initial_state", "a coupled run cannot restart from a saved state yet (its contact processes' "
-                                            "states are not saved); remove it");
+      checks.Fail("numerics.initial_state",
+                  "a coupled run cannot restart from a saved state yet (its contact processes' "
+                  "states are not saved); remove it");
     }
     restart = ReadRestart(checks, file, scenario_name_, *system, model_.joints.size(), time_);
   }
@@ -451,7 +522,8 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     cg->AttachData(system_->mutable_data());  // checkpoints (rejected steps, coupling iterations) restore it
     integrator_ = std::move(cg);
   }
-  watchdog.energy = w.energy_check() == sc::Watchdog::ON || (w.energy_check() == sc::Watchdog::AUTO && PassiveSystem(*system_));
+  watchdog.energy =
+      w.energy_check() == sc::Watchdog::ON || (w.energy_check() == sc::Watchdog::AUTO && PassiveSystem(*system_));
   std::vector<std::string> body_names;
   for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
   watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
@@ -498,21 +570,27 @@ Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
   // Velocity and acceleration as seen from the moving frame (relative kinematics).
   const Eigen::Vector3d v_rel = s.qdot.segment<3>(o) - vF - wF.cross(r);
   switch (p.kind) {
-    case Kind::kPosition: return F.transpose() * r;
-    case Kind::kVelocity: return F.transpose() * v_rel;
+    case Kind::kPosition:
+      return F.transpose() * r;
+    case Kind::kVelocity:
+      return F.transpose() * v_rel;
     case Kind::kAcceleration:
       return F.transpose() * (Eigen::Vector3d(s.qddot.segment<3>(o)) - aF - alphaF.cross(r) - wF.cross(wF.cross(r)) -
                               2.0 * wF.cross(v_rel));
-    case Kind::kAngularVelocity: return F.transpose() * (omega(o, s.qdot) - wF);
-    case Kind::kBodyDisplacement: return F.transpose() * r - p.initial_position;
+    case Kind::kAngularVelocity:
+      return F.transpose() * (omega(o, s.qdot) - wF);
+    case Kind::kBodyDisplacement:
+      return F.transpose() * r - p.initial_position;
     case Kind::kRotation: {
       Eigen::Matrix3d B;
       for (int k = 0; k < 3; ++k) B.col(k) = s.q.segment<3>(o + 3 + 3 * k);
       // Rotation from the initial relative orientation to the present one, in the frame's axes.
-      const Eigen::AngleAxisd aa(Eigen::Quaterniond(F.transpose() * B * p.initial_orientation.transpose()).normalized());
+      const Eigen::AngleAxisd aa(
+          Eigen::Quaterniond(F.transpose() * B * p.initial_orientation.transpose()).normalized());
       return aa.angle() * aa.axis();
     }
-    default: return Eigen::Vector3d::Zero();
+    default:
+      return Eigen::Vector3d::Zero();
   }
 }
 
@@ -531,16 +609,18 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kAcceleration:
       case Kind::kAngularVelocity:
       case Kind::kBodyDisplacement:
-      case Kind::kRotation: value = interface::PickComponent(BodyVector(p), p.component); break;
+      case Kind::kRotation:
+        value = interface::PickComponent(BodyVector(p), p.component);
+        break;
       case Kind::kBeamStrainEnergy:
         value = system_->beam_forces[static_cast<size_t>(p.index)]->PotentialEnergy(s.q);
         break;
       case Kind::kSectionForce:
       case Kind::kSectionMoment: {
         const Vector6d sigma = system_->beam_forces[static_cast<size_t>(p.index)]->SectionForces(s.q, p.station);
-        value = interface::PickComponent(p.kind == Kind::kSectionForce ? Eigen::Vector3d(sigma.head<3>())
-                                                                       : Eigen::Vector3d(sigma.tail<3>()),
-                                         p.component);
+        value = interface::PickComponent(
+            p.kind == Kind::kSectionForce ? Eigen::Vector3d(sigma.head<3>()) : Eigen::Vector3d(sigma.tail<3>()),
+            p.component);
         break;
       }
       case Kind::kAeroAlpha:
@@ -567,7 +647,8 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         break;
       }
       case Kind::kContactForce:
-        for (const UnilateralContact* law : system_->contact_laws[static_cast<size_t>(p.index)]) value += law->LawForce(s.q, s.qdot);
+        for (const UnilateralContact* law : system_->contact_laws[static_cast<size_t>(p.index)])
+          value += law->LawForce(s.q, s.qdot);
         break;
       case Kind::kJointCoordinate:
         value = system_->JointCoordinate(p.index, s.q);
@@ -581,18 +662,29 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
           value += model_.joints[static_cast<size_t>(p.index)].initial_coordinate;
         }
         break;
-      case Kind::kJointSpeed: value = system_->JointRate(p.index, s.q, s.qdot); break;
+      case Kind::kJointSpeed:
+        value = system_->JointRate(p.index, s.q, s.qdot);
+        break;
       case Kind::kReactionForce:
-        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, probe_time_)), p.component);
+        value = interface::PickComponent(
+            InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, probe_time_)), p.component);
         break;
       case Kind::kReactionMoment:
-        value = interface::PickComponent(InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, probe_time_)),
-                                         p.component);
+        value = interface::PickComponent(
+            InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, probe_time_)), p.component);
         break;
-      case Kind::kKinetic: value = system_->KineticEnergy(s.qdot); break;
-      case Kind::kPotential: value = system_->PotentialEnergy(s.q); break;
-      case Kind::kTotal: value = system_->KineticEnergy(s.qdot) + system_->PotentialEnergy(s.q); break;
-      case Kind::kViolation: value = Violation(s.q); break;
+      case Kind::kKinetic:
+        value = system_->KineticEnergy(s.qdot);
+        break;
+      case Kind::kPotential:
+        value = system_->PotentialEnergy(s.q);
+        break;
+      case Kind::kTotal:
+        value = system_->KineticEnergy(s.qdot) + system_->PotentialEnergy(s.q);
+        break;
+      case Kind::kViolation:
+        value = Violation(s.q);
+        break;
       case Kind::kDisplacement: {
         const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
         Eigen::Vector3d d;
@@ -600,9 +692,11 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
           const int f = kCoordinatesPerBody * p.frame;
           Eigen::Matrix3d F;
           for (int k = 0; k < 3; ++k) F.col(k) = s.q.segment<3>(f + 3 + 3 * k);
-          d = F.transpose() * (Eigen::Vector3d(s.q.segment<3>(at)) - Eigen::Vector3d(s.q.segment<3>(f))) - p.initial_position;
+          d = F.transpose() * (Eigen::Vector3d(s.q.segment<3>(at)) - Eigen::Vector3d(s.q.segment<3>(f))) -
+              p.initial_position;
         } else {
-          d = Eigen::Vector3d(s.q.segment<3>(at)) - system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
+          d = Eigen::Vector3d(s.q.segment<3>(at)) -
+              system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
         }
         value = interface::PickComponent(d, p.component);
         break;
@@ -611,14 +705,14 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kClampMoment: {
         Eigen::Vector3d force, moment;
         system_->ClampReaction(p.index, s.q, s.lambda, &force, &moment);
-        value = interface::PickComponent(InFrame(p.frame, s.q, p.kind == Kind::kClampForce ? force : moment), p.component);
+        value =
+            interface::PickComponent(InFrame(p.frame, s.q, p.kind == Kind::kClampForce ? force : moment), p.component);
         break;
       }
       case Kind::kStrainEnergy: {
         const auto& body = system_->elastic[static_cast<size_t>(p.index)]->body;
-        value = body.StrainEnergy(
-            Eigen::Map<const Eigen::Matrix3Xd>(s.q.data() + system_->elastic_offset[static_cast<size_t>(p.index)], 3,
-                                               body.node_count()));
+        value = body.StrainEnergy(Eigen::Map<const Eigen::Matrix3Xd>(
+            s.q.data() + system_->elastic_offset[static_cast<size_t>(p.index)], 3, body.node_count()));
         break;
       }
     }
@@ -689,9 +783,10 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
       ++rejected_;
       h_next_ = step * (std::isfinite(norm) ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 0.9) : 0.25);
       if (h_next_ < adaptive_.min_step) {
-        throw NumericalError("numerics.adaptive: the step would fall below min_step = " +
-                             interface::FormatNumber(adaptive_.min_step) + " s at t = " + interface::FormatNumber(time_) +
-                             " s (" + interface::FormatNumber(step) + " s rejected: " + why + ")");
+        throw NumericalError(
+            "numerics.adaptive: the step would fall below min_step = " + interface::FormatNumber(adaptive_.min_step) +
+            " s at t = " + interface::FormatNumber(time_) + " s (" + interface::FormatNumber(step) +
+            " s rejected: " + why + ")");
       }
       continue;
     }

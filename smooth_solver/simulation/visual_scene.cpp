@@ -1,7 +1,6 @@
 #include "smooth_solver/simulation/visual_scene.h"
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <set>
 #include <vector>
@@ -16,13 +15,14 @@ const std::array<int, 27>& VtkHex27Order() {
   // VTK's parametric positions of its 27 nodes (vtkTriQuadraticHexahedron), as −1, 0, 1.
   static const std::array<int, 27> order = [] {
     constexpr int kPositions[27][3] = {
-        {-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, 1, 1},  {-1, 1, 1},  // corners
-        {0, -1, -1},  {1, 0, -1},  {0, 1, -1}, {-1, 0, -1}, {0, -1, 1},  {1, 0, 1},  {0, 1, 1},  {-1, 0, 1},  // edges
+        {-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1},  // corners
+        {0, -1, -1},  {1, 0, -1},  {0, 1, -1}, {-1, 0, -1}, {0, -1, 1},  {1, 0, 1},  {0, 1, 1}, {-1, 0, 1},  // edges
         {-1, -1, 0},  {1, -1, 0},  {1, 1, 0},  {-1, 1, 0},                                                   // edges
         {-1, 0, 0},   {1, 0, 0},   {0, -1, 0}, {0, 1, 0},   {0, 0, -1},  {0, 0, 1},                          // faces
         {0, 0, 0}};                                                                                          // centre
     std::array<int, 27> o{};
-    for (int k = 0; k < 27; ++k) o[static_cast<size_t>(k)] = (kPositions[k][0] + 1) + 3 * (kPositions[k][1] + 1) + 9 * (kPositions[k][2] + 1);
+    for (int k = 0; k < 27; ++k)
+      o[static_cast<size_t>(k)] = (kPositions[k][0] + 1) + 3 * (kPositions[k][1] + 1) + 9 * (kPositions[k][2] + 1);
     return o;
   }();
   return order;
@@ -126,7 +126,8 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     std::vector<int> cell(27);
     for (size_t el = 0; el < body.mesh().elements.size(); ++el) {
       for (int k = 0; k < 27; ++k) {
-        cell[static_cast<size_t>(k)] = first + body.mesh().elements[el][static_cast<size_t>(VtkHex27Order()[static_cast<size_t>(k)])];
+        cell[static_cast<size_t>(k)] =
+            first + body.mesh().elements[el][static_cast<size_t>(VtkHex27Order()[static_cast<size_t>(k)])];
       }
       frame->AddCell(VisualFrame::kTriQuadraticHexahedron, cell, VisualFrame::Kind::kSolid, static_cast<int>(e), 0,
                      stress[el]);

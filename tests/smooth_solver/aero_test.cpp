@@ -162,11 +162,16 @@ std::string RigidRotor(const std::string& airfoil_block, const std::string& airf
                        double omega, const std::string& inflow, const std::string& extra_air = "",
                        bool clockwise = false, int blades = 4) {
   const double R = 7.49;
-  std::string s = "model { bodies { name: \"hub\" mass: 100 inertia: [10, 10, 20] angular_velocity: [0, 0, " +
-                  std::to_string(omega) + "] }\n"
-                  "joints { name: \"shaft\" type: REVOLUTE body1: \"ground\" body2: \"hub\" point: [0, 0, 0] axis: [0, 0, 1] "
-                  "drive { quantity: ANGULAR_SPEED function { constant: " + std::to_string(omega) + " } } }\n"
-                  "air { speed_of_sound: 1e9 " + airfoil_block + extra_air + "\n";
+  std::string s =
+      "model { bodies { name: \"hub\" mass: 100 inertia: [10, 10, 20] angular_velocity: [0, 0, " +
+      std::to_string(omega) +
+      "] }\n"
+      "joints { name: \"shaft\" type: REVOLUTE body1: \"ground\" body2: \"hub\" point: [0, 0, 0] axis: [0, 0, 1] "
+      "drive { quantity: ANGULAR_SPEED function { constant: " +
+      std::to_string(omega) +
+      " } } }\n"
+      "air { speed_of_sound: 1e9 " +
+      airfoil_block + extra_air + "\n";
   std::string names;
   for (int k = 0; k < blades; ++k) {
     const double psi = 2 * kPi * k / blades;
@@ -175,18 +180,19 @@ std::string RigidRotor(const std::string& airfoil_block, const std::string& airf
     const double sign = clockwise ? -1.0 : 1.0;
     const double cx = -ay * sign, cy = ax * sign;
     char buf[1024];
-    std::snprintf(buf, sizeof buf,
-                  "surfaces { name: \"b%d\" body: \"hub\" root: [0, 0, 0] axis: [%.17g, %.17g, 0] chord: [%.17g, %.17g, 0] "
-                  "upper: [0, 0, 1] segments: 20 gauss_points: 4 "
-                  "stations { s: 0 chord: 0.537 twist: %.17g airfoil: \"%s\" } "
-                  "stations { s: %.17g chord: 0.537 twist: %.17g airfoil: \"%s\" } }\n",
-                  k + 1, ax, ay, cx, cy, theta75 - 0.75 * twist, airfoil.c_str(), R, theta75 + 0.25 * twist,
-                  airfoil.c_str());
+    std::snprintf(
+        buf, sizeof buf,
+        "surfaces { name: \"b%d\" body: \"hub\" root: [0, 0, 0] axis: [%.17g, %.17g, 0] chord: [%.17g, %.17g, 0] "
+        "upper: [0, 0, 1] segments: 20 gauss_points: 4 "
+        "stations { s: 0 chord: 0.537 twist: %.17g airfoil: \"%s\" } "
+        "stations { s: %.17g chord: 0.537 twist: %.17g airfoil: \"%s\" } }\n",
+        k + 1, ax, ay, cx, cy, theta75 - 0.75 * twist, airfoil.c_str(), R, theta75 + 0.25 * twist, airfoil.c_str());
     s += buf;
     names += "\"b" + std::to_string(k + 1) + "\"" + (k + 1 < blades ? ", " : "");
   }
   if (!inflow.empty()) {
-    s += "rotors { name: \"main\" hub: \"hub\" axis: [0, 0, 1] radius: 7.49 inflow: " + inflow + " surfaces: [" + names + "] }\n";
+    s += "rotors { name: \"main\" hub: \"hub\" axis: [0, 0, 1] radius: 7.49 inflow: " + inflow + " surfaces: [" +
+         names + "] }\n";
   }
   s += "} } numerics { end_time: 1 step: 1e-3 }";
   return s;
@@ -237,7 +243,8 @@ TEST(AirLoads, TangentsMatchFiniteDifferences) {
   const std::string text =
       "model { bodies { name: \"wing\" mass: 1 inertia: [1, 1, 1] rotation: [0.1, -0.2, 0.3] }\n"
       "beams { name: \"blade\" root: [0, 0, 1] axis: [1, 0, 0] chord: [0, -1, 0] elements: 2 nodes_per_element: 3 "
-      "root_body: \"ground\" stations { s: 0 " + beam_station + " twist: 0.1 } stations { s: 3 " + beam_station +
+      "root_body: \"ground\" stations { s: 0 " +
+      beam_station + " twist: 0.1 } stations { s: 3 " + beam_station +
       " twist: -0.1 } }\n"
       "air { wind_x { constant: 3 } wind_y { constant: -40 } wind_z { constant: 5 }\n"
       "surfaces { name: \"w\" body: \"wing\" root: [0, 0, 0] axis: [0, 1, 0] chord: [1, 0, 0] upper: [0, 0, 1] "
@@ -277,21 +284,27 @@ TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents
   // The same straight wing as a rigid body and as a hex27 mesh: undeformed at rest in a wind,
   // the mesh's sections (points interpolated from 27 nodes, frame from the deformation
   // gradient) carry the rigid wing's loads; deformed, the tangent is exact.
-  const std::string stations = "stations { s: 0.1 chord: 0.3 twist: 0.08 airfoil: \"naca0012\" quarter_chord: 0.01 } "
-                               "stations { s: 1.9 chord: 0.25 twist: -0.05 airfoil: \"naca0012\" }";
+  const std::string stations =
+      "stations { s: 0.1 chord: 0.3 twist: 0.08 airfoil: \"naca0012\" quarter_chord: 0.01 } "
+      "stations { s: 1.9 chord: 0.25 twist: -0.05 airfoil: \"naca0012\" }";
   const std::string text =
       "model { bodies { name: \"wing\" mass: 1 inertia: [1, 1, 1] position: [1, 0, 0] }\n"
       "elastic_bodies { name: \"flex\" material { density: 2700 young: 7e10 poisson: 0.33 } "
       "beam { length: 2 chord: 0.3 thickness: 0.05 elements_along: 3 root: [0, 0, 0] } }\n"
       "air { wind_x { constant: -2 } wind_y { constant: -30 } wind_z { constant: 1 }\n"
       "surfaces { name: \"rigid\" body: \"wing\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1] "
-      "segments: 3 " + stations + " }\n"
+      "segments: 3 " +
+      stations +
+      " }\n"
       "surfaces { name: \"elastic\" elastic_body: \"flex\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] "
-      "upper: [0, 0, 1] segments: 3 " + stations + " } } }\n"
+      "upper: [0, 0, 1] segments: 3 " +
+      stations +
+      " } } }\n"
       "numerics { end_time: 1 step: 1e-3 }";
   const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "aero.pbtxt", {});
   const MultibodyModel model = BuildMultibodyModel(file);
-  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+  std::vector<ElasticBodySpec> elastic =
+      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   const AirLoads& air = *sys.air_loads;
   const int n = sys.coordinates;
@@ -337,8 +350,8 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
   const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225;
   for (const auto& [theta_deg, ct_closed] : std::vector<std::pair<double, double>>{{5.0, 0.002755}, {10.0, 0.007310}}) {
     const double theta = theta_deg * kDeg, twist = -8 * kDeg;
-    MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
-                                                 theta, twist, omega, "UNIFORM"));
+    MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal", theta,
+                                           twist, omega, "UNIFORM"));
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
     const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
     const double ct = r.thrust / (rho * A * std::pow(omega * R, 2));
@@ -349,10 +362,11 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
       (2 * rho * A * mid * mid - StripThrust(mid, omega, theta, twist) > 0 ? hi : lo) = mid;
     }
     const double ct_strip = StripThrust(lo, omega, theta, twist) / (rho * A * std::pow(omega * R, 2));
-    std::printf("hover θ75 = %.0f°: C_T %.6f (T = %.1f N, ν = %.4f m/s, λ = %.5f); strip quadrature %.6f "
-                "(%.1e); closed form %.6f (%.2f %%)\n",
-                theta_deg, ct, r.thrust, r.induced, r.inflow_ratio, ct_strip, std::abs(ct / ct_strip - 1), ct_closed,
-                100 * (ct / ct_closed - 1));
+    std::printf(
+        "hover θ75 = %.0f°: C_T %.6f (T = %.1f N, ν = %.4f m/s, λ = %.5f); strip quadrature %.6f "
+        "(%.1e); closed form %.6f (%.2f %%)\n",
+        theta_deg, ct, r.thrust, r.induced, r.inflow_ratio, ct_strip, std::abs(ct / ct_strip - 1), ct_closed,
+        100 * (ct / ct_closed - 1));
     // The table holds C_l to 4 decimals (a π/2 = 9.00066 is 9.0007): 4e-6 of the lift.
     EXPECT_NEAR(ct / ct_strip, 1.0, 1e-5);
     EXPECT_NEAR(r.induced / lo, 1.0, 1e-5);
@@ -375,16 +389,18 @@ TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
   };
   const AirLoads::RotorResult four = hover(4, {}), one_of_four = hover(1, {"model.air.rotors[0].blades=4"}),
                               alone = hover(1, {});
-  std::printf("hover: four blades ν = %.6f m/s, T = %.1f N; one modelled of four ν = %.6f, T = %.1f N; "
-              "a one-blade rotor ν = %.6f, T = %.1f N\n",
-              four.induced, four.thrust, one_of_four.induced, one_of_four.thrust, alone.induced, alone.thrust);
+  std::printf(
+      "hover: four blades ν = %.6f m/s, T = %.1f N; one modelled of four ν = %.6f, T = %.1f N; "
+      "a one-blade rotor ν = %.6f, T = %.1f N\n",
+      four.induced, four.thrust, one_of_four.induced, one_of_four.thrust, alone.induced, alone.thrust);
   EXPECT_NEAR(one_of_four.induced / four.induced, 1.0, 1e-8);
   EXPECT_NEAR(one_of_four.thrust / (0.25 * four.thrust), 1.0, 1e-8);
   EXPECT_LT(alone.induced, 0.7 * four.induced);
   EXPECT_GT(alone.thrust, 0.25 * four.thrust * 1.05);
   // Fewer blades than the surfaces listed: refused, naming the field.
   try {
-    (void)Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, 2), {"model.air.rotors[0].blades=1"});
+    (void)Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, 2),
+                {"model.air.rotors[0].blades=1"});
     ADD_FAILURE() << "blades < surfaces accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("model.air.rotors[0].blades"), std::string::npos) << e.what();
@@ -408,8 +424,9 @@ TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
     lift[b] = s.force.z();
     alpha[b] = s.alpha / kDeg;
   }
-  std::printf("crosswind 25 m/s at r = 5 m: normal force per span %.1f, %.2f, %.1f, %.2f N/m; α %.1f, %.1f, %.1f, %.1f deg\n",
-              lift[0], lift[1], lift[2], lift[3], alpha[0], alpha[1], alpha[2], alpha[3]);
+  std::printf(
+      "crosswind 25 m/s at r = 5 m: normal force per span %.1f, %.2f, %.1f, %.2f N/m; α %.1f, %.1f, %.1f, %.1f deg\n",
+      lift[0], lift[1], lift[2], lift[3], alpha[0], alpha[1], alpha[2], alpha[3]);
   EXPECT_NEAR(alpha[0], 10.0, 1e-9);
   EXPECT_NEAR(alpha[2], -170.0, 1e-9);
   const double q = 0.5 * 1.225 * 0.537 * 25 * 25;
@@ -426,7 +443,8 @@ TEST(AirLoads, StillRotorInAGustFrontLiftsBladeOneAndPressesBladeThree) {
   // their droop stops, then a 25 m/s 1 − cos gust front crosses the still rotor along +y. Blade 1
   // (the wind on its leading edge) lifts off its stop, blade 3 (reverse flow) is pressed into
   // it, blades 2 and 4 (wind along their span) stay put.
-  MultibodySimulation sim(interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/aero/still_rotor_gust.pbtxt", {}));
+  MultibodySimulation sim(
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/aero/still_rotor_gust.pbtxt", {}));
   // The blades start flat and are still bouncing on their stops when the gust arrives (t = 2 s):
   // measured against blade 2, which moves with them but feels no gust.
   const double h = 1e-3;
@@ -440,9 +458,10 @@ TEST(AirLoads, StillRotorInAGustFrontLiftsBladeOneAndPressesBladeThree) {
     off4 = std::max(off4, std::abs(v[3] - v[1]));
     rest = v[1];
   }
-  std::printf("gust: blade 2 at %.3f° (droop stop −10°); against it blade 1 up to %+.3f°, blade 3 down to %+.4f°, "
-              "blade 4 within %.5f°\n",
-              rest / kDeg, up1 / kDeg, down3 / kDeg, off4 / kDeg);
+  std::printf(
+      "gust: blade 2 at %.3f° (droop stop −10°); against it blade 1 up to %+.3f°, blade 3 down to %+.4f°, "
+      "blade 4 within %.5f°\n",
+      rest / kDeg, up1 / kDeg, down3 / kDeg, off4 / kDeg);
   EXPECT_NEAR(rest / kDeg, -10.2, 0.2);  // on the droop stop, a little into it
   EXPECT_GT(up1, 2 * kDeg);
   EXPECT_LT(down3, -0.03 * kDeg);
@@ -535,10 +554,11 @@ TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
   const double zeta = delta / std::sqrt(kPi * kPi + delta * delta);
   const double wd = kPi * 2 / (extrema[2].first - extrema[0].first);
   const double wn = wd / std::sqrt(1 - zeta * zeta);
-  std::printf("flapping blade γ = %.2f: ζ = %.4f (γ/16ν_β = %.4f, %.2f %%), ω_n = %.4f/rev (ν_β %.4f); coning %.5f rad "
-              "(closed form %.5f, %.2f %%; with the air at the reference line %.5f)\n",
-              gamma, zeta, gamma / (16 * nu), 100 * (zeta / (gamma / (16 * nu)) - 1), wn / omega, nu, beta0,
-              beta0_closed, 100 * (beta0 / beta0_closed - 1), beta0_reference_line);
+  std::printf(
+      "flapping blade γ = %.2f: ζ = %.4f (γ/16ν_β = %.4f, %.2f %%), ω_n = %.4f/rev (ν_β %.4f); coning %.5f rad "
+      "(closed form %.5f, %.2f %%; with the air at the reference line %.5f)\n",
+      gamma, zeta, gamma / (16 * nu), 100 * (zeta / (gamma / (16 * nu)) - 1), wn / omega, nu, beta0, beta0_closed,
+      100 * (beta0 / beta0_closed - 1), beta0_reference_line);
   EXPECT_NEAR(zeta / (gamma / (16 * nu)), 1.0, 0.01);
   EXPECT_NEAR(wn / omega, nu, 0.005);
   EXPECT_NEAR(beta0 / beta0_closed, 1.0, 0.002);
@@ -562,7 +582,7 @@ TEST(AirLoads, FlappingBladeAgreesWithIda) {
   std::printf("flapping blade at 0.3 s: β IDA %.8f, CGα h = 1e-3 %.8f (%.1e), 2.5e-4 %.8f (%.1e)\n", ida, coarse,
               std::abs(coarse - ida), fine, std::abs(fine - ida));
   EXPECT_GT(ida, 0.02);
-  EXPECT_LT(std::abs(coarse - ida), 1e-5);  // measured 1.2e-6 rad
+  EXPECT_LT(std::abs(coarse - ida), 1e-5);                      // measured 1.2e-6 rad
   EXPECT_LT(std::abs(fine - ida), std::abs(coarse - ida) / 8);  // second order: 16 × for 4 × smaller steps
 }
 
@@ -572,13 +592,19 @@ TEST(AirLoads, AirfoilsBlendBetweenStations) {
   // chord and frame).
   const std::string table = IdealTable();
   auto wing = [&](const std::string& root, const std::string& tip) {
-    return Build("model { bodies { name: \"w\" mass: 1 inertia: [1, 1, 1] }\n"
-                 "air { airfoils { name: \"ideal\" c81_file: \"" + table + "\" } wind_y { constant: -40 } wind_z { constant: -3 }\n"
-                 "surfaces { name: \"s\" body: \"w\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1] "
-                 "stations { s: 0 chord: 0.4 airfoil: \"" + root + "\" } stations { s: 2 chord: 0.4 airfoil: \"" + tip + "\" } } } }\n"
-                 "numerics { end_time: 1 step: 0.1 }");
+    return Build(
+        "model { bodies { name: \"w\" mass: 1 inertia: [1, 1, 1] }\n"
+        "air { airfoils { name: \"ideal\" c81_file: \"" +
+        table +
+        "\" } wind_y { constant: -40 } wind_z { constant: -3 }\n"
+        "surfaces { name: \"s\" body: \"w\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] upper: [0, 0, 1] "
+        "stations { s: 0 chord: 0.4 airfoil: \"" +
+        root + "\" } stations { s: 2 chord: 0.4 airfoil: \"" + tip +
+        "\" } } } }\n"
+        "numerics { end_time: 1 step: 0.1 }");
   };
-  const MultibodySystem mixed = wing("ideal", "naca0012"), ideal = wing("ideal", "ideal"), naca = wing("naca0012", "naca0012");
+  const MultibodySystem mixed = wing("ideal", "naca0012"), ideal = wing("ideal", "ideal"),
+                        naca = wing("naca0012", "naca0012");
   const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(mixed.coordinates);
   auto load = [&](const MultibodySystem& sys) {
     return sys.air_loads->Evaluate(sys.air_loads->Section(0, 0.5, 1.0), sys.q0, qdot, 0.0).force_local;
@@ -595,10 +621,10 @@ TEST(AirLoads, ModesOfTheFlappingBladeCarryTheAerodynamicDamping) {
   // above, from a linearisation instead of a decay.
   const double R = 7.49, c = 0.537, rho = 1.225, a = 5.7296, gamma = 2.0, theta = 8 * kDeg;
   const double I = rho * a * c * std::pow(R, 4) / gamma, m = 3 * I / (R * R);
-  const std::vector<std::string> modes = {"model.gravity=[0, 0, 0]",  "numerics.start_time=28",
-                                         "numerics.end_time=28.1",   "numerics.step=0.1",
-                                         "numerics.smooth.analysis=MODES", "numerics.smooth.modes.axis=[0, 0, 1]",
-                                         "numerics.smooth.modes.count=4",  "output.probes=[]"};
+  const std::vector<std::string> modes = {"model.gravity=[0, 0, 0]",        "numerics.start_time=28",
+                                          "numerics.end_time=28.1",         "numerics.step=0.1",
+                                          "numerics.smooth.analysis=MODES", "numerics.smooth.modes.axis=[0, 0, 1]",
+                                          "numerics.smooth.modes.count=4",  "output.probes=[]"};
   ModalSimulation sim(interface::ScenarioFile::Parse(FlappingBlade(m, theta), "flap_modes.pbtxt", modes));
   ASSERT_FALSE(sim.modes().empty());
   const Mode& flap = sim.modes().front().mode;
@@ -629,8 +655,9 @@ TEST(AirLoads, PumaBladeFlapModeHasTheHingeOffsetAndCutOutDamping) {
   auto F = [&](double r) { return r * r * r * r / 4 - 2 * e * r * r * r / 3 + e * e * r * r / 2; };
   const double damping = 0.5 * 1.225 * 5.7296 * 0.537 * omega * (F(R) - F(r0));
   const double zeta = damping / (2 * I_beta * flap->frequency);
-  std::printf("Puma blade in air at 28 rad/s (incompressible): flap %.4f/rev, ζ %.4f (rigid closed form %.4f, %+.1f %%)\n",
-              flap->frequency / omega, flap->damping, zeta, 100 * (flap->damping / zeta - 1));
+  std::printf(
+      "Puma blade in air at 28 rad/s (incompressible): flap %.4f/rev, ζ %.4f (rigid closed form %.4f, %+.1f %%)\n",
+      flap->frequency / omega, flap->damping, zeta, 100 * (flap->damping / zeta - 1));
   EXPECT_NEAR(flap->damping / zeta, 1.0, 0.03);
 }
 
@@ -644,8 +671,8 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
   const std::string table = IdealTable();
   const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225, theta = 5 * kDeg, twist = -8 * kDeg;
   const double M = 128.0 / (75.0 * kPi);
-  MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal",
-                                               theta, twist, omega, "PITT_PETERS"));
+  MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal", theta,
+                                         twist, omega, "PITT_PETERS"));
   const Eigen::VectorXd still = Eigen::VectorXd::Zero(sys.coordinates);
   sys.AcceptStep(sys.q0, still, 0.0);
   const double h = 2e-4;
@@ -656,7 +683,9 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
     nu[static_cast<size_t>(k)] = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, k * h).induced;
   }
   // Independent RK4 of the same equation.
-  auto rate = [&](double n) { return (StripThrust(n, omega, theta, twist) / (rho * A) - 2 * std::abs(n) * n) / (M * R); };
+  auto rate = [&](double n) {
+    return (StripThrust(n, omega, theta, twist) / (rho * A) - 2 * std::abs(n) * n) / (M * R);
+  };
   double x = 0.0, worst = 0.0;
   const double H = 1e-3;
   for (int k = 1; k <= 400; ++k) {
@@ -682,9 +711,10 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
                     (0.002 * end) / (rho * A);
   const double tau_linear = M * R / (4 * end - dT);
   const double lambda = end / (omega * R);
-  std::printf("Pitt–Peters hover: ν0 → %.4f m/s (momentum %.4f), largest gap to RK4 %.2e m/s; e-folding %.4f s "
-              "(linearised %.4f s, %.2f %%); aero.md's 0.543/(2λΩ) = %.4f s with mass flow and thrust held\n",
-              nu.back(), end, worst, tau, tau_linear, 100 * (tau / tau_linear - 1), M / (2 * lambda * omega));
+  std::printf(
+      "Pitt–Peters hover: ν0 → %.4f m/s (momentum %.4f), largest gap to RK4 %.2e m/s; e-folding %.4f s "
+      "(linearised %.4f s, %.2f %%); aero.md's 0.543/(2λΩ) = %.4f s with mass flow and thrust held\n",
+      nu.back(), end, worst, tau, tau_linear, 100 * (tau / tau_linear - 1), M / (2 * lambda * omega));
   EXPECT_NEAR(nu.back() / end, 1.0, 1e-4);
   EXPECT_LT(worst, 0.01 * end);
   EXPECT_NEAR(tau / tau_linear, 1.0, 0.03);
@@ -694,22 +724,29 @@ TEST(AirLoads, BadAirInputNamesThePlace) {
   // Each broken scenario: exit 2 (InputError) with the field and what is expected.
   const std::string body = "bodies { name: \"wing\" mass: 1 inertia: [1, 1, 1] } ";
   const std::string line = "root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] ";
-  const std::string st = "stations { s: 0 chord: 0.3 airfoil: \"naca0012\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" }";
-  auto scene = [&](const std::string& air) { return "model { " + body + "air { " + air + " } } numerics { end_time: 1 step: 0.1 }"; };
+  const std::string st =
+      "stations { s: 0 chord: 0.3 airfoil: \"naca0012\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" }";
+  auto scene = [&](const std::string& air) {
+    return "model { " + body + "air { " + air + " } } numerics { end_time: 1 step: 0.1 }";
+  };
   const std::vector<std::pair<std::string, std::string>> cases = {
       {scene("surfaces { name: \"w\" upper: [0, 0, 1] " + st + " }"), "model.air.surfaces[0]: names no carrier"},
       {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 1, 0] " + st + " }"),
        "model.air.surfaces[0].upper: lies in the chord plane"},
-      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] stations { s: 0 chord: 0.3 airfoil: \"naca0012\" } }"),
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line +
+             "upper: [0, 0, 1] stations { s: 0 chord: 0.3 airfoil: \"naca0012\" } }"),
        "needs at least two stations"},
       {scene("surfaces { name: \"w\" body: \"wing\" " + line +
-             "upper: [0, 0, 1] stations { s: 0 chord: 0.3 airfoil: \"naca0015\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } }"),
+             "upper: [0, 0, 1] stations { s: 0 chord: 0.3 airfoil: \"naca0015\" } stations { s: 1 chord: 0.3 airfoil: "
+             "\"naca0012\" } }"),
        "model.air.surfaces[0].stations[0].airfoil"},
       {scene("surfaces { name: \"w\" body: \"wing\" " + line +
-             "upper: [0, 0, 1] stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } stations { s: 0.5 chord: 0.3 airfoil: \"naca0012\" } }"),
+             "upper: [0, 0, 1] stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } stations { s: 0.5 chord: 0.3 "
+             "airfoil: \"naca0012\" } }"),
        "stations must not decrease"},
       {scene("surfaces { name: \"w\" body: \"wing\" " + line +
-             "upper: [0, 0, 1] stations { s: 0 chord: -0.3 airfoil: \"naca0012\" } stations { s: 1 chord: 0.3 airfoil: \"naca0012\" } }"),
+             "upper: [0, 0, 1] stations { s: 0 chord: -0.3 airfoil: \"naca0012\" } stations { s: 1 chord: 0.3 airfoil: "
+             "\"naca0012\" } }"),
        "model.air.surfaces[0].stations[0].chord"},
       {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] gauss_points: 7 " + st + " }"),
        "model.air.surfaces[0].gauss_points"},
@@ -719,14 +756,18 @@ TEST(AirLoads, BadAirInputNamesThePlace) {
        "no elastic body named 'ghost'"},
       {scene("airfoils { name: \"t\" c81_file: \"/nonexistent/table.c81\" }"), "model.air.airfoils[0].c81_file"},
       {scene("density: -1"), "model.air.density"},
-      {scene("gusts { front_direction: [0, 1, 0] direction: [0, 1, 0] front_speed: 10 }"), "model.air.gusts[0].profile"},
-      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st + " } "
+      {scene("gusts { front_direction: [0, 1, 0] direction: [0, 1, 0] front_speed: 10 }"),
+       "model.air.gusts[0].profile"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st +
+             " } "
              "rotors { name: \"r\" hub: \"wing\" axis: [0, 0, 1] radius: 1 surfaces: [\"w\"] }"),
        "model.air.rotors[0].inflow"},
-      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st + " } "
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st +
+             " } "
              "rotors { name: \"r\" hub: \"wing\" axis: [0, 0, 1] radius: 1 inflow: UNIFORM surfaces: [\"w\", \"w\"] }"),
        "already belongs to rotor 'r'"},
-      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st + " } "
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st +
+             " } "
              "rotors { name: \"r\" hub: \"ground\" axis: [0, 0, 1] radius: 1 inflow: UNIFORM surfaces: [\"w\"] }"),
        "model.air.rotors[0].hub"},
   };
@@ -741,7 +782,8 @@ TEST(AirLoads, BadAirInputNamesThePlace) {
   // A C81 file that is malformed: the file and line in the message.
   const std::string bad = WriteFile("bad.c81", "short header\n");
   try {
-    BuildMultibodyModel(interface::ScenarioFile::Parse(scene("airfoils { name: \"t\" c81_file: \"" + bad + "\" }"), "bad.pbtxt", {}));
+    BuildMultibodyModel(
+        interface::ScenarioFile::Parse(scene("airfoils { name: \"t\" c81_file: \"" + bad + "\" }"), "bad.pbtxt", {}));
     ADD_FAILURE() << "accepted a malformed table";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.c81:1:"), std::string::npos) << e.what();

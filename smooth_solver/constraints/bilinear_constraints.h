@@ -19,6 +19,22 @@ namespace cosim::smooth {
 
 inline constexpr int kCoordinatesPerBody = 12;
 
+// Rigid body `body`'s axes [u v w] (the columns of its rotation) from the coordinates q.
+inline Eigen::Matrix3d BodyAxes(const Eigen::VectorXd& q, int body) {
+  Eigen::Matrix3d axes;
+  for (int k = 0; k < 3; ++k) axes.col(k) = q.segment<3>(kCoordinatesPerBody * body + 3 + 3 * k);
+  return axes;
+}
+
+// Its angular velocity ω = ½ Σ_k e_k × ė_k from the axes' rates (rate = q̇), or its angular
+// acceleration ω̇ = ½ Σ_k e_k × ë_k (rate = q̈): exact for orthonormal axes.
+inline Eigen::Vector3d BodyAngularRate(const Eigen::VectorXd& q, const Eigen::VectorXd& rate, int body) {
+  Eigen::Vector3d w = Eigen::Vector3d::Zero();
+  const int o = kCoordinatesPerBody * body + 3;
+  for (int k = 0; k < 3; ++k) w += 0.5 * q.segment<3>(o + 3 * k).cross(rate.segment<3>(o + 3 * k));
+  return w;
+}
+
 // A 3-vector linear in q: Σ_k coefficient_k q[offset_k .. offset_k + 2] + constant.
 struct LinearVector {
   struct Term {

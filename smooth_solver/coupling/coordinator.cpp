@@ -63,12 +63,8 @@ std::pair<Eigen::Vector3d, Eigen::Matrix3d> FillFrame(int body, const DaeState& 
     throw NumericalError("coupling: the frame of body " + std::to_string(body) +
                          " (carrying a contact process's obstacle) is not finite");
   }
-  Eigen::Matrix3d R;
-  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
-  for (int i = 0; i < 3; ++i) {
-    R.col(i) = state.q.segment<3>(o + 3 + 3 * i);
-    omega += 0.5 * R.col(i).cross(state.qdot.segment<3>(o + 3 + 3 * i));
-  }
+  Eigen::Matrix3d R = BodyAxes(state.q, body);
+  const Eigen::Vector3d omega = BodyAngularRate(state.q, state.qdot, body);
   const Eigen::Vector3d v = state.qdot.segment<3>(o);
   const Eigen::Vector3d c = state.q.segment<3>(o) + ahead * v;
   const double angle = omega.norm() * ahead;
@@ -425,10 +421,7 @@ void Coordinator::UpdateStiffness(double h) {
 
 Eigen::Matrix3d Coordinator::BodyAxes(int point, const DaeState& state) const {
   const int body = system_.interface_points[static_cast<size_t>(point)].body;
-  if (body < 0) return Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d axes;  // natural coordinates [x, u, v, w]
-  for (int i = 0; i < 3; ++i) axes.col(i) = state.q.segment<3>(kCoordinatesPerBody * body + 3 + 3 * i);
-  return axes;
+  return body < 0 ? Eigen::Matrix3d::Identity() : smooth::BodyAxes(state.q, body);
 }
 
 double Coordinator::FrameDrift(const DaeState& state) const {

@@ -417,11 +417,7 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
                        "); reduce the step or raise numerics.smooth.newton_max_iterations");
 }
 
-Eigen::Matrix3d CgAlpha::FrameAxes(const Eigen::VectorXd& q) const {
-  Eigen::Matrix3d axes;  // columns u, v, w of the body's 12 coordinates [x, u, v, w]
-  for (int k = 0; k < 3; ++k) axes.col(k) = q.segment<3>(kCoordinatesPerBody * settings_.frame_body + 3 + 3 * k);
-  return axes;
-}
+Eigen::Matrix3d CgAlpha::FrameAxes(const Eigen::VectorXd& q) const { return BodyAxes(q, settings_.frame_body); }
 
 void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) { SolveAt(x, next_.q); }
 

@@ -63,9 +63,7 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
 // A global vector in the axes of body `frame` (−1: global, unchanged).
 Eigen::Vector3d InFrame(int frame, const Eigen::VectorXd& q, const Eigen::Vector3d& v) {
   if (frame < 0) return v;
-  Eigen::Matrix3d F;
-  for (int k = 0; k < 3; ++k) F.col(k) = q.segment<3>(kCoordinatesPerBody * frame + 3 + 3 * k);
-  return F.transpose() * v;
+  return BodyAxes(q, frame).transpose() * v;
 }
 
 }  // namespace
@@ -497,12 +495,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     Eigen::Matrix3d B = Eigen::Matrix3d::Identity(), F = Eigen::Matrix3d::Identity();
     Eigen::Vector3d xF = Eigen::Vector3d::Zero();
     if (p.kind != Kind::kDisplacement) {
-      for (int k = 0; k < 3; ++k) B.col(k) = q.segment<3>(o + 3 + 3 * k);
+      B = BodyAxes(q, p.index);
     }
     if (p.frame >= 0) {
       const int f = kCoordinatesPerBody * p.frame;
       xF = q.segment<3>(f);
-      for (int k = 0; k < 3; ++k) F.col(k) = q.segment<3>(f + 3 + 3 * k);
+      F = BodyAxes(q, p.frame);
     }
     p.initial_position = F.transpose() * (Eigen::Vector3d(q.segment<3>(o)) - xF);
     if (p.kind != Kind::kDisplacement) p.initial_orientation = F.transpose() * B;
@@ -549,22 +547,16 @@ std::vector<std::string> MultibodySimulation::ProbeNames() const {
 Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
   const DaeState& s = interpolated_ ? shown_ : integrator_->state();
   const int o = kCoordinatesPerBody * p.index;
-  // ω = ½ Σ_k e_k × ė_k and ω̇ = ½ Σ_k e_k × ë_k for orthonormal axes e_k.
-  auto omega = [&](int at, const Eigen::VectorXd& rate) {
-    Eigen::Vector3d w = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k) w += 0.5 * s.q.segment<3>(at + 3 + 3 * k).cross(rate.segment<3>(at + 3 + 3 * k));
-    return w;
-  };
   Eigen::Matrix3d F = Eigen::Matrix3d::Identity();
   Eigen::Vector3d xF = Eigen::Vector3d::Zero(), vF = xF, aF = xF, wF = xF, alphaF = xF;
   if (p.frame >= 0) {
     const int f = kCoordinatesPerBody * p.frame;
-    for (int k = 0; k < 3; ++k) F.col(k) = s.q.segment<3>(f + 3 + 3 * k);
+    F = BodyAxes(s.q, p.frame);
     xF = s.q.segment<3>(f);
     vF = s.qdot.segment<3>(f);
     aF = s.qddot.segment<3>(f);
-    wF = omega(f, s.qdot);
-    alphaF = omega(f, s.qddot);
+    wF = BodyAngularRate(s.q, s.qdot, p.frame);
+    alphaF = BodyAngularRate(s.q, s.qddot, p.frame);
   }
   const Eigen::Vector3d r = s.q.segment<3>(o) - xF;
   // Velocity and acceleration as seen from the moving frame (relative kinematics).
@@ -578,12 +570,11 @@ Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
       return F.transpose() * (Eigen::Vector3d(s.qddot.segment<3>(o)) - aF - alphaF.cross(r) - wF.cross(wF.cross(r)) -
                               2.0 * wF.cross(v_rel));
     case Kind::kAngularVelocity:
-      return F.transpose() * (omega(o, s.qdot) - wF);
+      return F.transpose() * (BodyAngularRate(s.q, s.qdot, p.index) - wF);
     case Kind::kBodyDisplacement:
       return F.transpose() * r - p.initial_position;
     case Kind::kRotation: {
-      Eigen::Matrix3d B;
-      for (int k = 0; k < 3; ++k) B.col(k) = s.q.segment<3>(o + 3 + 3 * k);
+      const Eigen::Matrix3d B = BodyAxes(s.q, p.index);
       // Rotation from the initial relative orientation to the present one, in the frame's axes.
       const Eigen::AngleAxisd aa(
           Eigen::Quaterniond(F.transpose() * B * p.initial_orientation.transpose()).normalized());
@@ -690,8 +681,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         Eigen::Vector3d d;
         if (p.frame >= 0) {  // relative to the frame, in its axes, from the initial relative position
           const int f = kCoordinatesPerBody * p.frame;
-          Eigen::Matrix3d F;
-          for (int k = 0; k < 3; ++k) F.col(k) = s.q.segment<3>(f + 3 + 3 * k);
+          const Eigen::Matrix3d F = BodyAxes(s.q, p.frame);
           d = F.transpose() * (Eigen::Vector3d(s.q.segment<3>(at)) - Eigen::Vector3d(s.q.segment<3>(f))) -
               p.initial_position;
         } else {

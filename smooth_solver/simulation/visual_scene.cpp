@@ -53,8 +53,7 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     if (beam_nodes.count(static_cast<int>(b)) != 0) continue;
     const int base = kCoordinatesPerBody * static_cast<int>(b);
     const Eigen::Vector3d x = q.segment<3>(base);
-    Eigen::Matrix3d axes;
-    for (int k = 0; k < 3; ++k) axes.col(k) = q.segment<3>(base + 3 + 3 * k);
+    const Eigen::Matrix3d axes = BodyAxes(q, static_cast<int>(b));
     double size = 0.0;
     for (const auto& s : attached[b]) size = std::max(size, s.norm());
     const double length = settings.axis_length > 0.0 ? settings.axis_length : size > 0.0 ? 0.25 * size : 0.1;

@@ -179,13 +179,21 @@ void WriteKilledSummary(const ProcessPlan& p, const CommandLine& cli, int signal
   s.set_program(p.program);
   s.set_scenario_file(cli.scenario);
   for (const auto& set : cli.sets) s.add_overrides(set);
+  std::error_code absent;
+  const bool started = std::filesystem::exists(p.out + "/history.csv", absent);
   const auto [time, rows] = LastHistoryRow(p.out + "/history.csv");
   s.set_simulated_time(time);
   s.set_status("failed");
   s.set_exit_code(static_cast<int>(ExitCode::kPeerFailure));
   s.set_reason(p.name + " was killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")" + why +
-               "; summary written by the launcher; history.csv holds its rows up to t = " + FormatNumber(time) +
-               " s (" + std::to_string(rows) + " rows)");
+               "; summary written by the launcher; " +
+               (started ? "history.csv holds its rows up to t = " + FormatNumber(time) + " s (" +
+                              std::to_string(rows) + " rows)"
+                        : std::string("it was killed before its first output (while loading or building its "
+                                      "model, or making its output folder)")));
+  // Killed before it made its output folder (a long model build): the folder is made here, so
+  // that every process of a run has a summary however it ended (issue 32, item 4).
+  std::filesystem::create_directories(p.out, absent);
   WriteSummaryJson(s, p.out + "/summary.json");
 }
 
@@ -202,6 +210,8 @@ void PassContactFailureOn(const ProcessPlan& contact, int code, const ProcessPla
   ours.set_exit_code(code);
   ours.set_reason(contact.name + " (" + contact.program + ") failed with exit code " + std::to_string(code) + ": " +
                   contact_reason + (own.empty() ? "" : " [" + coordinator.program + ": " + own + "]"));
+  std::error_code ignored;
+  std::filesystem::create_directories(coordinator.out, ignored);  // (the coordinator may have died building)
   WriteSummaryJson(ours, path);
 }
 

@@ -576,4 +576,24 @@ TEST(Hardening, AContactProcessUnderTheLauncherWaitsForAHelloAsLongAsItTakes) {
   EXPECT_NE(Slurp(dir / "by_hand.txt").find("no message from"), std::string::npos) << Slurp(dir / "by_hand.txt");
 }
 
+TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
+  // Issue 32, item 4: SIGTERM to `cosim run` while smooth_solver built a large model (the Puma
+  // gust with many blades): the launcher killed it after the grace period and its summary had
+  // no folder to go to — exit 4, "the run's outcome is lost", no output at all. The launcher now
+  // makes the folder, and the summary says the process died before its first output.
+  const fs::path out = TempDir("killed_while_building") / "run";
+  const std::string scene = kScenarios + "/puma/gust_continuous.pbtxt";
+  Background run = Start("cosim_launch", {scene, "--out", out.string(), "--set", "patterns[0].count=100"},
+                         out.string() + ".txt");
+  ASSERT_NE(WaitForProcess("/smooth_solver " + scene), -1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_FALSE(fs::exists(out / "history.csv")) << "the model was built already: the test plays nothing";
+  kill(run.pid, SIGTERM);
+  EXPECT_EQ(run.Wait(10.0), 4) << Slurp(out.string() + ".txt");
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.exit_code(), 4);
+  EXPECT_NE(s.reason().find("killed before its first output"), std::string::npos) << s.reason();
+  EXPECT_EQ(Slurp(out.string() + ".txt").find("outcome is lost"), std::string::npos);
+}
+
 }  // namespace

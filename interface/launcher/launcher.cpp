@@ -158,6 +158,7 @@ struct Child {
   bool terminated = false;  // SIGTERM sent
   Clock::time_point terminated_at;
   bool killed = false;  // SIGKILL sent
+  std::filesystem::file_time_type started;  // just before it was started (file clock)
 };
 
 // The time of the last row of a history.csv and the number of rows (0 if none).
@@ -171,6 +172,19 @@ std::pair<double, long> LastHistoryRow(const std::string& path) {
   }
   if (rows <= 0) return {0.0, 0};
   return {std::strtod(last.c_str(), nullptr), rows};
+}
+
+// The exit code a process wrote into its own summary, if it wrote one after `started` (it was
+// killed while tearing down after its last word: its summary stands, issue 32 item 8), or -1.
+// (RunOutput removes an earlier run's summary when it starts; the time tells one left by a run
+// before that point from this run's.)
+int OwnSummaryCode(const ProcessPlan& p, std::filesystem::file_time_type started) {
+  const std::string path = p.out + "/summary.json";
+  std::error_code absent;
+  const auto written = std::filesystem::last_write_time(path, absent);
+  run::RunSummary s;
+  if (absent || written < started || !ReadSummaryJson(path, &s) || s.program() != p.program) return -1;
+  return s.exit_code();
 }
 
 // The summary of a process that a signal killed: it could not write one.
@@ -250,6 +264,7 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     std::vector<char*> envp;
     for (auto& e : env_storage) envp.push_back(e.data());
     envp.push_back(nullptr);
+    children[i].started = std::filesystem::file_time_type::clock::now();
     const pid_t pid = fork();
     if (pid < 0) throw PeerError("cannot start " + path + ": " + std::strerror(errno));
     if (pid == 0) {
@@ -300,6 +315,10 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
         c.ended = true;
         if (WIFEXITED(status)) {
           c.code = WEXITSTATUS(status);
+        } else if (const int own = OwnSummaryCode(plan[i], c.started); own >= 0) {
+          c.code = own;  // its last word was said: the signal only cut its teardown short
+          std::cerr << "cosim: " << plan[i].program << " was killed by signal " << WTERMSIG(status)
+                    << " after it wrote its summary (exit " << own << "); that summary stands\n";
         } else {
           c.signal = WIFSIGNALED(status) ? WTERMSIG(status) : SIGKILL;
           c.code = static_cast<int>(ExitCode::kPeerFailure);  // a process of the run vanished

@@ -148,11 +148,15 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
   options.always_print_primitive_fields = true;
   const auto status = google::protobuf::util::MessageToJsonString(summary, &json, options);
   COSIM_ASSERT(status.ok(), "RunSummary to JSON: " + status.ToString());
-  std::ofstream out(path);
+  // Written whole or not at all (a temporary file renamed over it): a process killed while it
+  // writes leaves no half summary that the launcher would take for its outcome.
+  const std::string partial = path + ".partial";
+  std::ofstream out(partial);
   out << json;
   out.close();
-  if (!out) {
+  if (!out || std::rename(partial.c_str(), path.c_str()) != 0) {
     std::cerr << "error: cannot write " << path << ": " << std::strerror(errno) << " (the run's outcome is lost)\n";
+    ::unlink(partial.c_str());
     return false;
   }
   return true;

@@ -583,6 +583,11 @@ TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
   // makes the folder, and the summary says the process died before its first output.
   const fs::path out = TempDir("killed_while_building") / "run";
   const std::string scene = kScenarios + "/puma/gust_continuous.pbtxt";
+  // An earlier run's "ok" in the folder does not speak for this one (the launcher takes a
+  // killed process's own summary only if it was written after the process started).
+  fs::create_directories(out);
+  std::ofstream(out / "summary.json") << R"({"program": "smooth_solver", "status": "ok", "exit_code": 0})";
+  fs::last_write_time(out / "summary.json", fs::file_time_type::clock::now() - std::chrono::hours(1));
   Background run = Start("cosim_launch", {scene, "--out", out.string(), "--set", "patterns[0].count=100"},
                          out.string() + ".txt");
   ASSERT_NE(WaitForProcess("/smooth_solver " + scene), -1);
@@ -594,6 +599,40 @@ TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
   EXPECT_EQ(s.exit_code(), 4);
   EXPECT_NE(s.reason().find("killed before its first output"), std::string::npos) << s.reason();
   EXPECT_EQ(Slurp(out.string() + ".txt").find("outcome is lost"), std::string::npos);
+}
+
+TEST(Hardening, AContactProcessKilledInItsTeardownKeepsItsOwnSummary) {
+  // Issue 32, item 8: a contact process killed after its complete run had written its summary
+  // (exit 0, every step), while it tore down, turned the run into exit 4 and the launcher wrote
+  // "killed by signal 9 … steps 0" over that summary. Played exactly: the contact process is
+  // stopped (SIGSTOP) the moment its summary appears, then killed. Its own summary stands and
+  // the run's exit code agrees with OUT/summary.json. (The moment is caught by polling; a run
+  // whose process had already exited is repeated.)
+  bool played = false;
+  for (int attempt = 0; attempt < 8 && !played; ++attempt) {
+    const fs::path out = TempDir("killed_in_teardown_" + std::to_string(attempt));
+    Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=0.2"},
+                           out.string() + ".txt");
+    const pid_t contact = WaitForProgram("nonsmooth_solver", out);
+    ASSERT_NE(contact, -1);
+    const fs::path own = out / "contacts" / "summary.json";
+    const auto t0 = Clock::now();
+    while (!fs::exists(own) && SecondsSince(t0) < 20.0) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    kill(contact, SIGSTOP);
+    // Still there (stopped), not yet a zombie: the exact state of the report.
+    const std::string stat = Slurp("/proc/" + std::to_string(contact) + "/stat");
+    const size_t paren = stat.rfind(')');
+    played = paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'T';
+    kill(contact, SIGKILL);
+    const int code = run.Wait(20.0);
+    if (!played) continue;
+    const cosim::run::RunSummary mine = ReadSummary(out / "contacts");
+    EXPECT_EQ(mine.exit_code(), 0) << mine.reason();
+    EXPECT_GT(mine.steps(), 0);
+    EXPECT_EQ(code, 0) << Slurp(out.string() + ".txt");
+    EXPECT_EQ(ReadSummary(out).exit_code(), code);
+  }
+  EXPECT_TRUE(played) << "the contact process always ended before it could be stopped";
 }
 
 }  // namespace

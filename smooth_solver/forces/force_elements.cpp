@@ -153,14 +153,14 @@ struct Bilinear {
   CoordinateSpring::LocalMatrix hessian;
 };
 
-Bilinear LocalDot(const LinearVector& A, const LinearVector& B, const Eigen::VectorXd& q, const std::vector<int>& index) {
+Bilinear LocalDot(const LinearVector& A, const LinearVector& B, const Eigen::VectorXd& q, const std::vector<int>& index,
+                  bool hessian) {
   const int n = static_cast<int>(index.size());
   auto local = [&](int global) {
     return static_cast<int>(std::lower_bound(index.begin(), index.end(), global) - index.begin());
   };
   Bilinear r;
   r.gradient.setZero(n);
-  r.hessian.setZero(n, n);
   const Eigen::Vector3d a = A.Value(q), b = B.Value(q);
   r.value = a.dot(b);
   for (const auto& ta : A.terms) {
@@ -169,6 +169,8 @@ Bilinear LocalDot(const LinearVector& A, const LinearVector& B, const Eigen::Vec
   for (const auto& tb : B.terms) {
     for (int k = 0; k < 3; ++k) r.gradient(local(tb.offset + k)) += tb.coefficient * a(k);
   }
+  if (!hessian) return r;
+  r.hessian.setZero(n, n);
   for (const auto& ta : A.terms) {
     for (const auto& tb : B.terms) {
       for (int k = 0; k < 3; ++k) {
@@ -183,10 +185,10 @@ Bilinear LocalDot(const LinearVector& A, const LinearVector& B, const Eigen::Vec
 
 }  // namespace
 
-CoordinateSpring::Local CoordinateSpring::Evaluate(const Eigen::VectorXd& q) const {
+CoordinateSpring::Local CoordinateSpring::Evaluate(const Eigen::VectorXd& q, bool hessian) const {
   Local out;
   if (!revolute_) {
-    const Bilinear s = LocalDot(a_, b_, q, coordinates_);
+    const Bilinear s = LocalDot(a_, b_, q, coordinates_, hessian);
     out.value = s.value;
     out.gradient = s.gradient;
     out.hessian = s.hessian;
@@ -195,12 +197,13 @@ CoordinateSpring::Local CoordinateSpring::Evaluate(const Eigen::VectorXd& q) con
   // θ = atan2(y, x), x = b2·b1, y = b2·c1:
   //   ∇θ = (x∇y − y∇x)/r²,
   //   ∇²θ = (x∇²y − y∇²x + ∇y∇xᵀ − ∇x∇yᵀ)/r² − 2 (x∇y − y∇x)(x∇x + y∇y)ᵀ/r⁴   (symmetric).
-  const Bilinear x = LocalDot(c_, a_, q, coordinates_), y = LocalDot(c_, b_, q, coordinates_);
+  const Bilinear x = LocalDot(c_, a_, q, coordinates_, hessian), y = LocalDot(c_, b_, q, coordinates_, hessian);
   const double r2 = x.value * x.value + y.value * y.value;
   const LocalVector u = x.value * y.gradient - y.value * x.gradient;
-  const LocalVector w = x.value * x.gradient + y.value * y.gradient;
   out.value = std::atan2(y.value, x.value);
   out.gradient = u / r2;
+  if (!hessian) return out;
+  const LocalVector w = x.value * x.gradient + y.value * y.gradient;
   out.hessian = (x.value * y.hessian - y.value * x.hessian + y.gradient * x.gradient.transpose() -
                  x.gradient * y.gradient.transpose()) /
                     r2 -
@@ -212,7 +215,7 @@ CoordinateSpring::Local CoordinateSpring::Evaluate(const Eigen::VectorXd& q) con
 
 void CoordinateSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
                                 Eigen::Ref<Eigen::VectorXd> f) const {
-  const Local l = Evaluate(q);
+  const Local l = Evaluate(q, /*hessian=*/false);
   double rate = 0.0;
   for (size_t i = 0; i < coordinates_.size(); ++i) rate += l.gradient(static_cast<Eigen::Index>(i)) * qdot(coordinates_[i]);
   const double tau = k_ * (l.value - rest_) + damping_ * rate;
@@ -245,7 +248,7 @@ void CoordinateSpring::Pattern(SparseSink* sink) const {
 }
 
 double CoordinateSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
-  const double s = Evaluate(q).value - rest_;
+  const double s = Evaluate(q, /*hessian=*/false).value - rest_;
   return 0.5 * k_ * s * s;
 }
 
@@ -261,9 +264,10 @@ double UnilateralContact::TimeToContact(const Eigen::VectorXd& q, const Eigen::V
   return -s.delta / s.rate;
 }
 
-UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                                                     bool hessian) const {
   State s;
-  s.measure = measure_.Evaluate(q);
+  s.measure = measure_.Evaluate(q, hessian);
   double theta_dot = 0.0;
   const auto& index = measure_.coordinates();
   for (size_t i = 0; i < index.size(); ++i) theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
@@ -277,7 +281,7 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
 }
 
 double UnilateralContact::PotentialEnergy(const Eigen::VectorXd& q) const {
-  const double delta = side_ * (threshold_ - measure_.Evaluate(q).value);
+  const double delta = side_ * (threshold_ - measure_.Evaluate(q, /*hessian=*/false).value);
   if (!(delta > 0.0)) return 0.0;
   return law_.stiffness * std::pow(delta, law_.exponent + 1.0) / (law_.exponent + 1.0);
 }
@@ -295,8 +299,8 @@ void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd
 
 void UnilateralContact::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
                                    double stiffness_scale, double damping_scale, SparseSink* sink) const {
-  const State c = Evaluate(q, qdot);
-  if (c.f == 0.0) return;
+  if (Evaluate(q, qdot).f == 0.0) return;  // open: no tangent (and no Hessian to make)
+  const State c = Evaluate(q, qdot, /*hessian=*/true);
   const CoordinateSpring::Local& l = c.measure;
   const auto& index = measure_.coordinates();
   const int n = static_cast<int>(index.size());

@@ -110,13 +110,14 @@ class CoordinateSpring : public ForceElement {
   static constexpr int kMaxLocal = 2 * 12;
   using LocalVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxLocal, 1>;
   using LocalMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxLocal, kMaxLocal>;
-  // θ, its gradient and Hessian over the element's local coordinates.
+  // θ, its gradient and (with `hessian`) its Hessian over the element's local coordinates.
+  // The force needs no Hessian: it is the costly part (a 24 × 24 matrix), made for the tangent.
   struct Local {
     double value = 0.0;
     LocalVector gradient;
-    LocalMatrix hessian;
+    LocalMatrix hessian;  // (empty unless asked for)
   };
-  Local Evaluate(const Eigen::VectorXd& q) const;
+  Local Evaluate(const Eigen::VectorXd& q, bool hessian = true) const;
   const std::vector<int>& coordinates() const { return coordinates_; }
 
  private:
@@ -165,7 +166,7 @@ class UnilateralContact : public ForceElement {
     double delta = 0.0, rate = 0.0;
     double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
   };
-  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, bool hessian = false) const;
 
   CoordinateSpring measure_;  // θ(q) with gradient and Hessian (zero stiffness: a measure only)
   double threshold_, side_;

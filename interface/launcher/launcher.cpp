@@ -157,7 +157,7 @@ struct Child {
   int signal = 0;           // the signal that killed it, or 0
   bool terminated = false;  // SIGTERM sent
   Clock::time_point terminated_at;
-  bool killed = false;  // SIGKILL sent
+  bool killed = false;                      // SIGKILL sent
   std::filesystem::file_time_type started;  // just before it was started (file clock)
 };
 
@@ -199,12 +199,12 @@ void WriteKilledSummary(const ProcessPlan& p, const CommandLine& cli, int signal
   s.set_simulated_time(time);
   s.set_status("failed");
   s.set_exit_code(static_cast<int>(ExitCode::kPeerFailure));
-  s.set_reason(p.name + " was killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")" + why +
-               "; summary written by the launcher; " +
-               (started ? "history.csv holds its rows up to t = " + FormatNumber(time) + " s (" +
-                              std::to_string(rows) + " rows)"
-                        : std::string("it was killed before its first output (while loading or building its "
-                                      "model, or making its output folder)")));
+  s.set_reason(
+      p.name + " was killed by signal " + std::to_string(signal) + " (" + strsignal(signal) + ")" + why +
+      "; summary written by the launcher; " +
+      (started ? "history.csv holds its rows up to t = " + FormatNumber(time) + " s (" + std::to_string(rows) + " rows)"
+               : std::string("it was killed before its first output (while loading or building its "
+                             "model, or making its output folder)")));
   // Killed before it made its output folder (a long model build): the folder is made here, so
   // that every process of a run has a summary however it ended (issue 32, item 4).
   std::filesystem::create_directories(p.out, absent);

@@ -85,7 +85,8 @@ RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& 
   // An earlier run's summary would describe this run if it were killed before its own; its
   // visual output would mix with this run's frames (or stand for them if this run writes none).
   ::unlink((folder + "/summary.json").c_str());
-  for (const char* visual : {"/visual.pvd", "/scene.pvd", "/visual"}) std::filesystem::remove_all(folder + visual, error);
+  for (const char* visual : {"/visual.pvd", "/scene.pvd", "/visual"})
+    std::filesystem::remove_all(folder + visual, error);
   history_ = std::make_unique<OutputFile>(folder + "/history.csv");
   const std::string log_path = folder + "/log.txt";
   log_ = std::fopen(log_path.c_str(), "w");

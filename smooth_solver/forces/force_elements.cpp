@@ -121,7 +121,12 @@ double PointSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
 // ---------------------------------------------------------------------------------------
 CoordinateSpring::CoordinateSpring(LinearVector b1, LinearVector c1, LinearVector b2, double stiffness, double damping,
                                    double rest)
-    : revolute_(true), a_(std::move(b1)), b_(std::move(c1)), c_(std::move(b2)), k_(stiffness), damping_(damping),
+    : revolute_(true),
+      a_(std::move(b1)),
+      b_(std::move(c1)),
+      c_(std::move(b2)),
+      k_(stiffness),
+      damping_(damping),
       rest_(rest) {
   Collect();
 }
@@ -217,7 +222,8 @@ void CoordinateSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&
                                 Eigen::Ref<Eigen::VectorXd> f) const {
   const Local l = Evaluate(q, /*hessian=*/false);
   double rate = 0.0;
-  for (size_t i = 0; i < coordinates_.size(); ++i) rate += l.gradient(static_cast<Eigen::Index>(i)) * qdot(coordinates_[i]);
+  for (size_t i = 0; i < coordinates_.size(); ++i)
+    rate += l.gradient(static_cast<Eigen::Index>(i)) * qdot(coordinates_[i]);
   const double tau = k_ * (l.value - rest_) + damping_ * rate;
   for (size_t i = 0; i < coordinates_.size(); ++i) f(coordinates_[i]) -= tau * l.gradient(static_cast<Eigen::Index>(i));
 }
@@ -232,12 +238,13 @@ void CoordinateSpring::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorX
   const double tau = k_ * (l.value - rest_) + damping_ * rate;
   // f = −τ ∇θ:  K = k ∇θ∇θᵀ + c ∇θ (∇²θ q̇)ᵀ + τ ∇²θ,  C = c ∇θ∇θᵀ.
   const LocalVector hv = l.hessian * v;
-  const LocalMatrix K = k_ * l.gradient * l.gradient.transpose() + damping_ * l.gradient * hv.transpose() +
-                        tau * l.hessian;
+  const LocalMatrix K =
+      k_ * l.gradient * l.gradient.transpose() + damping_ * l.gradient * hv.transpose() + tau * l.hessian;
   const LocalMatrix C = damping_ * l.gradient * l.gradient.transpose();
   const LocalMatrix T = stiffness_scale * K + damping_scale * C;
   for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < n; ++j) sink->Add(coordinates_[static_cast<size_t>(i)], coordinates_[static_cast<size_t>(j)], T(i, j));
+    for (int j = 0; j < n; ++j)
+      sink->Add(coordinates_[static_cast<size_t>(i)], coordinates_[static_cast<size_t>(j)], T(i, j));
   }
 }
 
@@ -270,10 +277,12 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
   s.measure = measure_.Evaluate(q, hessian);
   double theta_dot = 0.0;
   const auto& index = measure_.coordinates();
-  for (size_t i = 0; i < index.size(); ++i) theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
+  for (size_t i = 0; i < index.size(); ++i)
+    theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
   s.delta = side_ * (threshold_ - s.measure.value);
   s.rate = -side_ * theta_dot;
-  const interface::HuntCrossleyForce c = interface::EvaluateHuntCrossley(law_, data_->impact_speed[slot_], s.delta, s.rate);
+  const interface::HuntCrossleyForce c =
+      interface::EvaluateHuntCrossley(law_, data_->impact_speed[slot_], s.delta, s.rate);
   s.f = c.f;
   s.df_ddelta = c.df_ddelta;
   s.df_drate = c.df_drate;

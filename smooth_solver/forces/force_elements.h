@@ -6,7 +6,6 @@
 // tests/smooth_solver/force_elements_test.cpp).
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
 #include <array>
 #include <limits>
 #include <memory>
@@ -142,7 +141,11 @@ class UnilateralContact : public ForceElement {
   // Takes a new slot in data->impact_speed.
   UnilateralContact(CoordinateSpring measure, double threshold, double side, const HuntCrossleyLaw& law,
                     SystemData* data)
-      : measure_(std::move(measure)), threshold_(threshold), side_(side), law_(law), data_(data),
+      : measure_(std::move(measure)),
+        threshold_(threshold),
+        side_(side),
+        law_(law),
+        data_(data),
         slot_(data->impact_speed.size()) {
     data->impact_speed.push_back(0.0);
   }

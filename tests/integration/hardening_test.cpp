@@ -588,8 +588,8 @@ TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
   fs::create_directories(out);
   std::ofstream(out / "summary.json") << R"({"program": "smooth_solver", "status": "ok", "exit_code": 0})";
   fs::last_write_time(out / "summary.json", fs::file_time_type::clock::now() - std::chrono::hours(1));
-  Background run = Start("cosim_launch", {scene, "--out", out.string(), "--set", "patterns[0].count=100"},
-                         out.string() + ".txt");
+  Background run =
+      Start("cosim_launch", {scene, "--out", out.string(), "--set", "patterns[0].count=100"}, out.string() + ".txt");
   ASSERT_NE(WaitForProcess("/smooth_solver " + scene), -1);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   ASSERT_FALSE(fs::exists(out / "history.csv")) << "the model was built already: the test plays nothing";

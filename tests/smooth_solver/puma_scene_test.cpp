@@ -5,8 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <numbers>
+#include <sstream>
 #include <string>
 
 #include "smooth_solver/simulation/multibody_simulation.h"
@@ -36,24 +36,28 @@ TEST(PumaScenes, BladesStartOnTheirDroopStopsAndStayThereAtRest) {
   const double droop = -10.0 * std::numbers::pi / 180;
   std::vector<double> v(sim.ProbeNames().size());
   sim.Probe(&v);
-  for (int k = 1; k <= 4; ++k) EXPECT_NEAR(v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_flap"))], droop, 1e-9);
+  for (int k = 1; k <= 4; ++k)
+    EXPECT_NEAR(v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_flap"))], droop, 1e-9);
   double deepest = 0.0;
   for (int s = 0; s < 30; ++s) {
     sim.Step(s * 1e-3, 1e-3);
     sim.Probe(&v);
     for (int k = 1; k <= 4; ++k) {
-      deepest = std::min(deepest, (v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_flap"))] - droop) * 180 / std::numbers::pi);
+      deepest = std::min(deepest, (v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_flap"))] - droop) *
+                                      180 / std::numbers::pi);
     }
   }
   const double tip = v[static_cast<size_t>(Column(sim, "blade1_tip_z"))];
   std::printf("Puma at rest: deepest into the droop stop %.4f°, blade 1 tip at z = %.3f m\n", deepest, tip);
-  EXPECT_LT(deepest, 0.0);     // on the stop, pressed into it
-  EXPECT_GT(deepest, -0.05);   // but only just
-  EXPECT_NEAR(tip, (7.49 - 0.289) * std::sin(-10.0 * std::numbers::pi / 180), 0.05);  // the drooped blade, sagging a little
+  EXPECT_LT(deepest, 0.0);    // on the stop, pressed into it
+  EXPECT_GT(deepest, -0.05);  // but only just
+  EXPECT_NEAR(tip, (7.49 - 0.289) * std::sin(-10.0 * std::numbers::pi / 180),
+              0.05);  // the drooped blade, sagging a little
   EXPECT_LT(sim.max_constraint_violation(), 1e-8);
   // Each droop stop carries the blade (its contact moment builds as the elastic blade takes its
   // weight; the upper stop's law adds nothing).
-  for (int k = 1; k <= 4; ++k) EXPECT_GT(v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_stop_moment"))], 100.0);
+  for (int k = 1; k <= 4; ++k)
+    EXPECT_GT(v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k) + "_stop_moment"))], 100.0);
 }
 
 TEST(PumaScenes, BladesLiftOffTheirDroopStopsAsTheRotorSpinsUpAndTheLagStopsHoldThem) {
@@ -79,16 +83,17 @@ TEST(PumaScenes, BladesLiftOffTheirDroopStopsAsTheRotorSpinsUpAndTheLagStopsHold
     }
   }
   const double flap = v[static_cast<size_t>(Column(sim, "blade1_flap"))] * deg;
-  std::printf("Puma spin-up: blade 1 off its droop stop (flap > −9.9°) at t = %.3f s, Ω = %.3f rad/s (%.1f %% of "
-              "Ω100%%); flap %.2f° at 7 s; largest lag %.2f°\n", lift_off, lift_off_speed, 100 * lift_off_speed / 28,
-              flap, largest_lag);
-  EXPECT_GT(lift_off, 4.3);                // not before the rigid, air-free estimate
+  std::printf(
+      "Puma spin-up: blade 1 off its droop stop (flap > −9.9°) at t = %.3f s, Ω = %.3f rad/s (%.1f %% of "
+      "Ω100%%); flap %.2f° at 7 s; largest lag %.2f°\n",
+      lift_off, lift_off_speed, 100 * lift_off_speed / 28, flap, largest_lag);
+  EXPECT_GT(lift_off, 4.3);  // not before the rigid, air-free estimate
   EXPECT_LT(lift_off, 6.5);
   EXPECT_GT(lift_off_speed, 3.45);
-  EXPECT_GT(flap, -7.0);                   // clear of the stop, coning up as Ω grows
-  EXPECT_LT(flap, 0.0);                    // the negative thrust keeps it below the hub plane
-  EXPECT_GT(largest_lag, 14.0);            // on the lag stop ...
-  EXPECT_LT(largest_lag, 15.5);            // ... which holds it (K = 1e8: ~0.1° deep)
+  EXPECT_GT(flap, -7.0);         // clear of the stop, coning up as Ω grows
+  EXPECT_LT(flap, 0.0);          // the negative thrust keeps it below the hub plane
+  EXPECT_GT(largest_lag, 14.0);  // on the lag stop ...
+  EXPECT_LT(largest_lag, 15.5);  // ... which holds it (K = 1e8: ~0.1° deep)
   EXPECT_EQ(v[static_cast<size_t>(Column(sim, "blade1_stop_moment"))], 0.0);  // the flap stops free
 }
 
@@ -160,8 +165,10 @@ TEST(PumaScenes, TheSpinUpReusesItsNewtonMatrixCoRotatedWithTheHub) {
   unrotated.FillSummary(&without);
   const double fresh = with.counters().at("newton_factorizations"),
                plain_fresh = without.counters().at("newton_factorizations");
-  std::printf("Puma spin-up, 3 s: %.0f factorisations co-rotated, %.0f unrotated; blades apart by %.2e° flap, "
-              "%.2e m tip\n", fresh, plain_fresh, flap * 180 / std::numbers::pi, tip);
+  std::printf(
+      "Puma spin-up, 3 s: %.0f factorisations co-rotated, %.0f unrotated; blades apart by %.2e° flap, "
+      "%.2e m tip\n",
+      fresh, plain_fresh, flap * 180 / std::numbers::pi, tip);
   EXPECT_LT(fresh * 5, plain_fresh);
   // Apart by far less than either run's own error at h = 1 ms in this window (measured against
   // h = 0.125 ms: flap 0.199° plain, 0.192° co-rotated; tip 7.9 and 6.9 mm): a fifth of it.

@@ -1,5 +1,6 @@
 #include "interface/scenario/scenario_file.h"
 
+#include <algorithm>
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
 
@@ -402,14 +403,23 @@ void ScenarioFile::Fail(const std::string& field_path, const std::string& messag
   throw InputError(Where(field_path) + ": " + field_path + ": " + message);
 }
 
-void MaterializeDefaults(pb::Message* message) {
+namespace {
+
+// `open`: the message types being materialised on the way down. A type that contains itself
+// (Study.Run.reference) is materialised where it is set only: created wherever it is unset, it
+// would recurse for ever (found by `--print-scenario` on the Puma engagement: a stack overflow).
+void MaterializeDefaults(pb::Message* message, std::vector<const pb::Descriptor*>* open) {
   const pb::Descriptor* descriptor = message->GetDescriptor();
   const pb::Reflection* reflection = message->GetReflection();
+  open->push_back(descriptor);
   for (int i = 0; i < descriptor->field_count(); ++i) {
     const pb::FieldDescriptor* field = descriptor->field(i);
     if (field->is_repeated() || field->containing_oneof() != nullptr) continue;
     if (field->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-      MaterializeDefaults(reflection->MutableMessage(message, field));
+      const bool recursive = std::find(open->begin(), open->end(), field->message_type()) != open->end();
+      if (!recursive || reflection->HasField(*message, field)) {
+        MaterializeDefaults(reflection->MutableMessage(message, field), open);
+      }
       continue;
     }
     if (reflection->HasField(*message, field) || !field->has_default_value()) continue;
@@ -433,6 +443,14 @@ void MaterializeDefaults(pb::Message* message) {
         break;
     }
   }
+  open->pop_back();
+}
+
+}  // namespace
+
+void MaterializeDefaults(pb::Message* message) {
+  std::vector<const pb::Descriptor*> open;
+  MaterializeDefaults(message, &open);
 }
 
 }  // namespace cosim::interface

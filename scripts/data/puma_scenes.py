@@ -102,12 +102,38 @@ ENVELOPE = """
     set: "numerics.end_time=7"
     from_time: 0.9
   }""" if GUST else ""
+# The engagement's work-precision study (issue 31): each model against its own converged run —
+# the co-simulated one at h = 0.25 ms (a quarter of the scene's step: a finer co-simulated
+# reference costs hours), the continuous one at 0.125 ms — with the measures the issue names:
+# blade 1's flap angle over the run, its stop contacts' start and end times (lift-off, re-contact)
+# and the peak root shear and flapwise moment in each contact.
+PRECISION = '''
+  # `scripts/cosim study work-precision`: error of each measure against wall time (issue 31).
+  events { history_probes: ["blade1_flap"] peak_probes: ["blade1_root_shear_z", "blade1_root_flap_moment"] }
+  methods { name: "continuous, fixed h" scenario: "engage_disengage_continuous.pbtxt" sweep_values: [4e-3, 2e-3, 1e-3, 5e-4]
+            contact_probes: ["blade1_stop_moment"] reference: { name: "continuous, h = 0.125 ms"
+            scenario: "engage_disengage_continuous.pbtxt" set: ["numerics.step=1.25e-4", "output.every=16"]
+            contact_probes: ["blade1_stop_moment"] } }
+  methods { name: "continuous, fixed h, matrix not co-rotated" scenario: "engage_disengage_continuous.pbtxt"
+            set: ["numerics.smooth.jacobian_frame=\\"\\""] sweep_values: [2e-3, 1e-3]
+            contact_probes: ["blade1_stop_moment"] reference: { name: "continuous, h = 0.125 ms"
+            scenario: "engage_disengage_continuous.pbtxt" set: ["numerics.step=1.25e-4", "output.every=16"]
+            contact_probes: ["blade1_stop_moment"] } }
+  methods { name: "continuous, adaptive" scenario: "engage_disengage_continuous.pbtxt"
+            sweep_field: "numerics.adaptive.relative" sweep_values: [1e-4, 1e-5, 1e-6]
+            contact_probes: ["blade1_stop_moment"] reference: { name: "continuous, h = 0.125 ms"
+            scenario: "engage_disengage_continuous.pbtxt" set: ["numerics.step=1.25e-4", "output.every=16"]
+            contact_probes: ["blade1_stop_moment"] } }
+  methods { name: "co-simulated, fixed h" sweep_values: [2e-3, 1e-3, 5e-4]
+            contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"]
+            reference { name: "co-simulated, h = 0.25 ms" set: ["numerics.step=2.5e-4", "output.every=8"]
+                        contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] } }''' if COSIM and not GUST else ""
 STUDY = f'''# `scripts/cosim study compare` draws blade 1 of both models on the same axes (the paper's
 # Fig. {7 if GUST else 5}) and tables their differences and each stop contact.
 study {{
   probes: ["blade1_flap", "blade1_lag", "blade1_root_shear_z", "blade1_root_flap_moment", "blade1_tip_z"]
   compare {{ name: "co-simulated" contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] }}
-  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}{ENVELOPE}
+  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}{ENVELOPE}{PRECISION}
 }}''' if COSIM else ""
 # The coupling's defaults (interface Jacobians, tolerances 1e-9 m and 1e-6, no step accepted
 # unconverged) but for the restart at a new contact (see the file's comments).

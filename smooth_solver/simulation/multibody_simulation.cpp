@@ -179,7 +179,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   // Probes.
   std::map<std::string, int> body_index, joint_index;
   for (size_t b = 0; b < model_.bodies.size(); ++b) body_index[model_.bodies[b].name] = static_cast<int>(b);
-  if (s.has_jacobian_frame()) {
+  if (s.has_jacobian_frame() && !s.jacobian_frame().empty()) {  // ("": none, e.g. a --set that turns it off)
     auto it = body_index.find(s.jacobian_frame());
     if (it == body_index.end()) {
       checks.Fail("numerics.smooth.jacobian_frame", "no rigid body named '" + s.jacobian_frame() + "'");

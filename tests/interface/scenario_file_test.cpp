@@ -116,6 +116,24 @@ TEST(ScenarioFile, MaterializeDefaultsShowsEverySettingUsed) {
   EXPECT_FALSE(n.has_end_time());  // no default: must be given
 }
 
+TEST(ScenarioFile, MaterializeDefaultsEndsOnAMessageThatContainsItself) {
+  // Study.Run.reference is a Run: materialising every unset sub-message recursed for ever (a
+  // stack overflow on `--print-scenario` of the Puma engagement, whose study names references).
+  // An unset recursive field stays unset; a set one gets its defaults like any other.
+  scenario::Study study;
+  auto* method = study.add_methods();
+  method->set_name("continuous");
+  method->mutable_reference()->set_name("fine");
+  scenario::Study::Run run;  // a Run that names no reference
+  MaterializeDefaults(&study);
+  MaterializeDefaults(&run);
+  EXPECT_TRUE(study.methods(0).has_reference());
+  EXPECT_FALSE(study.methods(0).reference().has_reference());
+  EXPECT_FALSE(run.has_reference());
+  EXPECT_TRUE(study.has_events() && study.events().has_merge_gap());  // ordinary sub-messages still are
+  EXPECT_DOUBLE_EQ(study.events().merge_gap(), 0.05);
+}
+
 // A pattern: a blade written once, placed four times about z.
 const char* kRotor = R"(name: "rotor"
 model {

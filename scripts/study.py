@@ -807,6 +807,8 @@ def results(runner, out_root, sets, reuse=False):
             ("compare", "puma_gust", "scenarios/puma/gust.pbtxt"),
             ("compare", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
             ("timing", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
+            # The engagement's error against wall time, each model against its converged run (issue 31).
+            ("work-precision", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
             # The still rotor's blade-sailing envelope (issue 19): gust peak × direction.
             ("envelope", "puma_gust", "scenarios/puma/gust.pbtxt"),
             # The co-simulated impact response under step refinement (issue 16, item 7): the gust's

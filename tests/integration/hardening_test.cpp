@@ -6,6 +6,9 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <poll.h>
+#include <sched.h>
+#include <sys/inotify.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -606,8 +609,10 @@ TEST(Hardening, AContactProcessKilledInItsTeardownKeepsItsOwnSummary) {
   // (exit 0, every step), while it tore down, turned the run into exit 4 and the launcher wrote
   // "killed by signal 9 … steps 0" over that summary. Played exactly: the contact process is
   // stopped (SIGSTOP) the moment its summary appears, then killed. Its own summary stands and
-  // the run's exit code agrees with OUT/summary.json. (The moment is caught by polling; a run
-  // whose process had already exited is repeated.)
+  // the run's exit code agrees with OUT/summary.json. The moment is caught without racing the
+  // machine's load: the contact process runs at SCHED_IDLE, and this test waits for the summary's
+  // rename in a blocking inotify read, so its wake-up preempts the process before it can exit.
+  // (An attempt whose process had already ended anyway is repeated.)
   bool played = false;
   for (int attempt = 0; attempt < 8 && !played; ++attempt) {
     const fs::path out = TempDir("killed_in_teardown_" + std::to_string(attempt));
@@ -615,10 +620,28 @@ TEST(Hardening, AContactProcessKilledInItsTeardownKeepsItsOwnSummary) {
                            out.string() + ".txt");
     const pid_t contact = WaitForProgram("nonsmooth_solver", out);
     ASSERT_NE(contact, -1);
-    const fs::path own = out / "contacts" / "summary.json";
+    const sched_param idle{};
+    sched_setscheduler(contact, SCHED_IDLE, &idle);  // (best effort: the retries cover a refusal)
+    const fs::path folder = out / "contacts";
     const auto t0 = Clock::now();
-    while (!fs::exists(own) && SecondsSince(t0) < 20.0) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    while (!fs::exists(folder) && SecondsSince(t0) < 20.0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const int watch = inotify_init1(IN_CLOEXEC);
+    ASSERT_GE(watch, 0);
+    inotify_add_watch(watch, folder.c_str(), IN_MOVED_TO);
+    bool appeared = fs::exists(folder / "summary.json");
+    while (!appeared && SecondsSince(t0) < 20.0) {
+      pollfd ready{watch, POLLIN, 0};
+      if (poll(&ready, 1, 1000) <= 0) continue;
+      alignas(inotify_event) char buffer[4096];
+      const ssize_t n = read(watch, buffer, sizeof(buffer));
+      for (ssize_t at = 0; at < n;) {
+        const auto* event = reinterpret_cast<const inotify_event*>(buffer + at);
+        if (event->len > 0 && std::string(event->name) == "summary.json") appeared = true;
+        at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
+      }
+    }
     kill(contact, SIGSTOP);
+    close(watch);
     // Still there (stopped), not yet a zombie: the exact state of the report.
     const std::string stat = Slurp("/proc/" + std::to_string(contact) + "/stat");
     const size_t paren = stat.rfind(')');

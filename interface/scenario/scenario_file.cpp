@@ -1,11 +1,10 @@
 #include "interface/scenario/scenario_file.h"
 
-#include <algorithm>
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
-
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -148,8 +147,9 @@ ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::
                      " (does it exist and is it readable?)");
   }
   if (!S_ISREG(info.st_mode)) {
-    throw InputError(path + ": the scenario is not a regular file (a folder, device, FIFO or socket); expected a "
-                            "protobuf text file");
+    throw InputError(path +
+                     ": the scenario is not a regular file (a folder, device, FIFO or socket); expected a "
+                     "protobuf text file");
   }
   if (info.st_size > kMaxScenarioBytes) {
     throw InputError(path + ": the scenario file has " + std::to_string(info.st_size) + " bytes; at most " +
@@ -184,8 +184,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   for (const std::string& argument : overrides) {
     if (of_patterns(argument)) file.ApplyOverride(argument);
   }
-  file.pattern_origins_ =
-      ExpandPatterns(&file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
+  file.pattern_origins_ = ExpandPatterns(
+      &file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   for (const std::string& argument : overrides) {
     if (!of_patterns(argument)) file.ApplyOverride(argument);
   }
@@ -209,7 +209,9 @@ void ScenarioFile::CheckFinite(const pb::Message& message, const std::string& pr
     if (!is_double && !is_message) continue;  // (the schema has no float fields)
     auto check = [&](double value, const std::string& where) {
       if (std::isfinite(value)) return;
-      Fail(where, "must be a finite number, got " + std::string(std::isnan(value) ? "nan" : value > 0 ? "inf" : "-inf"));
+      Fail(where, "must be a finite number, got " + std::string(std::isnan(value) ? "nan"
+                                                                : value > 0       ? "inf"
+                                                                                  : "-inf"));
     };
     if (field->is_repeated()) {
       const int size = reflection->FieldSize(message, field);
@@ -258,20 +260,20 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
     int index = -1;
     if (segment.has_key) {
       if (!field->is_repeated()) {
-        throw InputError(context + ": '" + segment.field + "' is not a repeated field; drop the [" +
-                         segment.key + "]");
+        throw InputError(context + ": '" + segment.field + "' is not a repeated field; drop the [" + segment.key + "]");
       }
       index = ResolveIndex(*message, field, segment.key);
       if (index < 0) {
         throw InputError(context + ": '" + segment.field + "' has " +
-                         std::to_string(reflection->FieldSize(*message, field)) +
-                         " elements and none matches [" + segment.key +
-                         "] (give a 0-based index or the element's name)");
+                         std::to_string(reflection->FieldSize(*message, field)) + " elements and none matches [" +
+                         segment.key + "] (give a 0-based index or the element's name)");
       }
-      normalised.append("[").append(std::to_string(index)).append("]");  // (not a + chain: GCC 12 -Wrestrict false positive)
+      normalised.append("[")
+          .append(std::to_string(index))
+          .append("]");  // (not a + chain: GCC 12 -Wrestrict false positive)
     } else if (field->is_repeated() && !last) {
-      throw InputError(context + ": '" + segment.field + "' is repeated; say which element, e.g. " +
-                       segment.field + "[0]");
+      throw InputError(context + ": '" + segment.field + "' is repeated; say which element, e.g. " + segment.field +
+                       "[0]");
     }
 
     if (!last) {
@@ -297,9 +299,8 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
     parser.RecordErrorsTo(&errors);
     const std::string snippet = field->name() + ": " + value;
     if (!parser.ParseFromString(snippet, scratch.get()) || errors.has_error()) {
-      throw InputError(context + ": value '" + argument.substr(eq + 1) + "' does not fit field '" +
-                       field->name() + "' (" + std::string(field->type_name()) + "): " +
-                       errors.Format("value"));
+      throw InputError(context + ": value '" + argument.substr(eq + 1) + "' does not fit field '" + field->name() +
+                       "' (" + std::string(field->type_name()) + "): " + errors.Format("value"));
     }
     const pb::Reflection* scratch_reflection = scratch->GetReflection();
     if (index >= 0) {
@@ -317,8 +318,7 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
                                         scratch_reflection->GetRepeatedDouble(*scratch, field, 0));
           break;
         case pb::FieldDescriptor::CPPTYPE_INT32:
-          reflection->SetRepeatedInt32(message, field, index,
-                                       scratch_reflection->GetRepeatedInt32(*scratch, field, 0));
+          reflection->SetRepeatedInt32(message, field, index, scratch_reflection->GetRepeatedInt32(*scratch, field, 0));
           break;
         case pb::FieldDescriptor::CPPTYPE_STRING:
           reflection->SetRepeatedString(message, field, index,
@@ -342,8 +342,8 @@ std::string ScenarioFile::Where(const std::string& field_path) const {
   for (const PatternOrigin& o : pattern_origins_) {
     const std::string& e = o.expanded;
     if (field_path.rfind(e, 0) == 0 && (field_path.size() == e.size() || field_path[e.size()] == '.')) {
-      return WhereInFile(o.source + field_path.substr(e.size())) + " (copy " + std::to_string(o.copy) + " of pattern '" +
-             o.pattern + "')";
+      return WhereInFile(o.source + field_path.substr(e.size())) + " (copy " + std::to_string(o.copy) +
+             " of pattern '" + o.pattern + "')";
     }
   }
   return WhereInFile(field_path);

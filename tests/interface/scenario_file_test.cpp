@@ -4,10 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <functional>
 #include <numbers>
-
-#include <Eigen/Geometry>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -43,7 +42,8 @@ std::string MessageOf(const std::function<void()>& f) {
 TEST(ScenarioFile, SyntaxErrorNamesLineAndColumn) {
   // Line 3 has a misspelt field; protobuf's tokenizer reports its 0-based position, which
   // the loader turns into 1-based line:column as editors show it.
-  const std::string msg = MessageOf([] { ScenarioFile::Parse("name: \"x\"\nmodel {\n  contact_nodez {}\n}\n", "f.pbtxt", {}); });
+  const std::string msg =
+      MessageOf([] { ScenarioFile::Parse("name: \"x\"\nmodel {\n  contact_nodez {}\n}\n", "f.pbtxt", {}); });
   EXPECT_NE(msg.find("f.pbtxt:3:"), std::string::npos) << msg;
   EXPECT_NE(msg.find("contact_nodez"), std::string::npos) << msg;
 }
@@ -86,9 +86,9 @@ TEST(ScenarioFile, SetOverridesScalarsListsEnumsAndByName) {
 TEST(ScenarioFile, BadOverridesAreReportedWithTheArgument) {
   EXPECT_NE(MessageOf([] { ScenarioFile::Parse(kText, "f", {"numerics.stepp=1"}); }).find("has no field 'stepp'"),
             std::string::npos);
-  EXPECT_NE(MessageOf([] { ScenarioFile::Parse(kText, "f", {"model.contact_nodes[c].mass=1"}); })
-                .find("none matches [c]"),
-            std::string::npos);
+  EXPECT_NE(
+      MessageOf([] { ScenarioFile::Parse(kText, "f", {"model.contact_nodes[c].mass=1"}); }).find("none matches [c]"),
+      std::string::npos);
   EXPECT_NE(MessageOf([] { ScenarioFile::Parse(kText, "f", {"numerics.step=fast"}); }).find("does not fit"),
             std::string::npos);
   EXPECT_NE(MessageOf([] { ScenarioFile::Parse(kText, "f", {"numerics.step"}); }).find("expected FIELD.PATH=VALUE"),
@@ -100,9 +100,8 @@ TEST(ScenarioFile, BadOverridesAreReportedWithTheArgument) {
 TEST(ScenarioFile, ChecksNameFieldValueAndExpectation) {
   const ScenarioFile f = ScenarioFile::Parse(kText, "f.pbtxt", {"model.contact_nodes[0].mass=-1"});
   const Checks checks(f);
-  const std::string msg = MessageOf([&] {
-    checks.Positive("model.contact_nodes[0].mass", true, f.proto().model().contact_nodes(0).mass(), "kg");
-  });
+  const std::string msg = MessageOf(
+      [&] { checks.Positive("model.contact_nodes[0].mass", true, f.proto().model().contact_nodes(0).mass(), "kg"); });
   EXPECT_EQ(msg, "--set model.contact_nodes[0].mass=-1: model.contact_nodes[0].mass: must be positive (kg), got -1");
 }
 
@@ -177,7 +176,8 @@ TEST(Pattern, CopiesAreNamedTurnedAndReferenced) {
   EXPECT_EQ(m.joints(1).point1(0), 0.3);  // body frame: as written
   // Rotation vector: R_z(90°) · R_y(0.1) — its axis turned to −x... check against Eigen.
   const Eigen::Matrix3d expected = (Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitZ()) *
-                                    Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY())).toRotationMatrix();
+                                    Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()))
+                                       .toRotationMatrix();
   const Eigen::Vector3d rv(m.bodies(2).rotation(0), m.bodies(2).rotation(1), m.bodies(2).rotation(2));
   EXPECT_LT((Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() - expected).norm(), 1e-12);
   ASSERT_EQ(m.air().rotors(0).surfaces_size(), 4);
@@ -186,8 +186,8 @@ TEST(Pattern, CopiesAreNamedTurnedAndReferenced) {
 
 TEST(Pattern, SetReachesIntoTheTemplateAndTheCount) {
   // A five-blade variant is one number; a template field changes every copy.
-  const ScenarioFile f = ScenarioFile::Parse(kRotor, "rotor.pbtxt",
-                                             {"patterns[0].count=5", "patterns[0].each.model.bodies[0].mass=60"});
+  const ScenarioFile f =
+      ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"patterns[0].count=5", "patterns[0].each.model.bodies[0].mass=60"});
   EXPECT_EQ(f.proto().model().bodies_size(), 6);
   EXPECT_EQ(f.proto().model().bodies(5).mass(), 60.0);
   EXPECT_NEAR(f.proto().model().bodies(2).position(1), 2.5 * std::sin(2 * std::numbers::pi / 5), 1e-12);
@@ -204,7 +204,8 @@ TEST(Pattern, SetReachesIntoTheTemplateAndTheCount) {
     f.Fail("model.bodies[4].mass", "test");
     ADD_FAILURE();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("--set patterns[0].each.model.bodies[0].mass=60"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--set patterns[0].each.model.bodies[0].mass=60"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -230,7 +231,8 @@ TEST(Pattern, BadPatternsAreRefusedWithTheirPlace) {
   EXPECT_NE(error({"patterns[0].count=0"}).find("patterns[0].count: expected 1 to 1000 copies"), std::string::npos);
   EXPECT_NE(error({"patterns[0].axis=[0, 0, 0]"}).find("patterns[0].axis: is zero"), std::string::npos);
   EXPECT_NE(error({"patterns[0].name=\"a b\""}).find("patterns[0].name"), std::string::npos);
-  EXPECT_NE(error({"patterns[0].each.model.gravity=[0, 0, -9.81]"}).find("patterns[0].each.model.gravity: a pattern repeats list elements"),
+  EXPECT_NE(error({"patterns[0].each.model.gravity=[0, 0, -9.81]"})
+                .find("patterns[0].each.model.gravity: a pattern repeats list elements"),
             std::string::npos);
   EXPECT_NE(error({"patterns[0].each.numerics.step=0.1"}).find("patterns[0].each.numerics.step"), std::string::npos);
 }

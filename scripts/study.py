@@ -439,6 +439,15 @@ def default_methods(scenario):
     return methods
 
 
+def study_peer(scenario_path, study):
+    """study.peer ({} if none), refused (exit 2) unless its wall and simulated times are > 0."""
+    peer = study.get("peer") or {}
+    if peer and not (peer.get("wall_time", 0) > 0 and peer.get("simulated_time", 0) > 0):
+        fail(f"{scenario_path}: study.peer needs wall_time > 0 and simulated_time > 0 [s], "
+             f"got {peer.get('wall_time')} and {peer.get('simulated_time')}")
+    return peer
+
+
 def stop_contacts(history, contact_probes, gap):
     """A run's stop contacts: [start, end] of the runs of non-zero samples of its contact probes
     (together), those apart by at most `gap` [s] merged into one (a bounce train)."""
@@ -494,7 +503,8 @@ def event_errors(history, contacts, reference, reference_contacts, events):
 def study_work_precision_events(runner, scenario_path, scenario, study, sets, runs, methods, out):
     """work-precision with study.events: each method against its own reference, each measure apart."""
     events = study["events"]
-    references, keys = [], {}
+    peer = study_peer(scenario_path, study)
+    references, keys, reference_of = [], {}, {}  # reference_of: method name → index in references
     for m, method in enumerate(methods):
         spec = method.get("reference") or study.get("reference_run")
         if not spec:
@@ -507,27 +517,27 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
                                "scenario": run_scenario(scenario_path, spec), "sets": list(sets) + list(spec.get("set", [])),
                                "contact_probes": list(spec.get("contact_probes", [])),
                                "out": os.path.join(out, "runs", f"reference{len(references)}")})
-        method["_reference"] = keys[key]
+        reference_of[method["name"]] = keys[key]
     done = runner.run_all(references + runs)  # (the references first: a study cut short can be resumed with --reuse)
     references, runs = done[:len(references)], done[len(references):]
     for r in references:
         if r["code"] != 0:
             fail(f"the work-precision reference run '{r['id']}' failed (exit {r['code']}): {r['message']}", 3)
     ref_histories = [read_histories(r["out"]) for r in references]
+    ref_values = [Reference(study, h) for h in ref_histories]
     by_name = {method["name"]: method for method in methods}
     measures = [f"history {p}" for p in events.get("history_probes", [])] + ["contact times"] + \
                [f"peak {p}" for p in events.get("peak_probes", [])]
     for r in runs:
-        method = by_name[r["method"]]
-        reference, ref_run = ref_histories[method["_reference"]], references[method["_reference"]]
+        k = reference_of[r["method"]]
+        reference, ref_run = ref_histories[k], references[k]
         r["errors"], r["unpaired"] = {m: float("nan") for m in measures}, float("nan")
         if r["code"] != 0:
             continue
         history = read_histories(r["out"])
-        ref = Reference(study, reference)
         for p in events.get("history_probes", []):
-            r["errors"][f"history {p}"] = probe_error(history, ref, p, study) if p in reference else float("nan")
-        found, r["unpaired"] = event_errors(history, method.get("contact_probes", []), reference,
+            r["errors"][f"history {p}"] = probe_error(history, ref_values[k], p, study) if p in reference else float("nan")
+        found, r["unpaired"] = event_errors(history, by_name[r["method"]].get("contact_probes", []), reference,
                                             ref_run["contact_probes"], events)
         r["errors"].update(found)
     write_csv(os.path.join(out, "runs.csv"), ["run", "method", "swept_value", "exit", "wall_time", "unpaired_contacts"] +
@@ -536,9 +546,8 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
                for r in runs])
     # One panel per measure: error against the wall time of the steps, a line per method; a
     # peer's wall time for the same simulated span (study.peer) marked for scale.
-    peer, simulated = study.get("peer") or {}, float(scenario["numerics"]["end_time"]) - \
-        float(scenario["numerics"].get("start_time", 0.0))
-    peer_wall = peer["wall_time"] * simulated / peer["simulated_time"] if peer.get("simulated_time") else None
+    simulated = float(scenario["numerics"]["end_time"]) - float(scenario["numerics"].get("start_time", 0.0))
+    peer_wall = peer["wall_time"] * simulated / peer["simulated_time"] if peer else None
     columns = 2
     rows = (len(measures) + columns - 1) // columns
     fig, axes = plt.subplots(rows, columns, figsize=(11, 3.6 * rows), squeeze=False)
@@ -561,7 +570,7 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     fig.suptitle(f"{scenario['name']}: work against precision", fontsize=10)
     save_plot(fig, [ax for ax in axes.flat if ax.has_data()], os.path.join(out, "work_precision.png"), legend_size=7)
     lines = [f"# Work against precision: {scenario['name']}", "", scenario.get("description", ""), "",
-             "Each method against its own reference run (" + "; ".join(f"'{m['name']}': {references[m['_reference']]['id']}"
+             "Each method against its own reference run (" + "; ".join(f"'{m['name']}': {references[reference_of[m['name']]]['id']}"
                                                                 for m in methods) + "). Measures: "
              "the largest |value − reference| of each history probe over the output times; the largest error of a "
              "stop contact's start (re-contact) or end (lift-off) time; the largest error of the peak of each peak "
@@ -1040,10 +1049,7 @@ def study_timing(runner, scenario_path, out, sets):
     that they do not share the cores; per simulated second, and as a ratio to study.peer."""
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
     specs = study.get("compare") or [{"name": scenario["name"]}]
-    peer = study.get("peer") or {}
-    if peer and not (peer.get("wall_time", 0) > 0 and peer.get("simulated_time", 0) > 0):
-        fail(f"{scenario_path}: study.peer needs wall_time > 0 and simulated_time > 0 [s], "
-             f"got {peer.get('wall_time')} and {peer.get('simulated_time')}")
+    peer = study_peer(scenario_path, study)
     runs = []
     for i, spec in enumerate(specs):
         path = compare_run_scenario(scenario_path, spec, i)

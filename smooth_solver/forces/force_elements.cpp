@@ -271,10 +271,9 @@ double UnilateralContact::TimeToContact(const Eigen::VectorXd& q, const Eigen::V
   return -s.delta / s.rate;
 }
 
-UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
-                                                     bool hessian) const {
+UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
   State s;
-  s.measure = measure_.Evaluate(q, hessian);
+  s.measure = measure_.Evaluate(q, /*hessian=*/false);
   double theta_dot = 0.0;
   const auto& index = measure_.coordinates();
   for (size_t i = 0; i < index.size(); ++i)
@@ -308,9 +307,9 @@ void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd
 
 void UnilateralContact::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
                                    double stiffness_scale, double damping_scale, SparseSink* sink) const {
-  if (Evaluate(q, qdot).f == 0.0) return;  // open: no tangent (and no Hessian to make)
-  const State c = Evaluate(q, qdot, /*hessian=*/true);
-  const CoordinateSpring::Local& l = c.measure;
+  const State c = Evaluate(q, qdot);
+  if (c.f == 0.0) return;  // open: no tangent (and no Hessian to make)
+  const CoordinateSpring::Local l = measure_.Evaluate(q, /*hessian=*/true);
   const auto& index = measure_.coordinates();
   const int n = static_cast<int>(index.size());
   using LocalVector = CoordinateSpring::LocalVector;

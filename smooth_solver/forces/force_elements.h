@@ -169,7 +169,8 @@ class UnilateralContact : public ForceElement {
     double delta = 0.0, rate = 0.0;
     double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
   };
-  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, bool hessian = false) const;
+  // The law's force at q, q̇ (its measure without the Hessian: only the tangent needs that).
+  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
 
   CoordinateSpring measure_;  // θ(q) with gradient and Hessian (zero stiffness: a measure only)
   double threshold_, side_;

@@ -205,10 +205,7 @@ void WriteKilledSummary(const ProcessPlan& p, const CommandLine& cli, int signal
       (started ? "history.csv holds its rows up to t = " + FormatNumber(time) + " s (" + std::to_string(rows) + " rows)"
                : std::string("it was killed before its first output (while loading or building its "
                              "model, or making its output folder)")));
-  // Killed before it made its output folder (a long model build): the folder is made here, so
-  // that every process of a run has a summary however it ended (issue 32, item 4).
-  std::filesystem::create_directories(p.out, absent);
-  WriteSummaryJson(s, p.out + "/summary.json");
+  WriteSummaryJson(s, p.out + "/summary.json");  // (its folder made if it died before making it)
 }
 
 // The run's summary (the coordinator's) says what a contact process that failed first said.
@@ -224,8 +221,6 @@ void PassContactFailureOn(const ProcessPlan& contact, int code, const ProcessPla
   ours.set_exit_code(code);
   ours.set_reason(contact.name + " (" + contact.program + ") failed with exit code " + std::to_string(code) + ": " +
                   contact_reason + (own.empty() ? "" : " [" + coordinator.program + ": " + own + "]"));
-  std::error_code ignored;
-  std::filesystem::create_directories(coordinator.out, ignored);  // (the coordinator may have died building)
   WriteSummaryJson(ours, path);
 }
 

@@ -149,8 +149,11 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
   options.always_print_primitive_fields = true;
   const auto status = google::protobuf::util::MessageToJsonString(summary, &json, options);
   COSIM_ASSERT(status.ok(), "RunSummary to JSON: " + status.ToString());
-  // Written whole or not at all (a temporary file renamed over it): a process killed while it
-  // writes leaves no half summary that the launcher would take for its outcome.
+  // Into a folder made if it is not there (the launcher's summary of a process killed before it
+  // made its own, issue 32 item 4), written whole or not at all (a temporary file renamed over
+  // it): a process killed while it writes leaves no half summary taken for its outcome.
+  std::error_code absent;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path(), absent);
   const std::string partial = path + ".partial";
   std::ofstream out(partial);
   out << json;

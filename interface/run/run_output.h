@@ -92,8 +92,9 @@ class RunOutput {
   run::RunSummary summary_;
 };
 
-// Writes a RunSummary as JSON to `path` (used by RunOutput and by the launcher). Returns
-// false (and says why on stderr) if the file cannot be written.
+// Writes a RunSummary as JSON to `path` (used by RunOutput and by the launcher), making its
+// folder if it is not there, whole or not at all. Returns false (and says why on stderr) if the
+// file cannot be written.
 bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path);
 // Reads one back; false if there is none or it does not parse.
 bool ReadSummaryJson(const std::string& path, run::RunSummary* summary);

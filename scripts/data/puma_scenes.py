@@ -3,7 +3,7 @@
 scenario files with one blade written once (a `patterns` entry placed at four azimuths).
 Usage: puma_scenes.py engage_continuous > scenarios/puma/engage_disengage_continuous.pbtxt
        puma_scenes.py gust_continuous   > scenarios/puma/gust_continuous.pbtxt
-       puma_scenes.py engage            > scenarios/puma/engage_disengage.pbtxt  (co-simulated)
+       puma_scenes.py engage_disengage  > scenarios/puma/engage_disengage.pbtxt  (co-simulated)
        puma_scenes.py gust              > scenarios/puma/gust.pbtxt              (co-simulated)
 """
 import math
@@ -266,18 +266,20 @@ patterns {{
 # the beam's nodes: the gust's landing at 4.426 s then read 85 kN of root shear for a step
 # (2.25 kN without, the continuous twin 2.7 kN); the blade's flap angle is the same within 0.002°.
 # Without it the pad's velocity jump reaches the blade through the stiff tie (5e-9 m/N) in a
-# few steps.''' if COSIM else '''The CGα paper's index-3 form: the hub's Ωh = 0.028 is below the ~0.04 where that form stops
+# few steps.''' + ('' if GUST else '''
+# The matrix is reused co-rotated with the hub (jacobian_frame, issue 31), the peers' compliance
+# added to each solve by Woodbury's identity in the factorised axes: whole run 92.9 s against
+# 330 s unrotated, 1.001 exchanges a step (5010 factorisations in 50 000 steps).''') if COSIM else '''The CGα paper's index-3 form: the hub's Ωh = 0.028 is below the ~0.04 where that form stops
 # damping its velocity-constraint mode (docs/design.md, "Spinning bodies").''' + ('' if GUST else '''
 # The matrix is reused co-rotated with the hub (jacobian_frame, issue 31): whole run 35.7 s
 # against 127.9 s (2519 factorisations instead of 27 972), and closer to a converged run
 # (h = 0.125 ms, first 12 s): flap 0.0028° against 0.0081°, root shear 85 N against 473 N,
 # flapwise moment 74 against 445 N m (its stricter acceptance of a reused matrix's iterate).
-# Not in the co-simulated scenes (33 % slower there: more Newton iterations in every coupling
-# iteration) nor in the gust (the rotor stands still: 38 % slower, the same error).''')}
+# Not in the gust (the rotor stands still: 38 % slower, the same error).''')}
 numerics {{
   end_time: {15 if GUST else 50}
   step: 1e-3
-  smooth {{ rho_inf: 0.6 jacobian_max_age: 20{'' if COSIM else ' constraint_form: INDEX3'}{' jacobian_frame: "hub"' if not COSIM and not GUST else ''} }}
+  smooth {{ rho_inf: 0.6 jacobian_max_age: 20{'' if COSIM else ' constraint_form: INDEX3'}{'' if GUST else ' jacobian_frame: "hub"'} }}
 }}
 output {{
   every: 2

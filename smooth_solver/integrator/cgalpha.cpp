@@ -152,8 +152,7 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
       any_velocity_row_ = any_velocity_row_ || velocity_row_[static_cast<size_t>(i)] != 0;
     }
   }
-  woodbury_ = settings.frame_body < 0 && !system.interface_points.empty();
-  factorized_compliance_.assign(system.interface_points.size(), Eigen::Matrix3d::Zero());
+  woodbury_ = !system.interface_points.empty();
   // (Φ_q q̇)_q has the coordinates of Φ_q in every row: the pattern is the index-3 one.
   S_ = SaddlePattern(system);
   lu_.Analyze(S_);  // once: the pattern never changes
@@ -189,18 +188,9 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
   system_.constraints.AddComplianceDiagonal(&sink, n, 1.0 / bh2);
-  // The peers' compliance on the interface rows (interface Jacobians): −C/(βh²) likewise — in
-  // the matrix only with co-rotated reuse; otherwise it is added to every solve by Woodbury's
-  // identity (Solve), so that a change of the peers' contact sets needs no new factorisation.
-  const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
-  if (!woodbury_) {
-    factorized_compliance_ = compliance;
-    for (size_t k = 0; k < compliance.size(); ++k) {
-      if (compliance[k].isZero(0.0)) continue;
-      const int row = n + system_.interface_points[k].first_row;
-      sink.AddBlock3(row, row, -compliance[k] / bh2);
-    }
-  }
+  // The peers' compliance on the interface rows (interface Jacobians), −C/(βh²) likewise, is not
+  // in the matrix: Woodbury's identity adds it to every solve (SolveAt), so that a change of the
+  // peers' contact sets needs no new factorisation.
 }
 
 void CgAlpha::FactorizeInterfaceColumns() {
@@ -223,10 +213,12 @@ void CgAlpha::FactorizeInterfaceColumns() {
   }
 }
 
-void CgAlpha::AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x) {
+void CgAlpha::AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Matrix3d& to_factorized) {
   // (J − P Ĉ Pᵀ)⁻¹ r = z + Y Ĉ (I − W Ĉ)⁻¹ Pᵀ z with z = J⁻¹ r, Ĉ = C/(βh²) the peers'
   // compliance per point (Woodbury's identity in the form that allows a singular Ĉ: a node
-  // resting on its plane has no normal compliance).
+  // resting on its plane has no normal compliance). Co-rotated (x already turned into the
+  // factorised axes, J = T J₀ Tᵀ): TᵀP = P Rᵀ on the interface triples, so the compliance is
+  // taken into those axes as well, Ĉ₀ = Rᵀ Ĉ R (to_factorized = Rᵀ).
   const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
   bool any = false;
   for (const Eigen::Matrix3d& c : compliance) any = any || !c.isZero(0.0);
@@ -236,7 +228,8 @@ void CgAlpha::AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x) {
   woodbury_c_.setZero(3 * points, 3 * points);
   woodbury_g_.resize(3 * points);
   for (int k = 0; k < points; ++k) {
-    woodbury_c_.block<3, 3>(3 * k, 3 * k) = compliance[static_cast<size_t>(k)] / bh2;
+    woodbury_c_.block<3, 3>(3 * k, 3 * k) =
+        to_factorized * compliance[static_cast<size_t>(k)] * to_factorized.transpose() / bh2;
     woodbury_g_.segment<3>(3 * k) = x.segment<3>(n + system_.interface_points[static_cast<size_t>(k)].first_row);
   }
   const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(3 * points, 3 * points) - woodbury_w_ * woodbury_c_;
@@ -248,20 +241,12 @@ Eigen::Matrix3d CgAlpha::InterfaceResponse(int k, double h) {
   // A change δx of the imposed position changes the rows' residual by −δx, so the Newton
   // correction is J⁻¹ [0; δx e_rows] and λ moves by its multiplier part / βh² — with J the
   // smooth model's own matrix (the peers' compliance not in it).
-  const int n = system_.coordinates;
-  const int row = system_.interface_points[static_cast<size_t>(k)].first_row;
   const double bh2 = coef_.beta * h * h;
-  if (woodbury_) return woodbury_w_.block<3, 3>(3 * k, 3 * k) / bh2;
-  // The compliance C_f is in the matrix: D_c = (I − D C_f)⁻¹ D, so D = D_c (I + C_f D_c)⁻¹.
-  Eigen::Matrix3d response;
-  for (int j = 0; j < 3; ++j) {
-    delta_.setZero();
-    delta_(n + row + j) = 1.0;
-    SolveAt(delta_, state_.q);
-    response.col(j) = delta_.segment<3>(n + row) / bh2;
-  }
-  const Eigen::Matrix3d& c = factorized_compliance_[static_cast<size_t>(k)];
-  return response * (Eigen::Matrix3d::Identity() + c * response).inverse();
+  // Co-rotated reuse: Pₖᵀ T J₀⁻¹ Tᵀ Pₖ = R Wₖ Rᵀ with R from the factorised axes to the state's.
+  const Eigen::Matrix3d R = settings_.frame_body >= 0
+                                ? Eigen::Matrix3d(FrameAxes(state_.q) * factorized_axes_.transpose())
+                                : Eigen::Matrix3d::Identity();
+  return R * woodbury_w_.block<3, 3>(3 * k, 3 * k) * R.transpose() / bh2;
 }
 
 void CgAlpha::ConstraintRows(double t1, bool phi_known) {
@@ -376,16 +361,6 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
   if (guess != nullptr) next_ = *guess;  // assignments of equal sizes: no allocation
 
-  // With the peers' compliance in the matrix (co-rotated reuse), a matrix whose compliance is far
-  // from today's (a contact opened or closed: the normal compliance between h²θ/m and 0) would
-  // make the modified Newton crawl through the tie.
-  if (!woodbury_ && factorized_) {
-    const std::vector<Eigen::Matrix3d>& now = system_.data().interface_compliance;
-    for (size_t k = 0; k < now.size(); ++k) {
-      const double size = std::max(now[k].norm(), factorized_compliance_[k].norm());
-      if (size > 0.0 && (now[k] - factorized_compliance_[k]).norm() > 0.25 * size) factorized_ = false;
-    }
-  }
   // Same h up to the round-off of t_{k+1} − t_k on the run's time grid.
   const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && std::abs(h - h_factorized_) <= 1e-9 * h &&
                      age_ < settings_.jacobian_max_age;
@@ -424,7 +399,7 @@ void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) { SolveAt(x, next_.q); }
 void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
   if (settings_.frame_body < 0) {
     lu_.SolveInPlace(x);
-    if (woodbury_) AddComplianceCorrection(x);
+    if (woodbury_) AddComplianceCorrection(x, Eigen::Matrix3d::Identity());
     return;
   }
   // x = T S₀⁻¹ Tᵀ x with T = R on every coordinate triple and multiplier triple, R = F F₀ᵀ.
@@ -436,6 +411,7 @@ void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
   };
   rotate(R.transpose());
   lu_.SolveInPlace(x);
+  if (woodbury_) AddComplianceCorrection(x, R.transpose());
   rotate(R);
 }
 

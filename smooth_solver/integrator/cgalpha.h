@@ -93,7 +93,8 @@ struct CgAlphaSettings {
   // factorised when the body's axes were F₀ then serves the state with axes F as
   // x = T S₀⁻¹ Tᵀ b, R = F F₀ᵀ: in absolute coordinates a blade's stiff axial modes turn with it,
   // and an unrotated matrix stops contracting once the hub has turned by about the ratio of its
-  // bending to axial stiffness (1e-3 rad on the four-blade hub of elastic_benchmark).
+  // bending to axial stiffness (1e-3 rad on the four-blade hub of elastic_benchmark). The peers'
+  // compliance on coupling interface rows stays out of the matrix (Woodbury, in its axes).
   int frame_body = -1;
 };
 
@@ -222,14 +223,13 @@ class CgAlpha : public SmoothIntegrator {
   void Solve(Eigen::Ref<Eigen::VectorXd> x);
   // The peers' compliance on the interface rows without factorising it (docs/protocol.md,
   // "Interface Jacobians"): Woodbury's identity over the 3 × points interface columns
-  // J⁻¹P = Y, W = PᵀY, made once per factorisation. Not with co-rotated reuse (frame_body), whose
-  // matrix holds the compliance instead (factorized_compliance_: the one it holds).
+  // J⁻¹P = Y, W = PᵀY, made once per factorisation (in the factorised axes with co-rotated
+  // reuse; `to_factorized` turns today's compliance into them).
   void FactorizeInterfaceColumns();
-  void AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x);
+  void AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Matrix3d& to_factorized);
   bool woodbury_ = false;
   Eigen::MatrixXd woodbury_y_, woodbury_w_, woodbury_c_;
   Eigen::VectorXd woodbury_g_;
-  std::vector<Eigen::Matrix3d> factorized_compliance_;
   void SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q);  // co-rotated to q's frame axes
   Eigen::Matrix3d FrameAxes(const Eigen::VectorXd& q) const;
   Eigen::Matrix3d factorized_axes_ = Eigen::Matrix3d::Identity();

@@ -42,6 +42,7 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
     blocks->assign(points, Eigen::Matrix3d::Zero());
   }
   applied_ = sent_position_ = accepted_position_ = accepted_velocity_ = accepted_acceleration_ = x_;
+  accepted_offset_ = previous_accepted_position_ = previous_accepted_velocity_ = x_;
   sent_frames_.resize(peers_.size());
   contact_.assign(points, false);
   was_contact_ = contact_;
@@ -466,6 +467,21 @@ void Coordinator::Linearise(double t, double h) {
     velocity_(v) = accepted_velocity_(v) + h * accepted_acceleration_(v);
     position_(v) = accepted_position_(v) + h * accepted_velocity_(v) + 0.5 * h * h * accepted_acceleration_(v);
   }
+  // (Equal steps up to the round-off of t_{k+1} − t_k on the run's time grid, 1e-15 relative.)
+  if (offset_known_ && std::abs(h - accepted_h_) <= 1e-9 * h && std::abs(h - previous_accepted_h_) <= 1e-9 * h) {
+    // The peers' last law k = a_n + S x carried one step on: a_{n+1} = a_n + (k_n − k_{n−1}) +
+    // h (v_n − v_{n−1}). For a free node under a constant force (Moreau–Jean, θ-method:
+    // k_{n+1} = k_n + h v_n + S (f + x), S = h²θ/m) it is the law the peer will step with, exactly;
+    // the pre-solve is then the coupled step, which the peers' answer confirms (LinearisationAgrees).
+    // A node on its obstacle: second order in the obstacle's motion, as the Taylor predictor above.
+    for (size_t k = 0; k < sensitivity_.size(); ++k) {
+      const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+      position_.segment<3>(o) = accepted_offset_.segment<3>(o) +
+                                (accepted_position_.segment<3>(o) - previous_accepted_position_.segment<3>(o)) +
+                                h * (accepted_velocity_.segment<3>(o) - previous_accepted_velocity_.segment<3>(o)) +
+                                sensitivity_[k] * x_.segment<3>(o);
+    }
+  }
   applied_ = x_;
   integrator_->Restore(start_);
   ImposeModel(h);
@@ -492,6 +508,26 @@ void Coordinator::LineariseAtSolve(double h) {
   }
   x_ = x_tilde_;
   UpdateStiffness(h);
+}
+
+bool Coordinator::LinearisationAgrees(CouplingIterationRecord* record) const {
+  // The pre-solve's force x̂ (x_) and kinematics k̂ (sent_position_) against the peers' answer:
+  // the force they held x̃ (applied_) and their nodes' positions k̃ (position_). Within the
+  // tolerances of JacobianConverged, both sides hold a solution of the coupled step: the smooth
+  // side's with the interface at k̂, the peers' at k̃ under x̃ = x̂ + E (k̃ − k̂).
+  const double scale = std::max(1.0, n_ > 0 ? x_.lpNorm<Eigen::Infinity>() : 0.0);
+  record->reaction_residual = n_ > 0 ? (x_ - applied_).lpNorm<Eigen::Infinity>() : 0.0;
+  double mismatch = FrameDrift(iterate_);
+  bool forces_agree = true;
+  for (size_t k = 0; k < stiffness_.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    mismatch = std::max(mismatch, (position_.segment<3>(o) - sent_position_.segment<3>(o)).lpNorm<Eigen::Infinity>());
+    const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
+    forces_agree = forces_agree && (x_.segment<3>(o) - applied_.segment<3>(o)).lpNorm<Eigen::Infinity>() <=
+                                       std::max(settings_.reaction_tolerance * scale, floor);
+  }
+  record->displacement_change = mismatch;
+  return forces_agree && mismatch <= settings_.displacement_tolerance;
 }
 
 bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
@@ -575,6 +611,29 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   const bool free_flight = !jacobians_ && settings_.free_flight_margin > 0.0 && !in_contact_ &&
                            time_to_contact_ > settings_.free_flight_margin * h;
   int iteration = 0, backtracks = 0;
+  if (jacobians_ && iterate_solved_ && settings_.accept_agreeing_linearisation) {
+    CouplingIterationRecord record;
+    record.step = step_;
+    record.iteration = 0;
+    if (LinearisationAgrees(&record)) {
+      // The pre-solve stands (the integrator holds it): only the imposed rates, which the next
+      // step starts from, become the peers' answer.
+      for (Eigen::Index v = 0; v < n_; ++v) {
+        ImposedCoordinate& c = data_->imposed[static_cast<size_t>(v)];
+        c.rate = velocity_(v);
+        c.acceleration = (velocity_(v) - start_velocity_(v)) / h;
+      }
+      ++linearisation_accepted_;
+      log_.push_back(record);
+      last_iteration_ = 0;
+      result.converged = true;
+      result.iterations = 1;
+      result.impact = !Impacts().empty();
+      result.contact = in_contact_;
+      result.time_to_contact = time_to_contact_;
+      return result;
+    }
+  }
   for (;; ++iteration) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
     if (jacobians_) {
@@ -673,6 +732,15 @@ void Coordinator::Accept(double t, double h) {
   const std::vector<int> impacts = Impacts();
   accepted_acceleration_ = (velocity_ - accepted_velocity_) / h;
   for (int k : impacts) accepted_acceleration_.segment<3>(3 * k).setZero();
+  // The peers' law of this step, k = a + S x (a = k̃ − S x̃), and the motion before it.
+  previous_accepted_position_ = accepted_position_;
+  previous_accepted_velocity_ = accepted_velocity_;
+  previous_accepted_h_ = accepted_h_;
+  offset_known_ = jacobians_ && accepted_steps_ >= 1 && impacts.empty();
+  for (size_t k = 0; k < sensitivity_.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    accepted_offset_.segment<3>(o) = position_.segment<3>(o) - sensitivity_[k] * applied_.segment<3>(o);
+  }
   accepted_position_ = position_;
   accepted_velocity_ = velocity_;
   accepted_h_ = h;
@@ -700,6 +768,7 @@ void Coordinator::Accept(double t, double h) {
     RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
     for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
     accepted_steps_ = 0;
+    offset_known_ = false;
     relaxation_.Forget();  // nor do the secants of the interface map before it
   }
   was_contact_ = contact_;

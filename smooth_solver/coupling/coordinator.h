@@ -55,6 +55,10 @@ struct CouplingSettings {
   // which the smooth step takes as a compliance on the interface rows (a Newton iteration on
   // the interface). false: the relaxation above with every peer.
   bool interface_jacobians = true;
+  // Interface Jacobians: a step whose peers' first answer agrees with the linearising pre-solve
+  // is accepted on it, without a second smooth solve (scenario.proto,
+  // CouplingIteration.accept_agreeing_linearisation).
+  bool accept_agreeing_linearisation = true;
   // > 0: a step whose peers report no contact within this many steps of its end is accepted
   // after its first iteration if the reaction residual meets the tolerance (scenario.proto,
   // CouplingIteration.free_flight_margin); 0: always confirm with a second iteration.
@@ -121,6 +125,8 @@ class Coordinator {
   long long backtracks() const { return backtracks_; }
   // Steps whose linearising pre-solve failed and that took the predictions as the point instead.
   long long linearisation_fallbacks() const { return linearisation_fallbacks_; }
+  // Steps accepted on the linearising pre-solve: the peers' answer agreed with it (no second solve).
+  long long linearisation_accepted() const { return linearisation_accepted_; }
   // Whether the steps iterate with interface Jacobians (every peer offered them).
   bool interface_jacobians() const { return jacobians_; }
   // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
@@ -181,6 +187,9 @@ class Coordinator {
   void Linearise(double t, double h);
   // The point sent next (x̂, k̂) from the last solve, and the stiffness E there.
   void LineariseAtSolve(double h);
+  // Whether the peers' first answer agrees with the pre-solve (x̂, k̂) within the coupling
+  // tolerances, so that it is the step's coupled solution as it stands (filling the record).
+  bool LinearisationAgrees(CouplingIterationRecord* record) const;
 
   const MultibodySystem& system_;
   SystemData* data_;
@@ -224,7 +233,12 @@ class Coordinator {
   std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_;
   Eigen::VectorXd applied_, sent_position_;
   Eigen::VectorXd accepted_position_, accepted_velocity_, accepted_acceleration_;
-  long long linearisation_fallbacks_ = 0;
+  // The peers' affine law at the last accepted step, k = a + S x (a: accepted_offset_), and the
+  // nodes' motion the step before it, for the next step's predicted law (Linearise).
+  Eigen::VectorXd accepted_offset_, previous_accepted_position_, previous_accepted_velocity_;
+  double previous_accepted_h_ = 0.0;
+  bool offset_known_ = false;  // accepted_offset_ and the previous step's motion hold for this law
+  long long linearisation_fallbacks_ = 0, linearisation_accepted_ = 0;
   long long response_factorizations_ = -1;
   double response_h_ = 0.0;
   // The moving obstacles' frames the peers stepped with (origin, rotation), peer by peer.

@@ -135,6 +135,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   settings.restart_at_impact = it.restart_at_impact();
   settings.warm_start = it.warm_start();
   settings.interface_jacobians = it.interface_jacobians();
+  settings.accept_agreeing_linearisation = it.accept_agreeing_linearisation();
   settings.free_flight_margin = it.free_flight_margin();
   if (!(settings.free_flight_margin >= 0.0) || !std::isfinite(settings.free_flight_margin)) {
     checks.Fail("coupling.iteration.free_flight_margin",
@@ -228,6 +229,8 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
   summary->mutable_counters()->insert({"coupling_backtracks", static_cast<double>(coordinator_->backtracks())});
   summary->mutable_counters()->insert(
       {"coupling_linearisation_fallbacks", static_cast<double>(coordinator_->linearisation_fallbacks())});
+  summary->mutable_counters()->insert(
+      {"coupling_steps_on_linearisation", static_cast<double>(coordinator_->linearisation_accepted())});
   summary->mutable_counters()->insert(
       {"coupling_interface_jacobians", coordinator_->interface_jacobians() ? 1.0 : 0.0});
 }

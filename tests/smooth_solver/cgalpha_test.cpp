@@ -1,13 +1,13 @@
 // CGα on rigid multibody systems in natural coordinates: exact Jacobians, the CGα paper's
 // four-bar (period, Table 5), second-order convergence, energy with ρ∞ = 1, loop closure.
-#include <filesystem>
-#include <tuple>
 #include "smooth_solver/integrator/cgalpha.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <numbers>
+#include <tuple>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -88,8 +88,8 @@ TEST(FourBar, InitialStateClosesTheLoopKeepingTheCrank) {
   const MultibodySystem& sys = sim->system();
   const DaeState& s = sim->integrator().state();
   EXPECT_LT(sim->integrator().ConstraintViolation(0.0), 1e-12);
-  EXPECT_NEAR(sys.JointCoordinate(0, s.q), 0.0, 1e-12);     // crank angle kept (relative to the given π/2)
-  EXPECT_NEAR(sys.JointRate(0, s.q, s.qdot), 1.0, 1e-12);   // crank speed kept
+  EXPECT_NEAR(sys.JointCoordinate(0, s.q), 0.0, 1e-12);    // crank angle kept (relative to the given π/2)
+  EXPECT_NEAR(sys.JointRate(0, s.q, s.qdot), 1.0, 1e-12);  // crank speed kept
   // O3 = rocker centre + 0.3 × rocker axis u.
   const Eigen::Vector3d o3 = s.q.segment<3>(24) + 0.3 * s.q.segment<3>(27);
   EXPECT_NEAR(o3.x(), 0.9544812636964639, 1e-9);
@@ -215,7 +215,8 @@ TEST(FourBar, ALoopThatCannotCloseIsRefused) {
   // A coupler of 0.2 m cannot bridge the crank tip and the rocker's reach: no configuration
   // satisfies the constraints, and KINSOL's failure is reported as bad input.
   try {
-    Load(kFourBar, {"model.joints[crank_coupler].point2=[-0.1, 0, 0]", "model.joints[coupler_rocker].point1=[0.1, 0, 0]"});
+    Load(kFourBar,
+         {"model.joints[crank_coupler].point2=[-0.1, 0, 0]", "model.joints[coupler_rocker].point1=[0.1, 0, 0]"});
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot be closed"), std::string::npos) << e.what();
@@ -254,9 +255,10 @@ TEST(JacobianReuse, SameAnswerToTheNewtonToleranceWithFewerFactorisations) {
   const double dq = (cg_full.state().q - cg_reused.state().q).lpNorm<Eigen::Infinity>();
   const double dlambda = (cg_full.state().lambda - cg_reused.state().lambda).lpNorm<Eigen::Infinity>() /
                          cg_full.state().lambda.lpNorm<Eigen::Infinity>();
-  std::printf("Jacobian reuse, four-bar 1 s: factorisations %lld → %lld, iterations %lld → %lld, |Δq|∞ %.2e, "
-              "|Δλ|∞/|λ|∞ %.2e\n", cg_full.factorizations(), cg_reused.factorizations(), full_iterations,
-              reused_iterations, dq, dlambda);
+  std::printf(
+      "Jacobian reuse, four-bar 1 s: factorisations %lld → %lld, iterations %lld → %lld, |Δq|∞ %.2e, "
+      "|Δλ|∞/|λ|∞ %.2e\n",
+      cg_full.factorizations(), cg_reused.factorizations(), full_iterations, reused_iterations, dq, dlambda);
   EXPECT_EQ(cg_full.factorizations(), full_iterations);  // full Newton: one per iteration
   EXPECT_LT(dq, 1e-7);
   EXPECT_LT(dlambda, 1e-5);
@@ -511,8 +513,10 @@ numerics { end_time: 0.5 step: 1e-3 smooth { rho_inf: 0.6 } }
   for (int k = 0; k < 500; ++k) sim.Step(k * h, h);
   const DaeState& s = sim.integrator().state();
   const double push = sys.JointReactionForce(2, s.q, s.lambda, 0.5).y();
-  std::printf("propped arm at 0.5 s: actuator extension %.3e m from the closure's, arm angle %.2e rad, push %.6f N "
-              "(statics %.6f N)\n", sys.JointCoordinate(2, s.q) - 0.2, sys.JointCoordinate(0, s.q), push, 0.55 * 9.81);
+  std::printf(
+      "propped arm at 0.5 s: actuator extension %.3e m from the closure's, arm angle %.2e rad, push %.6f N "
+      "(statics %.6f N)\n",
+      sys.JointCoordinate(2, s.q) - 0.2, sys.JointCoordinate(0, s.q), push, 0.55 * 9.81);
   EXPECT_NEAR(sys.JointCoordinate(2, s.q), 0.2, 1e-9);  // held where the closure put it
   EXPECT_NEAR(sys.JointCoordinate(0, s.q), 0.0, 1e-9);  // the strut holds the released arm up
   EXPECT_NEAR(push, 0.55 * 9.81, 1e-6);
@@ -559,15 +563,19 @@ TEST(Restart, ARunFromASavedStateContinuesTheTrajectory) {
   const double a_whole = angle_at(whole, 0.0, 2.0, h);
   MultibodySimulation fine(interface::ScenarioFile::Load(pendulum, spin));
   const double a_fine = angle_at(fine, 0.0, 2.0, 1e-5);
-  std::printf("restart at 0.5 s: angle at 2 s %.9f (restarted) %.9f (whole run) %.9f (h = 1e-5)\n", a_restarted, a_whole,
-              a_fine);
+  std::printf("restart at 0.5 s: angle at 2 s %.9f (restarted) %.9f (whole run) %.9f (h = 1e-5)\n", a_restarted,
+              a_whole, a_fine);
   EXPECT_LT(std::abs(a_restarted - a_whole), 2.0 * std::abs(a_whole - a_fine));
   EXPECT_GT(std::abs(a_whole - a_fine), 0.0);
   // Bad restarts: another time, another scene.
-  for (const auto& [scene, sets, expected] : std::vector<std::tuple<std::string, std::vector<std::string>, std::string>>{
-           {pendulum, {"numerics.start_time=0.4", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "start_time"},
+  for (const auto& [scene, sets, expected] :
+       std::vector<std::tuple<std::string, std::vector<std::string>, std::string>>{
+           {pendulum,
+            {"numerics.start_time=0.4", "numerics.initial_state=\"" + folder + "/final_state.pb\""},
+            "start_time"},
            {std::string(COSIM_SOURCE_DIR) + "/scenarios/four_bar.pbtxt",
-            {"numerics.start_time=0.5", "numerics.initial_state=\"" + folder + "/final_state.pb\""}, "scenario 'rigid_pendulum'"},
+            {"numerics.start_time=0.5", "numerics.initial_state=\"" + folder + "/final_state.pb\""},
+            "scenario 'rigid_pendulum'"},
            {pendulum, {"numerics.initial_state=\"" + folder + "/missing.pb\""}, "not a readable"}}) {
     try {
       MultibodySimulation bad(interface::ScenarioFile::Load(scene, sets));
@@ -597,7 +605,8 @@ std::pair<double, double> MeanEnergies(double h, double rho, double* worst_viola
     const double e = energy();
     sum[k < steps / 2 ? 0 : 1] += e - e0;
     *band = std::max(*band, std::abs(e - e0) / e0);
-    *worst_violation = std::max(*worst_violation, sim->integrator().ConstraintViolation(static_cast<double>(k + 1) * h));
+    *worst_violation =
+        std::max(*worst_violation, sim->integrator().ConstraintViolation(static_cast<double>(k + 1) * h));
   }
   const double half = static_cast<double>(steps / 2);
   return {sum[0] / half, sum[1] / half};

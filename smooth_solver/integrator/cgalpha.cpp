@@ -199,14 +199,12 @@ void CgAlpha::FactorizeInterfaceColumns() {
   const int points = static_cast<int>(system_.interface_points.size());
   woodbury_y_.resize(n + m, 3 * points);
   woodbury_w_.resize(3 * points, 3 * points);
+  woodbury_y_.setZero();
   for (int k = 0; k < points; ++k) {
-    for (int j = 0; j < 3; ++j) {
-      auto column = woodbury_y_.col(3 * k + j);
-      column.setZero();
-      column(n + system_.interface_points[static_cast<size_t>(k)].first_row + j) = 1.0;
-      lu_.SolveInPlace(column);
-    }
+    for (int j = 0; j < 3; ++j)
+      woodbury_y_(n + system_.interface_points[static_cast<size_t>(k)].first_row + j, 3 * k + j) = 1.0;
   }
+  lu_.SolveInPlace(woodbury_y_);  // all columns in one pass over the factors
   for (int k = 0; k < points; ++k) {
     woodbury_w_.middleRows(3 * k, 3) =
         woodbury_y_.middleRows(n + system_.interface_points[static_cast<size_t>(k)].first_row, 3);

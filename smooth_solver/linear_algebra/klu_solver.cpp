@@ -26,8 +26,8 @@ void KluSolver::Analyze(const Eigen::SparseMatrix<double>& A) {
   if (impl_->numeric != nullptr) klu_free_numeric(&impl_->numeric, &impl_->common);
   if (impl_->symbolic != nullptr) klu_free_symbolic(&impl_->symbolic, &impl_->common);
   impl_->n = static_cast<int>(A.rows());
-  impl_->symbolic = klu_analyze(impl_->n, const_cast<int*>(A.outerIndexPtr()), const_cast<int*>(A.innerIndexPtr()),
-                                &impl_->common);
+  impl_->symbolic =
+      klu_analyze(impl_->n, const_cast<int*>(A.outerIndexPtr()), const_cast<int*>(A.innerIndexPtr()), &impl_->common);
   COSIM_ASSERT(impl_->symbolic != nullptr, "klu_analyze failed");
 }
 
@@ -52,6 +52,12 @@ bool KluSolver::Factorize(const Eigen::SparseMatrix<double>& A) {
 
 void KluSolver::SolveInPlace(Eigen::Ref<Eigen::VectorXd> b) {
   klu_solve(impl_->symbolic, impl_->numeric, impl_->n, 1, b.data(), &impl_->common);
+}
+
+void KluSolver::SolveInPlace(Eigen::MatrixXd& b) {
+  COSIM_ASSERT(b.rows() == impl_->n, "KluSolver::SolveInPlace: right-hand sides of the wrong size");
+  if (b.cols() == 0) return;
+  klu_solve(impl_->symbolic, impl_->numeric, impl_->n, static_cast<int>(b.cols()), b.data(), &impl_->common);
 }
 
 }  // namespace cosim::smooth

@@ -22,6 +22,9 @@ class KluSolver {
   bool Factorize(const Eigen::SparseMatrix<double>& A);
   // Solves A x = b in place.
   void SolveInPlace(Eigen::Ref<Eigen::VectorXd> b);
+  // Solves A X = B for the columns of B in place, in one pass over the factors (KLU takes the
+  // right-hand sides four at a time: the factors are read once for every four columns).
+  void SolveInPlace(Eigen::MatrixXd& b);
   long full_factorizations() const { return full_; }
   long refactorizations() const { return refactor_; }
 

@@ -12,6 +12,7 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/klu_solver.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 
 namespace cosim::smooth {
@@ -30,6 +31,43 @@ class DenseCollector : public SparseSink {
   void Add(int row, int column, double value) override { m(row, column) += value; }
   Eigen::MatrixXd m;
 };
+
+TEST(KluSolver, SeveralRightHandSidesInOnePassAreTheSingleSolves) {
+  // The interface columns of Woodbury's identity (CgAlpha::FactorizeInterfaceColumns) are
+  // solved in one klu_solve call over 12 columns (KLU takes them four at a time): each column
+  // must be what a solve of its own gives, and solve the system. A nonsymmetric 50 × 50 matrix
+  // with a zero diagonal block (a saddle point, as the Newton matrices: pivoting needed).
+  const int n = 50, m = 10;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int i = 0; i < n - m; ++i) {
+    entries.emplace_back(i, i, 4.0 + 0.1 * i);
+    if (i + 1 < n - m) entries.emplace_back(i, i + 1, -1.0 - 0.01 * i);
+    if (i > 0) entries.emplace_back(i, i - 1, -0.5);
+  }
+  for (int r = 0; r < m; ++r) {  // constraint rows and their transposes, no diagonal
+    entries.emplace_back(n - m + r, 3 * r, 1.0);
+    entries.emplace_back(3 * r, n - m + r, 1.0);
+    entries.emplace_back(n - m + r, 3 * r + 1, 0.5);
+    entries.emplace_back(3 * r + 1, n - m + r, 0.5);
+  }
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  A.makeCompressed();
+  KluSolver lu;
+  lu.Analyze(A);
+  ASSERT_TRUE(lu.Factorize(A));
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n, 12);
+  for (int j = 0; j < 12; ++j) B(n - 1 - j, j) = 1.0 + j;
+  B.col(5).setLinSpaced(-1.0, 2.0);
+  Eigen::MatrixXd X = B;
+  lu.SolveInPlace(X);
+  for (int j = 0; j < 12; ++j) {
+    Eigen::VectorXd x = B.col(j);
+    lu.SolveInPlace(x);
+    EXPECT_LE((X.col(j) - x).lpNorm<Eigen::Infinity>(), 1e-14 * x.lpNorm<Eigen::Infinity>()) << "column " << j;
+    EXPECT_LE((A * X.col(j) - B.col(j)).lpNorm<Eigen::Infinity>(), 1e-12) << "column " << j;
+  }
+}
 
 TEST(Constraints, JacobianAndHessianMatchFiniteDifferences) {
   // Φ_q and Σλ_i ∂²φ_i/∂q² are exact (the constraints are bilinear in q); central differences

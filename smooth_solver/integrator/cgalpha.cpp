@@ -493,7 +493,14 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
           std::min(std::isfinite(previous_dq) ? dq_norm / previous_dq : settings_.reuse_contraction, 0.9);
       accurate = rho / (1.0 - rho) * dq_norm <= kReusedErrorShare * dq_tolerance;
     }
-    if (dq_norm <= dq_tolerance && accurate && phi_norm <= settings_.tolerance) return true;
+    if (dq_norm <= dq_tolerance && accurate && phi_norm <= settings_.tolerance) {
+      // Only a finite iterate is a solution: the multipliers are not in the test above, and a
+      // reused matrix far from today's can leave them non-finite with a small |Δq| (observed:
+      // the continuous Puma engagement at h = 2 ms, jacobian_max_age 80, the watchdog at 26.4 s).
+      if (next_.lambda.allFinite() && next_.qdot.allFinite() && next_.qddot.allFinite()) return true;
+      failure_ = "CGα: Newton reached non-finite multipliers or rates at t = " + interface::FormatNumber(t1) + " s";
+      return false;
+    }
     // A reused matrix that no longer contracts the correction well is replaced by a fresh one
     // for the rest of the step (full Newton from here).
     if (matrices != Matrices::kFreshEach && dq_norm > settings_.reuse_contraction * previous_dq) {

@@ -579,6 +579,22 @@ TEST(Hardening, AContactProcessUnderTheLauncherWaitsForAHelloAsLongAsItTakes) {
   EXPECT_NE(Slurp(dir / "by_hand.txt").find("no message from"), std::string::npos) << Slurp(dir / "by_hand.txt");
 }
 
+TEST(Hardening, ANewtonIterateWithNonFiniteMultipliersIsNotAStepsSolution) {
+  // Found measuring issue 31's levers: the continuous Puma engagement at h = 2 ms with its
+  // matrix reused over up to 80 steps ended with exit 3 at 26.408 s, "watchdog: non-finite
+  // multipliers": Newton's test (|Δq| and |Φ|) had accepted an iterate of the stale matrix whose
+  // multipliers were no longer finite. Such an iterate is now a failed solve, which the step
+  // redoes with fresh matrices; the run ends at its end time (14.8 s of wall for 50 s here).
+  const fs::path out = TempDir("stale_matrix_multipliers");
+  const Result r = Launch(kScenarios + "/puma/engage_disengage_continuous.pbtxt --out " + out.string() +
+                          " --set numerics.end_time=26.5 --set numerics.step=2e-3 --set output.every=25"
+                          " --set numerics.smooth.jacobian_max_age=80");
+  EXPECT_EQ(r.code, 0) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.exit_code(), 0) << s.reason();
+  EXPECT_NEAR(s.simulated_time(), 26.5, 1e-9);
+}
+
 TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
   // Issue 32, item 4: SIGTERM to `cosim run` while smooth_solver built a large model (the Puma
   // gust with many blades): the launcher killed it after the grace period and its summary had

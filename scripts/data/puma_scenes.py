@@ -248,7 +248,7 @@ patterns {{
 }}
 {COUPLING_ITERATION if COSIM else ""}
 {STUDY}
-# Numerics (choices, measured in docs/results.md, "The Puma scenes"): h = 1 ms, ten times the
+# Numerics (choices, measured in docs/results.md, "The Puma scenes"): h = 1 ms{' (2 ms here, below)' if not COSIM and not GUST else ''}, ten times the
 # paper's 1e-4 s — the co-simulated impacts need no small step (Moreau–Jean), and the continuous
 # law's contact at K = 1e9 lasts ~20 ms on the droop stop; the Newton matrix is reused over up
 # to 20 steps (and every coupling iteration) while it contracts the corrections 4× or better.
@@ -279,14 +279,22 @@ patterns {{
 # against 127.9 s (2519 factorisations instead of 27 972), and closer to a converged run
 # (h = 0.125 ms, first 12 s): flap 0.0028° against 0.0081°, root shear 85 N against 473 N,
 # flapwise moment 74 against 445 N m (its stricter acceptance of a reused matrix's iterate).
-# Not in the gust (the rotor stands still: 38 % slower, the same error).''')}
+# Not in the gust (the rotor stands still: 38 % slower, the same error).
+# h = 2 ms, the matrix reused over up to 40 steps (issue 31; scripts/cosim study work-precision,
+# each against h = 0.125 ms): 14.8 s for the 50 s, closer than the unrotated 1 ms run the scene
+# had in all four of the study's measures (flap 0.0058° against 0.0081°, contact times exact
+# against 2 ms, peak root shear 11.9 against 48.5 N, flapwise moment 0.80 against 13.5 N m);
+# at age 20 17.1 s and the same errors; at 1 ms (co-rotated) 31.9 s, flap 0.0028°, shear 36 N.
+# (Age 80 ran 14.1 s, flap 0.0061°, but first exposed a Newton test that took non-finite
+# multipliers for converged: mended, docs/design.md.) Output every step: rows every 2 ms, as the
+# co-simulated twin's.''')}
 numerics {{
   end_time: {15 if GUST else 50}
-  step: 1e-3
-  smooth {{ rho_inf: 0.6 jacobian_max_age: 20{'' if COSIM and GUST else ' constraint_form: INDEX3'}{'' if GUST else ' jacobian_frame: "hub"'} }}
+  step: {'2e-3' if not COSIM and not GUST else '1e-3'}
+  smooth {{ rho_inf: 0.6 jacobian_max_age: {40 if not COSIM and not GUST else 20}{'' if COSIM and GUST else ' constraint_form: INDEX3'}{'' if GUST else ' jacobian_frame: "hub"'} }}
 }}
 output {{
-  every: 2
+  every: {1 if not COSIM and not GUST else 2}
   probes {{ name: "hub_speed" quantity: JOINT_SPEED entity: "shaft" }}
   probes {{ name: "thrust" quantity: ROTOR_THRUST entity: "rotor" }}
 }}""")

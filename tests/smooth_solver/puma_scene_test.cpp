@@ -27,7 +27,7 @@ int Column(const MultibodySimulation& sim, const std::string& name) {
 }
 
 TEST(PumaScenes, BladesStartOnTheirDroopStopsAndStayThereAtRest) {
-  // engage_disengage_continuous at t ≤ 0.03 s (Ω < 1e-4 rad/s, the scene's 1 ms steps): each blade drawn drooped reads
+  // engage_disengage_continuous at t ≤ 0.03 s (Ω < 1e-4 rad/s, in 1 ms steps): each blade drawn drooped reads
   // −10° on its flap hinge and settles a few thousandths of a degree into the stop under its
   // weight (2.4 kN m against K = 1e9 N m/rad^1.5: δ ≈ 3e-5 rad static, plus the elastic blade's
   // response to gravity applied at t = 0); the pitch-link loop closes (no initial correction).

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/integration/launch.h"
@@ -488,6 +489,22 @@ TEST(CoupledStep, NewtonFromTheLastCouplingIterateGivesTheSameRunWithFewerIterat
   EXPECT_LT(speed, 2e-5);
 }
 
+// The largest differences of the four Puma blades' flap angles [deg] and tip heights [m] between
+// two histories on the same rows.
+std::pair<double, double> PumaBladesApart(const Table& ta, const Table& tb) {
+  double flap = 0.0, tip = 0.0;
+  for (int k = 1; k <= 4; ++k) {
+    const std::string blade = "blade" + std::to_string(k);
+    const auto fa = ta.Column(blade + "_flap"), fb = tb.Column(blade + "_flap");
+    const auto za = ta.Column(blade + "_tip_z"), zb = tb.Column(blade + "_tip_z");
+    for (size_t i = 0; i < fa.size(); ++i) {
+      flap = std::max(flap, std::abs(fa[i] - fb[i]));
+      tip = std::max(tip, std::abs(za[i] - zb[i]));
+    }
+  }
+  return {flap, tip};
+}
+
 TEST(CoupledStep, ThePumaSpinUpReusesItsMatrixCoRotatedWithThePeersComplianceBesideIt) {
   // Issue 31: the co-simulated engagement's Newton matrix, reused as it was (not co-rotated),
   // stopped contracting once the hub had turned a milliradian (the whole run: 330 s); reused
@@ -513,16 +530,7 @@ TEST(CoupledStep, ThePumaSpinUpReusesItsMatrixCoRotatedWithThePeersComplianceBes
   const double fresh = a.counters().at("newton_factorizations"), plain = b.counters().at("newton_factorizations");
   const Table ta = ReadTable(co_rotated / "history.csv"), tb = ReadTable(unrotated / "history.csv");
   ASSERT_EQ(ta.size(), tb.size());
-  double flap = 0.0, tip = 0.0;
-  for (int k = 1; k <= 4; ++k) {
-    const std::string blade = "blade" + std::to_string(k);
-    const auto fa = ta.Column(blade + "_flap"), fb = tb.Column(blade + "_flap");
-    const auto za = ta.Column(blade + "_tip_z"), zb = tb.Column(blade + "_tip_z");
-    for (size_t i = 0; i < fa.size(); ++i) {
-      flap = std::max(flap, std::abs(fa[i] - fb[i]));
-      tip = std::max(tip, std::abs(za[i] - zb[i]));
-    }
-  }
+  const auto [flap, tip] = PumaBladesApart(ta, tb);
   std::printf(
       "Puma co-simulated spin-up, 2.5 s: %.0f factorisations co-rotated, %.0f unrotated; %.4f and %.4f exchanges a "
       "step; blades apart by %.2e° flap, %.2e m tip\n",
@@ -553,16 +561,7 @@ TEST(CoupledStep, AFreeFlyingPumaStepIsAcceptedOnItsLinearisingPreSolve) {
   const cosim::run::RunSummary a = ReadSummary(once), b = ReadSummary(twice);
   const Table ta = ReadTable(once / "history.csv"), tb = ReadTable(twice / "history.csv");
   ASSERT_EQ(ta.size(), tb.size());
-  double flap = 0.0, tip = 0.0;
-  for (int k = 1; k <= 4; ++k) {
-    const std::string blade = "blade" + std::to_string(k);
-    const auto fa = ta.Column(blade + "_flap"), fb = tb.Column(blade + "_flap");
-    const auto za = ta.Column(blade + "_tip_z"), zb = tb.Column(blade + "_tip_z");
-    for (size_t i = 0; i < fa.size(); ++i) {
-      flap = std::max(flap, std::abs(fa[i] - fb[i]));
-      tip = std::max(tip, std::abs(za[i] - zb[i]));
-    }
-  }
+  const auto [flap, tip] = PumaBladesApart(ta, tb);
   const double accepted = a.counters().at("coupling_steps_on_linearisation");
   std::printf(
       "Puma co-simulated spin-up, 2.5 s: %.0f of %lld steps on the pre-solve; Newton iterations %lld against %lld; "

@@ -515,19 +515,29 @@ bool Coordinator::LinearisationAgrees(CouplingIterationRecord* record) const {
   // the force they held x̃ (applied_) and their nodes' positions k̃ (position_). Within the
   // tolerances of JacobianConverged, both sides hold a solution of the coupled step: the smooth
   // side's with the interface at k̂, the peers' at k̃ under x̃ = x̂ + E (k̃ − k̂).
-  const double scale = std::max(1.0, n_ > 0 ? x_.lpNorm<Eigen::Infinity>() : 0.0);
   record->reaction_residual = n_ > 0 ? (x_ - applied_).lpNorm<Eigen::Infinity>() : 0.0;
   double mismatch = FrameDrift(iterate_);
-  bool forces_agree = true;
-  for (size_t k = 0; k < stiffness_.size(); ++k) {
+  for (size_t k = 0; k < sensitivity_.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
     mismatch = std::max(mismatch, (position_.segment<3>(o) - sent_position_.segment<3>(o)).lpNorm<Eigen::Infinity>());
-    const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
-    forces_agree = forces_agree && (x_.segment<3>(o) - applied_.segment<3>(o)).lpNorm<Eigen::Infinity>() <=
-                                       std::max(settings_.reaction_tolerance * scale, floor);
   }
   record->displacement_change = mismatch;
-  return forces_agree && mismatch <= settings_.displacement_tolerance;
+  return ForcesAgree(x_) && mismatch <= settings_.displacement_tolerance;
+}
+
+bool Coordinator::ForcesAgree(const Eigen::VectorXd& force) const {
+  // Per node |x − x̃|∞ <= max(reaction_tolerance · max(1 N, |x|∞), ‖E‖ displacement_tolerance),
+  // x̃ the force the peers held (applied_).
+  const double scale = std::max(1.0, n_ > 0 ? force.lpNorm<Eigen::Infinity>() : 0.0);
+  for (size_t k = 0; k < stiffness_.size(); ++k) {
+    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
+    if ((force.segment<3>(o) - applied_.segment<3>(o)).lpNorm<Eigen::Infinity>() >
+        std::max(settings_.reaction_tolerance * scale, floor)) {
+      return false;
+    }
+  }
+  return true;
 }
 
 bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
@@ -538,20 +548,15 @@ bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
   // (‖E‖ displacement_tolerance: 0.2 N for a 2e8 N/m tie at 1e-9 m) is within the kinematic
   // tolerance: a node resting on its stop through a stiff tie has its force only to that (5e-15 m
   // of position round-off is 1e-6 N).
-  const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
   record->reaction_residual = n_ > 0 ? (x_tilde_ - applied_).lpNorm<Eigen::Infinity>() : 0.0;
   double mismatch = FrameDrift(iterate_);
-  bool forces_agree = true;
   for (size_t k = 0; k < sensitivity_.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    const Eigen::Vector3d dx = x_tilde_.segment<3>(o) - applied_.segment<3>(o);
-    mismatch = std::max(mismatch, (sensitivity_[k] * dx).lpNorm<Eigen::Infinity>());
-    const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
-    forces_agree =
-        forces_agree && dx.lpNorm<Eigen::Infinity>() <= std::max(settings_.reaction_tolerance * scale, floor);
+    mismatch = std::max(
+        mismatch, (sensitivity_[k] * (x_tilde_.segment<3>(o) - applied_.segment<3>(o))).lpNorm<Eigen::Infinity>());
   }
   record->displacement_change = mismatch;
-  return forces_agree && record->displacement_change <= settings_.displacement_tolerance;
+  return ForcesAgree(x_tilde_) && mismatch <= settings_.displacement_tolerance;
 }
 
 bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record, bool* skipped) {

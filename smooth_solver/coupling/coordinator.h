@@ -190,6 +190,8 @@ class Coordinator {
   // Whether the peers' first answer agrees with the pre-solve (x̂, k̂) within the coupling
   // tolerances, so that it is the step's coupled solution as it stands (filling the record).
   bool LinearisationAgrees(CouplingIterationRecord* record) const;
+  // The force test of both: `force` within the tolerances of the force the peers held.
+  bool ForcesAgree(const Eigen::VectorXd& force) const;
 
   const MultibodySystem& system_;
   SystemData* data_;

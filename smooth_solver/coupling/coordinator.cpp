@@ -236,9 +236,13 @@ void Coordinator::ReceiveKinematics(int iteration) {
 }
 
 void Coordinator::Impose(double h) {
+  for (Eigen::Index v = 0; v < n_; ++v) data_->imposed[static_cast<size_t>(v)].value = position_(v);
+  ImposeRates(h);
+}
+
+void Coordinator::ImposeRates(double h) {
   for (Eigen::Index v = 0; v < n_; ++v) {
     ImposedCoordinate& c = data_->imposed[static_cast<size_t>(v)];
-    c.value = position_(v);
     c.rate = velocity_(v);
     c.acceleration = (velocity_(v) - start_velocity_(v)) / h;
   }
@@ -386,14 +390,10 @@ void Coordinator::ImposeModel(double h) {
     const Eigen::Matrix3d& S = sensitivity_[k];
     const Eigen::Vector3d value =
         position_.segment<3>(o) + S * (ReactionConstant(static_cast<int>(k)) - applied_.segment<3>(o));
-    for (int j = 0; j < 3; ++j) {
-      ImposedCoordinate& c = data_->imposed[static_cast<size_t>(o + j)];
-      c.value = value(j);
-      c.rate = velocity_(o + j);
-      c.acceleration = (velocity_(o + j) - start_velocity_(o + j)) / h;
-    }
+    for (int j = 0; j < 3; ++j) data_->imposed[static_cast<size_t>(o + j)].value = value(j);
     data_->interface_compliance[k] = kappa * S;
   }
+  ImposeRates(h);
 }
 
 void Coordinator::UpdateStiffness(double h) {
@@ -463,17 +463,13 @@ void Coordinator::Linearise(double t, double h) {
   // and x_ (the reactions predicted); the smooth step solved with the peers' last affine answers
   // about them gives a point (x̂, k̂) of the smooth side's own response, and its matrix the
   // slope E: the peers then solve their contact problems for the linearised coupled pair.
-  for (Eigen::Index v = 0; v < n_; ++v) {
-    velocity_(v) = accepted_velocity_(v) + h * accepted_acceleration_(v);
-    position_(v) = accepted_position_(v) + h * accepted_velocity_(v) + 0.5 * h * h * accepted_acceleration_(v);
-  }
-  // (Equal steps up to the round-off of t_{k+1} − t_k on the run's time grid, 1e-15 relative.)
-  if (offset_known_ && std::abs(h - accepted_h_) <= 1e-9 * h && std::abs(h - previous_accepted_h_) <= 1e-9 * h) {
+  velocity_ = accepted_velocity_ + h * accepted_acceleration_;
+  if (offset_known_ && SameStepLength(h, accepted_h_) && SameStepLength(h, previous_accepted_h_)) {
     // The peers' last law k = a_n + S x carried one step on: a_{n+1} = a_n + (k_n − k_{n−1}) +
     // h (v_n − v_{n−1}). For a free node under a constant force (Moreau–Jean, θ-method:
     // k_{n+1} = k_n + h v_n + S (f + x), S = h²θ/m) it is the law the peer will step with, exactly;
     // the pre-solve is then the coupled step, which the peers' answer confirms (LinearisationAgrees).
-    // A node on its obstacle: second order in the obstacle's motion, as the Taylor predictor above.
+    // A node on its obstacle: second order in the obstacle's motion, as the Taylor predictor below.
     for (size_t k = 0; k < sensitivity_.size(); ++k) {
       const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
       position_.segment<3>(o) = accepted_offset_.segment<3>(o) +
@@ -481,6 +477,8 @@ void Coordinator::Linearise(double t, double h) {
                                 h * (accepted_velocity_.segment<3>(o) - previous_accepted_velocity_.segment<3>(o)) +
                                 sensitivity_[k] * x_.segment<3>(o);
     }
+  } else {
+    position_ = accepted_position_ + h * accepted_velocity_ + 0.5 * h * h * accepted_acceleration_;
   }
   applied_ = x_;
   integrator_->Restore(start_);
@@ -607,6 +605,15 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
     return result;
   };
+  // The step's coupling iterations ended with `last` (converged or not): what the caller needs.
+  auto finished = [&](int last) {
+    last_iteration_ = last;
+    result.iterations = last + 1;
+    result.impact = !Impacts().empty();
+    result.contact = in_contact_;
+    result.time_to_contact = time_to_contact_;
+    return result;
+  };
   if (jacobians_) {
     Linearise(t, h);
     BeginStep(t, h, iterate_);
@@ -623,20 +630,11 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (LinearisationAgrees(&record)) {
       // The pre-solve stands (the integrator holds it): only the imposed rates, which the next
       // step starts from, become the peers' answer.
-      for (Eigen::Index v = 0; v < n_; ++v) {
-        ImposedCoordinate& c = data_->imposed[static_cast<size_t>(v)];
-        c.rate = velocity_(v);
-        c.acceleration = (velocity_(v) - start_velocity_(v)) / h;
-      }
+      ImposeRates(h);
       ++linearisation_accepted_;
       log_.push_back(record);
-      last_iteration_ = 0;
       result.converged = true;
-      result.iterations = 1;
-      result.impact = !Impacts().empty();
-      result.contact = in_contact_;
-      result.time_to_contact = time_to_contact_;
-      return result;
+      return finished(0);
     }
   }
   for (;; ++iteration) {
@@ -722,12 +720,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     previous_position_ = position_;
     Exchange(iteration + 1, integrator_->state());
   }
-  last_iteration_ = iteration;
-  result.iterations = iteration + 1;
-  result.impact = !Impacts().empty();
-  result.contact = in_contact_;
-  result.time_to_contact = time_to_contact_;
-  return result;
+  return finished(iteration);
 }
 
 void Coordinator::Accept(double t, double h) {

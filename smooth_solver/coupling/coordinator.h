@@ -142,6 +142,8 @@ class Coordinator {
 
  private:
   void Impose(double h);  // k → the interface rows' imposed coordinates
+  // ṽ → the interface rows' imposed rates, and their accelerations over the step from its start.
+  void ImposeRates(double h);
   // CGα from `state` at t, its accelerations with the coupling rows of `points` left out.
   void RestartWithCouplingRowsFree(DaeState state, double t, const std::vector<int>& points);
   // The interface points whose node's contact closed in this step (in contact, not in the last

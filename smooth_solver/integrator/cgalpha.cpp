@@ -241,9 +241,7 @@ Eigen::Matrix3d CgAlpha::InterfaceResponse(int k, double h) {
   // smooth model's own matrix (the peers' compliance not in it).
   const double bh2 = coef_.beta * h * h;
   // Co-rotated reuse: Pₖᵀ T J₀⁻¹ Tᵀ Pₖ = R Wₖ Rᵀ with R from the factorised axes to the state's.
-  const Eigen::Matrix3d R = settings_.frame_body >= 0
-                                ? Eigen::Matrix3d(FrameAxes(state_.q) * factorized_axes_.transpose())
-                                : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d R = TurnSinceFactorized(state_.q);
   return R * woodbury_w_.block<3, 3>(3 * k, 3 * k) * R.transpose() / bh2;
 }
 
@@ -359,8 +357,7 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
   next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
   if (guess != nullptr) next_ = *guess;  // assignments of equal sizes: no allocation
 
-  // Same h up to the round-off of t_{k+1} − t_k on the run's time grid.
-  const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && std::abs(h - h_factorized_) <= 1e-9 * h &&
+  const bool reuse = factorized_ && settings_.jacobian_max_age > 0 && SameStepLength(h, h_factorized_) &&
                      age_ < settings_.jacobian_max_age;
   // Co-rotated reuse (frame_body set) also keeps a step's first fresh matrix for its later
   // iterations; plain reuse keeps full Newton in a step that starts with a fresh matrix.
@@ -392,6 +389,11 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
 
 Eigen::Matrix3d CgAlpha::FrameAxes(const Eigen::VectorXd& q) const { return BodyAxes(q, settings_.frame_body); }
 
+Eigen::Matrix3d CgAlpha::TurnSinceFactorized(const Eigen::VectorXd& q) const {
+  if (settings_.frame_body < 0) return Eigen::Matrix3d::Identity();
+  return FrameAxes(q) * factorized_axes_.transpose();
+}
+
 void CgAlpha::Solve(Eigen::Ref<Eigen::VectorXd> x) { SolveAt(x, next_.q); }
 
 void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
@@ -401,7 +403,7 @@ void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
     return;
   }
   // x = T S₀⁻¹ Tᵀ x with T = R on every coordinate triple and multiplier triple, R = F F₀ᵀ.
-  const Eigen::Matrix3d R = FrameAxes(q) * factorized_axes_.transpose();
+  const Eigen::Matrix3d R = TurnSinceFactorized(q);
   const int n = system_.coordinates;
   auto rotate = [&](const Eigen::Matrix3d& r) {
     for (int k = 0; k < n; k += 3) x.segment<3>(k) = r * x.segment<3>(k);

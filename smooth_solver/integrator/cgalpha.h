@@ -43,6 +43,7 @@
 // that would give γ < ½ for ρ∞ < 1, an unstable scheme, so the names there are swapped.)
 #include <Eigen/Core>
 #include <Eigen/SparseLU>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,11 @@ struct AlphaCoefficients {
     return {am, af, g, 0.25 * (g + 0.5) * (g + 0.5)};
   }
 };
+
+// Whether two step lengths are the same step: equal up to the round-off of t_{k+1} − t_k on a
+// run's time grid (~1e-15 relative), which decides whether a matrix or a law made for one serves
+// the other.
+inline bool SameStepLength(double a, double b) { return std::abs(a - b) <= 1e-9 * a; }
 
 // Which form of the constraints closes a step (see the top of this file).
 enum class ConstraintForm {
@@ -232,6 +238,9 @@ class CgAlpha : public SmoothIntegrator {
   Eigen::VectorXd woodbury_g_;
   void SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q);  // co-rotated to q's frame axes
   Eigen::Matrix3d FrameAxes(const Eigen::VectorXd& q) const;
+  // R = F F₀ᵀ: the frame body's turn from its axes when the matrix was factorised to q's
+  // (identity without co-rotated reuse).
+  Eigen::Matrix3d TurnSinceFactorized(const Eigen::VectorXd& q) const;
   Eigen::Matrix3d factorized_axes_ = Eigen::Matrix3d::Identity();
   // Newton workspace.
   DaeState next_, predicted_;

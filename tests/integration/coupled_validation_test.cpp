@@ -489,6 +489,22 @@ TEST(CoupledStep, NewtonFromTheLastCouplingIterateGivesTheSameRunWithFewerIterat
   EXPECT_LT(speed, 2e-5);
 }
 
+// The co-simulated Puma engagement's first 2.5 s with the spin-up shortened to 1 s (full speed
+// for the last 1.5 s), into folder `name`, with `extra` overrides: its summary and history.
+struct PumaSpinUp {
+  Result launch;  // the launcher's exit code and output
+  cosim::run::RunSummary summary;
+  Table history;
+};
+PumaSpinUp RunPumaSpinUp(const std::string& name, const std::string& extra) {
+  const fs::path out = TempDir(name);
+  const Result r = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + out.string() +
+                          " --set numerics.end_time=2.5 --set output.every=10"
+                          " --set model.joints[0].drive.function.sum.terms[0].cosine_ramp.ramp_time=1" +
+                          extra);
+  return {r, ReadSummary(out), ReadTable(out / "history.csv")};
+}
+
 // The largest differences of the four Puma blades' flap angles [deg] and tip heights [m] between
 // two histories on the same rows.
 std::pair<double, double> PumaBladesApart(const Table& ta, const Table& tb) {
@@ -519,18 +535,14 @@ TEST(CoupledStep, ThePumaSpinUpReusesItsMatrixCoRotatedWithThePeersComplianceBes
   // WithTheHub). The defect replayed in the scene's projected form of the time: with the
   // compliance in the matrix 567 factorisations and 1.176 exchanges a step, by Woodbury 467 and
   // 1.057 (unrotated 1943 and 1.901).
-  const std::string scene = kScenarios +
-                            "/puma/engage_disengage.pbtxt --set numerics.end_time=2.5"
-                            " --set output.every=10 --set model.joints[0].drive.function.sum.terms[0]"
-                            ".cosine_ramp.ramp_time=1 --out ";
-  const fs::path co_rotated = TempDir("puma_co_rotated"), unrotated = TempDir("puma_unrotated");
-  ASSERT_EQ(Launch(scene + co_rotated.string()).code, 0);
-  ASSERT_EQ(Launch(scene + unrotated.string() + " --set 'numerics.smooth.jacobian_frame=\"\"'").code, 0);
-  const cosim::run::RunSummary a = ReadSummary(co_rotated), b = ReadSummary(unrotated);
+  const PumaSpinUp co_rotated = RunPumaSpinUp("puma_co_rotated", "");
+  const PumaSpinUp unrotated = RunPumaSpinUp("puma_unrotated", " --set 'numerics.smooth.jacobian_frame=\"\"'");
+  ASSERT_EQ(co_rotated.launch.code, 0) << co_rotated.launch.output;
+  ASSERT_EQ(unrotated.launch.code, 0) << unrotated.launch.output;
+  const cosim::run::RunSummary &a = co_rotated.summary, &b = unrotated.summary;
   const double fresh = a.counters().at("newton_factorizations"), plain = b.counters().at("newton_factorizations");
-  const Table ta = ReadTable(co_rotated / "history.csv"), tb = ReadTable(unrotated / "history.csv");
-  ASSERT_EQ(ta.size(), tb.size());
-  const auto [flap, tip] = PumaBladesApart(ta, tb);
+  ASSERT_EQ(co_rotated.history.size(), unrotated.history.size());
+  const auto [flap, tip] = PumaBladesApart(co_rotated.history, unrotated.history);
   std::printf(
       "Puma co-simulated spin-up, 2.5 s: %.0f factorisations co-rotated, %.0f unrotated; %.4f and %.4f exchanges a "
       "step; blades apart by %.2e° flap, %.2e m tip\n",
@@ -551,17 +563,14 @@ TEST(CoupledStep, AFreeFlyingPumaStepIsAcceptedOnItsLinearisingPreSolve) {
   // above: 2177 of 2500 steps accepted so (the blades fly from ~0.3 s), Newton iterations 7981
   // against 9421, and the blades where the second solve puts them — flap within 1.8e-4°, tip
   // within 2.6e-5 m, root shear within 1.4 N of 41 kN: differences of the Newton tolerance's order.
-  const std::string scene = kScenarios +
-                            "/puma/engage_disengage.pbtxt --set numerics.end_time=2.5"
-                            " --set output.every=10 --set model.joints[0].drive.function.sum.terms[0]"
-                            ".cosine_ramp.ramp_time=1 --out ";
-  const fs::path once = TempDir("puma_on_linearisation"), twice = TempDir("puma_second_solve");
-  ASSERT_EQ(Launch(scene + once.string()).code, 0);
-  ASSERT_EQ(Launch(scene + twice.string() + " --set coupling.iteration.accept_agreeing_linearisation=false").code, 0);
-  const cosim::run::RunSummary a = ReadSummary(once), b = ReadSummary(twice);
-  const Table ta = ReadTable(once / "history.csv"), tb = ReadTable(twice / "history.csv");
-  ASSERT_EQ(ta.size(), tb.size());
-  const auto [flap, tip] = PumaBladesApart(ta, tb);
+  const PumaSpinUp once = RunPumaSpinUp("puma_on_linearisation", "");
+  const PumaSpinUp twice =
+      RunPumaSpinUp("puma_second_solve", " --set coupling.iteration.accept_agreeing_linearisation=false");
+  ASSERT_EQ(once.launch.code, 0) << once.launch.output;
+  ASSERT_EQ(twice.launch.code, 0) << twice.launch.output;
+  const cosim::run::RunSummary &a = once.summary, &b = twice.summary;
+  ASSERT_EQ(once.history.size(), twice.history.size());
+  const auto [flap, tip] = PumaBladesApart(once.history, twice.history);
   const double accepted = a.counters().at("coupling_steps_on_linearisation");
   std::printf(
       "Puma co-simulated spin-up, 2.5 s: %.0f of %lld steps on the pre-solve; Newton iterations %lld against %lld; "

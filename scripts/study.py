@@ -895,10 +895,10 @@ def study_modes(runner, scenario_path, out, sets):
         rows = list(csv.DictReader(f))
     speeds = sorted({float(r["speed"]) for r in rows})
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    kinds = {"flap": "tab:blue", "lag": "tab:red", "radial": "tab:green"}
+    kinds = {"flap": "tab:blue", "lag": "tab:red", "radial": "tab:green", "torsion": "tab:purple"}
     for kind, colour in kinds.items():
         pts = [(float(r["speed"]), float(r["frequency"])) for r in rows
-               if max(("flap", "lag", "radial"), key=lambda k: float(r[k + "_share"])) == kind]
+               if max(kinds, key=lambda k: float(r[k + "_share"])) == kind]
         if pts:
             ax.plot([p[0] for p in pts], [p[1] for p in pts], "o", color=colour, ms=4, label=kind)
     top = max(float(r["frequency"]) for r in rows)
@@ -916,11 +916,12 @@ def study_modes(runner, scenario_path, out, sets):
     plt.close(fig)
     with open(os.path.join(out, "report.md"), "w") as f:
         f.write(f"# Fan plot: {os.path.basename(scenario_path)}\n\n![fan plot](fan_plot.png)\n\n")
-        f.write("| Ω [rad/s] | mode | ω [rad/s] | per rev | ζ | flap | lag | radial |\n|---|---|---|---|---|---|---|---|\n")
+        f.write("| Ω [rad/s] | mode | ω [rad/s] | per rev | ζ | flap | lag | radial | torsion |\n"
+                "|---|---|---|---|---|---|---|---|---|\n")
         for r in rows:
             f.write(f"| {float(r['speed']):.4g} | {r['mode']} | {float(r['frequency']):.5g} | {float(r['per_rev']):.4g} | "
                     f"{float(r['damping_ratio']):.3g} | {float(r['flap_share']):.2f} | {float(r['lag_share']):.2f} | "
-                    f"{float(r['radial_share']):.2f} |\n")
+                    f"{float(r['radial_share']):.2f} | {float(r['torsion_share']):.2f} |\n")
     print(f"cosim study: fan plot in {out}/fan_plot.png, table in {out}/report.md", file=sys.stderr)
 
 

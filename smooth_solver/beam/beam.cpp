@@ -334,9 +334,16 @@ Eigen::MatrixXd BeamElementMass(int n, double s0, double length, const BeamTable
       local(0, 2) = local(2, 0) = sec.mass * sec.cg2;
       local(0, 3) = local(3, 0) = sec.mass * sec.cg3;
       local.block<2, 2>(2, 2) = J;
-      // The floor on every director's second moment keeps each node's rotation inertial where
-      // the data give none (d1 never has any: a section has no thickness along the span).
-      for (int d = 1; d < 4; ++d) local(d, d) += rotary_floor * sec.mass;
+      // Rotary floor (beam_model.h), f = rotary_floor. A rotation about d2 or d3 (bending) moves
+      // d1 and d3 or d1 and d2: 2 f m on d1 gives them J33 + 2 f m and J22 + 2 f m, as the old
+      // floor of f m on each director did. A rotation about d1 (torsion) moves d2 and d3 only:
+      // the data's polar moment J22 + J33, raised to 2 f m only where the data give less (the
+      // Puma's root, 0.28–0.604 m, has none); the old floor added 2 f m everywhere, +23 % of the
+      // Puma's torsional inertia (issue 33).
+      local(1, 1) += 2.0 * rotary_floor * sec.mass;
+      const double deficit = std::max(0.0, 2.0 * rotary_floor * sec.mass - J.trace());
+      local(2, 2) += 0.5 * deficit;
+      local(3, 3) += 0.5 * deficit;
       double N[3], dN[3];
       BeamShape(n, 2.0 * (s - s0) / length - 1.0, N, dN);
       for (int I = 0; I < n; ++I) {

@@ -1,5 +1,6 @@
 #include "smooth_solver/simulation/modal_simulation.h"
 
+#include <array>
 #include <cinttypes>
 #include <cmath>
 #include <string>
@@ -68,26 +69,50 @@ void ModalSimulation::Solve(double omega) {
   omega_ = omega;
   modes_.clear();
   for (const Mode& mode : LinearModes(*system_, r.q, r.lambda, 0.0, frame, count_)) {
-    Classified c;
-    c.mode = mode;
-    // Share of the node points' motion along the axis, tangential and radial (about the axis).
-    const int triples = system_->coordinates / 3;
-    for (int k = 0; k < triples; k += 4) {
-      const Eigen::Vector3d x = r.q.segment<3>(3 * k) - origin_;
-      const Eigen::Vector3d d = mode.shape.segment<3>(3 * k);
-      Eigen::Vector3d radial = x - x.dot(axis_) * axis_;
-      radial = radial.norm() > 1e-12 ? Eigen::Vector3d(radial.normalized()) : Eigen::Vector3d::Zero();
-      const Eigen::Vector3d tangential = axis_.cross(radial);
-      c.flap += std::pow(d.dot(axis_), 2);
-      c.radial += std::pow(d.dot(radial), 2);
-      c.lag += std::pow(d.dot(tangential), 2);
-    }
-    const double total = c.flap + c.lag + c.radial;
-    if (total > 0.0) c.flap /= total, c.lag /= total, c.radial /= total;
-    modes_.push_back(c);
+    modes_.push_back(Classify(r.q, mode));
   }
   pending_.push_back(modes_);
   pending_speed_.push_back(omega);
+}
+
+ModalSimulation::Classified ModalSimulation::Classify(const Eigen::VectorXd& q, const Mode& mode) const {
+  // The mode's shape split into four motions per node (x, d1, d2, d3 or a body's x, u, v, w):
+  // its point along the axis (flap), tangential (lag) and radial, and the turn of its directors
+  // about the radial direction through it (torsion: θ = ½ Σ_i d_i × δd_i, the small rotation of
+  // an orthonormal triad, of which the radial part turns each d_i by θ_r r̂ × d_i). Shares of the
+  // kinetic energy δqᵀ M δq of the four parts: a twist moves no node point, so shares of the
+  // point motion alone called the Puma blade's torsion mode "flap" (issue 33).
+  const int n = system_->coordinates;
+  std::array<Eigen::VectorXd, 4> part;
+  for (Eigen::VectorXd& v : part) v = Eigen::VectorXd::Zero(n);
+  for (int o = 0; o + kCoordinatesPerBody <= n; o += kCoordinatesPerBody) {
+    const Eigen::Vector3d x = q.segment<3>(o) - origin_;
+    Eigen::Vector3d radial = x - x.dot(axis_) * axis_;
+    if (radial.norm() <= 1e-12) continue;  // on the axis: no radial direction to split along
+    radial.normalize();
+    const Eigen::Vector3d tangential = axis_.cross(radial);
+    const Eigen::Vector3d d = mode.shape.segment<3>(o);
+    part[0].segment<3>(o) = d.dot(axis_) * axis_;
+    part[1].segment<3>(o) = d.dot(tangential) * tangential;
+    part[2].segment<3>(o) = d.dot(radial) * radial;
+    Eigen::Vector3d theta = Eigen::Vector3d::Zero();
+    for (int i = 1; i <= 3; ++i) {
+      theta += 0.5 * Eigen::Vector3d(q.segment<3>(o + 3 * i)).cross(Eigen::Vector3d(mode.shape.segment<3>(o + 3 * i)));
+    }
+    for (int i = 1; i <= 3; ++i) {
+      part[3].segment<3>(o + 3 * i) = theta.dot(radial) * radial.cross(Eigen::Vector3d(q.segment<3>(o + 3 * i)));
+    }
+  }
+  std::array<double, 4> energy;
+  double total = 0.0;
+  for (size_t k = 0; k < 4; ++k) total += energy[k] = part[k].dot(system_->mass * part[k]);
+  if (total > 0.0) {
+    for (double& e : energy) e /= total;
+  }
+  Classified c;
+  c.mode = mode;
+  c.flap = energy[0], c.lag = energy[1], c.radial = energy[2], c.torsion = energy[3];
+  return c;
 }
 
 std::vector<std::string> ModalSimulation::ProbeNames() const {
@@ -113,8 +138,9 @@ void ModalSimulation::WritePending() {
     for (size_t k = 0; k < pending_[s].size(); ++k) {
       const Classified& c = pending_[s][k];
       const double omega = pending_speed_[s];
-      std::fprintf(csv_->get(), "%.17g,%zu,%.17g,%.17g,%.17g,%.6f,%.6f,%.6f\n", omega, k + 1, c.mode.frequency,
-                   c.mode.damping, omega > 0.0 ? c.mode.frequency / omega : std::nan(""), c.flap, c.lag, c.radial);
+      std::fprintf(csv_->get(), "%.17g,%zu,%.17g,%.17g,%.17g,%.6f,%.6f,%.6f,%.6f\n", omega, k + 1, c.mode.frequency,
+                   c.mode.damping, omega > 0.0 ? c.mode.frequency / omega : std::nan(""), c.flap, c.lag, c.radial,
+                   c.torsion);
     }
     csv_->EndRow();
   }
@@ -124,7 +150,7 @@ void ModalSimulation::WritePending() {
 
 void ModalSimulation::BeginOutput(const std::string& folder) {
   csv_ = std::make_unique<interface::OutputFile>(folder + "/modes.csv");
-  std::fprintf(csv_->get(), "speed,mode,frequency,damping_ratio,per_rev,flap_share,lag_share,radial_share\n");
+  std::fprintf(csv_->get(), "speed,mode,frequency,damping_ratio,per_rev,flap_share,lag_share,radial_share,torsion_share\n");
   csv_->EndRow();
   // The first speed's modes (solved at construction) go out with the first step.
 }

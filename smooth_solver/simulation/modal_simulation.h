@@ -2,8 +2,9 @@
 // A MODES analysis (numerics.smooth.analysis: MODES): the linear modes of the constrained
 // system about its steady state in a frame spinning at Ω (analysis/rotating_frame), for Ω over
 // the "time" span — a rotor's fan plot. History columns: mode<k>_frequency [rad/s] per speed;
-// modes.csv: every mode with its damping ratio, frequency per revolution and the share of its
-// shape's point motion along the spin axis (flap), tangential (lag) and radial.
+// modes.csv: every mode with its damping ratio, frequency per revolution and the shares of its
+// kinetic energy in point motion along the spin axis (flap), tangential (lag) and radial, and in
+// the nodes' twist about the radial direction (torsion).
 #include <memory>
 #include <vector>
 
@@ -26,12 +27,15 @@ class ModalSimulation : public interface::Simulation {
 
   struct Classified {
     Mode mode;
-    double flap = 0.0, lag = 0.0, radial = 0.0;  // shares of the node points' motion
+    // Shares of the mode's kinetic energy: node points along the axis, tangential and radial,
+    // and the nodes' turn about the radial direction (Classify).
+    double flap = 0.0, lag = 0.0, radial = 0.0, torsion = 0.0;
   };
   const std::vector<Classified>& modes() const { return modes_; }
 
  private:
   void Solve(double omega);
+  Classified Classify(const Eigen::VectorXd& q, const Mode& mode) const;
   void WritePending();  // the solved speeds' modes into modes.csv, once it is open
   MultibodyModel model_;
   std::unique_ptr<MultibodySystem> system_;

@@ -5,9 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <numbers>
+#include <regex>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/analysis/rotating_frame.h"
@@ -191,6 +196,34 @@ TEST(Beam, RotatingCantileverFrequenciesOfWrightEtAl) {
   }
 }
 
+TEST(Beam, ClampedFreeShaftTwistsAtItsClosedFormFrequencies) {
+  // Uniform clamped–free shaft, GJ = 1 N m², polar mass moment I = 1e-4 kg m, L = 1 m: torsion
+  // modes ω_k = (2k − 1) π/(2L) √(GJ/I) = 157.08, 471.24, 785.40 rad/s. A torsion mode turns d2
+  // and d3 about the axis: no motion of the node points or of d1. Ten quadratic elements give the
+  // first three to 0.1 %. The rotary floor (2 f m = 6e-5 kg m here, ℓ = L/10) must not add to
+  // the data's polar moment: the floor of f m on every director did, and put the first torsion
+  // mode at 124 rad/s (issue 33).
+  MultibodySystem sys = Build(Cantilever(10, 3, 1e7, 1.0));
+  const EquilibriumResult st = StaticEquilibrium(sys, sys.q0, SpinningFrame{}, EquilibriumOptions{});
+  ASSERT_TRUE(st.converged);
+  const std::vector<Mode> modes = LinearModes(sys, st.q, st.lambda, 0.0, SpinningFrame{}, 40);
+  std::vector<double> torsion;
+  for (const Mode& m : modes) {
+    double bending = 0.0, twist = 0.0;  // points and d1 against d2 and d3
+    for (int k = 0; k < sys.coordinates; k += kCoordinatesPerBody) {
+      bending += m.shape.segment<6>(k).squaredNorm();
+      twist += m.shape.segment<6>(k + 6).squaredNorm();
+    }
+    if (bending < 1e-6 * twist) torsion.push_back(m.frequency);
+  }
+  ASSERT_GE(torsion.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    const double exact = (2.0 * static_cast<double>(k) + 1.0) * std::numbers::pi / 2.0 * std::sqrt(1.0 / 1e-4);
+    std::printf("shaft torsion mode %zu: %.4f rad/s (closed form %.4f)\n", k + 1, torsion[k], exact);
+    EXPECT_NEAR(torsion[k] / exact, 1.0, 1e-3) << "torsion mode " << k + 1;
+  }
+}
+
 TEST(Beam, FlexiblePendulumAgreesInEveryIntegrator) {
   // A beam hinged at its root to the ground, released horizontally under gravity: a large
   // rigid swing with elastic bending (first mode ≈ 35 rad/s, Kelvin–Voigt β = 1e-3 s). The
@@ -260,7 +293,7 @@ TEST(Beam, PumaBladeMassPropertiesFromItsTables) {
   // rigid-motion energies give the blade's mass, first moment and inertia about the flap hinge
   // (e = 0.289 m), against puma.md's derived checks 91.6 kg, 247.6 kg m, 1179 kg m² and the
   // rigid flap frequency ratio √(1 + e S_β/I_β) = 1.030. The stations are integrated exactly
-  // (data linear between them); the director floor adds 1e-3 m L_e² per unit mass (≈ 0.02 kg m²).
+  // (data linear between them); the rotary floor adds 2 f m to the bending rotations (≈ 0.02 kg m²).
   const auto file = interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_no_air.pbtxt",
                                                   {"model.beams[0].span_start=0.28", "model.beams[0].root=[0.28, 0, 0]"});
   const MultibodyModel model = BuildMultibodyModel(file);
@@ -302,6 +335,82 @@ TEST(Beam, PumaBladeFlapsAt1030PerRevInItsFanPlot) {
   std::printf("Puma blade at 28 rad/s: flap %.4f/rev, lag %.4f/rev\n", flap, lag);
   EXPECT_NEAR(flap, 1.030, 1e-3);
   EXPECT_NEAR(lag, 0.241, 5e-3);
+}
+
+TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
+  // The oracle: the tables' torsion alone, −(GJ θ')' + Ω² (J22 − J33) θ = ω² (J22 + J33) θ on the
+  // beam's span (pitch bearing 0.432 m, held by the rigid pitch link: θ = 0; free tip), J the
+  // section's second moments about the reference line, the polar moment floored at 2 f m as the
+  // beam floors it (only 0.432–0.604 m, where the tables give none); 4000 linear elements,
+  // inverse iteration: 7.49/rev at Ω = 28 rad/s. The MODES analysis of the whole articulated
+  // blade (scenarios/puma/blade_fan_plot.pbtxt) without its c.g. offsets and twist, 40 quadratic
+  // elements: its torsion mode (the largest share of its kinetic energy in the nodes' twist)
+  // within 1 % — the beam samples GJ at its Gauss points, and the root's steps in GJ (8.4e5 to
+  // 8.5e4 N m² over 0.6 m) converge unevenly (40 elements +0.5 %, 80 −0.14 %; the scene's blade
+  // at 10 elements +0.9 %, at 20 −1.2 %). The scene's own blade (10 elements) within 1.5 %. The old rotary
+  // floor, f m on every director, added 2 f m to the polar moment everywhere: 6.78/rev (issue 33).
+  const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/blade_fan_plot.pbtxt";
+  const double omega = 28.0;
+  // The blade without its chordwise c.g. offsets and twist, which couple torsion to flap and lag
+  // (the oracle has torsion alone): the same masses, stiffnesses and polar moments.
+  std::ifstream in(path);
+  const std::string scene((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string uncoupled =
+      std::regex_replace(scene, std::regex("(cg_chord|twist): [-0-9.e]+"), "$1: 0");
+  const std::vector<std::string> speed = {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"};
+  const auto torsion_mode = [&](const std::string& text, int elements, double* share) {
+    std::vector<std::string> sets = speed;
+    sets.push_back("model.beams[0].elements=" + std::to_string(elements));
+    ModalSimulation sim(interface::ScenarioFile::Parse(text, path, sets));
+    for (const auto& m : sim.modes()) {
+      if (m.torsion > std::max({m.flap, m.lag, m.radial})) {
+        *share = m.torsion;
+        return m.mode.frequency / omega;
+      }
+    }
+    return 0.0;
+  };
+  const MultibodyModel model = BuildMultibodyModel(interface::ScenarioFile::Parse(uncoupled, path, {}));
+  ASSERT_EQ(model.beams.size(), 1u);
+  const BeamModel& beam = model.beams[0];
+  const double floor = 2.0 * beam.RotaryFloor(beam.elements.front());
+  const int n = 4000;  // elements of 1.8 mm: the tip weight's 12 mm step is sampled
+  const double a = beam.span_start, h = (beam.span_end - beam.span_start) / n;
+  std::vector<Eigen::Triplet<double>> kt, mt;  // nodes 1..n (θ_0 = 0)
+  for (int e = 0; e < n; ++e) {
+    const BeamSection sec = beam.table.At(a + (e + 0.5) * h);
+    const Eigen::Matrix2d J = SectionSecondMoments(sec);
+    const double polar = std::max(J.trace(), floor * sec.mass);
+    const double propeller = omega * omega * (J(0, 0) - J(1, 1));
+    Eigen::Matrix2d k, m;
+    k << 1, -1, -1, 1;
+    m << 2, 1, 1, 2;
+    const Eigen::Matrix2d ke = sec.gj / h * k + propeller * h / 6.0 * m, me = polar * h / 6.0 * m;
+    for (int i = 0; i < 2; ++i) {
+      for (int j = 0; j < 2; ++j) {
+        if (e + i == 0 || e + j == 0) continue;  // the held root
+        kt.emplace_back(e + i - 1, e + j - 1, ke(i, j));
+        mt.emplace_back(e + i - 1, e + j - 1, me(i, j));
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> K(n, n), M(n, n);
+  K.setFromTriplets(kt.begin(), kt.end());
+  M.setFromTriplets(mt.begin(), mt.end());
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(K);
+  Eigen::VectorXd x = Eigen::VectorXd::Ones(n);
+  for (int it = 0; it < 200; ++it) x = ldlt.solve(M * x).normalized();
+  const double oracle = std::sqrt(x.dot(K * x) / x.dot(M * x)) / omega;
+
+  double share = 0.0, scene_share = 0.0;
+  const double torsion = torsion_mode(uncoupled, 40, &share), scene_torsion = torsion_mode(scene, 10, &scene_share);
+  std::printf("Puma blade torsion at 28 rad/s: %.4f/rev (share %.3f) without c.g. offsets and twist, the tables' 1-D "
+              "torsion %.4f/rev; the scene's blade %.4f/rev (share %.3f)\n",
+              torsion, share, oracle, scene_torsion, scene_share);
+  EXPECT_GT(share, 0.9);
+  EXPECT_NEAR(torsion / oracle, 1.0, 0.01);  // measured +0.51 % (80 elements: −0.14 %, 220 s)
+  EXPECT_GT(scene_share, 0.9);
+  EXPECT_NEAR(scene_torsion / oracle, 1.0, 0.015);  // measured +0.9 %; the old floor's 6.78/rev: −9.5 %
 }
 
 TEST(Beam, BadSectionDataIsRefusedWithItsPlace) {

@@ -187,9 +187,16 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 #   outboard of the pitch bearing), in the beam's section frame (d3, the flapwise axis, points
 #   down: an upward shear on the outboard part reads negative); the stops' contact moment [N m].""")
 if GUST:
-    print("""# - gust (puma.md's choice): 1 − cos pulse, peak 25 m/s, 100 m long, its front travelling
-#   along +y at 25 m/s (4 s at a point), reaching the disk's edge at t = 1 s; collective 10°
-#   (added to the aero twist; the structure's pitch stays the pitch link's).""")
+    print("""# - gust: 1 − cos pulse, 100 m long, its front travelling along +y at 25 m/s (4 s at a point,
+#   puma.md's choice), reaching the disk's edge at t = 1 s; collective 10° (added to the aero
+#   twist; the structure's pitch stays the pitch link's). Peak 35 m/s, chosen so that the scene
+#   does what the paper's Fig. 7 shows (its profile, Fig. 6, is only drawn): blade 1 lifted onto
+#   its anti-flap stop and back onto its droop stop with elastic bouncing, blade 3 pressed down
+#   by the reverse flow, blades 2 and 4 (radial flow) barely moving. Measured on the continuous
+#   scene: blade 1 lifts off at 2.36 s, rests on its anti-flap stop from 3.66 to 4.20 s, lands
+#   at 4.98 s and bounces on its droop stop until the run ends; blades 2 to 4 stay on their
+#   droop stops (within 0.03°). Peaks of 25 m/s (puma.md's first guess) and 30 m/s lift blade 1
+#   to −5.6° and +5.0° only.""")
 print(f"""name: "puma_{SCENE}"
 description: "SA330 Puma rotor, {title}"
 model {{
@@ -200,7 +207,7 @@ model {{
   air {{""")
 if GUST:
     print("""    gusts { front_direction: [0, 1, 0] direction: [0, 1, 0] front_speed: 25 front_origin: [0, -32.49, 0]
-            profile { cosine_pulse { peak: 25 duration: 100 } } }""")
+            profile { cosine_pulse { peak: 35 duration: 100 } } }""")
 print(f"""    rotors {{ name: "rotor" hub: "hub" axis: [0, 0, 1] radius: 7.49 inflow: UNIFORM surfaces: ["blade{{blades}}"] }}
   }}
 }}

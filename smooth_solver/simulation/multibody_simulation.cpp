@@ -10,6 +10,7 @@
 #include <set>
 
 #include "interface/scenario/checks.h"
+#include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "state.pb.h"
@@ -135,6 +136,19 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   }
   settings.form =
       s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
+  if (s.analysis() == sc::SmoothSettings::STATIC) {
+    // A STATIC analysis of a scene with beams or rigid bodies: the equilibrium at each output
+    // time (StaticStep). Hex27 bodies alone take ElasticStaticSimulation.
+    if (coupled) checks.Fail("numerics.smooth.analysis", "a coupled run is DYNAMIC; STATIC is of the smooth model alone");
+    if (file.proto().model().elastic_bodies_size() > 0) {
+      checks.Fail("numerics.smooth.analysis", "STATIC takes hex27 elastic bodies alone, or beams and rigid bodies "
+                                              "without them; this scene has both (use DYNAMIC)");
+    }
+    if (numerics_.adaptive().enabled()) {
+      checks.Fail("numerics.adaptive.enabled", "a STATIC analysis takes no time steps to adapt; set enabled: false");
+    }
+    static_ = true;
+  }
   const sc::AdaptiveStep& adaptive = numerics_.adaptive();
   if (adaptive.enabled()) {
     if (s.integrator() != sc::SmoothSettings::CGALPHA) {
@@ -718,6 +732,10 @@ double MultibodySimulation::Violation(const Eigen::VectorXd& q) const {
 }
 
 void MultibodySimulation::Step(double t, double h) {
+  if (static_) {
+    StaticStep(t + h);
+    return;
+  }
   if (!adaptive_.on) {
     Record(t + h, integrator_->Step(t, h));
     return;
@@ -834,6 +852,46 @@ void MultibodySimulation::Interpolate(double t) {
 
 CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
 
+void MultibodySimulation::StaticStep(double t1) {
+  // The equilibrium with the loads, drives and prescribed motions of t1, from the last one (or
+  // the initial configuration): a continuation in the scene's own time functions, which ramp
+  // large loads. The probes read it as they read an interpolated state (rates zero).
+  const DaeState& from = interpolated_ ? shown_ : integrator_->state();
+  EquilibriumOptions options;
+  options.t = t1;
+  options.tolerance = numerics_.smooth().newton_tolerance();
+  options.max_iterations = numerics_.smooth().newton_max_iterations();
+  const EquilibriumResult r = StaticEquilibrium(*system_, from.q, SpinningFrame{}, options);
+  if (!r.converged) {
+    throw NumericalError("STATIC: no equilibrium at t = " + interface::FormatNumber(t1) + " s (residual " +
+                         interface::FormatNumber(r.residual) + " after " + std::to_string(r.iterations) +
+                         " Newton iterations); ramp the loads over more steps with their time functions, or raise "
+                         "numerics.smooth.newton_max_iterations");
+  }
+  shown_.q = r.q;
+  shown_.qdot = Eigen::VectorXd::Zero(r.q.size());
+  shown_.qddot = Eigen::VectorXd::Zero(r.q.size());
+  shown_.lambda = r.lambda;
+  interpolated_ = true;
+  newton_.Add(r.iterations);
+  time_ = probe_time_ = t1;
+  ++steps_;
+  max_violation_ = std::max(max_violation_, Violation(shown_.q));
+  UnwrapAngles(shown_.q);
+}
+
+void MultibodySimulation::UnwrapAngles(const Eigen::VectorXd& q) {
+  // Revolute angles unwrapped across ±π (a step never turns a joint by π).
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    if (!system_->joints[j].rotational) continue;
+    const double angle = system_->JointCoordinate(static_cast<int>(j), q);
+    const double jump = angle - last_angle_[j];
+    if (jump > std::numbers::pi) angle_offset_[j] -= 2.0 * std::numbers::pi;
+    if (jump < -std::numbers::pi) angle_offset_[j] += 2.0 * std::numbers::pi;
+    last_angle_[j] = angle;
+  }
+}
+
 void MultibodySimulation::Record(double t1, int iterations) {
   system_->AcceptStep(integrator_->state().q, integrator_->state().qdot, t1);
   if (ida_) {
@@ -846,15 +904,7 @@ void MultibodySimulation::Record(double t1, int iterations) {
   interpolated_ = false;
   watchdog_->Check(integrator_->state(), t1, ++steps_);
   max_violation_ = std::max(max_violation_, integrator_->ConstraintViolation(time_));
-  // Unwrap revolute angles (a step never turns a joint by π).
-  for (size_t j = 0; j < model_.joints.size(); ++j) {
-    if (!system_->joints[j].rotational) continue;
-    const double angle = system_->JointCoordinate(static_cast<int>(j), integrator_->state().q);
-    const double jump = angle - last_angle_[j];
-    if (jump > std::numbers::pi) angle_offset_[j] -= 2.0 * std::numbers::pi;
-    if (jump < -std::numbers::pi) angle_offset_[j] += 2.0 * std::numbers::pi;
-    last_angle_[j] = angle;
-  }
+  UnwrapAngles(integrator_->state().q);
 }
 
 void MultibodySimulation::BeginOutput(const std::string& folder) { output_folder_ = folder; }
@@ -866,7 +916,7 @@ void MultibodySimulation::EndOutput() {
   saved.set_time(time_);
   saved.set_coordinates(system_->coordinates);
   saved.set_constraints(system_->constraints.size());
-  const DaeState& s = integrator_->state();
+  const DaeState& s = static_ ? shown_ : integrator_->state();  // STATIC: the last equilibrium, at rest
   saved.mutable_q()->Add(s.q.data(), s.q.data() + s.q.size());
   saved.mutable_qdot()->Add(s.qdot.data(), s.qdot.data() + s.qdot.size());
   saved.mutable_angle_offsets()->Add(angle_offset_.begin(), angle_offset_.end());

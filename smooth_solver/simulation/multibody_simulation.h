@@ -80,6 +80,10 @@ class MultibodySimulation : public interface::Simulation {
     Eigen::Vector3d initial_position = Eigen::Vector3d::Zero();
     Eigen::Matrix3d initial_orientation = Eigen::Matrix3d::Identity();
   };
+  // numerics.smooth.analysis STATIC: the equilibrium at t1 in place of a time step.
+  void StaticStep(double t1);
+  void UnwrapAngles(const Eigen::VectorXd& q);
+  bool static_ = false;
   // A body's vector quantity (kind), in the probe's frame.
   Eigen::Vector3d BodyVector(const ProbeSpec& p) const;
 

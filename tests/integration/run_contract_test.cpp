@@ -539,6 +539,38 @@ TEST(RunContract, ProbeScaleMultipliesItsColumnOnly) {
   EXPECT_NE(r.output.find("output.probes[4].scale: must be non-zero"), std::string::npos) << r.output;
 }
 
+TEST(RunContract, ASceneOfBeamsAloneRunsDynamicAndStatic) {
+  // A scene made only of beams once ended "nothing to simulate" at the launcher, and STATIC took
+  // hex27 bodies alone (issue 33). A cantilever of 4 quadratic elements clamped to the ground
+  // (EI = 100 N m², L = 1 m) under its weight q = 9.81 N/m: STATIC's tip deflection is the
+  // Euler–Bernoulli q L⁴/(8 EI) = 12.2625 mm to 2e-4 (measured 12.2615 mm: the foreshortening of a
+  // 1.2 % deflection and the shear, both ~1e-4), the same at every output time (the loads do not
+  // change); DYNAMIC lets it fall from straight.
+  const std::string station = "ea: 1e7 gj: 1 ei_flap: 100 ei_lag: 100 mass: 1 inertia_torsion: 1e-4";
+  const std::string scene = "name: \"beams_alone\"\nmodel { gravity: [0, 0, -9.81] beams { name: \"b\" root: [0, 0, 0] "
+                            "axis: [1, 0, 0] chord: [0, 1, 0] elements: 4 root_body: \"ground\" stations { s: 0 " +
+                            station + " } stations { s: 1 " + station +
+                            " } } }\nnumerics { end_time: 0.05 step: 0.01 }\n"
+                            "output { probes { name: \"tip_z\" quantity: POSITION entity: \"b.n8\" component: Z } }\n";
+  const fs::path dir = TempDir("beams_alone");
+  std::ofstream(dir / "beams.pbtxt") << scene;
+  const std::string file = (dir / "beams.pbtxt").string();
+  const Result dynamic = Launch(file + " --out " + (dir / "dynamic").string());
+  ASSERT_EQ(dynamic.code, 0) << dynamic.output;
+  EXPECT_LT(ReadHistory(dir / "dynamic" / "history.csv").back()[1], -1e-4);  // falling
+  const Result statics = Launch(file + " --out " + (dir / "static").string() + " --set numerics.smooth.analysis=STATIC");
+  ASSERT_EQ(statics.code, 0) << statics.output;
+  const auto rows = ReadHistory(dir / "static" / "history.csv");
+  ASSERT_EQ(rows.size(), 6u);
+  for (size_t k = 1; k < rows.size(); ++k) EXPECT_NEAR(rows[k][1], -9.81 / (8.0 * 100.0), 2e-4 * 9.81 / 800.0) << k;
+  EXPECT_TRUE(fs::exists(dir / "static" / "final_state.pb"));  // the equilibrium, to start a DYNAMIC run from
+  const Result adaptive = Launch(file + " --out " + (dir / "adaptive").string() +
+                                 " --set numerics.smooth.analysis=STATIC --set numerics.adaptive.enabled=true");
+  EXPECT_EQ(adaptive.code, 2) << adaptive.output;
+  EXPECT_NE(adaptive.output.find("numerics.adaptive.enabled: a STATIC analysis takes no time steps"), std::string::npos)
+      << adaptive.output;
+}
+
 TEST(CoupledRun, PumaRotorRestsOnItsDroopPlanesWithOneContactProcessPerBlade) {
   // scenarios/puma/engage_disengage.pbtxt (the pattern's four blades, each with its contact
   // process, the launcher setting their endpoints into the copies), the first second (1000 steps

@@ -106,10 +106,7 @@ int BeamGaussPoints(int n, std::array<double, 2>* xi, std::array<double, 2>* wei
 }
 
 BeamForce::BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, double retardation)
-    : name_(std::move(name)),
-      n_(nodes_per_element),
-      elements_(std::move(elements)),
-      retardation_(retardation) {
+    : name_(std::move(name)), n_(nodes_per_element), elements_(std::move(elements)), retardation_(retardation) {
   COSIM_ASSERT(n_ == 2 || n_ == 3, "beam elements have 2 or 3 nodes");
   gauss_ = BeamGaussPoints(n_, &xi_, &w_);
   for (int g = 0; g < gauss_; ++g) {
@@ -221,7 +218,8 @@ void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, 
   }
 }
 
-void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, Eigen::Ref<Eigen::VectorXd> f) const {
+void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+                         Eigen::Ref<Eigen::VectorXd> f) const {
   Local ql, vl, fl;
   for (const BeamElement& e : elements_) {
     Gather(e, q, &ql);
@@ -255,7 +253,8 @@ void BeamForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot
         const int ri = kCoordinatesPerBody * e.node[static_cast<size_t>(I)];
         for (int sc = 0; sc < kCoordinatesPerBody; sc += 3) {
           for (int sr = 0; sr < kCoordinatesPerBody; sr += 3) {
-            sink->AddBlock3(ri + sr, cj + sc, K.block<3, 3>(kCoordinatesPerBody * I + sr, kCoordinatesPerBody * J + sc));
+            sink->AddBlock3(ri + sr, cj + sc,
+                            K.block<3, 3>(kCoordinatesPerBody * I + sr, kCoordinatesPerBody * J + sc));
           }
         }
       }

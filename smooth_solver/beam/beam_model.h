@@ -3,7 +3,6 @@
 // section table. The nodes become bodies of the MultibodyModel ("<beam>.n<k>") before the joints
 // are read, so that joints, loads, probes and interface nodes can name them.
 #include <Eigen/Core>
-
 #include <algorithm>
 #include <string>
 #include <vector>

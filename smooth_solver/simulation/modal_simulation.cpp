@@ -150,7 +150,8 @@ void ModalSimulation::WritePending() {
 
 void ModalSimulation::BeginOutput(const std::string& folder) {
   csv_ = std::make_unique<interface::OutputFile>(folder + "/modes.csv");
-  std::fprintf(csv_->get(), "speed,mode,frequency,damping_ratio,per_rev,flap_share,lag_share,radial_share,torsion_share\n");
+  std::fprintf(csv_->get(),
+               "speed,mode,frequency,damping_ratio,per_rev,flap_share,lag_share,radial_share,torsion_share\n");
   csv_->EndRow();
   // The first speed's modes (solved at construction) go out with the first step.
 }

@@ -139,10 +139,12 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   if (s.analysis() == sc::SmoothSettings::STATIC) {
     // A STATIC analysis of a scene with beams or rigid bodies: the equilibrium at each output
     // time (StaticStep). Hex27 bodies alone take ElasticStaticSimulation.
-    if (coupled) checks.Fail("numerics.smooth.analysis", "a coupled run is DYNAMIC; STATIC is of the smooth model alone");
+    if (coupled)
+      checks.Fail("numerics.smooth.analysis", "a coupled run is DYNAMIC; STATIC is of the smooth model alone");
     if (file.proto().model().elastic_bodies_size() > 0) {
-      checks.Fail("numerics.smooth.analysis", "STATIC takes hex27 elastic bodies alone, or beams and rigid bodies "
-                                              "without them; this scene has both (use DYNAMIC)");
+      checks.Fail("numerics.smooth.analysis",
+                  "STATIC takes hex27 elastic bodies alone, or beams and rigid bodies "
+                  "without them; this scene has both (use DYNAMIC)");
     }
     if (numerics_.adaptive().enabled()) {
       checks.Fail("numerics.adaptive.enabled", "a STATIC analysis takes no time steps to adapt; set enabled: false");

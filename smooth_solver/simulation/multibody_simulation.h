@@ -3,15 +3,15 @@
 // state, CGα, and the probes, behind the run contract's Simulation interface.
 #include <functional>
 #include <limits>
-#include <string>
 #include <memory>
+#include <string>
 
 #include "interface/run/run_driver.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
-#include "smooth_solver/simulation/watchdog.h"
 #include "smooth_solver/simulation/visual_scene.h"
+#include "smooth_solver/simulation/watchdog.h"
 
 namespace cosim::smooth {
 
@@ -43,9 +43,9 @@ class MultibodySimulation : public interface::Simulation {
 
   // numerics.adaptive: one try of a step, what the controller needs to judge it.
   struct AttemptOutcome {
-    int iterations = 0;        // Newton iterations (for the statistics)
-    std::string failure;       // non-empty: the step failed (Newton, coupling): rejected
-    bool impact = false;       // a contact process's contact closed in the step: no error test
+    int iterations = 0;   // Newton iterations (for the statistics)
+    std::string failure;  // non-empty: the step failed (Newton, coupling): rejected
+    bool impact = false;  // a contact process's contact closed in the step: no error test
     double time_to_contact = std::numeric_limits<double>::infinity();  // the peers', from its end [s]
   };
   struct StepHooks {
@@ -62,18 +62,45 @@ class MultibodySimulation : public interface::Simulation {
   double max_constraint_violation() const { return max_violation_; }  // over the accepted steps
 
  private:
-  enum class Kind { kPosition, kVelocity, kAcceleration, kAngularVelocity, kJointCoordinate, kJointSpeed,
-                    kReactionForce, kReactionMoment, kKinetic, kPotential, kTotal, kViolation,
-                    kDisplacement, kStrainEnergy, kClampForce, kClampMoment, kBodyDisplacement, kRotation,
-                    kBeamStrainEnergy, kSectionForce, kSectionMoment, kAeroAlpha, kAeroForce, kAeroMoment,
-                    kAeroMach, kRotorThrust, kRotorTorque, kInflowRatio, kInducedVelocity, kContactForce };
+  enum class Kind {
+    kPosition,
+    kVelocity,
+    kAcceleration,
+    kAngularVelocity,
+    kJointCoordinate,
+    kJointSpeed,
+    kReactionForce,
+    kReactionMoment,
+    kKinetic,
+    kPotential,
+    kTotal,
+    kViolation,
+    kDisplacement,
+    kStrainEnergy,
+    kClampForce,
+    kClampMoment,
+    kBodyDisplacement,
+    kRotation,
+    kBeamStrainEnergy,
+    kSectionForce,
+    kSectionMoment,
+    kAeroAlpha,
+    kAeroForce,
+    kAeroMoment,
+    kAeroMach,
+    kRotorThrust,
+    kRotorTorque,
+    kInflowRatio,
+    kInducedVelocity,
+    kContactForce
+  };
   struct ProbeSpec {
     std::string name;
     Kind kind = Kind::kPosition;
     int index = -1;
-    int component = 0;  // 0-2 x, y, z; 3 norm
-    int node = 0;       // elastic-body probes
-    int frame = -1;     // body whose frame vectors are expressed in (−1: global)
+    int component = 0;     // 0-2 x, y, z; 3 norm
+    int node = 0;          // elastic-body probes
+    int frame = -1;        // body whose frame vectors are expressed in (−1: global)
     double station = 0.0;  // section probes: span coordinate
     // Initial position (relative to the frame, in its axes) and orientation (relative to the
     // frame) of the body: displacement and rotation are measured from them.

@@ -547,18 +547,20 @@ TEST(RunContract, ASceneOfBeamsAloneRunsDynamicAndStatic) {
   // 1.2 % deflection and the shear, both ~1e-4), the same at every output time (the loads do not
   // change); DYNAMIC lets it fall from straight.
   const std::string station = "ea: 1e7 gj: 1 ei_flap: 100 ei_lag: 100 mass: 1 inertia_torsion: 1e-4";
-  const std::string scene = "name: \"beams_alone\"\nmodel { gravity: [0, 0, -9.81] beams { name: \"b\" root: [0, 0, 0] "
-                            "axis: [1, 0, 0] chord: [0, 1, 0] elements: 4 root_body: \"ground\" stations { s: 0 " +
-                            station + " } stations { s: 1 " + station +
-                            " } } }\nnumerics { end_time: 0.05 step: 0.01 }\n"
-                            "output { probes { name: \"tip_z\" quantity: POSITION entity: \"b.n8\" component: Z } }\n";
+  const std::string scene =
+      "name: \"beams_alone\"\nmodel { gravity: [0, 0, -9.81] beams { name: \"b\" root: [0, 0, 0] "
+      "axis: [1, 0, 0] chord: [0, 1, 0] elements: 4 root_body: \"ground\" stations { s: 0 " +
+      station + " } stations { s: 1 " + station +
+      " } } }\nnumerics { end_time: 0.05 step: 0.01 }\n"
+      "output { probes { name: \"tip_z\" quantity: POSITION entity: \"b.n8\" component: Z } }\n";
   const fs::path dir = TempDir("beams_alone");
   std::ofstream(dir / "beams.pbtxt") << scene;
   const std::string file = (dir / "beams.pbtxt").string();
   const Result dynamic = Launch(file + " --out " + (dir / "dynamic").string());
   ASSERT_EQ(dynamic.code, 0) << dynamic.output;
   EXPECT_LT(ReadHistory(dir / "dynamic" / "history.csv").back()[1], -1e-4);  // falling
-  const Result statics = Launch(file + " --out " + (dir / "static").string() + " --set numerics.smooth.analysis=STATIC");
+  const Result statics =
+      Launch(file + " --out " + (dir / "static").string() + " --set numerics.smooth.analysis=STATIC");
   ASSERT_EQ(statics.code, 0) << statics.output;
   const auto rows = ReadHistory(dir / "static" / "history.csv");
   ASSERT_EQ(rows.size(), 6u);

@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/SparseCholesky>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -91,7 +90,8 @@ TEST(Beam, TangentsMatchFiniteDifferences) {
 TEST(Beam, RigidMotionsAreStressFree) {
   // A pre-twisted beam moved as a rigid body (rotation by 2 rad about a skew axis, and a
   // translation) keeps zero strain energy and zero internal force: the strains are objective.
-  const MultibodySystem sys = Build(Cantilever(3, 3, 1e3, 5.0, "", "twist: 0.4"), {"model.beams[0].stations[1].twist=-0.5"});
+  const MultibodySystem sys =
+      Build(Cantilever(3, 3, 1e3, 5.0, "", "twist: 0.4"), {"model.beams[0].stations[1].twist=-0.5"});
   const Eigen::Matrix3d R = Eigen::AngleAxisd(2.0, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   Eigen::VectorXd q = sys.q0;
   for (int k = 0; k < sys.coordinates / 3; ++k) {
@@ -127,8 +127,10 @@ TEST(Beam, MattiassonElasticaUnderATipDeadLoad) {
   };
   for (const Case c : {Case{1, 0.30172, 0.05643, 0.461352}, Case{2, 0.49346, 0.16064, 0.781750},
                        Case{5, 0.71379, 0.38763, 1.215368}}) {
-    const std::string load = "} forces { name: \"tip\" load { body: \"b.n16\" force { constant: 0 } force { constant: 0 } "
-                             "force { table { time: [0, 1] value: [0, " + std::to_string(-c.lambda) + "] } } } } ";
+    const std::string load =
+        "} forces { name: \"tip\" load { body: \"b.n16\" force { constant: 0 } force { constant: 0 } "
+        "force { table { time: [0, 1] value: [0, " +
+        std::to_string(-c.lambda) + "] } } } } ";
     // The load block closes `beams` and opens a force element inside `model`.
     std::string text = Cantilever(8, 3, 1e7, 1.0);
     text.replace(text.find(" } } numerics"), 13, " " + load + "} numerics");
@@ -150,7 +152,8 @@ TEST(Beam, RollsUpIntoAFullCircleUnderATipMoment) {
   const double M = 2.0 * std::numbers::pi;
   text.replace(text.find(" } } numerics"), 13,
                " } forces { name: \"tip\" load { body: \"b.n32\" torque { constant: 0 } torque { table { time: [0, 1] "
-               "value: [0, " + std::to_string(-M) + "] } } torque { constant: 0 } } } } numerics");
+               "value: [0, " +
+                   std::to_string(-M) + "] } } torque { constant: 0 } } } } numerics");
   MultibodySystem sys = Build(text);
   const EquilibriumResult r = LoadSteps(sys, 40);
   ASSERT_TRUE(r.converged);
@@ -234,7 +237,8 @@ TEST(Beam, FlexiblePendulumAgreesInEveryIntegrator) {
     model {
       gravity: [0, 0, -9.81]
       beams { name: "b" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] elements: 5 retardation_time: 1e-3
-              stations { s: 0 )" + st + R"( } stations { s: 1 )" + st + R"( } }
+              stations { s: 0 )" +
+                           st + R"( } stations { s: 1 )" + st + R"( } }
       joints { name: "hinge" type: REVOLUTE body1: "ground" body2: "b.n0" point: [0, 0, 0] axis: [0, 1, 0] }
     }
     numerics { end_time: 0.4 step: 5e-4 smooth { rho_inf: 0.9 ida_relative_tolerance: 1e-8 ida_absolute_tolerance: 1e-10 } }
@@ -254,8 +258,8 @@ TEST(Beam, FlexiblePendulumAgreesInEveryIntegrator) {
   const std::vector<double> ida = run({"numerics.smooth.integrator=IDA"});
   EXPECT_LT(ida[1], -0.5);  // it has swung down
   EXPECT_GT(ida[2], 1e-4);  // and bends
-  for (const auto& sets : std::vector<std::vector<std::string>>{{}, {"numerics.smooth.constraint_form=INDEX3"},
-                                                                {"numerics.smooth.integrator=CGALPHA_INDEX2"}}) {
+  for (const auto& sets : std::vector<std::vector<std::string>>{
+           {}, {"numerics.smooth.constraint_form=INDEX3"}, {"numerics.smooth.integrator=CGALPHA_INDEX2"}}) {
     const std::vector<double> v = run(sets);
     const double d = std::hypot(v[0] - ida[0], v[1] - ida[1]);
     std::printf("beam pendulum %s: tip (%.6f, %.6f), IDA (%.6f, %.6f), distance %.2e m\n",
@@ -280,8 +284,8 @@ TEST(Beam, SectionForcesOfACantileverUnderItsWeight) {
     // The flapwise axis d3 is +z: gravity bends the beam down (negative curvature about d2 =
     // y, sagging), a shear V3 = −q (L − s) on the outboard part, M2 = −q (L − s)²/2 ... up to the
     // sign convention of the section frame, which the magnitudes do not depend on.
-    std::printf("section forces at s = %.2f: V3 %.6e (exact %.6e), M2 %.6e (exact %.6e)\n", s, sigma(2),
-                q * (1 - s), sigma(4), 0.5 * q * (1 - s) * (1 - s));
+    std::printf("section forces at s = %.2f: V3 %.6e (exact %.6e), M2 %.6e (exact %.6e)\n", s, sigma(2), q * (1 - s),
+                sigma(4), 0.5 * q * (1 - s) * (1 - s));
     EXPECT_NEAR(std::abs(sigma(4)), 0.5 * q * (1 - s) * (1 - s), 0.005 * 0.5 * q) << "s = " << s;
     EXPECT_NEAR(std::abs(sigma(2)), q * (1 - s), 1e-6 * q) << "s = " << s;
   }
@@ -294,8 +298,9 @@ TEST(Beam, PumaBladeMassPropertiesFromItsTables) {
   // (e = 0.289 m), against puma.md's derived checks 91.6 kg, 247.6 kg m, 1179 kg m² and the
   // rigid flap frequency ratio √(1 + e S_β/I_β) = 1.030. The stations are integrated exactly
   // (data linear between them); the rotary floor adds 2 f m to the bending rotations (≈ 0.02 kg m²).
-  const auto file = interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_no_air.pbtxt",
-                                                  {"model.beams[0].span_start=0.28", "model.beams[0].root=[0.28, 0, 0]"});
+  const auto file =
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_no_air.pbtxt",
+                                    {"model.beams[0].span_start=0.28", "model.beams[0].root=[0.28, 0, 0]"});
   const MultibodyModel model = BuildMultibodyModel(file);
   const MultibodySystem sys = BuildMultibodySystem(model);
   const BeamModel& beam = model.beams[0];
@@ -308,11 +313,14 @@ TEST(Beam, PumaBladeMassPropertiesFromItsTables) {
     // A unit flap rotation about the hinge axis y through (e, 0, 0): ω × (x − hinge), ω × d.
     const Eigen::Vector3d w = Eigen::Vector3d::UnitY(), hinge(e, 0, 0);
     flap.segment<3>(o) = w.cross(Eigen::Vector3d(sys.q0.segment<3>(o)) - hinge);
-    for (int k = 0; k < 3; ++k) flap.segment<3>(o + 3 + 3 * k) = w.cross(Eigen::Vector3d(sys.q0.segment<3>(o + 3 + 3 * k)));
+    for (int k = 0; k < 3; ++k)
+      flap.segment<3>(o + 3 + 3 * k) = w.cross(Eigen::Vector3d(sys.q0.segment<3>(o + 3 + 3 * k)));
   }
-  const double mass = lift.dot(sys.mass * lift), first = -lift.dot(sys.mass * flap), inertia = flap.dot(sys.mass * flap);
+  const double mass = lift.dot(sys.mass * lift), first = -lift.dot(sys.mass * flap),
+               inertia = flap.dot(sys.mass * flap);
   const double nu = std::sqrt(1.0 + e * first / inertia);
-  std::printf("Puma blade: mass %.3f kg, S_beta %.2f kg m, I_beta %.1f kg m^2, nu_beta %.4f\n", mass, first, inertia, nu);
+  std::printf("Puma blade: mass %.3f kg, S_beta %.2f kg m, I_beta %.1f kg m^2, nu_beta %.4f\n", mass, first, inertia,
+              nu);
   EXPECT_NEAR(mass, 91.6, 0.05);
   EXPECT_NEAR(first, 247.6, 0.05);
   EXPECT_NEAR(inertia, 1179.0, 0.5);
@@ -324,8 +332,9 @@ TEST(Beam, PumaBladeFlapsAt1030PerRevInItsFanPlot) {
   // lag damper) at Ω100% = 28 rad/s only: its flap mode (mostly flap motion, near 1/rev) is the
   // rigid flap frequency ratio ν_β = 1.030 of puma.md, to the blade's elasticity (measured
   // 1.0297); the lag mode sits near 0.24/rev, heavily damped by the lag damper.
-  const auto file = interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/blade_fan_plot.pbtxt",
-                                                  {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"});
+  const auto file =
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/blade_fan_plot.pbtxt",
+                                    {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"});
   ModalSimulation sim(file);
   double flap = 0.0, lag = 0.0;
   for (const auto& m : sim.modes()) {
@@ -355,8 +364,7 @@ TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
   // (the oracle has torsion alone): the same masses, stiffnesses and polar moments.
   std::ifstream in(path);
   const std::string scene((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string uncoupled =
-      std::regex_replace(scene, std::regex("(cg_chord|twist): [-0-9.e]+"), "$1: 0");
+  const std::string uncoupled = std::regex_replace(scene, std::regex("(cg_chord|twist): [-0-9.e]+"), "$1: 0");
   const std::vector<std::string> speed = {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"};
   const auto torsion_mode = [&](const std::string& text, int elements, double* share) {
     std::vector<std::string> sets = speed;
@@ -404,9 +412,10 @@ TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
 
   double share = 0.0, scene_share = 0.0;
   const double torsion = torsion_mode(uncoupled, 40, &share), scene_torsion = torsion_mode(scene, 10, &scene_share);
-  std::printf("Puma blade torsion at 28 rad/s: %.4f/rev (share %.3f) without c.g. offsets and twist, the tables' 1-D "
-              "torsion %.4f/rev; the scene's blade %.4f/rev (share %.3f)\n",
-              torsion, share, oracle, scene_torsion, scene_share);
+  std::printf(
+      "Puma blade torsion at 28 rad/s: %.4f/rev (share %.3f) without c.g. offsets and twist, the tables' 1-D "
+      "torsion %.4f/rev; the scene's blade %.4f/rev (share %.3f)\n",
+      torsion, share, oracle, scene_torsion, scene_share);
   EXPECT_GT(share, 0.9);
   EXPECT_NEAR(torsion / oracle, 1.0, 0.01);  // measured +0.51 % (80 elements: −0.14 %, 220 s)
   EXPECT_GT(scene_share, 0.9);
@@ -422,7 +431,8 @@ TEST(Beam, BadSectionDataIsRefusedWithItsPlace) {
     }
     return std::string("(no error)");
   };
-  EXPECT_NE(error({"model.beams[0].stations[1].ei_flap=-5"}).find("model.beams[0].stations[1].ei_flap"), std::string::npos);
+  EXPECT_NE(error({"model.beams[0].stations[1].ei_flap=-5"}).find("model.beams[0].stations[1].ei_flap"),
+            std::string::npos);
   EXPECT_NE(error({"model.beams[0].stations[1].s=-1"}).find("station out of order"), std::string::npos);
   EXPECT_NE(error({"model.beams[0].root_body=\"hub\""}).find("no body named 'hub'"), std::string::npos);
   EXPECT_NE(error({"model.beams[0].nodes_per_element=4"}).find("expected 2 (linear) or 3"), std::string::npos);

@@ -573,6 +573,37 @@ TEST(RunContract, ASceneOfBeamsAloneRunsDynamicAndStatic) {
       << adaptive.output;
 }
 
+TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
+  // The continuous Puma engagement starts with straight blades drawn on their droop stops, and
+  // they ring for about a second (the tip from −1.71 m; the envelope skips its first 0.9 s). A
+  // STATIC run of the same scene finds the rotor's equilibrium on its stops under gravity (tip
+  // −1.4796 m, each stop holding 2.38 kN m); the DYNAMIC run started from its final_state.pb
+  // stays there: over its first second the tip moves by less than 1 mm and the flap angle by
+  // less than 1e-3° (measured 0.4 mm, 1e-5°), before the hub has turned noticeably.
+  const fs::path dir = TempDir("settled_start");
+  const std::string scene = kScenarios + "/puma/engage_disengage_continuous.pbtxt";
+  const Result statics = Launch(scene + " --out " + (dir / "static").string() +
+                                " --set numerics.smooth.analysis=STATIC --set numerics.end_time=0.02 --set "
+                                "numerics.step=0.01 --set numerics.smooth.newton_max_iterations=100");
+  ASSERT_EQ(statics.code, 0) << statics.output;
+  const Table equilibrium = ReadTable(dir / "static" / "history.csv");
+  const Result dynamic = Launch(scene + " --out " + (dir / "dynamic").string() +
+                                " --set numerics.initial_state=" + (dir / "static" / "final_state.pb").string() +
+                                " --set numerics.start_time=0.02 --set numerics.end_time=1");
+  ASSERT_EQ(dynamic.code, 0) << dynamic.output;
+  const Table run = ReadTable(dir / "dynamic" / "history.csv");
+  const std::vector<double> time = run.Column("time"), tip = run.Column("blade1_tip_z"),
+                            flap = run.Column("blade1_flap");
+  const double tip0 = equilibrium.Column("blade1_tip_z").back(), flap0 = equilibrium.Column("blade1_flap").back();
+  EXPECT_NEAR(tip0, -1.4796, 1e-3);
+  EXPECT_NEAR(flap0, -10.01, 0.005);  // on the droop stop, pressed 0.01° into its law
+  ASSERT_GT(run.size(), 400u);
+  for (size_t k = 0; k < run.size(); ++k) {
+    EXPECT_NEAR(tip[k], tip0, 1e-3) << "t = " << time[k];
+    EXPECT_NEAR(flap[k], flap0, 1e-3) << "t = " << time[k];
+  }
+}
+
 TEST(CoupledRun, PumaRotorRestsOnItsDroopPlanesWithOneContactProcessPerBlade) {
   // scenarios/puma/engage_disengage.pbtxt (the pattern's four blades, each with its contact
   // process, the launcher setting their endpoints into the copies), the first second (1000 steps

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <numbers>
 #include <regex>
+#include <sstream>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/analysis/rotating_frame.h"
@@ -363,7 +364,9 @@ TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
   // The blade without its chordwise c.g. offsets and twist, which couple torsion to flap and lag
   // (the oracle has torsion alone): the same masses, stiffnesses and polar moments.
   std::ifstream in(path);
-  const std::string scene((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string scene = text.str();
   const std::string uncoupled = std::regex_replace(scene, std::regex("(cg_chord|twist): [-0-9.e]+"), "$1: 0");
   const std::vector<std::string> speed = {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"};
   const auto torsion_mode = [&](const std::string& text, int elements, double* share) {

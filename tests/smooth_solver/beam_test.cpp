@@ -364,9 +364,9 @@ TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
   // The blade without its chordwise c.g. offsets and twist, which couple torsion to flap and lag
   // (the oracle has torsion alone): the same masses, stiffnesses and polar moments.
   std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string scene = text.str();
+  std::stringstream file_text;
+  file_text << in.rdbuf();
+  const std::string scene = file_text.str();
   const std::string uncoupled = std::regex_replace(scene, std::regex("(cg_chord|twist): [-0-9.e]+"), "$1: 0");
   const std::vector<std::string> speed = {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"};
   const auto torsion_mode = [&](const std::string& text, int elements, double* share) {

@@ -7,6 +7,7 @@
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
+#include "smooth_solver/constraints/bilinear_constraints.h"
 
 namespace cosim::smooth {
 
@@ -78,14 +79,15 @@ void ModalSimulation::Solve(double omega) {
 ModalSimulation::Classified ModalSimulation::Classify(const Eigen::VectorXd& q, const Mode& mode) const {
   // The mode's shape split into four motions per node (x, d1, d2, d3 or a body's x, u, v, w):
   // its point along the axis (flap), tangential (lag) and radial, and the turn of its directors
-  // about the radial direction through it (torsion: θ = ½ Σ_i d_i × δd_i, the small rotation of
-  // an orthonormal triad, of which the radial part turns each d_i by θ_r r̂ × d_i). Shares of the
-  // kinetic energy δqᵀ M δq of the four parts: a twist moves no node point, so shares of the
-  // point motion alone called the Puma blade's torsion mode "flap" (issue 33).
+  // about the radial direction through it (torsion: θ = ½ Σ_i d_i × δd_i, BodyAngularRate of the
+  // shape, the small rotation of an orthonormal triad, whose radial part turns each d_i by
+  // θ_r r̂ × d_i). Shares of the kinetic energy δqᵀ M δq of the four parts: a twist moves no node
+  // point, so shares of the point motion alone called the Puma blade's torsion mode "flap" (issue 33).
   const int n = system_->coordinates;
   std::array<Eigen::VectorXd, 4> part;
   for (Eigen::VectorXd& v : part) v = Eigen::VectorXd::Zero(n);
-  for (int o = 0; o + kCoordinatesPerBody <= n; o += kCoordinatesPerBody) {
+  for (int body = 0; body < n / kCoordinatesPerBody; ++body) {
+    const int o = kCoordinatesPerBody * body;
     const Eigen::Vector3d x = q.segment<3>(o) - origin_;
     Eigen::Vector3d radial = x - x.dot(axis_) * axis_;
     if (radial.norm() <= 1e-12) continue;  // on the axis: no radial direction to split along
@@ -95,13 +97,9 @@ ModalSimulation::Classified ModalSimulation::Classify(const Eigen::VectorXd& q, 
     part[0].segment<3>(o) = d.dot(axis_) * axis_;
     part[1].segment<3>(o) = d.dot(tangential) * tangential;
     part[2].segment<3>(o) = d.dot(radial) * radial;
-    Eigen::Vector3d theta = Eigen::Vector3d::Zero();
-    for (int i = 1; i <= 3; ++i) {
-      theta += 0.5 * Eigen::Vector3d(q.segment<3>(o + 3 * i)).cross(Eigen::Vector3d(mode.shape.segment<3>(o + 3 * i)));
-    }
-    for (int i = 1; i <= 3; ++i) {
-      part[3].segment<3>(o + 3 * i) = theta.dot(radial) * radial.cross(Eigen::Vector3d(q.segment<3>(o + 3 * i)));
-    }
+    const double twist = BodyAngularRate(q, mode.shape, body).dot(radial);
+    const Eigen::Matrix3d directors = BodyAxes(q, body);
+    for (int i = 0; i < 3; ++i) part[3].segment<3>(o + 3 + 3 * i) = twist * radial.cross(directors.col(i));
   }
   std::array<double, 4> energy;
   double total = 0.0;

@@ -953,13 +953,30 @@ def study_compare(runner, scenario_path, out, sets):
     probes = list(study.get("probes", []))
     if not probes:
         fail(f"{scenario_path}: study compare needs `study {{ probes: [...] }}`, the probes drawn")
-    runs = []
+    for k, m in enumerate(study.get("measures", [])):
+        where = f"{scenario_path}: study.measures[{k}]"
+        if not m.get("probe"):
+            fail(f"{where}.probe: missing; name the probe measured")
+        if m.get("kind") not in ("MEAN", "MAX", "MIN", "LAST_NEAR_START", "FIRST_NEAR_START"):
+            fail(f"{where}.kind: missing; give MEAN, MAX, MIN, LAST_NEAR_START or FIRST_NEAR_START")
+        if m["kind"].endswith("NEAR_START") and not float(m.get("tolerance", 0.0)) > 0.0:
+            fail(f"{where}.tolerance: {m.get('tolerance', 'missing')}; {m['kind']} needs a positive tolerance")
+    runs, recorded = [], {}
     for i, spec in enumerate(specs):
-        path = compare_run_scenario(scenario_path, spec, i)
-        runs.append({"id": spec.get("name", f"run{i}"), "scenario": path, "sets": list(sets) + list(spec.get("set", [])),
-                     "contact_probes": list(spec.get("contact_probes", [])), "out": os.path.join(out, "runs", f"r{i}")})
-    runs = runner.run_all(runs)
-    histories = [read_histories(r["out"]) for r in runs]
+        run = {"id": spec.get("name", f"run{i}"), "sets": list(sets) + list(spec.get("set", [])),
+               "contact_probes": list(spec.get("contact_probes", [])), "out": os.path.join(out, "runs", f"r{i}")}
+        if spec.get("history_file"):  # another code's recorded history: read, not run
+            recorded[i] = recorded_history(scenario_path, spec, i)
+            run.update({"scenario": spec["history_file"], "code": 0, "wall": float("nan"), "seconds": float("nan"),
+                        "summary": None, "message": "", "recorded": True})
+        else:
+            run["scenario"] = compare_run_scenario(scenario_path, spec, i)
+            run["settle"] = bool(spec.get("settle_statically"))
+        runs.append(run)
+    to_run = [r for r in runs if not r.get("recorded")]
+    settle_statically(runner, [r for r in to_run if r["settle"]], out)
+    runner.run_all([r for r in to_run if r.get("code") is None])
+    histories = [recorded[i] if i in recorded else read_histories(r["out"]) for i, r in enumerate(runs)]
     for r, h in zip(runs, histories):
         missing = [p for p in probes + r["contact_probes"] if p not in h]
         if missing and r["code"] == 0:
@@ -997,7 +1014,11 @@ def study_compare(runner, scenario_path, out, sets):
                     else:
                         row.append(float("nan"))
                 contact_rows.append(row)
+    measure_rows = [[m.get("name", m.get("probe", "?"))] + [compare_measure(h, m) for h in histories]
+                    for m in study.get("measures", [])]
     write_csv(os.path.join(out, "differences.csv"), ["run", "probe", "rms", "peak", "peak_time", "reference_peak"], diff_rows)
+    if measure_rows:
+        write_csv(os.path.join(out, "measures.csv"), ["measure"] + [r["id"] for r in runs], measure_rows)
     write_csv(os.path.join(out, "contacts.csv"), ["run", "contact_probe", "contact", "start", "end", "peak_contact"] +
               [f"peak_{p}" for p in probes], contact_rows)
     write_csv(os.path.join(out, "runs.csv"), ["run", "exit", "wall_time", "process_seconds", "steps", "coupling_iterations_per_step"],
@@ -1020,8 +1041,12 @@ def study_compare(runner, scenario_path, out, sets):
              "| run | exit | wall time of the steps [s] | process [s] | steps | coupling iterations per step |", "|---|---|---|---|---|---|"]
     for r in runs:
         s_ = r["summary"] or {}
+        if r.get("recorded"):
+            lines.append(f"| {r['id']} | recorded: {r['scenario']} | — | — | — | — |")
+            continue
         lines.append(f"| {r['id']} | {r['code']} | {r['wall']:.1f} | {r['seconds']:.1f} | {s_.get('steps', '—')} | "
                      f"{fmt((s_.get('coupling_iterations') or {}).get('mean_per_step', float('nan')))} |")
+    lines += measures_table(runs, study.get("measures", []), measure_rows)
     lines += ["", f"Differences from '{runs[0]['id']}' on its output times (RMS, largest and when; the reference's largest |value| for scale):", "",
               "| run | probe | RMS | peak | at [s] | reference peak |", "|---|---|---|---|---|---|"]
     for row in diff_rows:
@@ -1043,6 +1068,84 @@ def study_compare(runner, scenario_path, out, sets):
     lines += ["", failures_section(runs)]
     write_report(out, lines)
     return {"runs": runs, "differences": diff_rows, "contacts": contact_rows}
+
+
+def recorded_history(scenario_path, spec, i):
+    """study.compare[i].history_file: a CSV of another code's run (a `time` column, then one per
+    probe) as {probe: (times, values)}; refused (exit 2) naming the place if unreadable."""
+    path = os.path.join(os.path.dirname(scenario_path), spec["history_file"])
+    where = f"{scenario_path}: study.compare[{i}].history_file"
+    if not os.path.isfile(path):
+        fail(f"{where}: no such file: {path}")
+    try:
+        data = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
+    except ValueError as e:
+        fail(f"{where}: {path} is not a CSV table: {e}")
+    if data.dtype.names is None or "time" not in data.dtype.names or len(data.dtype.names) < 2:
+        fail(f"{where}: {path} needs a header with a `time` column and one column per probe")
+    return {n: (np.atleast_1d(data["time"]), np.atleast_1d(data[n])) for n in data.dtype.names if n != "time"}
+
+
+def settle_statically(runner, runs, out):
+    """study.compare[].settle_statically: each run's scene solved STATIC over one step first (the
+    loads and drives at start_time + step), the run then starting at that time from its state."""
+    if not runs:
+        return
+    statics = []
+    for r in runs:
+        numerics = runner.scenario_json(r["scenario"], r["sets"]).get("numerics", {})
+        t1 = float(numerics.get("start_time", 0.0)) + float(numerics["step"])
+        r["settled_at"] = t1
+        statics.append({"id": f"{r['id']}: static equilibrium at t = {t1:g} s", "scenario": r["scenario"],
+                        "sets": r["sets"] + ["numerics.smooth.analysis=STATIC", f"numerics.end_time={t1!r}"],
+                        "out": r["out"] + "-static"})
+    for r, st in zip(runs, runner.run_all(statics)):
+        state = os.path.abspath(os.path.join(st["out"], "final_state.pb"))
+        if st["code"] != 0 or not os.path.isfile(state):
+            # The run is reported failed with the static step's reason; it is not started.
+            r.update({"code": st["code"] or 3, "wall": float("nan"), "seconds": float("nan"), "summary": st["summary"],
+                      "message": f"its static equilibrium failed: {st['message']}"})
+            continue
+        r["sets"] = r["sets"] + [f"numerics.start_time={r['settled_at']!r}", f'numerics.initial_state="{state}"']
+
+
+def compare_measure(history, m):
+    """One study.measures entry on one run's history (nan where the probe or the event is absent)."""
+    if m.get("probe") not in history:
+        return float("nan")
+    t, v = history[m["probe"]]
+    window = (t >= float(m.get("from", -np.inf))) & (t <= float(m.get("to", np.inf)))
+    if not window.any():
+        return float("nan")
+    kind = m.get("kind", "MEAN")
+    if kind == "MEAN":
+        return float(np.mean(v[window]))
+    if kind == "MAX":
+        return float(np.max(v[window]))
+    if kind == "MIN":
+        return float(np.min(v[window]))
+    near = window & (np.abs(v - v[0]) <= float(m.get("tolerance", 0.0)))
+    if not near.any():
+        return float("nan")
+    return float(t[near][-1] if kind == "LAST_NEAR_START" else t[near][0])
+
+
+def measures_table(runs, measures, rows):
+    """The report's table of study.measures: each run's value, and for the runs after the first
+    the difference from the first's, marked where it is within the measure's `agreement`."""
+    if not rows:
+        return []
+    lines = ["", f"Measures (differences from '{runs[0]['id']}'; ✓ within the agreement asked, ✗ not):", "",
+             "| measure | " + " | ".join(r["id"] for r in runs) + " | agreement |", "|---|" + "---|" * (len(runs) + 1)]
+    for m, row in zip(measures, rows):
+        cells, ref = [row[0], f"{row[1]:.4g}"], row[1]
+        for x in row[2:]:
+            d = x - ref
+            mark = "" if "agreement" not in m or d != d else (" ✓" if abs(d) <= float(m["agreement"]) else " ✗")
+            cells.append("—" if x != x else f"{x:.4g} ({d:+.3g}{mark})")
+        cells.append(f"{float(m['agreement']):g}" if "agreement" in m else "—")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def study_timing(runner, scenario_path, out, sets):

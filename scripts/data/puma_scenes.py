@@ -5,6 +5,8 @@ Usage: puma_scenes.py engage_continuous > scenarios/puma/engage_disengage_contin
        puma_scenes.py gust_continuous   > scenarios/puma/gust_continuous.pbtxt
        puma_scenes.py engage_disengage  > scenarios/puma/engage_disengage.pbtxt  (co-simulated)
        puma_scenes.py gust              > scenarios/puma/gust.pbtxt              (co-simulated)
+       puma_scenes.py engage_mbdyn      > scenarios/puma/engage_disengage_mbdyn.pbtxt
+         (the continuous engagement modelled as MBDyn's model of the same rotor, docs/reference/mbdyn-puma.md)
 """
 import math
 import os
@@ -14,8 +16,11 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = sys.argv[1] if len(sys.argv) > 1 else "engage_continuous"
 GUST = SCENE.startswith("gust")
-COSIM = not SCENE.endswith("_continuous")
-OMEGA = 28.0
+# MBDyn's model of the same rotor (docs/reference/mbdyn-puma.md): the continuous engagement with
+# its Ω100, no lag stops, a rigid pitch bearing, its inflow correction and its airfoil's slope.
+MBDYN = SCENE == "engage_mbdyn"
+COSIM = not (SCENE.endswith("_continuous") or MBDYN)
+OMEGA = 28.27 if MBDYN else 28.0
 DROOP = -10.0 * math.pi / 180  # the droop stop; blades start on it
 E_LAG, E_FLAP, R_PITCH, R = 0.269, 0.289, 0.432, 7.49
 DEG = 57.29577951308232
@@ -55,8 +60,8 @@ droop_normal = (-node_z, 0.0, node_x)
 up_x, up_z = node_offset(-DROOP)
 antiflap_normal = (up_z, 0.0, -up_x)
 hub_drive = ("constant: 0" if GUST else
-             "sum { terms { cosine_ramp { final_value: -28 ramp_time: 20 } }\n"
-             "                                               terms { cosine_ramp { final_value: 28 ramp_time: 20 start_time: 30 } } }")
+             f"sum {{ terms {{ cosine_ramp {{ final_value: {-OMEGA:g} ramp_time: 20 }} }}\n"
+             f"                                               terms {{ cosine_ramp {{ final_value: {OMEGA:g} ramp_time: 20 start_time: 30 }} }} }}")
 if COSIM:
     STOPS = f"""      contact_nodes {{ name: "blade{{k}}_stop_node" mass: {NODE_MASS} position: {v(node)}
                       contacts {{ obstacle: "blade{{k}}_droop" restitution: 0.8 }} contacts {{ obstacle: "blade{{k}}_antiflap" restitution: 0.8 }} }}
@@ -128,20 +133,52 @@ PRECISION = '''
             contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"]
             reference { name: "co-simulated, h = 0.25 ms" set: ["numerics.step=2.5e-4", "output.every=8"]
                         contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] } }''' if COSIM and not GUST else ""
+# MBDyn's histories beside this variant's and the continuous scene's, with the issue's measures of
+# agreement (issue 33): lift-off and re-contact within 50 ms, coning within 0.05°, lag within 1°;
+# and the variant with each of MBDyn's choices undone in turn, to size each one's share.
+MBDYN_STUDY = """# `scripts/cosim study compare`: MBDyn's blade 1 against this variant's (settled start) and the
+# continuous scene's, and this variant with MBDyn's inflow correction or its lift slope undone.
+study {
+  probes: ["blade1_flap", "blade1_lag"]
+  compare { name: "MBDyn" history_file: "../../docs/reference/data/mbdyn_puma_engagement_rootpitch0.csv" }
+  compare { name: "MBDyn-equivalent" settle_statically: true }
+  compare { name: "continuous scene" scenario: "engage_disengage_continuous.pbtxt" }
+  compare { name: "equivalent, κ = 1" settle_statically: true set: ["model.air.rotors[0].induced_velocity_factor=1"] }
+  compare { name: "equivalent, lift slope 5.7296" settle_statically: true
+            set: ["model.air.airfoils[0].builtin_lift_slope=5.7296"] }
+  measures { name: "lift-off from the droop stop [s]" probe: "blade1_flap" kind: LAST_NEAR_START to: 20 tolerance: 0.1
+             agreement: 0.05 }
+  measures { name: "re-contact [s]" probe: "blade1_flap" kind: FIRST_NEAR_START from: 30 tolerance: 0.1 agreement: 0.05 }
+  measures { name: "coning, mean flap 22–28 s [deg]" probe: "blade1_flap" kind: MEAN from: 22 to: 28 agreement: 0.05 }
+  measures { name: "peak lag [deg]" probe: "blade1_lag" kind: MAX agreement: 1 }
+  measures { name: "peak lead [deg]" probe: "blade1_lag" kind: MIN agreement: 1 }
+}"""
 STUDY = f'''# `scripts/cosim study compare` draws blade 1 of both models on the same axes (the paper's
 # Fig. {7 if GUST else 5}) and tables their differences and each stop contact.
 study {{
   probes: ["blade1_flap", "blade1_lag", "blade1_root_shear_z", "blade1_root_flap_moment", "blade1_tip_z"]
   compare {{ name: "co-simulated" contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] }}
   compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}{ENVELOPE}{PRECISION}
-}}''' if COSIM else ""
+}}''' if COSIM else (MBDYN_STUDY if MBDYN else "")
 # The coupling's defaults (interface Jacobians, tolerances 1e-9 m and 1e-6, no step accepted
 # unconverged) but for the restart at a new contact (see the file's comments).
 COUPLING_ITERATION = "coupling { iteration { restart_at_impact: false } }"
 CUFF_MASS = 7.3512 - (NODE_MASS if COSIM else 0.0)
+PITCH_LINK_BODY = "" if MBDYN else f"""      bodies {{ name: "blade{{k}}_pitch_link" mass: 0.5 inertia: [0.00375, 0.00375, 1e-4] position: {v((horn[0], horn[1], horn[2] - 0.15))} }}
+"""
+PITCH_LINK_JOINTS = "" if MBDYN else f"""      joints {{ name: "blade{{k}}_horn" type: SPHERICAL body1: "blade{{k}}_pitch" body2: "blade{{k}}_pitch_link" point: {v(horn)} }}
+      joints {{ name: "blade{{k}}_swashplate" type: UNIVERSAL body1: "hub" body2: "blade{{k}}_pitch_link" point: {v(swash)} axis: [1, 0, 0] axis2: [0, 1, 0] }}
+"""
+PITCH_LOCK = " locked: true" if MBDYN else ""
+LAG_STOPS = "" if MBDYN else f"""      forces {{ name: "blade{{k}}_lag_stops" joint_stop {{ joint: "blade{{k}}_lag_hinge" lower: {-LAG_STOP:.12g} upper: {LAG_STOP:.12g}
+               law {{ stiffness: 1e8 exponent: 1.5 restitution: 0.5 effective_restitution: true }} }} }}
+"""
+AIRFOIL = "naca0012_mbdyn_slope" if MBDYN else "naca0012"
+# MBDyn's hover correction K_H = 1.1 scales its hover inflow by K_H² (docs/reference/mbdyn-puma.md).
+INFLOW_FACTOR = " induced_velocity_factor: 1.21" if MBDYN else ""
 stops_kind = "co-simulated stops (four contact processes)" if COSIM else "continuous-contact stops"
 title = ("still rotor in a gust (Fig. 7), " if GUST else "engagement and disengagement (Fig. 5), ") + stops_kind
-print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articulated
+HEADER = (f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articulated
 # elastic blades, one written once (`patterns`), {"co-simulated: each blade has a contact node against" if COSIM else "monolithic: the stops are Hunt–Crossley laws on"}
 # {"a droop and an anti-flap plane on the hub, in its own contact process (Moreau–Jean, Lemke)" if COSIM else "the flap hinges"}. Generated by scripts/data/puma_scenes.py {SCENE}; the blade tables by
 # scripts/data/puma_blade_stations.py. Data: ../shared/reference/puma.md, aero.md.
@@ -186,6 +223,27 @@ print(f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articul
 #   root shear and flapwise moment at r = 0.5 m (the first section
 #   outboard of the pitch bearing), in the beam's section frame (d3, the flapwise axis, points
 #   down: an upward shear on the outboard part reads negative); the stops' contact moment [N m].""")
+MBDYN_HEADER = f"""# SA330 research Puma, engagement and disengagement with continuous-contact stops, modelled as
+# MBDyn's model of the same rotor (docs/reference/mbdyn-puma.md, whose histories this scene's
+# `scripts/cosim study compare` draws beside its own). Generated by scripts/data/puma_scenes.py
+# {SCENE}: the continuous engagement (engage_disengage_continuous.pbtxt; its comments give the
+# blade, hub, stops and probes) with MBDyn's choices where the two models differ:
+# - Ω100 = {OMEGA} rad/s (the scene: 28.0), the same cosine ramps;
+# - no lead and lag stops (the blades swing to ~49° lag in the run-up and ~−72° lead at the
+#   end, against the 7000 N m s/rad damper alone);
+# - a rigid pitch bearing (locked) and no pitch link: lag does not pitch the blade;
+# - inflow: uniform momentum with MBDyn's hover correction K_H = 1.1, which its uniform rotor
+#   applies as ν = K_H² ν_momentum in hover (induced_velocity_factor 1.21); MBDyn's delay 0.9
+#   (a weight per step at h = 1e-4 s: a first-order lag of ~0.9 ms) is left out, as is its
+#   one-step lag (the scene's inflow is the last accepted state's: 2 ms);
+# - airfoil: the built-in NACA 0012 fit at MBDyn's C81 deck's low-Mach lift slope 6.04/rad (the
+#   fit's own 5.7296; stall and post-stall the fit's): the deck itself is not in the repository;
+# - start: MBDyn settles for 2 s under gravity before t = 0; the study starts this scene from
+#   its static equilibrium (settle_statically: a STATIC step, then DYNAMIC from its state).
+# Left as the scene has them (their effect named in docs/results.md, "MBDyn on the same rotor"):
+# 5 quadratic beam elements with distributed mass (MBDyn: three-node beams, mass lumped at the
+# nodes), CGα at h = 2 ms (MBDyn: multistep, ρ∞ = 0.6, h = 1e-4 s)."""
+print(MBDYN_HEADER if MBDYN else HEADER)
 if GUST:
     print("""# - gust: 1 − cos pulse, 100 m long, its front travelling along +y at 25 m/s (4 s at a point,
 #   puma.md's choice), reaching the disk's edge at t = 1 s; collective 10° (added to the aero
@@ -208,7 +266,9 @@ model {{
 if GUST:
     print("""    gusts { front_direction: [0, 1, 0] direction: [0, 1, 0] front_speed: 25 front_origin: [0, -32.49, 0]
             profile { cosine_pulse { peak: 35 duration: 100 } } }""")
-print(f"""    rotors {{ name: "rotor" hub: "hub" axis: [0, 0, 1] radius: 7.49 inflow: UNIFORM surfaces: ["blade{{blades}}"] }}
+if MBDYN:
+    print("""    airfoils { name: "naca0012_mbdyn_slope" builtin_lift_slope: 6.04 }""")
+print(f"""    rotors {{ name: "rotor" hub: "hub" axis: [0, 0, 1] radius: 7.49 inflow: UNIFORM{INFLOW_FACTOR} surfaces: ["blade{{blades}}"] }}
   }}
 }}
 patterns {{
@@ -220,17 +280,12 @@ patterns {{
       bodies {{ name: "blade{{k}}_lag" mass: 0.5256 inertia: [0.001, 0.001, 0.001] position: [0.2845, 0, 0] }}
       bodies {{ name: "blade{{k}}_cuff" mass: {CUFF_MASS:.12g} inertia: [0.01, 0.0142, 0.0142] position: {v(drooped(0.3605))} rotation: {v(turned)} }}
       bodies {{ name: "blade{{k}}_pitch" mass: 1 inertia: [0.01, 0.01, 0.01] position: {v(drooped(R_PITCH))} rotation: {v(turned)} }}
-      bodies {{ name: "blade{{k}}_pitch_link" mass: 0.5 inertia: [0.00375, 0.00375, 1e-4] position: {v((horn[0], horn[1], horn[2] - 0.15))} }}
-      joints {{ name: "blade{{k}}_lag_hinge" type: REVOLUTE body1: "hub" body2: "blade{{k}}_lag" point: [{E_LAG}, 0, 0] axis: [0, 0, 1] }}
+{PITCH_LINK_BODY}      joints {{ name: "blade{{k}}_lag_hinge" type: REVOLUTE body1: "hub" body2: "blade{{k}}_lag" point: [{E_LAG}, 0, 0] axis: [0, 0, 1] }}
       joints {{ name: "blade{{k}}_flap_hinge" type: REVOLUTE body1: "blade{{k}}_lag" body2: "blade{{k}}_cuff" point: [{E_FLAP}, 0, 0] axis: [0, -1, 0]
                initial_coordinate: {DROOP:.12g} }}
-      joints {{ name: "blade{{k}}_pitch_bearing" type: REVOLUTE body1: "blade{{k}}_cuff" body2: "blade{{k}}_pitch" point: {v(drooped(R_PITCH))} axis: {v(span)} }}
-      joints {{ name: "blade{{k}}_horn" type: SPHERICAL body1: "blade{{k}}_pitch" body2: "blade{{k}}_pitch_link" point: {v(horn)} }}
-      joints {{ name: "blade{{k}}_swashplate" type: UNIVERSAL body1: "hub" body2: "blade{{k}}_pitch_link" point: {v(swash)} axis: [1, 0, 0] axis2: [0, 1, 0] }}
-      forces {{ name: "blade{{k}}_lag_damper" joint_spring {{ joint: "blade{{k}}_lag_hinge" stiffness: 0 damping: 7000 }} }}
-      forces {{ name: "blade{{k}}_lag_stops" joint_stop {{ joint: "blade{{k}}_lag_hinge" lower: {-LAG_STOP:.12g} upper: {LAG_STOP:.12g}
-               law {{ stiffness: 1e8 exponent: 1.5 restitution: 0.5 effective_restitution: true }} }} }}
-{STOPS}
+      joints {{ name: "blade{{k}}_pitch_bearing" type: REVOLUTE body1: "blade{{k}}_cuff" body2: "blade{{k}}_pitch" point: {v(drooped(R_PITCH))} axis: {v(span)}{PITCH_LOCK} }}
+{PITCH_LINK_JOINTS}      forces {{ name: "blade{{k}}_lag_damper" joint_spring {{ joint: "blade{{k}}_lag_hinge" stiffness: 0 damping: 7000 }} }}
+{LAG_STOPS}{STOPS}
       beams {{
         name: "blade{{k}}" root: {v(drooped(R_PITCH))} axis: {v(span)} chord: [0, -1, 0]
         span_start: {R_PITCH} span_end: {R} elements: 5 nodes_per_element: 3 retardation_time: 1e-4 root_body: "blade{{k}}_pitch"
@@ -238,8 +293,8 @@ patterns {{
       }}
       air {{
         surfaces {{ name: "blade{{k}}" beam: "blade{{k}}" upper: [0, 0, 1] gauss_points: 3
-                   stations {{ s: 2.08 chord: 0.537 twist: {0.174532925199 if GUST else 0} airfoil: "naca0012" }}
-                   stations {{ s: 7.49 chord: 0.537 twist: {0.174532925199 if GUST else 0} airfoil: "naca0012" }} }}
+                   stations {{ s: 2.08 chord: 0.537 twist: {0.174532925199 if GUST else 0} airfoil: "{AIRFOIL}" }}
+                   stations {{ s: 7.49 chord: 0.537 twist: {0.174532925199 if GUST else 0} airfoil: "{AIRFOIL}" }} }}
       }}
     }}
 {COUPLING}    output {{

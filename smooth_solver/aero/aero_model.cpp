@@ -46,7 +46,15 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
     const sc::Airfoil& f = a.airfoils(i);
     const std::string path = ElementPath("model.air.airfoils", i);
     const std::string name = airfoil_names.Declare(path + ".name", f.has_name(), f.name());
-    checks.Require(path + ".c81_file", f.has_c81_file(), "a C81 table file (path relative to the scenario)");
+    if (f.has_builtin_lift_slope()) {
+      if (f.has_c81_file()) checks.Fail(path, "gives both c81_file and builtin_lift_slope; give one");
+      const double slope = checks.Positive(path + ".builtin_lift_slope", true, f.builtin_lift_slope(), "1/rad");
+      aero.airfoils.push_back(std::make_shared<BuiltinNaca0012>(name, slope));
+      aero.airfoil_names.push_back(name);
+      continue;
+    }
+    checks.Require(path + ".c81_file", f.has_c81_file(),
+                   "a C81 table file (path relative to the scenario) or builtin_lift_slope");
     std::filesystem::path file(f.c81_file());
     if (file.is_relative()) file = folder / file;
     if (!std::filesystem::is_regular_file(file)) {
@@ -195,11 +203,17 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
     rs.axis_b = R.transpose() * checks.Direction(path + ".axis", r.axis());
     rs.radius = checks.Positive(path + ".radius", r.has_radius(), r.radius(), "m");
     rs.guard_tip_speed = checks.Positive(path + ".guard_tip_speed", true, r.guard_tip_speed(), "m/s");
+    rs.induced_velocity_factor =
+        checks.InRange(path + ".induced_velocity_factor", true, r.induced_velocity_factor(), 1.0, 2.0);
     switch (r.inflow()) {
       case sc::Rotor::NONE: rs.inflow = RotorSpec::Inflow::kNone; break;
       case sc::Rotor::UNIFORM: rs.inflow = RotorSpec::Inflow::kUniform; break;
       case sc::Rotor::PITT_PETERS: rs.inflow = RotorSpec::Inflow::kPittPeters; break;
       default: checks.Fail(path + ".inflow", "give NONE, UNIFORM or PITT_PETERS");
+    }
+    if (r.has_induced_velocity_factor() && rs.inflow != RotorSpec::Inflow::kUniform) {
+      checks.Fail(path + ".induced_velocity_factor", "applies to UNIFORM inflow only; this rotor's inflow is " +
+                                                         sc::Rotor::Inflow_Name(r.inflow()));
     }
     if (r.surfaces_size() == 0) checks.Fail(path + ".surfaces", "lists no aero surface; name the rotor's blades");
     for (int k = 0; k < r.surfaces_size(); ++k) {

@@ -525,16 +525,18 @@ void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
     }
     const double area = std::numbers::pi * rs.radius * rs.radius;
     if (rs.inflow == RotorSpec::Inflow::kUniform || h <= 0.0) {
-      // Glauert momentum, solved at this state: 2 ρ A V_T(ν) ν = fade · T(ν), secant on ν.
+      // Glauert momentum, solved at this state: 2 ρ A V_T(ν_m) ν_m = fade · T(κ ν_m), secant on
+      // ν_m; the blades see ν = κ ν_m (κ the induced-power factor, 1 by default).
+      const double kappa = rs.induced_velocity_factor;
       RotorState trial = st;
       trial.nu(1) = trial.nu(2) = 0.0;
       auto residual = [&](double nu) {
-        trial.nu(0) = nu;
+        trial.nu(0) = kappa * nu;
         const double T = RotorLoads(static_cast<int>(r), trial, q, qdot, t).thrust;
         const double vt = std::hypot(st.v_parallel, st.v_normal + nu);
         return 2.0 * rho * area * vt * nu - st.fade * rs.load_factor * T;
       };
-      double x0 = st.nu(0), f0 = residual(x0);
+      double x0 = st.nu(0) / kappa, f0 = residual(x0);
       double x1 = x0 + 1e-3 * (1.0 + std::abs(x0)), f1 = residual(x1);
       for (int it = 0; it < 30 && std::abs(x1 - x0) > 1e-10 * (1.0 + std::abs(x1)); ++it) {
         if (f1 == f0) break;
@@ -544,7 +546,7 @@ void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
         x1 = x2;
         f1 = residual(x1);
       }
-      st.nu = Vector3d(x1, 0.0, 0.0);
+      st.nu = Vector3d(kappa * x1, 0.0, 0.0);
       continue;
     }
     // Pitt–Peters (reference/aero.md), in dimensional form (ν = λ ΩR, forcing T/(ρA) and the

@@ -87,6 +87,7 @@ struct RotorSpec {
   Inflow inflow = Inflow::kUniform;
   std::vector<int> surfaces;
   double load_factor = 1.0;  // blades / modelled surfaces: scales the inflow's forcing
+  double induced_velocity_factor = 1.0;  // κ: UNIFORM applies κ ν_m (ν_m the momentum balance's)
 };
 
 struct AeroModel {

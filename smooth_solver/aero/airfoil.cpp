@@ -32,9 +32,9 @@ PolarValue BuiltinNaca0012::Evaluate(double alpha, double mach) const {
   const double beta = std::sqrt(1.0 - mc * mc), dbeta_dm = compressible ? -mc / beta : 0.0;
   const double alpha_s = kStall * (1.0 - mc), dalpha_s_dm = compressible ? -kStall : 0.0;
   // Attached flow (puma.md fit) and flat plate: value, ∂/∂a, ∂/∂M for (cl, cd, cm).
-  const double att[3] = {kLiftSlope * a / beta, 0.006 + 0.13131 * a * a, 0.0};
-  const double att_a[3] = {kLiftSlope / beta, 2.0 * 0.13131 * a, 0.0};
-  const double att_m[3] = {-kLiftSlope * a / (beta * beta) * dbeta_dm, 0.0, 0.0};
+  const double att[3] = {lift_slope_ * a / beta, 0.006 + 0.13131 * a * a, 0.0};
+  const double att_a[3] = {lift_slope_ / beta, 2.0 * 0.13131 * a, 0.0};
+  const double att_m[3] = {-lift_slope_ * a / (beta * beta) * dbeta_dm, 0.0, 0.0};
   const double sa = std::sin(a), ca = std::cos(a);
   const double fp[3] = {1.18 * 2.0 * sa * ca, 0.02 + 1.98 * sa * sa, -0.5 * sa};
   const double fp_a[3] = {2.36 * (ca * ca - sa * sa), 1.98 * 2.0 * sa * ca, -0.5 * ca};

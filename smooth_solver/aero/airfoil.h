@@ -8,6 +8,7 @@
 //     flat-plate post-stall model that reaches ±180° (reverse flow).
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace cosim::smooth {
@@ -35,14 +36,20 @@ double WrapAngle(double alpha);
 // (C_l ≈ ±1.18 at ±45°, C_d ≈ 2.0 at 90°, C_l = 0 and C_d = 0.02 at 180°, as the C81 tables);
 // a C¹ smoothstep blend in between (the stall drop). The Prandtl–Glauert factor is held at
 // M = 0.9 beyond it. Odd in α for C_l and C_m, even for C_d.
+// `lift_slope` replaces 5.7296 (a deck with another attached-flow slope); stall and post-stall
+// stay.
 class BuiltinNaca0012 : public Airfoil {
  public:
+  BuiltinNaca0012() = default;
+  BuiltinNaca0012(std::string name, double lift_slope) : name_(std::move(name)), lift_slope_(lift_slope) {}
   PolarValue Evaluate(double alpha, double mach) const override;
   const std::string& name() const override { return name_; }
+  double lift_slope() const { return lift_slope_; }
   static constexpr double kLiftSlope = 5.7296, kStall = 0.2269, kBlend = 10.0 * 3.14159265358979323846 / 180.0;
 
  private:
   std::string name_ = "naca0012";
+  double lift_slope_ = kLiftSlope;
 };
 
 // One coefficient of a C81 table: values at (α_i, M_j), α in radians, increasing.

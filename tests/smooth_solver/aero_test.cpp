@@ -96,6 +96,21 @@ TEST(Airfoil, BuiltinNaca0012MatchesTheFitAndThePostStallFigures) {
   }
 }
 
+TEST(Airfoil, BuiltinLiftSlopeMovesTheAttachedRangeOnly) {
+  // builtin_lift_slope (another deck's attached-flow slope, e.g. MBDyn's C81 NACA 0012 at 6.04):
+  // C_l = a α/√(1 − M²) below the stall with the given a, the post-stall plate the fit's own.
+  const BuiltinNaca0012 fit, steeper("naca0012_604", 6.04);
+  const PolarValue p = steeper.Evaluate(5 * kDeg, 0.3);
+  EXPECT_NEAR(p.cl, 6.04 * 5 * kDeg / std::sqrt(1 - 0.09), 1e-12);
+  EXPECT_NEAR(p.cl_alpha, 6.04 / std::sqrt(1 - 0.09), 1e-12);
+  EXPECT_DOUBLE_EQ(p.cd, fit.Evaluate(5 * kDeg, 0.3).cd);
+  for (double a : {60 * kDeg, 120 * kDeg, 179 * kDeg}) {
+    EXPECT_DOUBLE_EQ(steeper.Evaluate(a, 0.1).cl, fit.Evaluate(a, 0.1).cl) << a;
+    EXPECT_DOUBLE_EQ(steeper.Evaluate(a, 0.1).cd, fit.Evaluate(a, 0.1).cd) << a;
+  }
+  EXPECT_EQ(steeper.name(), "naca0012_604");
+}
+
 TEST(Airfoil, C81TableReadsBackWhatWasWrittenAndInterpolatesBilinearly) {
   const BuiltinNaca0012 f;
   std::vector<double> alpha;
@@ -373,6 +388,54 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
     EXPECT_NEAR(ct / ct_closed, 1.0, 0.01);
     EXPECT_NEAR(r.inflow_ratio, std::sqrt(ct / 2), 1e-6);  // hover: λ = √(C_T/2)
   }
+}
+
+TEST(AirLoads, HoverInflowCarriesItsInducedPowerFactor) {
+  // induced_velocity_factor κ: the blades see ν = κ ν_m where 2 ρ A ν_m² = T(κ ν_m) in hover
+  // (MBDyn's hover correction K_H acts so with κ = K_H²). Against an independent bisection of
+  // that balance with the strip quadrature: the secant's and the table's tolerance. More inflow
+  // lowers the angle of attack: the thrust falls below the plain momentum balance's.
+  const std::string table = IdealTable();
+  const double omega = 28.0, R = 7.49, A = kPi * R * R, rho = 1.225, theta = 8 * kDeg, twist = -8 * kDeg;
+  const std::string air = "airfoils { name: \"ideal\" c81_file: \"" + table + "\" }";
+  auto hover = [&](double kappa) {
+    MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM"),
+                                {"model.air.rotors[0].induced_velocity_factor=" + std::to_string(kappa)});
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
+  };
+  const AirLoads::RotorResult plain = hover(1.0), corrected = hover(1.21);
+  double lo = 0.0, hi = 50.0;
+  for (int it = 0; it < 200; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (2 * rho * A * mid * mid - StripThrust(1.21 * mid, omega, theta, twist) > 0 ? hi : lo) = mid;
+  }
+  const double nu_m = lo, thrust = StripThrust(1.21 * nu_m, omega, theta, twist);
+  std::printf(
+      "hover θ75 = 8°: κ = 1 ν = %.4f m/s, T = %.1f N; κ = 1.21 ν = %.4f m/s (independent %.4f = 1.21 × %.4f), "
+      "T = %.1f N (independent %.1f)\n",
+      plain.induced, plain.thrust, corrected.induced, 1.21 * nu_m, nu_m, corrected.thrust, thrust);
+  EXPECT_NEAR(corrected.induced / (1.21 * nu_m), 1.0, 1e-5);
+  EXPECT_NEAR(corrected.thrust / thrust, 1.0, 1e-5);
+  EXPECT_LT(corrected.thrust, 0.97 * plain.thrust);
+  EXPECT_GT(corrected.induced, 1.1 * plain.induced);
+}
+
+TEST(AirLoads, BuiltinLiftSlopeScalesTheThrustWithoutInflow) {
+  // Hover without inflow at 4° (attached flow everywhere, incompressible): the sections' lift is
+  // a α, so the rotor's thrust scales with the slope given; the in-plane drag adds no thrust.
+  const double omega = 28.0, theta = 4 * kDeg, twist = 0.0;
+  auto thrust = [&](const std::string& air, const std::string& airfoil) {
+    MultibodySystem sys = Build(RigidRotor(air, airfoil, theta, twist, omega, "NONE"));
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0).thrust;
+  };
+  const double fit = thrust("", "naca0012"),
+               steeper = thrust("airfoils { name: \"deck\" builtin_lift_slope: 6.04 }", "deck");
+  std::printf("thrust without inflow: fit (5.7296/rad) %.2f N, slope 6.04/rad %.2f N, ratio %.6f\n", fit, steeper,
+              steeper / fit);
+  EXPECT_GT(fit, 1000.0);
+  EXPECT_NEAR(steeper / fit, 6.04 / 5.7296, 1e-9);
 }
 
 TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
@@ -755,6 +818,19 @@ TEST(AirLoads, BadAirInputNamesThePlace) {
       {scene("surfaces { name: \"w\" elastic_body: \"ghost\" " + line + "upper: [0, 0, 1] " + st + " }"),
        "no elastic body named 'ghost'"},
       {scene("airfoils { name: \"t\" c81_file: \"/nonexistent/table.c81\" }"), "model.air.airfoils[0].c81_file"},
+      {scene("airfoils { name: \"t\" c81_file: \"t.c81\" builtin_lift_slope: 6 }"),
+       "model.air.airfoils[0]: gives both c81_file and builtin_lift_slope"},
+      {scene("airfoils { name: \"t\" builtin_lift_slope: -6 }"), "model.air.airfoils[0].builtin_lift_slope"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st +
+             " } "
+             "rotors { name: \"r\" hub: \"wing\" axis: [0, 0, 1] radius: 1 inflow: PITT_PETERS "
+             "induced_velocity_factor: 1.2 surfaces: [\"w\"] }"),
+       "model.air.rotors[0].induced_velocity_factor: applies to UNIFORM inflow only"},
+      {scene("surfaces { name: \"w\" body: \"wing\" " + line + "upper: [0, 0, 1] " + st +
+             " } "
+             "rotors { name: \"r\" hub: \"wing\" axis: [0, 0, 1] radius: 1 inflow: UNIFORM "
+             "induced_velocity_factor: 0.5 surfaces: [\"w\"] }"),
+       "model.air.rotors[0].induced_velocity_factor"},
       {scene("density: -1"), "model.air.density"},
       {scene("gusts { front_direction: [0, 1, 0] direction: [0, 1, 0] front_speed: 10 }"),
        "model.air.gusts[0].profile"},

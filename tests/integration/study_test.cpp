@@ -167,6 +167,47 @@ TEST(Study, RunsGoToTheClusterOfAGivenScheduler) {
   EXPECT_TRUE(fs::exists(out / "runs" / "p0" / "history.csv"));
 }
 
+TEST(Study, CompareTakesARecordedHistoryASettledStartAndMeasures) {
+  // tests/data/study/compare/hanging.pbtxt: a 1 kg body on a 100 N/m spring under gravity. The
+  // closed-form equilibrium z = −m g/k comes as a recorded history (history_file); the run
+  // started from its static equilibrium (settle_statically) stays on it; the run released at
+  // the spring's length swings as z = −(m g/k)(1 − cos 10t). The measures against those
+  // closed forms: the mean over [0, 0.3] s, −(m g/k)(1 − sin 3/3) released (the samples' mean
+  // against the integral's: 1.3e-5); the lowest point −2 m g/k; the first return to the start
+  // after 0.1 s, one period 2π/10 (to the 1 ms sampling and the 1e-4 m band). The report marks
+  // the settled run's mean within the agreement asked and the released one's not.
+  const fs::path out = TempDir("study_compare");
+  ASSERT_EQ(Study("compare " + kData + "/compare/hanging.pbtxt --out " + out.string(), out / "log.txt"), 0)
+      << Slurp(out / "log.txt");
+  const Table m = ReadTable(out / "measures.csv");
+  ASSERT_EQ(m.size(), 3u);
+  const double g = 9.81 / 100;
+  EXPECT_DOUBLE_EQ(m[0][1], -g);                 // the recorded history, read back
+  EXPECT_NEAR(m[0][2], -g, 1e-9);                // settled: it stays on the equilibrium
+  EXPECT_NEAR(m[0][3], -g * (1 - std::sin(3.0) / 3), 5e-5);
+  EXPECT_NEAR(m[1][2], -g, 1e-9);
+  EXPECT_NEAR(m[1][3], -2 * g, 1e-4);
+  EXPECT_NEAR(m[2][3], 2 * std::acos(-1.0) / 10, 0.005);
+  const std::string report = Slurp(out / "report.md");
+  EXPECT_NE(report.find("| settled |"), std::string::npos) << report;  // its wall time, not the recorded one's
+  EXPECT_NE(report.find("| closed form | recorded: hanging_equilibrium.csv"), std::string::npos) << report;
+  EXPECT_NE(report.find("✓) | "), std::string::npos) << report;
+  EXPECT_NE(report.find("✗) | "), std::string::npos) << report;
+  // Bad input names the place: a recorded history that is not there, a measure without a kind.
+  EXPECT_EQ(Study("compare " + kData + "/compare/hanging.pbtxt --out " + (out / "bad1").string() +
+                      " --set study.compare[0].history_file=\\\"nowhere.csv\\\"",
+                  out / "bad1.txt"),
+            2);
+  EXPECT_NE(Slurp(out / "bad1.txt").find("study.compare[0].history_file: no such file"), std::string::npos)
+      << Slurp(out / "bad1.txt");
+  EXPECT_EQ(Study("compare " + kData + "/compare/hanging.pbtxt --out " + (out / "bad2").string() +
+                      " --set study.measures[1].kind=KIND_UNSPECIFIED",
+                  out / "bad2.txt"),
+            2);
+  EXPECT_NE(Slurp(out / "bad2.txt").find("study.measures[1].kind: missing"), std::string::npos)
+      << Slurp(out / "bad2.txt");
+}
+
 TEST(Study, BadArgumentsAreRefused) {
   const fs::path out = TempDir("study_bad");
   EXPECT_EQ(Study("convergence " + kData + "/missing.pbtxt --out " + out.string(), out / "log.txt"), 2);

@@ -66,7 +66,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
   // Surfaces.
   interface::NameTable surface_names(checks, "aero surface");
   interface::NameTable beam_names(checks, "beam");
-  for (size_t b = 0; b < model->beams.size(); ++b) beam_names.Add(ElementPath("model.beams", static_cast<int>(b)), model->beams[b].name);
+  for (size_t b = 0; b < model->beams.size(); ++b)
+    beam_names.Add(ElementPath("model.beams", static_cast<int>(b)), model->beams[b].name);
   std::vector<ElasticMesh> elastic_meshes;  // built once, when a surface needs them
   for (int i = 0; i < a.surfaces_size(); ++i) {
     const sc::AeroSurface& s = a.surfaces(i);
@@ -75,7 +76,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
     sf.name = surface_names.Declare(path + ".name", s.has_name(), s.name());
     const Eigen::Vector3d upper = checks.Direction(path + ".upper", s.upper());
     sf.gauss_points = static_cast<int>(checks.InRange(path + ".gauss_points", true, s.gauss_points(), 1, 6));
-    Eigen::Vector3d normal_ref = Eigen::Vector3d::Zero();  // the untwisted section's flapwise axis, initial configuration
+    Eigen::Vector3d normal_ref =
+        Eigen::Vector3d::Zero();  // the untwisted section's flapwise axis, initial configuration
     double s_lo = 0.0, s_hi = 0.0;
     switch (s.carrier_case()) {
       case sc::AeroSurface::kBeam: {
@@ -89,7 +91,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
           const bool given = f[0] == 'r' ? s.root_size() > 0 : f[0] == 'a' ? s.axis_size() > 0 : s.chord_size() > 0;
           if (given) checks.Fail(path + "." + f, "is the beam's own on a beam surface; remove it");
         }
-        if (s.has_segments()) checks.Fail(path + ".segments", "a beam surface integrates over the beam's elements; remove it");
+        if (s.has_segments())
+          checks.Fail(path + ".segments", "a beam surface integrates over the beam's elements; remove it");
         break;
       }
       case sc::AeroSurface::kBody: {
@@ -98,7 +101,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         const RigidBody& body = model->bodies[static_cast<size_t>(b)];
         for (const BeamModel& beam : model->beams) {
           for (int node : beam.node_bodies) {
-            if (node == b) checks.Fail(path + ".body", "'" + s.body() + "' is a beam node; use `beam: \"" + beam.name + "\"`");
+            if (node == b)
+              checks.Fail(path + ".body", "'" + s.body() + "' is a beam node; use `beam: \"" + beam.name + "\"`");
           }
         }
         sf.body = b;
@@ -123,8 +127,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
         if (e < 0) {
           std::string known;
           for (const auto& eb : m.elastic_bodies()) known += (known.empty() ? "" : ", ") + eb.name();
-          checks.Fail(path + ".elastic_body", "no elastic body named '" + s.elastic_body() + "'" +
-                                                  (known.empty() ? "" : "; known: " + known));
+          checks.Fail(path + ".elastic_body",
+                      "no elastic body named '" + s.elastic_body() + "'" + (known.empty() ? "" : "; known: " + known));
         }
         if (elastic_meshes.empty()) {
           for (const ElasticBodySpec& spec : BuildElasticBodies(checks, m, model->bodies)) {
@@ -151,7 +155,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
       checks.Fail(path + ".upper", "lies in the chord plane; it must point to the side of the upper surface");
     }
     sf.upper_sign = side > 0.0 ? 1.0 : -1.0;
-    if (s.stations_size() < 2) checks.Fail(path + ".stations", "needs at least two stations (root and tip of the loaded span)");
+    if (s.stations_size() < 2)
+      checks.Fail(path + ".stations", "needs at least two stations (root and tip of the loaded span)");
     for (int k = 0; k < s.stations_size(); ++k) {
       const sc::AeroStation& st = s.stations(k);
       const std::string sp = ElementPath(path + ".stations", k);
@@ -182,8 +187,9 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
       for (int k = 0; k <= 20; ++k) {
         const double sk = sf.stations.front().s + (sf.stations.back().s - sf.stations.front().s) * k / 20.0;
         if (!LocateInMesh(sf.mesh, sf.root_b + sk * sf.axis_b, &at)) {
-          checks.Fail(path + ".stations", "the reference line at s = " + FormatNumber(sk) + " m lies outside elastic body '" +
-                                              s.elastic_body() + "'; stations must stay inside its mesh");
+          checks.Fail(path + ".stations", "the reference line at s = " + FormatNumber(sk) +
+                                              " m lies outside elastic body '" + s.elastic_body() +
+                                              "'; stations must stay inside its mesh");
         }
       }
     }
@@ -206,14 +212,21 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
     rs.induced_velocity_factor =
         checks.InRange(path + ".induced_velocity_factor", true, r.induced_velocity_factor(), 1.0, 2.0);
     switch (r.inflow()) {
-      case sc::Rotor::NONE: rs.inflow = RotorSpec::Inflow::kNone; break;
-      case sc::Rotor::UNIFORM: rs.inflow = RotorSpec::Inflow::kUniform; break;
-      case sc::Rotor::PITT_PETERS: rs.inflow = RotorSpec::Inflow::kPittPeters; break;
-      default: checks.Fail(path + ".inflow", "give NONE, UNIFORM or PITT_PETERS");
+      case sc::Rotor::NONE:
+        rs.inflow = RotorSpec::Inflow::kNone;
+        break;
+      case sc::Rotor::UNIFORM:
+        rs.inflow = RotorSpec::Inflow::kUniform;
+        break;
+      case sc::Rotor::PITT_PETERS:
+        rs.inflow = RotorSpec::Inflow::kPittPeters;
+        break;
+      default:
+        checks.Fail(path + ".inflow", "give NONE, UNIFORM or PITT_PETERS");
     }
     if (r.has_induced_velocity_factor() && rs.inflow != RotorSpec::Inflow::kUniform) {
-      checks.Fail(path + ".induced_velocity_factor", "applies to UNIFORM inflow only; this rotor's inflow is " +
-                                                         sc::Rotor::Inflow_Name(r.inflow()));
+      checks.Fail(path + ".induced_velocity_factor",
+                  "applies to UNIFORM inflow only; this rotor's inflow is " + sc::Rotor::Inflow_Name(r.inflow()));
     }
     if (r.surfaces_size() == 0) checks.Fail(path + ".surfaces", "lists no aero surface; name the rotor's blades");
     for (int k = 0; k < r.surfaces_size(); ++k) {
@@ -229,7 +242,8 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
     if (r.has_blades()) {
       if (r.blades() < r.surfaces_size()) {
         checks.Fail(path + ".blades", std::to_string(r.blades()) + " blades, fewer than the " +
-                                          std::to_string(r.surfaces_size()) + " surfaces it lists; expected at least that many");
+                                          std::to_string(r.surfaces_size()) +
+                                          " surfaces it lists; expected at least that many");
       }
       rs.load_factor = static_cast<double>(r.blades()) / std::max(1, r.surfaces_size());
     }

@@ -1,10 +1,9 @@
 #include "smooth_solver/aero/air_loads.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-
-#include <Eigen/Dense>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
@@ -145,7 +144,8 @@ AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset, SystemData*
       for (size_t g = 0; g < gx.size(); ++g) {
         const double s = 0.5 * (lo + hi) + 0.5 * (hi - lo) * gx[g];
         sections_.push_back(Section(static_cast<int>(si), s, 0.5 * (hi - lo) * gw[g]));
-        if (sf.rotor >= 0) rotor_sections_[static_cast<size_t>(sf.rotor)].push_back(static_cast<int>(sections_.size() - 1));
+        if (sf.rotor >= 0)
+          rotor_sections_[static_cast<size_t>(sf.rotor)].push_back(static_cast<int>(sections_.size() - 1));
       }
     }
   }
@@ -399,13 +399,13 @@ void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
       SN.row(2) = o.v.cross(o.e1).transpose();
       const double w = s.weight;
       // Scaled by −w and by the integrator's factors: B_ij = ks K_ij + ds C_ij.
-      const Matrix3d G = -w * damping_scale * (R * DF * R.transpose());       // ∂F/∂ṗ
+      const Matrix3d G = -w * damping_scale * (R * DF * R.transpose());        // ∂F/∂ṗ
       const Matrix3d Gm = -w * damping_scale * (o.e2 * (Dm * R.transpose()));  // ∂(m e2)/∂ṗ
-      const Matrix3d KE = -w * stiffness_scale *
-                          (R * DF * SE + o.f(0) * Matrix3d::Identity() - o.f(2) * Skew(o.e2));  // ∂F/∂e1
-      const Matrix3d KN = -w * stiffness_scale *
-                          (R * DF * SN + o.f(1) * Matrix3d::Identity() + o.f(2) * Skew(o.e1));  // ∂F/∂e2
-      const Matrix3d ME = -w * stiffness_scale * (o.e2 * (Dm * SE));                            // ∂(m e2)/∂e1
+      const Matrix3d KE =
+          -w * stiffness_scale * (R * DF * SE + o.f(0) * Matrix3d::Identity() - o.f(2) * Skew(o.e2));  // ∂F/∂e1
+      const Matrix3d KN =
+          -w * stiffness_scale * (R * DF * SN + o.f(1) * Matrix3d::Identity() + o.f(2) * Skew(o.e1));  // ∂F/∂e2
+      const Matrix3d ME = -w * stiffness_scale * (o.e2 * (Dm * SE));                               // ∂(m e2)/∂e1
       const Matrix3d MN = -w * stiffness_scale * (o.e2 * (Dm * SN) + o.m * Matrix3d::Identity());  // ∂(m e2)/∂e2
       for (int i = 0; i < slots; ++i) {
         const size_t ii = static_cast<size_t>(i);
@@ -415,8 +415,8 @@ void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
         for (int j = 0; j < slots; ++j) {
           const size_t jj = static_cast<size_t>(j);
           if (s.wp[jj] == 0.0 && s.we[jj] == 0.0 && s.wn[jj] == 0.0) continue;
-          L.block<3, 3>(3 * i, 3 * j) += s.wp[jj] * rowC + wa * (s.we[jj] * KE + s.wn[jj] * KN) +
-                                         we * (s.we[jj] * ME + s.wn[jj] * MN);
+          L.block<3, 3>(3 * i, 3 * j) +=
+              s.wp[jj] * rowC + wa * (s.we[jj] * KE + s.wn[jj] * KN) + we * (s.we[jj] * ME + s.wn[jj] * MN);
         }
       }
     }
@@ -437,7 +437,8 @@ void AirLoads::Pattern(SparseSink* sink) const {
       for (int j = 0; j < s.slots; ++j) {
         if (group.mask[static_cast<size_t>(i * s.slots + j)] == 0) continue;
         for (int a = 0; a < 3; ++a) {
-          for (int b = 0; b < 3; ++b) sink->Add(s.slot[static_cast<size_t>(i)] + a, s.slot[static_cast<size_t>(j)] + b, 0.0);
+          for (int b = 0; b < 3; ++b)
+            sink->Add(s.slot[static_cast<size_t>(i)] + a, s.slot[static_cast<size_t>(j)] + b, 0.0);
         }
       }
     }

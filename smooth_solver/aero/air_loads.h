@@ -15,7 +15,6 @@
 // frame e1, e2); the air velocity's dependence on position (a gust front's gradient, the
 // induced velocity's linear part) and the rotor's inflow state are held over the step.
 #include <Eigen/Core>
-
 #include <array>
 #include <memory>
 #include <string>
@@ -86,7 +85,7 @@ struct RotorSpec {
   double radius = 1.0, guard_tip_speed = 10.0;
   Inflow inflow = Inflow::kUniform;
   std::vector<int> surfaces;
-  double load_factor = 1.0;  // blades / modelled surfaces: scales the inflow's forcing
+  double load_factor = 1.0;              // blades / modelled surfaces: scales the inflow's forcing
   double induced_velocity_factor = 1.0;  // κ: UNIFORM applies κ ν_m (ν_m the momentum balance's)
 };
 
@@ -131,7 +130,7 @@ class AirLoads : public ForceElement {
   // A section of surface `surface` at span coordinate s (weight 1), for probes.
   AeroSection Section(int surface, double s, double weight) const;
   struct SectionResult {
-    double alpha = 0.0, mach = 0.0, moment = 0.0;  // moment per span about the quarter chord
+    double alpha = 0.0, mach = 0.0, moment = 0.0;           // moment per span about the quarter chord
     Eigen::Vector3d force_local = Eigen::Vector3d::Zero();  // per span, section frame
     Eigen::Vector3d force = Eigen::Vector3d::Zero(), point = Eigen::Vector3d::Zero();  // global, at a
   };

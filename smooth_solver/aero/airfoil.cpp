@@ -135,8 +135,8 @@ class C81Reader {
     const std::string& l = Line(k, what);
     std::string field = first < l.size() ? l.substr(first, width) : "";
     const auto b = field.find_first_not_of(" \t"), e = field.find_last_not_of(" \t");
-    const std::string where = "columns " + std::to_string(first + 1) + "-" + std::to_string(first + width) + " (" +
-                              what + ")";
+    const std::string where =
+        "columns " + std::to_string(first + 1) + "-" + std::to_string(first + width) + " (" + what + ")";
     if (b == std::string::npos) Fail(k, where + " are empty; expected a number");
     field = field.substr(b, e - b + 1);
     char* end = nullptr;
@@ -209,7 +209,7 @@ std::unique_ptr<C81Airfoil> C81Airfoil::Parse(const std::string& text, const std
   const std::string& header = r.Line(0, "the header line");
   airfoil->title_ = header.substr(0, std::min<size_t>(30, header.size()));
   int counts[6];
-  const char* labels[6] = {"ML (lift Mach count)",  "NL (lift alpha count)",   "MD (drag Mach count)",
+  const char* labels[6] = {"ML (lift Mach count)",  "NL (lift alpha count)",  "MD (drag Mach count)",
                            "ND (drag alpha count)", "MM (moment Mach count)", "NM (moment alpha count)"};
   for (int c = 0; c < 6; ++c) {
     const double v = r.Number(0, 30 + 2 * static_cast<size_t>(c), 2, labels[c]);

@@ -640,9 +640,10 @@ TEST(RunContract, ThePumaModelledAsMbdynDoesFollowsMbdynThroughTheFirstTwoSecond
     worst_lag = std::max(worst_lag, std::abs(lag[k] - lag_m[j]));
     ++compared;
   }
-  std::printf("Puma as MBDyn models it, first 2 s against MBDyn's histories (%zu samples): flap within %.2e°, "
-              "lag within %.3f° (MBDyn's lag at 2 s: %.3f°)\n",
-              compared, worst_flap, worst_lag, lag_m[200]);
+  std::printf(
+      "Puma as MBDyn models it, first 2 s against MBDyn's histories (%zu samples): flap within %.2e°, "
+      "lag within %.3f° (MBDyn's lag at 2 s: %.3f°)\n",
+      compared, worst_flap, worst_lag, lag_m[200]);
   EXPECT_EQ(compared, 201u);
   EXPECT_LT(worst_flap, 2e-4);
   EXPECT_LT(worst_lag, 0.05);

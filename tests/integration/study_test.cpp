@@ -5,9 +5,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
-#include <utility>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "tests/integration/launch.h"
 
@@ -93,10 +93,10 @@ TEST(Study, EnvelopeSweepsTwoAxesOnALocalClusterOfTwoWorkersAndKeepsFailedPoints
   // clearance plane; one impact in 0.7 s; and at equal impact speed and restitution a Hertzian
   // (exponent 1.5) contact's peak force scales as K^(2/5): ten times K, 10^0.4 = 2.51 times.
   const fs::path out = TempDir("study_envelope");
-  ASSERT_EQ(Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/pendulum.pbtxt --out " +
-                      out.string(),
-                  out / "log.txt"),
-            0)
+  ASSERT_EQ(
+      Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/pendulum.pbtxt --out " + out.string(),
+            out / "log.txt"),
+      0)
       << Slurp(out / "log.txt");
   EXPECT_NE(Slurp(out / "log.txt").find("local Dask cluster (2 workers)"), std::string::npos) << Slurp(out / "log.txt");
   const Table runs = ReadTable(out / "runs.csv");
@@ -137,11 +137,12 @@ TEST(Study, RunsGoToTheClusterOfAGivenScheduler) {
                          (dir / "scheduler.log").string() + " 2>&1 & echo $! > " + (dir / "scheduler.pid").string())
                             .c_str()),
             0);
-  ASSERT_EQ(std::system(("cd " + worker.string() + " && COSIM_BIN_DIR=" + std::string(COSIM_BIN_DIR) +
-                         " dask-worker --scheduler-file " + file.string() + " --nworkers 1 --nthreads 1 --no-dashboard > " +
-                         (dir / "worker.log").string() + " 2>&1 & echo $! > " + (dir / "worker.pid").string())
-                            .c_str()),
-            0);
+  ASSERT_EQ(
+      std::system(("cd " + worker.string() + " && COSIM_BIN_DIR=" + std::string(COSIM_BIN_DIR) +
+                   " dask-worker --scheduler-file " + file.string() + " --nworkers 1 --nthreads 1 --no-dashboard > " +
+                   (dir / "worker.log").string() + " 2>&1 & echo $! > " + (dir / "worker.pid").string())
+                      .c_str()),
+      0);
   std::string address;
   for (int k = 0; k < 200 && address.empty(); ++k) {  // the scheduler writes its address when it listens
     const std::string json = fs::exists(file) ? Slurp(file) : "";
@@ -150,10 +151,11 @@ TEST(Study, RunsGoToTheClusterOfAGivenScheduler) {
     if (address.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   const fs::path out = dir / "study";
-  const int code = address.empty() ? -1
-                                   : Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/pendulum.pbtxt" +
-                                               " --scheduler " + address + " --out " + out.string(),
-                                           dir / "log.txt");
+  const int code = address.empty()
+                       ? -1
+                       : Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/pendulum.pbtxt" +
+                                   " --scheduler " + address + " --out " + out.string(),
+                               dir / "log.txt");
   for (const char* pid : {"worker.pid", "scheduler.pid"}) {  // stopped, and waited for (10 s, then killed)
     std::system(("p=$(cat " + (dir / pid).string() +
                  "); kill $p 2> /dev/null; for i in $(seq 50); do kill -0 $p 2> /dev/null || break; sleep 0.2; done; "
@@ -162,7 +164,8 @@ TEST(Study, RunsGoToTheClusterOfAGivenScheduler) {
   }
   ASSERT_FALSE(address.empty()) << Slurp(dir / "scheduler.log");
   ASSERT_EQ(code, 0) << Slurp(dir / "log.txt") << Slurp(dir / "worker.log");
-  EXPECT_NE(Slurp(dir / "log.txt").find("the Dask scheduler at " + address), std::string::npos) << Slurp(dir / "log.txt");
+  EXPECT_NE(Slurp(dir / "log.txt").find("the Dask scheduler at " + address), std::string::npos)
+      << Slurp(dir / "log.txt");
   EXPECT_EQ(ReadTable(out / "runs.csv").size(), 6u);
   EXPECT_TRUE(fs::exists(out / "runs" / "p0" / "history.csv"));
 }
@@ -182,8 +185,8 @@ TEST(Study, CompareTakesARecordedHistoryASettledStartAndMeasures) {
   const Table m = ReadTable(out / "measures.csv");
   ASSERT_EQ(m.size(), 3u);
   const double g = 9.81 / 100;
-  EXPECT_DOUBLE_EQ(m[0][1], -g);                 // the recorded history, read back
-  EXPECT_NEAR(m[0][2], -g, 1e-9);                // settled: it stays on the equilibrium
+  EXPECT_DOUBLE_EQ(m[0][1], -g);   // the recorded history, read back
+  EXPECT_NEAR(m[0][2], -g, 1e-9);  // settled: it stays on the equilibrium
   EXPECT_NEAR(m[0][3], -g * (1 - std::sin(3.0) / 3), 5e-5);
   EXPECT_NEAR(m[1][2], -g, 1e-9);
   EXPECT_NEAR(m[1][3], -2 * g, 1e-4);

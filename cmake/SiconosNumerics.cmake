@@ -1,7 +1,7 @@
 # Imported target Siconos::numerics for Siconos Numerics built from Debian's source package
 # by scripts/build_siconos.sh. The Debian binary -dev package's CMake config does not work
 # with only the numerics component, and the source build's config unsets CMAKE_CXX_STANDARD,
-# so the project makes its own target (see ../shared/reference/siconos-numerics.md).
+# so the project makes its own target (see docs/reference/siconos-numerics.md).
 find_library(SICONOS_NUMERICS_LIBRARY siconos_numerics
   PATHS "${SICONOS_NUMERICS_ROOT}/lib" NO_DEFAULT_PATH)
 find_path(SICONOS_NUMERICS_INCLUDE_DIR LinearComplementarityProblem.h

@@ -3,7 +3,7 @@
 // sides) against a raw ZeroMQ ping-pong of the same byte sizes over the same transport, in one
 // run, for ipc and tcp, between two processes (fork), for 1 and 12 interface nodes.
 // Target (issue 6): the protocol within 1.25× of the raw ping-pong. Peer figures on this kind of
-// machine (../shared/reference/peers.md): ipc 38-79 µs, tcp 44-81 µs per round trip.
+// machine (docs/reference/peers.md): ipc 38-79 µs, tcp 44-81 µs per round trip.
 #include <sys/wait.h>
 #include <unistd.h>
 

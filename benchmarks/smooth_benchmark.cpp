@@ -1,6 +1,6 @@
 // Smooth-solver benchmark (not a test):
 //  1. cost per CGα step of the CGα paper's four-bar (h = 1e-3, tolerance 1e-6, no output),
-//     next to the MBDyn figure in ../shared/reference/peers.md (24 µs/step);
+//     next to the MBDyn figure in docs/reference/peers.md (24 µs/step);
 //  2. cost per step of open and closed chains of 10 and 100 bodies (spherical joints), to see
 //     how it grows with the number of bodies;
 //  2b. the constraint forms of CGα (issue 12) side by side: cost per four-bar step of INDEX3

@@ -19,7 +19,9 @@ int main(int argc, char** argv) {
   using namespace cosim;
   std::vector<std::string> arguments(argv + 1, argv + argc);
   if (!arguments.empty() && (arguments[0] == "--help" || arguments[0] == "-h")) {
-    std::cout << interface::Usage("cosim run");
+    std::cout << interface::Usage("cosim run")
+              << "  --print-scenario  print the scenario as read (parameters and patterns expanded, overrides\n"
+                 "             applied, defaults filled in) as JSON with the schema's field names, and exit\n";
     return 0;
   }
   const auto print = std::find(arguments.begin(), arguments.end(), "--print-scenario");
@@ -39,6 +41,7 @@ int main(int argc, char** argv) {
       std::cout << json << "\n";
       return 0;
     }
+    for (const auto& w : file.warnings()) std::cerr << "cosim run: warning: " << w << "\n";
     interface::ValidateTimeSpan(file);
     const interface::PrivateFolder sockets;
     const auto plan = interface::PlanProcesses(file, cli, arguments, sockets.path());

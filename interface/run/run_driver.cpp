@@ -197,6 +197,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   summary.set_scenario(ScenarioName(*file));
   summary.set_scenario_file(cli.scenario);
   for (const auto& s : cli.sets) summary.add_overrides(s);
+  for (const auto& w : file->warnings()) summary.add_warnings(w);
   summary.set_start_time(span.start);
 
   const int every = file->proto().output().has_every() ? file->proto().output().every() : 1;

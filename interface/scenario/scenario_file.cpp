@@ -10,11 +10,14 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <cstdio>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
+#include "interface/scenario/expression.h"
 
 namespace cosim::interface {
 
@@ -53,6 +56,66 @@ class FirstErrorCollector : public pb::io::ErrorCollector {
   int column_ = -1;
   std::string message_;
 };
+
+// A `${EXPRESSION}` of the scenario text: [begin, end) in the text, the expression, and its
+// 1-based line and column.
+struct Placeholder {
+  size_t begin = 0, end = 0;
+  std::string expression;
+  int line = 0, column = 0;
+};
+
+// The `${…}` of `text` outside comments (inside strings too). An unclosed one is an InputError.
+std::vector<Placeholder> FindPlaceholders(const std::string& text, const std::string& file) {
+  std::vector<Placeholder> found;
+  int line = 1;
+  size_t line_start = 0;
+  char quote = 0;  // the open string's quote, or 0
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      line_start = i + 1;
+      quote = 0;  // protobuf strings do not span lines
+      continue;
+    }
+    if (quote != 0) {
+      if (c == '\\') {
+        ++i;
+      } else if (c == quote) {
+        quote = 0;
+      }
+    } else if (c == '#') {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+      continue;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+      continue;
+    }
+    if (c != '$' || i + 1 >= text.size() || text[i + 1] != '{') continue;
+    const size_t close = text.find_first_of("}\n", i + 2);
+    const int column = static_cast<int>(i - line_start) + 1;
+    if (close == std::string::npos || text[close] != '}') {
+      throw InputError(file + ":" + std::to_string(line) + ":" + std::to_string(column) +
+                       ": '${' without its '}' on the same line; write ${NAME} or ${EXPRESSION}");
+    }
+    found.push_back({i, close + 1, text.substr(i + 2, close - i - 2), line, column});
+    i = close;
+  }
+  return found;
+}
+
+std::string FormatParameter(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+bool IsIdentifier(const std::string& name) {
+  if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
 
 std::string KnownFields(const pb::Descriptor* descriptor) {
   std::string names;
@@ -165,18 +228,85 @@ ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::
   return Parse(text, path, overrides);
 }
 
-ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
-                                 const std::vector<std::string>& overrides) {
-  ScenarioFile file;
-  file.path_ = display_name;
+void ScenarioFile::ParseText(const std::string& text) {
   FirstErrorCollector errors;
   pb::TextFormat::Parser parser;
   parser.RecordErrorsTo(&errors);
-  parser.WriteLocationsTo(file.tree_.get());
-  if (!parser.ParseFromString(text, &file.proto_) || errors.has_error()) {
-    throw InputError(errors.Format(display_name) +
-                     " (scenario files are protobuf text format; schema: proto/scenario.proto)");
+  parser.WriteLocationsTo(tree_.get());
+  if (!parser.ParseFromString(text, &proto_) || errors.has_error()) {
+    throw InputError(errors.Format(path_) + " (scenario files are protobuf text format; schema: proto/scenario.proto)");
   }
+}
+
+std::map<std::string, double> ScenarioFile::EvaluateParameters() const {
+  std::map<std::string, double> values;
+  std::string known;
+  const NameLookup lookup = [&values](const std::string& name) -> std::optional<double> {
+    const auto v = values.find(name);
+    return v == values.end() ? std::nullopt : std::optional<double>(v->second);
+  };
+  for (int i = 0; i < proto_.parameters_size(); ++i) {
+    const scenario::Parameter& p = proto_.parameters(i);
+    const std::string path = "parameters[" + std::to_string(i) + "]";
+    if (!IsIdentifier(p.name()) || p.name() == "pi") {
+      Fail(path + ".name", "'" + p.name() + "' is not a parameter name; expected letters, digits and _, not starting "
+                                              "with a digit, and not 'pi'");
+    }
+    if (values.count(p.name()) != 0) Fail(path + ".name", "'" + p.name() + "' is defined twice");
+    double v = 0.0;
+    switch (p.definition_case()) {
+      case scenario::Parameter::kValue: v = p.value(); break;
+      case scenario::Parameter::kExpression:
+        v = EvaluateExpression(p.expression(), lookup, Where(path + ".expression") + ": " + path + ".expression",
+                               known.empty() ? "none is defined before it" : "defined before it: " + known);
+        break;
+      default: Fail(path, "'" + p.name() + "' has neither a value nor an expression");
+    }
+    if (!std::isfinite(v)) Fail(path + ".value", "is " + FormatParameter(v) + "; expected a finite number");
+    values[p.name()] = v;
+    known += (known.empty() ? "" : ", ") + p.name();
+  }
+  return values;
+}
+
+ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
+                                 const std::vector<std::string>& overrides) {
+  auto of_parameters = [](const std::string& argument) { return argument.rfind("parameters", 0) == 0; };
+  // Parameters: the text is read once with each ${…} blanked (same columns), the parameters
+  // taken from it with their overrides, and every ${…} replaced by its value.
+  std::string expanded = text;
+  const std::vector<Placeholder> places = FindPlaceholders(text, display_name);
+  if (!places.empty()) {
+    std::string blanked = text;
+    for (const Placeholder& p : places) blanked.replace(p.begin, p.end - p.begin, "0" + std::string(p.end - p.begin - 1, ' '));
+    ScenarioFile first;
+    first.path_ = display_name;
+    first.ParseText(blanked);
+    for (const std::string& argument : overrides) {
+      if (of_parameters(argument)) first.ApplyOverride(argument);
+    }
+    const std::map<std::string, double> values = first.EvaluateParameters();
+    std::string known;
+    for (const auto& p : first.proto_.parameters()) known += (known.empty() ? "" : ", ") + p.name();
+    const NameLookup lookup = [&values](const std::string& name) -> std::optional<double> {
+      const auto v = values.find(name);
+      return v == values.end() ? std::nullopt : std::optional<double>(v->second);
+    };
+    expanded.clear();
+    size_t copied = 0;
+    for (const Placeholder& p : places) {
+      const std::string where =
+          display_name + ":" + std::to_string(p.line) + ":" + std::to_string(p.column) + ": ${" + p.expression + "}";
+      expanded += text.substr(copied, p.begin - copied) +
+                  FormatParameter(EvaluateExpression(p.expression, lookup, where,
+                                                     known.empty() ? "the scenario defines none" : "defined: " + known));
+      copied = p.end;
+    }
+    expanded += text.substr(copied);
+  }
+  ScenarioFile file;
+  file.path_ = display_name;
+  file.ParseText(expanded);
   // Overrides of the patterns come before their expansion (a count, a template field), the
   // others after it, so that they can reach the copies too (the launcher sets each contact
   // process's endpoint, and a process may come from a pattern).
@@ -187,10 +317,13 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   file.pattern_origins_ = ExpandPatterns(
       &file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   for (const std::string& argument : overrides) {
-    if (!of_patterns(argument)) file.ApplyOverride(argument);
+    if (of_patterns(argument)) continue;
+    file.ApplyOverride(argument);
+    file.NoteCopyOverride(argument);
   }
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
+  (void)file.EvaluateParameters();  // bad definitions are refused even where no ${…} uses them
   // The name becomes the default output folder runs/<name>.
   if (file.proto_.has_name()) Checks(file).Name("name", true, file.proto_.name());
   return file;
@@ -335,6 +468,25 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
     }
   }
   overridden_.emplace_back(normalised, argument);
+}
+
+void ScenarioFile::NoteCopyOverride(const std::string& argument) {
+  const std::string& path = overridden_.back().first;  // normalised by ApplyOverride
+  // A contact process's endpoint is per copy by nature (the launcher sets each one's).
+  const std::string endpoint = ".endpoint";
+  if (path.size() >= endpoint.size() && path.compare(path.size() - endpoint.size(), endpoint.size(), endpoint) == 0) {
+    return;
+  }
+  for (const PatternOrigin& o : pattern_origins_) {
+    const bool inside = path.compare(0, o.expanded.size(), o.expanded) == 0 &&
+                        (path.size() == o.expanded.size() || path[o.expanded.size()] == '.' ||
+                         path[o.expanded.size()] == '[');
+    if (!inside) continue;
+    warnings_.push_back("--set " + argument + " changes copy " + std::to_string(o.copy) + " of pattern '" +
+                        o.pattern + "' only (" + o.expanded + " is that copy of " + o.source +
+                        "); to change every copy, set " + o.source + path.substr(o.expanded.size()));
+    return;
+  }
 }
 
 std::string ScenarioFile::Where(const std::string& field_path) const {

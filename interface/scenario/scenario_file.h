@@ -2,6 +2,7 @@
 // A scenario file as loaded for a run: the parsed message, where each field came from
 // (file:line:col, or the `--set` argument that overrode it), and the error helpers that
 // name that place.
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -32,6 +33,10 @@ class ScenarioFile {
   const scenario::Scenario& proto() const { return proto_; }
   const std::string& path() const { return path_; }
   const std::vector<std::string>& overrides() const { return overrides_; }
+  // What the input does that it may not mean, one sentence each: an override that reaches one
+  // copy of a pattern (the template's own path is given). The launcher prints them; every
+  // run's summary.json lists them.
+  const std::vector<std::string>& warnings() const { return warnings_; }
 
   // Where the field at `field_path` was given: "--set ARG" if an override set it or an
   // enclosing field, else "file:line:col" of the field, or of its nearest enclosing field
@@ -44,13 +49,21 @@ class ScenarioFile {
 
  private:
   ScenarioFile();
+  // Parses protobuf text into proto_ (locations into tree_); InputError naming path_:line:col.
+  void ParseText(const std::string& text);
+  // The parameters' values in order (Scenario.parameters), each checked: InputError naming
+  // the parameter's place for a bad name, a repeated one, no definition or a bad expression.
+  std::map<std::string, double> EvaluateParameters() const;
   void ApplyOverride(const std::string& argument);
+  // After ApplyOverride of `argument`: a warning if it set a field of a pattern's copy.
+  void NoteCopyOverride(const std::string& argument);
   // InputError at the first non-finite number under `message` (at field path `prefix`).
   void CheckFinite(const google::protobuf::Message& message, const std::string& prefix) const;
 
   scenario::Scenario proto_;
   std::string path_;
   std::vector<std::string> overrides_;
+  std::vector<std::string> warnings_;
   std::unique_ptr<google::protobuf::TextFormat::ParseInfoTree> tree_;
   // Normalised paths (indices, not names) set by overrides, with their argument.
   std::vector<std::pair<std::string, std::string>> overridden_;

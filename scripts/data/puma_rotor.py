@@ -26,7 +26,7 @@ STATIONS = subprocess.run([os.path.join(HERE, "puma_blade_stations.py"), "--cloc
 
 
 AIR_NOTE = """
-# - air (reference/aero.md, puma.md): strip theory on each beam from the root cut-out 2.080 m to
+# - air (docs/reference/aero.md, puma.md): strip theory on each beam from the root cut-out 2.080 m to
 #   the tip, chord 0.537 m, the built-in NACA 0012 (C_l = 5.7296 α/√(1 − M²) below stall, flat
 #   plate beyond), the section frame the beam's own (the reference line is the quarter chord,
 #   the aerodynamic twist the structural one), 2 Gauss points per element; one rotor collecting

@@ -550,7 +550,7 @@ void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
       st.nu = Vector3d(kappa * x1, 0.0, 0.0);
       continue;
     }
-    // Pitt–Peters (reference/aero.md), in dimensional form (ν = λ ΩR, forcing T/(ρA) and the
+    // Pitt–Peters (docs/reference/aero.md), in dimensional form (ν = λ ΩR, forcing T/(ρA) and the
     // thrust's first moments /(ρAR)): L M R ν̇ + ν = L F with L = L̃(χ) diag(1/V_T, 1/V, 1/V),
     // one implicit Euler step from the last accepted state with F and L at this state.
     const RotorResult loads = RotorLoads(static_cast<int>(r), st, q, qdot, t);

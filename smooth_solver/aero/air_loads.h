@@ -1,6 +1,6 @@
 #pragma once
 // Quasi-steady strip theory with rotor inflow (docs/design.md "Blade aerodynamics";
-// reference/aero.md). Every section's kinematics are linear in the natural coordinates: its
+// docs/reference/aero.md). Every section's kinematics are linear in the natural coordinates: its
 // quarter-chord point a, three-quarter-chord point p, chordwise axis e1 (towards the leading
 // edge) and upper normal e2 are fixed combinations Σ_k w_k q_k of 3-vector slots q_k of q (a
 // rigid body's x, u, v, w; a beam node's x, d2, d3 weighted by the shape functions). Then, with

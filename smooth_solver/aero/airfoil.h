@@ -4,7 +4,7 @@
 // derivatives (for the Newton matrix of the strip loads, docs/design.md "Blade aerodynamics").
 //   - C81Airfoil: the C81 table layout of rotorcraft codes (read and validated; bilinear in α
 //     and Mach, constant beyond the Mach range).
-//   - BuiltinNaca0012: the attached-flow fit of reference/puma.md below stall, blended into a
+//   - BuiltinNaca0012: the attached-flow fit of docs/reference/puma.md below stall, blended into a
 //     flat-plate post-stall model that reaches ±180° (reverse flow).
 #include <memory>
 #include <string>
@@ -30,7 +30,7 @@ class Airfoil {
 // α wrapped into (−π, π].
 double WrapAngle(double alpha);
 
-// NACA 0012, built in (reference/puma.md): below the stall angle α_s = 0.2269 (1 − M) rad
+// NACA 0012, built in (docs/reference/puma.md): below the stall angle α_s = 0.2269 (1 − M) rad
 //   C_l = 5.7296 α / √(1 − M²),  C_d = 0.006 + 0.13131 α²,  C_m = 0;
 // beyond α_s + 10° a flat plate, C_l = 1.18 sin 2α, C_d = 0.02 + 1.98 sin²α, C_m = −0.5 sin α
 // (C_l ≈ ±1.18 at ±45°, C_d ≈ 2.0 at 90°, C_l = 0 and C_d = 0.02 at 180°, as the C81 tables);

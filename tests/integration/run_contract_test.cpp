@@ -606,6 +606,52 @@ TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
   }
 }
 
+TEST(RunContract, ParametersAreSetOnTheCommandLineAndPrintedExpanded) {
+  // A parameter moved by --set reaches every use, and --print-scenario (listed in --help) shows
+  // the scenario as the solvers read it: the ${…} replaced by their values.
+  const fs::path dir = TempDir("parameters");
+  const fs::path scene = dir / "p.pbtxt";
+  std::ofstream(scene) << "name: \"p\"\nparameters { name: \"m\" value: 2 }\n"
+                          "model { bodies { name: \"b\" mass: ${m} inertia: [${m / 10}, 1, 1] } }\n"
+                          "numerics { end_time: 0.1 step: 0.01 }\n";
+  const Result help = Launch("--help");
+  EXPECT_EQ(help.code, 0);
+  EXPECT_NE(help.output.find("--print-scenario"), std::string::npos) << help.output;
+  const Result printed = Launch(scene.string() + " --print-scenario --set parameters[m].value=3");
+  ASSERT_EQ(printed.code, 0) << printed.output;
+  EXPECT_NE(printed.output.find("\"mass\":3,"), std::string::npos) << printed.output;
+  EXPECT_NE(printed.output.find("\"inertia\":[0.3"), std::string::npos) << printed.output;
+  const Result bad = Launch(scene.string() + " --set parameters[m].value=-1e400");
+  EXPECT_EQ(bad.code, 2) << bad.output;
+}
+
+TEST(RunContract, AnOverrideOfOnePatternCopyIsReportedAndTheEndpointsAreNot) {
+  // The co-simulated Puma (four blades from one pattern, a contact process per blade whose
+  // endpoint the launcher sets on each copy) for 10 ms. With `--set model.beams[0]…` the run
+  // goes on, the launcher says once that only blade 1 changed and names the template's path,
+  // and summary.json lists it; without it there is no warning, though every process copy's
+  // endpoint was overridden.
+  const fs::path dir = TempDir("copy_override");
+  const std::string scene = kScenarios + "/puma/engage_disengage.pbtxt --set numerics.end_time=0.01";
+  const Result one = Launch(scene + " --out " + (dir / "one").string() + " --set model.beams[0].retardation_time=2e-4");
+  ASSERT_EQ(one.code, 0) << one.output;
+  const std::string expected =
+      "cosim run: warning: --set model.beams[0].retardation_time=2e-4 changes copy 1 of pattern 'blades' only "
+      "(model.beams[0] is that copy of patterns[0].each.model.beams[0]); to change every copy, set "
+      "patterns[0].each.model.beams[0].retardation_time";
+  const size_t at = one.output.find(expected);
+  EXPECT_NE(at, std::string::npos) << one.output;
+  EXPECT_EQ(one.output.find("warning", at + expected.size()), std::string::npos) << one.output;  // once
+  const auto summary = ReadSummary(dir / "one");
+  ASSERT_EQ(summary.warnings_size(), 1);
+  EXPECT_NE(summary.warnings(0).find("changes copy 1 of pattern 'blades' only"), std::string::npos);
+  const Result plain = Launch(scene + " --out " + (dir / "plain").string());
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_EQ(plain.output.find("warning"), std::string::npos) << plain.output;
+  EXPECT_EQ(ReadSummary(dir / "plain").warnings_size(), 0);
+  EXPECT_EQ(ReadSummary(dir / "plain" / "stops1").warnings_size(), 0);
+}
+
 TEST(RunContract, ThePumaModelledAsMbdynDoesFollowsMbdynThroughTheFirstTwoSeconds) {
   // scenarios/puma/engage_disengage_mbdyn.pbtxt (MBDyn's Ω100, no lag stops, a rigid pitch
   // bearing, its inflow correction and lift slope) started as its study starts it: a STATIC step

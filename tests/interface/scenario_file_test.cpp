@@ -6,7 +6,10 @@
 
 #include <Eigen/Geometry>
 #include <functional>
+#include <cmath>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -94,6 +97,74 @@ TEST(ScenarioFile, BadOverridesAreReportedWithTheArgument) {
   EXPECT_NE(MessageOf([] { ScenarioFile::Parse(kText, "f", {"numerics.step"}); }).find("expected FIELD.PATH=VALUE"),
             std::string::npos);
   EXPECT_NE(MessageOf([] { ScenarioFile::Parse(kText, "f", {"model.contact_nodes.mass=1"}); }).find("is repeated"),
+            std::string::npos);
+}
+
+// Parameters (issue 34): a rotor radius and a chord written once, used in numbers, lists and a
+// string, one defined from another.
+const char* kParametric = R"P(name: "p"
+parameters { name: "R" value: 7.49 unit: "m" }
+parameters { name: "c" expression: "0.0717 * R" }   # the chord from the radius
+parameters { name: "droop" expression: "radians(-10)" }
+model {
+  contact_nodes { name: "tip_${R}" mass: ${2 * c} position: [${R * cos(droop)}, 0, ${R*sin(droop)}] }
+}
+# a ${comment} is not expanded
+numerics { end_time: ${R / R} step: 0.1 }
+)P";
+
+TEST(Parameters, AreUsedAnywhereAndSetLikeAnyField) {
+  // Each ${…} is its expression's value at full precision; --set parameters[R].value moves every
+  // use, including the parameters defined from it; a comment's ${…} is left alone.
+  const double R = 7.49, c = 0.0717 * R, droop = -10 * std::numbers::pi / 180;
+  const ScenarioFile f = ScenarioFile::Parse(kParametric, "p.pbtxt", {});
+  const auto& node = f.proto().model().contact_nodes(0);
+  EXPECT_EQ(node.name(), "tip_7.4900000000000002");
+  EXPECT_DOUBLE_EQ(node.mass(), 2 * c);
+  EXPECT_DOUBLE_EQ(node.position(0), R * std::cos(droop));
+  EXPECT_DOUBLE_EQ(node.position(2), R * std::sin(droop));
+  EXPECT_EQ(f.proto().numerics().end_time(), 1.0);
+  const ScenarioFile g = ScenarioFile::Parse(kParametric, "p.pbtxt", {"parameters[R].value=5"});
+  EXPECT_DOUBLE_EQ(g.proto().model().contact_nodes(0).mass(), 2 * 0.0717 * 5);
+  EXPECT_DOUBLE_EQ(g.proto().model().contact_nodes(0).position(0), 5 * std::cos(droop));
+  const ScenarioFile h = ScenarioFile::Parse(kParametric, "p.pbtxt", {"parameters[c].value=0.5"});
+  EXPECT_DOUBLE_EQ(h.proto().model().contact_nodes(0).mass(), 1.0);  // the value replaces the expression
+  // Operators: precedence, right-associative power, unary minus, functions of two arguments.
+  const ScenarioFile e = ScenarioFile::Parse(
+      "parameters { name: \"a\" value: 2 }\nnumerics { end_time: ${-a^3^0.5 + 2*3**2 - max(1, atan2(0, -1))/(a-1)} }",
+      "e.pbtxt", {});
+  EXPECT_DOUBLE_EQ(e.proto().numerics().end_time(), -std::pow(2.0, std::sqrt(3.0)) + 18 - std::numbers::pi);
+}
+
+TEST(Parameters, MistakesNameTheirPlace) {
+  // Each mistake is exit 2 (InputError) with the file, line and column of the ${…} or the
+  // parameter's field, and what is expected.
+  auto error = [](const std::string& text, const std::vector<std::string>& sets = {}) {
+    return MessageOf([&] { ScenarioFile::Parse(text, "m.pbtxt", sets); });
+  };
+  const std::string p = "parameters { name: \"R\" value: 2 }\n";
+  EXPECT_NE(error(p + "numerics { end_time: ${Rr} }").find("m.pbtxt:2:22: ${Rr}: 'Rr' at column 1: no parameter 'Rr'; defined: R"),
+            std::string::npos)
+      << error(p + "numerics { end_time: ${Rr} }");
+  EXPECT_NE(error(p + "numerics { end_time: ${R +} }").find("the expression ends where a value is expected"),
+            std::string::npos);
+  EXPECT_NE(error(p + "numerics { end_time: ${R\n} }").find("m.pbtxt:2:22: '${' without its '}' on the same line"),
+            std::string::npos);
+  EXPECT_NE(error(p + "numerics { end_time: ${sqrt(R, 2)} }").find("sqrt takes 1 argument, got 2"), std::string::npos);
+  EXPECT_NE(error(p + "numerics { end_time: ${log(0)} }").find("expected a finite number"), std::string::npos);
+  EXPECT_NE(error(p + "model { bodies { name: \"b\" mass: 1 inertia: [1, 1, 1] } joints { name: \"j\" type: "
+                      "REVOLUTE body1: \"ground\" body2: \"b\" axis: [0, 0, 1] point: [0, 0, 0] drive { "
+                      "quantity: ANGLE function { constant: 0 } } } output { every: ${R / 4} } }")
+                .find("m.pbtxt:2:"),
+            std::string::npos);  // 0.5 where an integer is expected: the parser's own message, placed
+  EXPECT_NE(error(p + p).find("parameters[1].name: 'R' is defined twice"), std::string::npos);
+  EXPECT_NE(error("parameters { name: \"2x\" value: 1 }").find("parameters[0].name: '2x' is not a parameter name"),
+            std::string::npos);
+  EXPECT_NE(error("parameters { name: \"a\" expression: \"b + 1\" }\nparameters { name: \"b\" value: 1 }")
+                .find("parameters[0].expression: 'b + 1' at column 1: no parameter 'b'; none is defined before it"),
+            std::string::npos);
+  EXPECT_NE(error("parameters { name: \"a\" }").find("'a' has neither a value nor an expression"), std::string::npos);
+  EXPECT_NE(error(p + "numerics { end_time: ${R} }", {"parameters[R].value=inf"}).find("parameters[0].value"),
             std::string::npos);
 }
 
@@ -217,6 +288,32 @@ TEST(Pattern, OverridesOutsideThePatternsReachTheCopies) {
   EXPECT_EQ(f.proto().model().bodies(2).mass(), 50.0);
   EXPECT_EQ(f.Where("model.bodies[3].mass"), "--set model.bodies[blade3].mass=70");
   EXPECT_NE(f.Where("model.bodies[3].inertia").find("(copy 3 of pattern 'blades')"), std::string::npos);
+}
+
+TEST(Pattern, AnOverrideOfOneCopySaysSoAndNamesTheTemplatesPath) {
+  // Issue 34: `--set model.bodies[1].mass=…` in a patterned scene changes blade 1 only, which a
+  // user who meant the blades would not see. The override still applies (one copy is a
+  // legitimate target), with a warning that names the copy, the pattern and the template's own
+  // path; that path, by index or by the template's names, changes every copy and warns nothing,
+  // as do overrides of elements outside the patterns and the launcher's per-process endpoints.
+  const ScenarioFile one = ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"model.bodies[1].inertia=[2, 30, 30]"});
+  EXPECT_EQ(one.proto().model().bodies(1).inertia(1), 30.0);
+  EXPECT_EQ(one.proto().model().bodies(2).inertia(1), 20.0);
+  ASSERT_EQ(one.warnings().size(), 1u);
+  EXPECT_EQ(one.warnings()[0],
+            "--set model.bodies[1].inertia=[2, 30, 30] changes copy 1 of pattern 'blades' only (model.bodies[1] is "
+            "that copy of patterns[0].each.model.bodies[0]); to change every copy, set "
+            "patterns[0].each.model.bodies[0].inertia");
+  const ScenarioFile by_name = ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"model.joints[blade4_flap].axis=[0, 1, 0]"});
+  ASSERT_EQ(by_name.warnings().size(), 1u);
+  EXPECT_NE(by_name.warnings()[0].find("changes copy 4 of pattern 'blades' only"), std::string::npos);
+  EXPECT_NE(by_name.warnings()[0].find("set patterns[0].each.model.joints[0].axis"), std::string::npos);
+  const ScenarioFile every = ScenarioFile::Parse(
+      kRotor, "rotor.pbtxt",
+      {"patterns[blades].each.model.bodies[blade{k}].mass=60", "model.bodies[hub].mass=12", "numerics.step=0.01"});
+  EXPECT_TRUE(every.warnings().empty());
+  for (int k = 1; k <= 4; ++k) EXPECT_EQ(every.proto().model().bodies(k).mass(), 60.0) << k;
+  EXPECT_EQ(every.proto().model().bodies(0).mass(), 12.0);
 }
 
 TEST(Pattern, BadPatternsAreRefusedWithTheirPlace) {

@@ -36,7 +36,7 @@ TEST(TimeFunction, CosineRampMatchesEquation37AndItsDerivative) {
 }
 
 TEST(TimeFunction, CosinePulseRisesToItsPeakAndBackWithItsDerivativesAndIntegral) {
-  // ½ (1 − cos(2π τ/T)) peak: the gust profile of reference/aero.md.
+  // ½ (1 − cos(2π τ/T)) peak: the gust profile of docs/reference/aero.md.
   const ScenarioFile f = ScenarioFile::Parse("", "f", {});
   const Checks checks(f);
   scenario::TimeFunction proto;
@@ -60,7 +60,7 @@ TEST(TimeFunction, CosinePulseRisesToItsPeakAndBackWithItsDerivativesAndIntegral
 }
 
 TEST(TimeFunction, SumOfARampUpAndARampDownIsAnEngagementAndRunDown) {
-  // reference/puma.md: Ω(t) = ½(1 − cos(πt/20)) Ω100% up to 20 s, held, the mirror run-down from
+  // docs/reference/puma.md: Ω(t) = ½(1 − cos(πt/20)) Ω100% up to 20 s, held, the mirror run-down from
   // 30 s to rest at 50 s — a cosine ramp plus a negative one starting at 30 s.
   const ScenarioFile f = ScenarioFile::Parse("", "f", {});
   const Checks checks(f);

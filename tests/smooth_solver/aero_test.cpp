@@ -1,5 +1,5 @@
 // Blade aerodynamics (smooth_solver/aero): the polars, the C81 reader, exact Newton matrices of
-// the strip loads, and the checks of reference/aero.md — hover thrust against blade-element
+// the strip loads, and the checks of docs/reference/aero.md — hover thrust against blade-element
 // momentum theory, a flapping blade's aerodynamic damping and coning, a still rotor in a
 // crosswind, and the Pitt–Peters inflow's response.
 #include <gtest/gtest.h>
@@ -356,7 +356,7 @@ double StripThrust(double nu, double omega, double theta75, double twist) {
 }
 
 TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
-  // reference/aero.md: the ideal rotor (constant chord, linear twist, no cut-out, no tip loss,
+  // docs/reference/aero.md: the ideal rotor (constant chord, linear twist, no cut-out, no tip loss,
   // constant lift slope, uniform inflow) gives C_T = 0.002755 at θ75 = 5° and 0.007310 at 10°.
   // The strip loads make their own thrust; the rotor solves Glauert's 2 ρ A ν² = T. Against an
   // independent quadrature of the exact strip theory: quadrature error; against the closed
@@ -471,7 +471,7 @@ TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
 }
 
 TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
-  // reference/aero.md, puma.md: hub still, collective 10°, air along +y, blade 1 along +x with
+  // docs/reference/aero.md, puma.md: hub still, collective 10°, air along +y, blade 1 along +x with
   // its leading edge towards −y (a clockwise rotor): blade 1 sees the wind on its leading edge
   // at +10° and lifts; blade 3 (along −x) sees it from its trailing edge (α ≈ −170°) and is
   // pushed down; blades 2 and 4 see it along their span and feel almost nothing. The induced
@@ -579,7 +579,7 @@ std::string FlappingBlade(double m, double theta) {
 }
 
 TEST(AirLoads, FlappingBladeHasTheLockNumbersDampingAndConing) {
-  // reference/aero.md: a rigid blade hinged on the shaft (e = 0) in hover with full-span air,
+  // docs/reference/aero.md: a rigid blade hinged on the shaft (e = 0) in hover with full-span air,
   // β'' + (γ/8) β' + ν_β² β = (γ/8) θ0 − g S_β/(I_β Ω²) in ψ = Ω t (λ = 0: no rotor inflow), so
   // the flap mode's damping ratio is γ/(16 ν_β) and the steady coning β0 = (γ/8) θ0/ν_β² −
   // g S_β/(I_β Ω² ν_β²). A uniform rod of R = 7.49 m and chord 0.537 m whose mass gives γ = 2
@@ -727,7 +727,7 @@ TEST(AirLoads, PumaBladeFlapModeHasTheHingeOffsetAndCutOutDamping) {
 TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
   // The rigid ideal rotor of the hover test is brought to Ω at t = 0 with no inflow: the
   // Pitt–Peters mean inflow then obeys (128/75π) R ν̇0 + 2 V_T ν0 = T(ν0)/(ρA) (dimensional form
-  // of reference/aero.md's λ0 equation, V_T = ν0 in hover). Against an independent RK4
+  // of docs/reference/aero.md's λ0 equation, V_T = ν0 in hover). Against an independent RK4
   // integration of that equation with the strip-theory thrust, and its time constant near the
   // end state against the linearised τ = M R / (4 ν̄ − dT/dν/(ρA)) (the mass flow follows ν0 and
   // the thrust falls as ν0 grows). aero.md's 0.543/(2λΩ) is the constant with both held.

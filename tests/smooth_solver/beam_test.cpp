@@ -1,5 +1,5 @@
 // The director-form beam (smooth_solver/beam): exact tangents, stress-free rigid motions, and
-// the classic benchmarks with numbers in ../shared/reference/beams.md — Mattiasson's elastica,
+// the classic benchmarks with numbers in docs/reference/beams.md — Mattiasson's elastica,
 // the roll-up to a full circle, the rotating cantilever's frequencies of Wright et al.
 #include "smooth_solver/beam/beam.h"
 

@@ -9,8 +9,8 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -249,18 +249,22 @@ std::map<std::string, double> ScenarioFile::EvaluateParameters() const {
     const scenario::Parameter& p = proto_.parameters(i);
     const std::string path = "parameters[" + std::to_string(i) + "]";
     if (!IsIdentifier(p.name()) || p.name() == "pi") {
-      Fail(path + ".name", "'" + p.name() + "' is not a parameter name; expected letters, digits and _, not starting "
-                                              "with a digit, and not 'pi'");
+      Fail(path + ".name", "'" + p.name() +
+                               "' is not a parameter name; expected letters, digits and _, not starting "
+                               "with a digit, and not 'pi'");
     }
     if (values.count(p.name()) != 0) Fail(path + ".name", "'" + p.name() + "' is defined twice");
     double v = 0.0;
     switch (p.definition_case()) {
-      case scenario::Parameter::kValue: v = p.value(); break;
+      case scenario::Parameter::kValue:
+        v = p.value();
+        break;
       case scenario::Parameter::kExpression:
         v = EvaluateExpression(p.expression(), lookup, Where(path + ".expression") + ": " + path + ".expression",
                                known.empty() ? "none is defined before it" : "defined before it: " + known);
         break;
-      default: Fail(path, "'" + p.name() + "' has neither a value nor an expression");
+      default:
+        Fail(path, "'" + p.name() + "' has neither a value nor an expression");
     }
     if (!std::isfinite(v)) Fail(path + ".value", "is " + FormatParameter(v) + "; expected a finite number");
     values[p.name()] = v;
@@ -278,7 +282,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   const std::vector<Placeholder> places = FindPlaceholders(text, display_name);
   if (!places.empty()) {
     std::string blanked = text;
-    for (const Placeholder& p : places) blanked.replace(p.begin, p.end - p.begin, "0" + std::string(p.end - p.begin - 1, ' '));
+    for (const Placeholder& p : places)
+      blanked.replace(p.begin, p.end - p.begin, "0" + std::string(p.end - p.begin - 1, ' '));
     ScenarioFile first;
     first.path_ = display_name;
     first.ParseText(blanked);
@@ -298,8 +303,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
       const std::string where =
           display_name + ":" + std::to_string(p.line) + ":" + std::to_string(p.column) + ": ${" + p.expression + "}";
       expanded += text.substr(copied, p.begin - copied) +
-                  FormatParameter(EvaluateExpression(p.expression, lookup, where,
-                                                     known.empty() ? "the scenario defines none" : "defined: " + known));
+                  FormatParameter(EvaluateExpression(
+                      p.expression, lookup, where, known.empty() ? "the scenario defines none" : "defined: " + known));
       copied = p.end;
     }
     expanded += text.substr(copied);
@@ -478,13 +483,13 @@ void ScenarioFile::NoteCopyOverride(const std::string& argument) {
     return;
   }
   for (const PatternOrigin& o : pattern_origins_) {
-    const bool inside = path.compare(0, o.expanded.size(), o.expanded) == 0 &&
-                        (path.size() == o.expanded.size() || path[o.expanded.size()] == '.' ||
-                         path[o.expanded.size()] == '[');
+    const bool inside =
+        path.compare(0, o.expanded.size(), o.expanded) == 0 &&
+        (path.size() == o.expanded.size() || path[o.expanded.size()] == '.' || path[o.expanded.size()] == '[');
     if (!inside) continue;
-    warnings_.push_back("--set " + argument + " changes copy " + std::to_string(o.copy) + " of pattern '" +
-                        o.pattern + "' only (" + o.expanded + " is that copy of " + o.source +
-                        "); to change every copy, set " + o.source + path.substr(o.expanded.size()));
+    warnings_.push_back("--set " + argument + " changes copy " + std::to_string(o.copy) + " of pattern '" + o.pattern +
+                        "' only (" + o.expanded + " is that copy of " + o.source + "); to change every copy, set " +
+                        o.source + path.substr(o.expanded.size()));
     return;
   }
 }

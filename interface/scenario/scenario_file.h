@@ -2,12 +2,12 @@
 // A scenario file as loaded for a run: the parsed message, where each field came from
 // (file:line:col, or the `--set` argument that overrode it), and the error helpers that
 // name that place.
+#include <google/protobuf/text_format.h>
+
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <google/protobuf/text_format.h>
 
 #include "interface/scenario/pattern.h"
 #include "scenario.pb.h"

@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -143,7 +143,8 @@ TEST(Parameters, MistakesNameTheirPlace) {
     return MessageOf([&] { ScenarioFile::Parse(text, "m.pbtxt", sets); });
   };
   const std::string p = "parameters { name: \"R\" value: 2 }\n";
-  EXPECT_NE(error(p + "numerics { end_time: ${Rr} }").find("m.pbtxt:2:22: ${Rr}: 'Rr' at column 1: no parameter 'Rr'; defined: R"),
+  EXPECT_NE(error(p + "numerics { end_time: ${Rr} }")
+                .find("m.pbtxt:2:22: ${Rr}: 'Rr' at column 1: no parameter 'Rr'; defined: R"),
             std::string::npos)
       << error(p + "numerics { end_time: ${Rr} }");
   EXPECT_NE(error(p + "numerics { end_time: ${R +} }").find("the expression ends where a value is expected"),

@@ -3,8 +3,11 @@
 
     scripts/plot_history.py RUN_FOLDER [--out FILE.png]
 
-Reads RUN_FOLDER/history.csv (the run contract's history) and writes RUN_FOLDER/history.png
-unless --out says otherwise. Uses matplotlib from Debian's python3-matplotlib.
+Reads RUN_FOLDER/history_joined.csv where a coupled run wrote one (every process's probes side
+by side: the coordinator's and each contact process's, a cell left empty where a process has no
+row at that time), else RUN_FOLDER/history.csv (the run contract's history), and writes
+RUN_FOLDER/history.png unless --out says otherwise. Uses matplotlib from Debian's
+python3-matplotlib.
 """
 import argparse
 import csv
@@ -22,7 +25,8 @@ def main() -> int:
     parser.add_argument("run_folder")
     parser.add_argument("--out")
     args = parser.parse_args()
-    path = os.path.join(args.run_folder, "history.csv")
+    joined = os.path.join(args.run_folder, "history_joined.csv")
+    path = joined if os.path.isfile(joined) else os.path.join(args.run_folder, "history.csv")
     try:
         with open(path, newline="") as f:
             rows = list(csv.reader(f))
@@ -32,7 +36,7 @@ def main() -> int:
     if len(rows) < 2 or rows[0][0] != "time":
         print(f"plot_history: error: {path}: expected a header starting with 'time' and data rows", file=sys.stderr)
         return 2
-    header, data = rows[0], rows[1:]
+    header, data = rows[0], [r for r in rows[1:] if len(r) == len(rows[0])]
     time = [float(r[0]) for r in data]
     probes = header[1:]
     if not probes:
@@ -41,7 +45,9 @@ def main() -> int:
     fig, axes = plt.subplots(len(probes), 1, sharex=True, figsize=(8, 1.9 * len(probes) + 0.8), squeeze=False)
     for i, name in enumerate(probes):
         ax = axes[i][0]
-        ax.plot(time, [float(r[i + 1]) for r in data], lw=1.0)
+        # Each probe at the times its process wrote it (empty cells of a joined history skipped).
+        points = [(t, float(r[i + 1])) for t, r in zip(time, data) if r[i + 1] != ""]
+        ax.plot([p[0] for p in points], [p[1] for p in points], lw=1.0)
         ax.set_ylabel(name)
         ax.grid(True, alpha=0.3)
     axes[-1][0].set_xlabel("time [s]")

@@ -178,15 +178,15 @@ def main():
     picks = np.unique(np.linspace(0, len(series) - 1, min(args.frames, len(series))).round().astype(int))
     frames = [Frame(series[i][1]) for i in picks]
     times = [series[i][0] for i in picks]
-    limits = bounds(frames)
-    stress_max = max([max(f.solid_stress) for f in frames if f.solid_stress] + [1e-30])
     title = args.title or os.path.basename(os.path.normpath(args.run))
-    # Snapshot.
+    # Snapshot: any frame of the series, not only the animation's, so the box holds it too.
     if args.time is None:
         shot, shot_time = frames[-1], times[-1]
     else:
         k = int(np.argmin([abs(t - args.time) for t, _ in series]))
         shot, shot_time = Frame(series[k][1]), series[k][0]
+    limits = bounds(frames + [shot])
+    stress_max = max([max(f.solid_stress) for f in frames + [shot] if f.solid_stress] + [1e-30])
     fig = plt.figure(figsize=(6.4, 5.6))
     ax = fig.add_subplot(projection="3d")
     draw(ax, shot, limits, args.view, shot_time, stress_max, title)
@@ -199,8 +199,9 @@ def main():
     movie = animation.FuncAnimation(fig, update, frames=len(frames), blit=False)
     movie.save(os.path.join(out, "animation.gif"), writer=animation.PillowWriter(fps=args.fps), dpi=80)
     plt.close(fig)
+    box = ", ".join(f"{a} [{lo:.6g}, {hi:.6g}]" for a, lo, hi in zip("xyz", limits[0], limits[1]))
     print(f"cosim render: {os.path.join(out, 'snapshot.png')} (t = {shot_time:g} s), "
-          f"{os.path.join(out, 'animation.gif')} ({len(frames)} frames of {len(series)})", file=sys.stderr)
+          f"{os.path.join(out, 'animation.gif')} ({len(frames)} frames of {len(series)}); box {box} m", file=sys.stderr)
 
 
 if __name__ == "__main__":

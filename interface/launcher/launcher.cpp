@@ -16,6 +16,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
 
 #include "interface/coupling/channel.h"
 #include "interface/run/errors.h"
@@ -226,6 +230,87 @@ void PassContactFailureOn(const ProcessPlan& contact, int code, const ProcessPla
 
 }  // namespace
 
+namespace {
+
+// One history.csv: its header and its rows, cells as written (the time parsed too).
+struct History {
+  std::vector<std::string> header;
+  std::vector<std::pair<double, std::vector<std::string>>> rows;
+};
+
+std::vector<std::string> SplitCells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream in(line);
+  std::string cell;
+  while (std::getline(in, cell, ',')) cells.push_back(cell);
+  return cells;
+}
+
+// Empty if the file is missing or not a history (no `time` column first).
+History ReadHistory(const std::string& path) {
+  History h;
+  std::ifstream in(path);
+  std::string line;
+  if (!in || !std::getline(in, line)) return h;
+  h.header = SplitCells(line);
+  if (h.header.empty() || h.header[0] != "time") return {};
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells = SplitCells(line);
+    if (cells.size() != h.header.size()) break;  // a row cut short by a killed process
+    char* end = nullptr;
+    const double t = std::strtod(cells[0].c_str(), &end);
+    if (end == cells[0].c_str()) break;
+    h.rows.emplace_back(t, std::move(cells));
+  }
+  return h;
+}
+
+}  // namespace
+
+void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts, const std::string& out) {
+  std::vector<History> histories;
+  std::vector<std::string> header{"time"};
+  std::set<std::string> taken{"time"};
+  for (const auto& [name, path] : parts) {
+    History h = ReadHistory(path);
+    if (h.header.empty()) continue;
+    for (size_t c = 1; c < h.header.size(); ++c) {
+      // A probe name seen already (two processes with a probe of the same name) takes its
+      // process's name in front.
+      std::string column = taken.count(h.header[c]) ? name + "/" + h.header[c] : h.header[c];
+      taken.insert(column);
+      header.push_back(column);
+    }
+    histories.push_back(std::move(h));
+  }
+  // Rows at the union of the times (equal doubles: every process computes start + k h alike);
+  // a history without a row at a time leaves its cells empty there.
+  std::map<double, std::vector<std::string>> rows;
+  size_t first = 1;
+  for (const History& h : histories) {
+    const size_t width = h.header.size() - 1;
+    for (const auto& [t, cells] : h.rows) {
+      std::vector<std::string>& row = rows[t];
+      if (row.empty()) row.assign(header.size(), "");
+      row[0] = cells[0];
+      std::copy(cells.begin() + 1, cells.end(), row.begin() + static_cast<std::ptrdiff_t>(first));
+    }
+    first += width;
+  }
+  const std::string tmp = out + ".part";
+  {
+    std::ofstream file(tmp);
+    for (size_t c = 0; c < header.size(); ++c) file << (c ? "," : "") << header[c];
+    file << "\n";
+    for (const auto& [t, row] : rows) {
+      for (size_t c = 0; c < row.size(); ++c) file << (c ? "," : "") << row[c];
+      file << "\n";
+    }
+    if (!file) throw std::runtime_error("cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, out);
+}
+
 int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli) {
   // Everything the launcher waits for arrives as a signal, taken synchronously (sigtimedwait):
   // children ending (SIGCHLD) and requests to stop (SIGTERM, SIGINT, SIGHUP).
@@ -388,6 +473,18 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
       WriteScenePvd(plan[last].out + "/scene.pvd", series);
     } catch (const Error& e) {
       std::cerr << "cosim: " << e.what() << "\n";
+    }
+  }
+
+  // A coupled run's histories side by side (history_joined.csv): the coordinator's probes, then
+  // each contact process's, failed run or not.
+  if (plan.size() > 1) {
+    std::vector<std::pair<std::string, std::string>> parts{{plan[last].name, plan[last].out + "/history.csv"}};
+    for (size_t i = 0; i < last; ++i) parts.emplace_back(plan[i].name, plan[i].out + "/history.csv");
+    try {
+      JoinHistories(parts, plan[last].out + "/history_joined.csv");
+    } catch (const std::exception& e) {
+      std::cerr << "cosim: the joined history was not written: " << e.what() << "\n";
     }
   }
 

@@ -6,12 +6,19 @@
 #include <sys/types.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "interface/run/run_driver.h"
 #include "interface/scenario/scenario_file.h"
 
 namespace cosim::interface {
+
+// Writes `out`, the histories `parts` (a name for clashes, a history.csv path) side by side: a
+// `time` column at the union of their times, then each one's probe columns (a name already used
+// gets "NAME/" in front), cells left empty where a history has no row. Missing or malformed
+// histories are left out.
+void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts, const std::string& out);
 
 struct ProcessPlan {
   std::string program;                   // executable name, next to cosim_launch

@@ -1,10 +1,14 @@
 #include "interface/visual/visual_frame.h"
 
+#include <bit>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include "interface/run/errors.h"
 
@@ -18,7 +22,7 @@ struct FileCloser {
 
 // Opens `path` for writing; InputError naming it if it cannot (as history.csv's writer).
 std::unique_ptr<std::FILE, FileCloser> Open(const std::string& path) {
-  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "w"));
+  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "wb"));
   if (!f) throw InputError("visual output: cannot write " + path);
   return f;
 }
@@ -28,17 +32,40 @@ void Close(std::unique_ptr<std::FILE, FileCloser> f, const std::string& path) {
   if (std::fclose(f.release()) != 0 || failed) throw InputError("visual output: writing " + path + " failed");
 }
 
-void IntArray(std::FILE* f, const char* name, const std::vector<int>& values, const char* type = "Int32") {
-  std::fprintf(f, "        <DataArray type=\"%s\" Name=\"%s\" format=\"ascii\">\n         ", type, name);
-  for (size_t i = 0; i < values.size(); ++i) std::fprintf(f, "%s%d", (i % 16 == 15) ? "\n         " : " ", values[i]);
-  std::fprintf(f, "\n        </DataArray>\n");
-}
+// The frame's arrays as VTK XML "appended" raw binary: each DataArray element names its offset
+// into one block written after the XML (a UInt64 byte count, then the values in the machine's
+// byte order). Every double exact, and ~60 % of the 17-digit ASCII's size (a Puma frame: 32 kB
+// against ~51 kB).
+class Appended {
+ public:
+  // The DataArray element of `values` (`components` per tuple) and its bytes queued.
+  template <typename T>
+  std::string Array(const char* type, const char* name, const T* values, size_t count, int components = 1) {
+    char head[256];
+    std::snprintf(head, sizeof head, "        <DataArray type=\"%s\" Name=\"%s\"%s format=\"appended\" offset=\"%zu\"/>\n",
+                  type, name, components == 3 ? " NumberOfComponents=\"3\"" : "", bytes_.size());
+    const std::uint64_t size = count * sizeof(T);
+    const auto* p = reinterpret_cast<const char*>(&size);
+    bytes_.insert(bytes_.end(), p, p + sizeof size);
+    const auto* v = reinterpret_cast<const char*>(values);
+    bytes_.insert(bytes_.end(), v, v + size);
+    return head;
+  }
+  std::string Ints(const char* name, const std::vector<int>& values) {
+    static_assert(sizeof(int) == 4);
+    return Array("Int32", name, values.data(), values.size());
+  }
+  std::string Vectors(const char* name, const std::vector<Eigen::Vector3d>& values) {
+    std::vector<double> flat;
+    flat.reserve(3 * values.size());
+    for (const auto& x : values) flat.insert(flat.end(), {x.x(), x.y(), x.z()});
+    return Array("Float64", name, flat.data(), values.size() * 3, 3);
+  }
+  const std::vector<char>& bytes() const { return bytes_; }
 
-void Vectors(std::FILE* f, const char* name, const std::vector<Eigen::Vector3d>& values) {
-  std::fprintf(f, "        <DataArray type=\"Float64\" Name=\"%s\" NumberOfComponents=\"3\" format=\"ascii\">\n", name);
-  for (const auto& v : values) std::fprintf(f, "          %.17g %.17g %.17g\n", v.x(), v.y(), v.z());
-  std::fprintf(f, "        </DataArray>\n");
-}
+ private:
+  std::vector<char> bytes_;
+};
 
 }  // namespace
 
@@ -73,30 +100,33 @@ void VisualFrame::Name(Kind kind, int entity, const std::string& name) {
 }
 
 void VisualFrame::WriteVtu(const std::string& path, double time) const {
-  auto f = Open(path);
-  std::fprintf(f.get(), "<?xml version=\"1.0\"?>\n");
-  std::fprintf(f.get(), "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\">\n");
-  std::fprintf(f.get(), "  <UnstructuredGrid>\n");
+  Appended data;
+  std::vector<std::uint8_t> types(type_.begin(), type_.end());
+  std::string xml;
+  xml += std::string("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"") +
+         (std::endian::native == std::endian::little ? "LittleEndian" : "BigEndian") + "\" header_type=\"UInt64\">\n";
+  xml += "  <UnstructuredGrid>\n";
   // The time as field data, so that a single file says when it is (ParaView's TimeValue).
-  std::fprintf(f.get(), "    <FieldData>\n      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" "
-                        "format=\"ascii\">%.17g</DataArray>\n    </FieldData>\n", time);
-  std::fprintf(f.get(), "    <Piece NumberOfPoints=\"%d\" NumberOfCells=\"%d\">\n", points(), cells());
-  std::fprintf(f.get(), "      <Points>\n");
-  Vectors(f.get(), "Points", x_);
-  std::fprintf(f.get(), "      </Points>\n      <Cells>\n");
-  IntArray(f.get(), "connectivity", connectivity_);
-  IntArray(f.get(), "offsets", offsets_);
-  IntArray(f.get(), "types", type_, "UInt8");
-  std::fprintf(f.get(), "      </Cells>\n");
-  std::fprintf(f.get(), "      <PointData Vectors=\"displacement\">\n");
-  Vectors(f.get(), "displacement", displacement_);
-  std::fprintf(f.get(), "      </PointData>\n      <CellData Scalars=\"kind\">\n");
-  IntArray(f.get(), "kind", kind_);
-  IntArray(f.get(), "entity", entity_);
-  IntArray(f.get(), "in_contact", in_contact_);
-  std::fprintf(f.get(), "        <DataArray type=\"Float64\" Name=\"von_mises\" format=\"ascii\">\n");
-  for (double s : von_mises_) std::fprintf(f.get(), "          %.9g\n", s);
-  std::fprintf(f.get(), "        </DataArray>\n      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "    <FieldData>\n      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" "
+                "format=\"ascii\">%.17g</DataArray>\n    </FieldData>\n",
+                time);
+  xml += line;
+  std::snprintf(line, sizeof line, "    <Piece NumberOfPoints=\"%d\" NumberOfCells=\"%d\">\n", points(), cells());
+  xml += line;
+  xml += "      <Points>\n" + data.Vectors("Points", x_) + "      </Points>\n      <Cells>\n";
+  xml += data.Ints("connectivity", connectivity_) + data.Ints("offsets", offsets_) +
+         data.Array("UInt8", "types", types.data(), types.size());
+  xml += "      </Cells>\n      <PointData Vectors=\"displacement\">\n" + data.Vectors("displacement", displacement_);
+  xml += "      </PointData>\n      <CellData Scalars=\"kind\">\n";
+  xml += data.Ints("kind", kind_) + data.Ints("entity", entity_) + data.Ints("in_contact", in_contact_) +
+         data.Array("Float64", "von_mises", von_mises_.data(), von_mises_.size());
+  xml += "      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _";
+  auto f = Open(path);
+  std::fwrite(xml.data(), 1, xml.size(), f.get());
+  std::fwrite(data.bytes().data(), 1, data.bytes().size(), f.get());
+  std::fputs("\n  </AppendedData>\n</VTKFile>\n", f.get());
   Close(std::move(f), path);
 }
 

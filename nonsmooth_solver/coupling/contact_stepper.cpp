@@ -113,16 +113,20 @@ void ContactStepper::Visual(interface::VisualFrame* frame) const {
   }
   // A plane is infinite: drawn as the square (its side twice the largest distance of its nodes'
   // projections from its point, at least 0.2 m) centred on its point, in the plane's tangents.
+  // Only the planes this process's nodes meet: the scenario's others belong to other processes.
   for (size_t o = 0; o < m.obstacles.size(); ++o) {
     const Obstacle& ob = m.obstacles[o];
     const Eigen::Vector3d p = ob.PointAt(time(), data()), normal = ob.NormalAt(time(), data());
     const Eigen::Vector3d t1 = ob.TangentAt(time(), data()), t2 = normal.cross(t1);
     double half = 0.1;
+    bool met = false;
     for (const Contact& c : m.contacts) {
       if (c.obstacle != static_cast<int>(o)) continue;
+      met = true;
       const Eigen::Vector3d d = x.segment<3>(3 * c.node) - p;
       half = std::max(half, 2.0 * (d - d.dot(normal) * normal).norm());
     }
+    if (!met) continue;
     frame->AddSquare(p, t1, t2, half, VisualFrame::Kind::kObstacle, static_cast<int>(o), obstacle_contact[o]);
     frame->Name(VisualFrame::Kind::kObstacle, static_cast<int>(o), ob.name);
   }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "run_summary.pb.h"
+#include "interface/launcher/launcher.h"
 #include "tests/integration/launch.h"
 
 namespace {
@@ -604,6 +605,34 @@ TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
     EXPECT_NEAR(tip[k], tip0, 1e-3) << "t = " << time[k];
     EXPECT_NEAR(flap[k], flap0, 1e-3) << "t = " << time[k];
   }
+}
+
+TEST(RunContract, JoinedHistoryPutsEveryProcesssProbesSideBySide) {
+  // JoinHistories on written tables: rows at the union of the times, each history's cells
+  // where it has a row and empty where not, a clashing probe name taken with its process's
+  // name, a missing history left out and a row cut short (a killed process) dropped.
+  const fs::path dir = TempDir("joined");
+  std::ofstream(dir / "a.csv") << "time,x,y\n0,1,2\n0.5,3,4\n1,5,6\n";
+  std::ofstream(dir / "b.csv") << "time,z,x\n0,7,8\n0.25,9,10\n1,11\n";
+  cosim::interface::JoinHistories({{"main", (dir / "a.csv").string()},
+                            {"stops", (dir / "b.csv").string()},
+                            {"gone", (dir / "missing.csv").string()}},
+                           (dir / "joined.csv").string());
+  EXPECT_EQ(Slurp(dir / "joined.csv"),
+            "time,x,y,z,stops/x\n0,1,2,7,8\n0.25,,,9,10\n0.5,3,4,,\n1,5,6,,\n");
+  // A coupled run (the co-simulated Puma, 10 ms): history_joined.csv holds the coordinator's
+  // probes and each contact process's, with the very cells of their own histories.
+  const fs::path out = dir / "puma";
+  const Result r =
+      Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + out.string() + " --set numerics.end_time=0.01");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const Table joined = ReadTable(out / "history_joined.csv"), smooth = ReadTable(out / "history.csv"),
+              stops3 = ReadTable(out / "stops3" / "history.csv");
+  ASSERT_EQ(joined.size(), smooth.size());
+  EXPECT_EQ(joined.header.size(), smooth.header.size() + 8);  // two impulse probes per blade
+  EXPECT_EQ(joined.Column("blade1_flap"), smooth.Column("blade1_flap"));
+  EXPECT_EQ(joined.Column("blade3_droop_impulse"), stops3.Column("blade3_droop_impulse"));
+  EXPECT_GT(stops3.Column("blade3_droop_impulse").back(), 0.0);  // the blade rests on its stop
 }
 
 TEST(RunContract, ParametersAreSetOnTheCommandLineAndPrintedExpanded) {

@@ -99,6 +99,22 @@ class Visual(unittest.TestCase):
             self.assertIn("6,0,node", f.read())
         self.assertGreaterEqual(touched, 1)  # the impact was drawn
 
+    def test_each_contact_process_draws_the_planes_of_its_own_nodes_only(self):
+        # The co-simulated Puma: four contact processes, each with one blade's pad against that
+        # blade's droop and anti-flap planes. Each draws those two planes and no other blade's
+        # (issue 34: each drew all eight, six of them as 0.2 m squares at the hub).
+        out = run("puma_planes", "scenarios/puma/engage_disengage.pbtxt", "output.visual.every=2",
+                  "numerics.end_time=0.004")
+        for k in range(1, 5):
+            folder = os.path.join(out, f"stops{k}")
+            frames = series(os.path.join(folder, "visual.pvd"))
+            self.assertEqual(len(frames), 3)
+            for _, file, _ in frames:
+                self.assertEqual(len(cells_of(meshio.read(os.path.join(folder, file)), "obstacle")), 2, (k, file))
+            with open(os.path.join(folder, "visual", "legend.csv")) as f:
+                names = {line.strip().split(",")[2] for line in f if line.startswith("7,")}
+            self.assertEqual(names, {f"blade{k}_droop", f"blade{k}_antiflap"})
+
     def test_hex27_blade_nodes_in_vtk_order_with_displacement_and_stress(self):
         out = run("spinning_blade", "scenarios/spinning_blade.pbtxt", "numerics.end_time=0.1", "output.visual.every=10")
         frames = series(os.path.join(out, "visual.pvd"))
@@ -166,6 +182,8 @@ class Visual(unittest.TestCase):
         out = run("spin_up", "scenarios/beams/spin_up.pbtxt", "numerics.end_time=0.02", "output.visual.every=5")
         frames = series(os.path.join(out, "visual.pvd"))
         self.assertEqual(len(frames), 3)
+        with open(os.path.join(out, frames[-1][1]), "rb") as f:
+            self.assertIn(b'<AppendedData encoding="raw">', f.read())  # binary arrays (issue 34)
         mesh = meshio.read(os.path.join(out, frames[-1][1]))
         axis = cells_of(mesh, "beam_axis")
         nodes = len(axis) + 1
@@ -180,6 +198,19 @@ class Visual(unittest.TestCase):
         tip = mesh.points[axis[-1][1][1]]
         self.assertAlmostEqual(float(np.hypot(tip[0], tip[1])), float(h["tip_radial"][-1]), delta=1e-3)
 
+    def test_render_snapshot_box_holds_a_frame_the_animation_leaves_out(self):
+        # The bouncing ball's first fall: at 1 m at t = 0, 1 − g t²/2 = 0.007 m at 0.45 s. An
+        # animation of one frame (the first) and the snapshot at 0.45 s: the box is drawn from
+        # both (issue 34: from the animation's frames only, so the snapshot's ball near the
+        # floor fell outside a box around 1 m).
+        out = run("render_ball", "scenarios/bouncing_ball.pbtxt", "numerics.end_time=0.5", "output.visual.every=10")
+        p = subprocess.run(["/usr/bin/python3", os.path.join(SOURCE, "scripts", "render.py"), out, "--frames", "1",
+                            "--time", "0.45"], capture_output=True, text=True)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        z = p.stderr.split("z [")[1].split("]")[0].split(",")
+        self.assertLess(float(z[0]), 0.007, p.stderr)
+        self.assertGreater(float(z[1]), 1.0, p.stderr)
+        self.assertTrue(os.path.isfile(os.path.join(out, "render", "snapshot.png")))
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)

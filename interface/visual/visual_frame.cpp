@@ -42,8 +42,9 @@ class Appended {
   template <typename T>
   std::string Array(const char* type, const char* name, const T* values, size_t count, int components = 1) {
     char head[256];
-    std::snprintf(head, sizeof head, "        <DataArray type=\"%s\" Name=\"%s\"%s format=\"appended\" offset=\"%zu\"/>\n",
-                  type, name, components == 3 ? " NumberOfComponents=\"3\"" : "", bytes_.size());
+    std::snprintf(head, sizeof head,
+                  "        <DataArray type=\"%s\" Name=\"%s\"%s format=\"appended\" offset=\"%zu\"/>\n", type, name,
+                  components == 3 ? " NumberOfComponents=\"3\"" : "", bytes_.size());
     const std::uint64_t size = count * sizeof(T);
     const auto* p = reinterpret_cast<const char*>(&size);
     bytes_.insert(bytes_.end(), p, p + sizeof size);

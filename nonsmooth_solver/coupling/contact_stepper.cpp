@@ -1,7 +1,6 @@
 #include "nonsmooth_solver/coupling/contact_stepper.h"
 
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -26,8 +25,11 @@ void ContactStepper::StepTentatively(double t, double h) {
   for (size_t n = 0; n < model.nodes.size(); ++n) {
     const Eigen::Index i = 3 * static_cast<Eigen::Index>(n);
     if (!q.segment<3>(i).allFinite() || !v.segment<3>(i).allFinite()) {
-      throw NumericalError("contact node '" + model.nodes[n].name + "' has a non-finite position or velocity after "
-                           "the step to t = " + FormatNumber(t + h) + " s (inputs too large for double precision, or "
+      throw NumericalError("contact node '" + model.nodes[n].name +
+                           "' has a non-finite position or velocity after "
+                           "the step to t = " +
+                           FormatNumber(t + h) +
+                           " s (inputs too large for double precision, or "
                            "the step too long)");
     }
   }
@@ -82,10 +84,18 @@ void ContactStepper::Probe(std::vector<double>* values) const {
         value = interface::PickComponent(Eigen::Vector3d(x.segment<3>(3 * p.index)), p.component);
         break;
       }
-      case ProbeKind::kGap: value = Gap(p.index); break;
-      case ProbeKind::kImpulse: value = Impulse(p.index); break;
-      case ProbeKind::kKineticEnergy: value = KineticEnergy(model, velocities(), p.index); break;
-      case ProbeKind::kPotentialEnergy: value = PotentialEnergy(model, positions(), p.index); break;
+      case ProbeKind::kGap:
+        value = Gap(p.index);
+        break;
+      case ProbeKind::kImpulse:
+        value = Impulse(p.index);
+        break;
+      case ProbeKind::kKineticEnergy:
+        value = KineticEnergy(model, velocities(), p.index);
+        break;
+      case ProbeKind::kPotentialEnergy:
+        value = PotentialEnergy(model, positions(), p.index);
+        break;
       case ProbeKind::kTotalEnergy:
         value = KineticEnergy(model, velocities(), p.index) + PotentialEnergy(model, positions(), p.index);
         break;

@@ -17,8 +17,8 @@
 #include <thread>
 #include <vector>
 
-#include "run_summary.pb.h"
 #include "interface/launcher/launcher.h"
+#include "run_summary.pb.h"
 #include "tests/integration/launch.h"
 
 namespace {
@@ -615,11 +615,10 @@ TEST(RunContract, JoinedHistoryPutsEveryProcesssProbesSideBySide) {
   std::ofstream(dir / "a.csv") << "time,x,y\n0,1,2\n0.5,3,4\n1,5,6\n";
   std::ofstream(dir / "b.csv") << "time,z,x\n0,7,8\n0.25,9,10\n1,11\n";
   cosim::interface::JoinHistories({{"main", (dir / "a.csv").string()},
-                            {"stops", (dir / "b.csv").string()},
-                            {"gone", (dir / "missing.csv").string()}},
-                           (dir / "joined.csv").string());
-  EXPECT_EQ(Slurp(dir / "joined.csv"),
-            "time,x,y,z,stops/x\n0,1,2,7,8\n0.25,,,9,10\n0.5,3,4,,\n1,5,6,,\n");
+                                   {"stops", (dir / "b.csv").string()},
+                                   {"gone", (dir / "missing.csv").string()}},
+                                  (dir / "joined.csv").string());
+  EXPECT_EQ(Slurp(dir / "joined.csv"), "time,x,y,z,stops/x\n0,1,2,7,8\n0.25,,,9,10\n0.5,3,4,,\n1,5,6,,\n");
   // A coupled run (the co-simulated Puma, 10 ms): history_joined.csv holds the coordinator's
   // probes and each contact process's, with the very cells of their own histories.
   const fs::path out = dir / "puma";

@@ -12,7 +12,10 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <filesystem>
+#include <functional>
 #include <map>
+#include <regex>
 #include <sstream>
 
 #include "interface/run/errors.h"
@@ -39,6 +42,9 @@ class FirstErrorCollector : public pb::io::ErrorCollector {
   void AddWarning(int, pb::io::ColumnNumber, const std::string&) override {}
 
   bool has_error() const { return has_error_; }
+  int line() const { return line_; }      // 0-based, or −1
+  int column() const { return column_; }  // 0-based
+  const std::string& message() const { return message_; }
   // "file:line:col: message" (line and column are 0-based in protobuf).
   std::string Format(const std::string& file) const {
     std::ostringstream out;
@@ -65,8 +71,10 @@ struct Placeholder {
   int line = 0, column = 0;
 };
 
-// The `${…}` of `text` outside comments (inside strings too). An unclosed one is an InputError.
-std::vector<Placeholder> FindPlaceholders(const std::string& text, const std::string& file) {
+// The `${…}` of `text` outside comments (inside strings too). An unclosed one is an InputError
+// placed by `place(line, column)` (both 1-based).
+std::vector<Placeholder> FindPlaceholders(const std::string& text,
+                                          const std::function<std::string(int, int)>& place) {
   std::vector<Placeholder> found;
   int line = 1;
   size_t line_start = 0;
@@ -96,13 +104,80 @@ std::vector<Placeholder> FindPlaceholders(const std::string& text, const std::st
     const size_t close = text.find_first_of("}\n", i + 2);
     const int column = static_cast<int>(i - line_start) + 1;
     if (close == std::string::npos || text[close] != '}') {
-      throw InputError(file + ":" + std::to_string(line) + ":" + std::to_string(column) +
-                       ": '${' without its '}' on the same line; write ${NAME} or ${EXPRESSION}");
+      throw InputError(place(line, column) + ": '${' without its '}' on the same line; write ${NAME} or ${EXPRESSION}");
     }
     found.push_back({i, close + 1, text.substr(i + 2, close - i - 2), line, column});
     i = close;
   }
   return found;
+}
+
+// A scenario file's text: a regular file of at most ScenarioFile::kMaxScenarioBytes (a FIFO would
+// block in open(), /dev/zero would be read until memory runs out). `where` names the place
+// that asked for it in errors (the command line's path, or an include's file:line).
+std::string ReadScenarioText(const std::string& path, const std::string& where) {
+  const std::string what = where == path ? "the scenario file" : "the included file '" + path + "'";
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) {
+    throw InputError(where + ": cannot read " + what + ": " + std::strerror(errno) +
+                     " (does it exist and is it readable?)");
+  }
+  if (!S_ISREG(info.st_mode)) {
+    throw InputError(where + ": " + (where == path ? std::string("the scenario") : what) +
+                     " is not a regular file (a folder, device, FIFO or socket); expected a protobuf text file");
+  }
+  if (info.st_size > ScenarioFile::kMaxScenarioBytes) {
+    throw InputError(where + ": " + what + " has " + std::to_string(info.st_size) + " bytes; at most " +
+                     std::to_string(ScenarioFile::kMaxScenarioBytes) + " are read (tables belong in files of their own)");
+  }
+  std::ifstream in(path);
+  if (!in) throw InputError(where + ": cannot read " + what + " (does it exist and is it readable?)");
+  std::string text(static_cast<size_t>(info.st_size), '\0');
+  in.read(text.data(), info.st_size);
+  text.resize(static_cast<size_t>(in.gcount()));
+  return text;
+}
+
+// "file:line:col" of a line (1-based) of the expanded text: the file and line it came from.
+std::string PlaceOf(const std::vector<std::pair<std::string, int>>& origins, const std::string& file, int line,
+                    int column) {
+  if (line >= 1 && static_cast<size_t>(line) <= origins.size()) {
+    const auto& [from, at] = origins[static_cast<size_t>(line - 1)];
+    return from + ":" + std::to_string(at) + ":" + std::to_string(column);
+  }
+  return file + ":" + std::to_string(line) + ":" + std::to_string(column);
+}
+
+// `include: "FILE"` alone on its line (a comment may follow): FILE's lines in its place, FILE
+// relative to the folder of the file that includes it. `open` is the chain of files being
+// included (a file that includes itself, directly or not, is refused), at most 16 deep.
+void ExpandIncludes(const std::string& text, const std::string& file, std::vector<std::string>* open,
+                    std::string* out, std::vector<std::pair<std::string, int>>* origins) {
+  static const std::regex directive(R"re(^\s*include\s*:\s*"([^"]*)"\s*(#.*)?$)re");
+  std::stringstream in(text);
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    std::smatch m;
+    if (!std::regex_match(line, m, directive)) {
+      *out += line + "\n";
+      origins->emplace_back(file, n);
+      continue;
+    }
+    const std::string where = file + ":" + std::to_string(n);
+    std::filesystem::path target(m[1].str());
+    if (target.empty()) throw InputError(where + ": include: an empty file name; expected include: \"FILE\"");
+    if (target.is_relative()) target = std::filesystem::path(file).parent_path() / target;
+    const std::string name = target.lexically_normal().string();
+    if (std::find(open->begin(), open->end(), name) != open->end()) {
+      throw InputError(where + ": include: '" + name + "' is already being included (a cycle)");
+    }
+    if (open->size() >= 16) throw InputError(where + ": include: more than 16 files deep");
+    open->push_back(name);
+    ExpandIncludes(ReadScenarioText(name, where + ": include"), name, open, out, origins);
+    open->pop_back();
+  }
 }
 
 std::string FormatParameter(double v) {
@@ -202,31 +277,10 @@ ScenarioFile& ScenarioFile::operator=(ScenarioFile&&) noexcept = default;
 ScenarioFile::~ScenarioFile() = default;
 
 ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::string>& overrides) {
-  // Only a regular file of a sensible size: a FIFO would block in open(), /dev/zero would be
-  // read until memory runs out.
-  struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) {
-    throw InputError(path + ": cannot read the scenario file: " + std::strerror(errno) +
-                     " (does it exist and is it readable?)");
-  }
-  if (!S_ISREG(info.st_mode)) {
-    throw InputError(path +
-                     ": the scenario is not a regular file (a folder, device, FIFO or socket); expected a "
-                     "protobuf text file");
-  }
-  if (info.st_size > kMaxScenarioBytes) {
-    throw InputError(path + ": the scenario file has " + std::to_string(info.st_size) + " bytes; at most " +
-                     std::to_string(kMaxScenarioBytes) + " are read (tables belong in files of their own)");
-  }
-  std::ifstream in(path);
-  if (!in) {
-    throw InputError(path + ": cannot read the scenario file (does it exist and is it readable?)");
-  }
-  std::string text(static_cast<size_t>(info.st_size), '\0');
-  in.read(text.data(), info.st_size);
-  text.resize(static_cast<size_t>(in.gcount()));
-  return Parse(text, path, overrides);
+  return Parse(ReadScenarioText(path, path), path, overrides);
 }
+
+std::string ScenarioFile::Place(int line, int column) const { return PlaceOf(line_origins_, path_, line, column); }
 
 void ScenarioFile::ParseText(const std::string& text) {
   FirstErrorCollector errors;
@@ -234,7 +288,9 @@ void ScenarioFile::ParseText(const std::string& text) {
   parser.RecordErrorsTo(&errors);
   parser.WriteLocationsTo(tree_.get());
   if (!parser.ParseFromString(text, &proto_) || errors.has_error()) {
-    throw InputError(errors.Format(path_) + " (scenario files are protobuf text format; schema: proto/scenario.proto)");
+    const std::string where = errors.line() >= 0 ? Place(errors.line() + 1, errors.column() + 1) : path_;
+    throw InputError(where + ": " + errors.message() +
+                     " (scenario files are protobuf text format; schema: proto/scenario.proto)");
   }
 }
 
@@ -276,16 +332,27 @@ std::map<std::string, double> ScenarioFile::EvaluateParameters() const {
 ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
                                  const std::vector<std::string>& overrides) {
   auto of_parameters = [](const std::string& argument) { return argument.rfind("parameters", 0) == 0; };
+  // Included files first: their lines in place of each `include: "FILE"` line, every line
+  // remembering the file and line it came from.
+  std::string joined;
+  std::vector<std::pair<std::string, int>> origins;
+  std::vector<std::string> open{display_name};
+  ExpandIncludes(text, display_name, &open, &joined, &origins);
+  const auto place_of = [&origins, &display_name](int line, int column) {
+    return PlaceOf(origins, display_name, line, column);
+  };
   // Parameters: the text is read once with each ${…} blanked (same columns), the parameters
   // taken from it with their overrides, and every ${…} replaced by its value.
-  std::string expanded = text;
-  const std::vector<Placeholder> places = FindPlaceholders(text, display_name);
+  const std::string& text_in = joined;
+  std::string expanded = text_in;
+  const std::vector<Placeholder> places = FindPlaceholders(text_in, place_of);
   if (!places.empty()) {
-    std::string blanked = text;
+    std::string blanked = text_in;
     for (const Placeholder& p : places)
       blanked.replace(p.begin, p.end - p.begin, "0" + std::string(p.end - p.begin - 1, ' '));
     ScenarioFile first;
     first.path_ = display_name;
+    first.line_origins_ = origins;
     first.ParseText(blanked);
     for (const std::string& argument : overrides) {
       if (of_parameters(argument)) first.ApplyOverride(argument);
@@ -300,17 +367,17 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
     expanded.clear();
     size_t copied = 0;
     for (const Placeholder& p : places) {
-      const std::string where =
-          display_name + ":" + std::to_string(p.line) + ":" + std::to_string(p.column) + ": ${" + p.expression + "}";
-      expanded += text.substr(copied, p.begin - copied) +
+      const std::string where = place_of(p.line, p.column) + ": ${" + p.expression + "}";
+      expanded += text_in.substr(copied, p.begin - copied) +
                   FormatParameter(EvaluateExpression(
                       p.expression, lookup, where, known.empty() ? "the scenario defines none" : "defined: " + known));
       copied = p.end;
     }
-    expanded += text.substr(copied);
+    expanded += text_in.substr(copied);
   }
   ScenarioFile file;
   file.path_ = display_name;
+  file.line_origins_ = std::move(origins);
   file.ParseText(expanded);
   // Overrides of the patterns come before their expansion (a count, a template field), the
   // others after it, so that they can reach the copies too (the launcher sets each contact
@@ -527,7 +594,7 @@ std::string ScenarioFile::WhereInFile(const std::string& field_path) const {
   }
   std::string best = path_;
   auto format = [this](const pb::TextFormat::ParseLocation& location) {
-    return path_ + ":" + std::to_string(location.line + 1) + ":" + std::to_string(location.column + 1);
+    return Place(location.line + 1, location.column + 1);
   };
   const pb::Descriptor* descriptor = proto_.GetDescriptor();
   const pb::TextFormat::ParseInfoTree* tree = tree_.get();

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "interface/scenario/pattern.h"
@@ -49,8 +50,10 @@ class ScenarioFile {
 
  private:
   ScenarioFile();
-  // Parses protobuf text into proto_ (locations into tree_); InputError naming path_:line:col.
+  // Parses protobuf text into proto_ (locations into tree_); InputError naming file:line:col.
   void ParseText(const std::string& text);
+  // "file:line:col" of a place (1-based) in the expanded text: the included file's own line.
+  std::string Place(int line, int column) const;
   // The parameters' values in order (Scenario.parameters), each checked: InputError naming
   // the parameter's place for a bad name, a repeated one, no definition or a bad expression.
   std::map<std::string, double> EvaluateParameters() const;
@@ -64,6 +67,8 @@ class ScenarioFile {
   std::string path_;
   std::vector<std::string> overrides_;
   std::vector<std::string> warnings_;
+  // For each line of the text as parsed (includes expanded): the file and line it came from.
+  std::vector<std::pair<std::string, int>> line_origins_;
   std::unique_ptr<google::protobuf::TextFormat::ParseInfoTree> tree_;
   // Normalised paths (indices, not names) set by overrides, with their argument.
   std::vector<std::pair<std::string, std::string>> overridden_;

@@ -5,7 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <numbers>
 #include <string>
@@ -167,6 +171,50 @@ TEST(Parameters, MistakesNameTheirPlace) {
   EXPECT_NE(error("parameters { name: \"a\" }").find("'a' has neither a value nor an expression"), std::string::npos);
   EXPECT_NE(error(p + "numerics { end_time: ${R} }", {"parameters[R].value=inf"}).find("parameters[0].value"),
             std::string::npos);
+}
+
+// Included files (issue 34): a scene's parts in files of their own.
+TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
+  // `include: "FILE"` on its own line is FILE's text (relative to the including file, included
+  // files including others), with parameters used across files; every field's place, and a
+  // syntax error's, is the line of the file it is written in.
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("cosim_include_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir / "parts");
+  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  write("main.pbtxt",
+        "name: \"inc\"\nparameters { name: \"m\" value: 3 }\nmodel {\n  include: \"parts/bodies.pbtxt\"   # the bodies\n"
+        "}\nnumerics { end_time: 1 step: 0.1 }\n");
+  write("parts/bodies.pbtxt", "bodies { name: \"a\" mass: ${m} inertia: [1, 1, 1] }\ninclude: \"more.pbtxt\"\n");
+  write("parts/more.pbtxt", "bodies { name: \"b\" mass: 2\n         inertia: [1, 1, 1] }\n");
+  const std::string main = (dir / "main.pbtxt").string(), parts = (dir / "parts").string();
+  const ScenarioFile f = ScenarioFile::Load(main, {});
+  ASSERT_EQ(f.proto().model().bodies_size(), 2);
+  EXPECT_EQ(f.proto().model().bodies(0).mass(), 3.0);
+  EXPECT_EQ(f.proto().model().bodies(1).mass(), 2.0);
+  EXPECT_EQ(f.Where("model.bodies[1].inertia"), parts + "/more.pbtxt:2:10");
+  EXPECT_EQ(f.Where("model.bodies[0].mass"), parts + "/bodies.pbtxt:1:20");
+  EXPECT_EQ(f.Where("numerics.step"), main + ":6:24");
+  // Mistakes inside an included file name its own line; a missing file or a cycle, the
+  // include line.
+  write("parts/more.pbtxt", "bodies { name: \"b\" mass: two\n         inertia: [1, 1, 1] }\n");
+  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); }).find(parts + "/more.pbtxt:1:26:"), std::string::npos)
+      << MessageOf([&] { ScenarioFile::Load(main, {}); });
+  write("parts/more.pbtxt", "bodies { name: \"b\" mass: ${2 * m\n inertia: [1, 1, 1] }\n");
+  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); })
+                .find(parts + "/more.pbtxt:1:26: '${' without its '}' on the same line"),
+            std::string::npos)
+      << MessageOf([&] { ScenarioFile::Load(main, {}); });
+  write("parts/more.pbtxt", "include: \"../main.pbtxt\"\n");
+  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); })
+                .find(parts + "/more.pbtxt:1: include: '" + main + "' is already being included (a cycle)"),
+            std::string::npos)
+      << MessageOf([&] { ScenarioFile::Load(main, {}); });
+  write("parts/more.pbtxt", "include: \"nowhere.pbtxt\"\n");
+  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); })
+                .find(parts + "/more.pbtxt:1: include: cannot read the included file '" + parts + "/nowhere.pbtxt'"),
+            std::string::npos)
+      << MessageOf([&] { ScenarioFile::Load(main, {}); });
+  std::filesystem::remove_all(dir);
 }
 
 TEST(ScenarioFile, ChecksNameFieldValueAndExpectation) {

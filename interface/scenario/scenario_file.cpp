@@ -11,8 +11,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <regex>
@@ -73,8 +73,7 @@ struct Placeholder {
 
 // The `${…}` of `text` outside comments (inside strings too). An unclosed one is an InputError
 // placed by `place(line, column)` (both 1-based).
-std::vector<Placeholder> FindPlaceholders(const std::string& text,
-                                          const std::function<std::string(int, int)>& place) {
+std::vector<Placeholder> FindPlaceholders(const std::string& text, const std::function<std::string(int, int)>& place) {
   std::vector<Placeholder> found;
   int line = 1;
   size_t line_start = 0;
@@ -128,7 +127,8 @@ std::string ReadScenarioText(const std::string& path, const std::string& where) 
   }
   if (info.st_size > ScenarioFile::kMaxScenarioBytes) {
     throw InputError(where + ": " + what + " has " + std::to_string(info.st_size) + " bytes; at most " +
-                     std::to_string(ScenarioFile::kMaxScenarioBytes) + " are read (tables belong in files of their own)");
+                     std::to_string(ScenarioFile::kMaxScenarioBytes) +
+                     " are read (tables belong in files of their own)");
   }
   std::ifstream in(path);
   if (!in) throw InputError(where + ": cannot read " + what + " (does it exist and is it readable?)");
@@ -151,8 +151,8 @@ std::string PlaceOf(const std::vector<std::pair<std::string, int>>& origins, con
 // `include: "FILE"` alone on its line (a comment may follow): FILE's lines in its place, FILE
 // relative to the folder of the file that includes it. `open` is the chain of files being
 // included (a file that includes itself, directly or not, is refused), at most 16 deep.
-void ExpandIncludes(const std::string& text, const std::string& file, std::vector<std::string>* open,
-                    std::string* out, std::vector<std::pair<std::string, int>>* origins) {
+void ExpandIncludes(const std::string& text, const std::string& file, std::vector<std::string>* open, std::string* out,
+                    std::vector<std::pair<std::string, int>>* origins) {
   static const std::regex directive(R"re(^\s*include\s*:\s*"([^"]*)"\s*(#.*)?$)re");
   std::stringstream in(text);
   std::string line;

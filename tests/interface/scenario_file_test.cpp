@@ -3,10 +3,9 @@
 #include "interface/scenario/scenario_file.h"
 
 #include <gtest/gtest.h>
-
-#include <Eigen/Geometry>
 #include <unistd.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -178,12 +177,14 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   // `include: "FILE"` on its own line is FILE's text (relative to the including file, included
   // files including others), with parameters used across files; every field's place, and a
   // syntax error's, is the line of the file it is written in.
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("cosim_include_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cosim_include_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir / "parts");
   auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
-  write("main.pbtxt",
-        "name: \"inc\"\nparameters { name: \"m\" value: 3 }\nmodel {\n  include: \"parts/bodies.pbtxt\"   # the bodies\n"
-        "}\nnumerics { end_time: 1 step: 0.1 }\n");
+  write(
+      "main.pbtxt",
+      "name: \"inc\"\nparameters { name: \"m\" value: 3 }\nmodel {\n  include: \"parts/bodies.pbtxt\"   # the bodies\n"
+      "}\nnumerics { end_time: 1 step: 0.1 }\n");
   write("parts/bodies.pbtxt", "bodies { name: \"a\" mass: ${m} inertia: [1, 1, 1] }\ninclude: \"more.pbtxt\"\n");
   write("parts/more.pbtxt", "bodies { name: \"b\" mass: 2\n         inertia: [1, 1, 1] }\n");
   const std::string main = (dir / "main.pbtxt").string(), parts = (dir / "parts").string();
@@ -200,18 +201,21 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); }).find(parts + "/more.pbtxt:1:26:"), std::string::npos)
       << MessageOf([&] { ScenarioFile::Load(main, {}); });
   write("parts/more.pbtxt", "bodies { name: \"b\" mass: ${2 * m\n inertia: [1, 1, 1] }\n");
-  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); })
-                .find(parts + "/more.pbtxt:1:26: '${' without its '}' on the same line"),
+  EXPECT_NE(MessageOf([&] {
+              ScenarioFile::Load(main, {});
+            }).find(parts + "/more.pbtxt:1:26: '${' without its '}' on the same line"),
             std::string::npos)
       << MessageOf([&] { ScenarioFile::Load(main, {}); });
   write("parts/more.pbtxt", "include: \"../main.pbtxt\"\n");
-  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); })
-                .find(parts + "/more.pbtxt:1: include: '" + main + "' is already being included (a cycle)"),
+  EXPECT_NE(MessageOf([&] {
+              ScenarioFile::Load(main, {});
+            }).find(parts + "/more.pbtxt:1: include: '" + main + "' is already being included (a cycle)"),
             std::string::npos)
       << MessageOf([&] { ScenarioFile::Load(main, {}); });
   write("parts/more.pbtxt", "include: \"nowhere.pbtxt\"\n");
-  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); })
-                .find(parts + "/more.pbtxt:1: include: cannot read the included file '" + parts + "/nowhere.pbtxt'"),
+  EXPECT_NE(MessageOf([&] {
+              ScenarioFile::Load(main, {});
+            }).find(parts + "/more.pbtxt:1: include: cannot read the included file '" + parts + "/nowhere.pbtxt'"),
             std::string::npos)
       << MessageOf([&] { ScenarioFile::Load(main, {}); });
   std::filesystem::remove_all(dir);

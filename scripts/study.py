@@ -90,7 +90,7 @@ class Runner:
         if not summary or "exit_code" not in summary and "status" not in summary:
             return False
         overrides = [o for o in summary.get("overrides", []) if ".endpoint=" not in o]
-        if overrides != list(run["sets"]):
+        if not same_overrides(overrides, list(run["sets"]), os.path.join(run["out"], "summary.json")):
             return False
         try:
             name = self.scenario_json(run["scenario"], run["sets"]).get("name")
@@ -153,6 +153,26 @@ class Runner:
             print(f"cosim study: [{done}/{total}] {run['id']}: {status}; {total - done} left, "
                   f"{time.time() - start:.1f} s so far", file=sys.stderr)
         return runs
+
+
+def same_overrides(recorded, wanted, summary_path):
+    """A kept run's overrides (its summary's) are the ones asked for: equal, except that a file
+    the run was sent (an absolute path, e.g. numerics.initial_state) is recorded at the worker's
+    copy — the same name, and the file not rewritten since the run (a new settling run's state
+    makes the runs from it run again)."""
+    if len(recorded) != len(wanted):
+        return False
+    for r, w in zip(recorded, wanted):
+        if r == w:
+            continue
+        rk, _, rv = r.partition("=")
+        wk, _, wv = w.partition("=")
+        rv, wv = rv.strip().strip('"'), wv.strip().strip('"')
+        if rk != wk or not (os.path.isabs(wv) and os.path.isfile(wv)) or os.path.basename(rv) != os.path.basename(wv):
+            return False
+        if os.path.getmtime(wv) > os.path.getmtime(summary_path):
+            return False
+    return True
 
 
 def record(run, code, seconds, host, stderr=""):

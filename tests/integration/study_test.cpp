@@ -196,6 +196,16 @@ TEST(Study, CompareTakesARecordedHistoryASettledStartAndMeasures) {
   EXPECT_NE(report.find("| closed form | recorded: hanging_equilibrium.csv"), std::string::npos) << report;
   EXPECT_NE(report.find("✓) | "), std::string::npos) << report;
   EXPECT_NE(report.find("✗) | "), std::string::npos) << report;
+  // --reuse keeps every run, the settled one too (its state was sent to the worker, whose copy
+  // its summary records), and the measures are the same.
+  const std::string first_measures = Slurp(out / "measures.csv");
+  ASSERT_EQ(Study("compare " + kData + "/compare/hanging.pbtxt --reuse --out " + out.string(), out / "log2.txt"), 0)
+      << Slurp(out / "log2.txt");
+  const std::string again = Slurp(out / "log2.txt");
+  EXPECT_NE(again.find("settled: kept from"), std::string::npos) << again;
+  EXPECT_NE(again.find("released: kept from"), std::string::npos) << again;
+  EXPECT_EQ(again.find(": ok;"), std::string::npos) << again;  // nothing ran again
+  EXPECT_EQ(Slurp(out / "measures.csv"), first_measures);
   // Bad input names the place: a recorded history that is not there, a measure without a kind.
   EXPECT_EQ(Study("compare " + kData + "/compare/hanging.pbtxt --out " + (out / "bad1").string() +
                       " --set study.compare[0].history_file=\\\"nowhere.csv\\\"",

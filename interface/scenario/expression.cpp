@@ -74,6 +74,7 @@ class Parser {
     }
   }
   double Unary() {
+    const Nest nest(this);
     if (Eat("-")) return -Unary();
     if (Eat("+")) return Unary();
     return Power();
@@ -88,6 +89,7 @@ class Parser {
     if (i_ >= s_.size()) Fail("the expression ends where a value is expected");
     const char c = s_[i_];
     if (Eat("(")) {
+      const Nest nest(this);
       const double v = Sum();
       if (!Eat(")")) Fail("a ')' is missing");
       return v;
@@ -149,6 +151,19 @@ class Parser {
     Fail(name + " takes " + std::to_string(expected) + " argument" + (expected == 1 ? "" : "s") + ", got " +
          std::to_string(got));
   }
+
+  // Nesting (signs and parentheses) is bounded: a hostile `${((((…` must not exhaust the stack.
+  struct Nest {
+    explicit Nest(Parser* p) : parser(p) {
+      if (++parser->depth_ > kMaxDepth) parser->Fail("nested more than " + std::to_string(kMaxDepth) + " deep");
+    }
+    ~Nest() { --parser->depth_; }
+    Nest(const Nest&) = delete;
+    Nest& operator=(const Nest&) = delete;
+    Parser* parser;
+  };
+  static constexpr int kMaxDepth = 200;
+  int depth_ = 0;
 
   const std::string& s_;
   const NameLookup& lookup_;

@@ -156,6 +156,11 @@ TEST(Parameters, MistakesNameTheirPlace) {
             std::string::npos);
   EXPECT_NE(error(p + "numerics { end_time: ${sqrt(R, 2)} }").find("sqrt takes 1 argument, got 2"), std::string::npos);
   EXPECT_NE(error(p + "numerics { end_time: ${log(0)} }").find("expected a finite number"), std::string::npos);
+  // Deep nesting is refused, not a stack overflow.
+  EXPECT_NE(error(p + "numerics { end_time: ${" + std::string(100000, '(') + "1} }").find("nested more than 200 deep"),
+            std::string::npos);
+  EXPECT_NE(error(p + "numerics { end_time: ${" + std::string(100000, '-') + "1} }").find("nested more than 200 deep"),
+            std::string::npos);
   EXPECT_NE(error(p + "model { bodies { name: \"b\" mass: 1 inertia: [1, 1, 1] } joints { name: \"j\" type: "
                       "REVOLUTE body1: \"ground\" body2: \"b\" axis: [0, 0, 1] point: [0, 0, 0] drive { "
                       "quantity: ANGLE function { constant: 0 } } } output { every: ${R / 4} } }")

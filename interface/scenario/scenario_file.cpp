@@ -15,7 +15,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
-#include <regex>
+#include <optional>
 #include <sstream>
 
 #include "interface/run/errors.h"
@@ -148,25 +148,46 @@ std::string PlaceOf(const std::vector<std::pair<std::string, int>>& origins, con
   return file + ":" + std::to_string(line) + ":" + std::to_string(column);
 }
 
+// `include: "FILE"` (whitespace around each part, a comment after) as the whole line: FILE.
+std::optional<std::string> IncludeOf(const std::string& line) {
+  size_t i = 0;
+  auto skip = [&] {
+    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+  };
+  auto eat = [&](const std::string& token) {
+    skip();
+    if (line.compare(i, token.size(), token) != 0) return false;
+    i += token.size();
+    return true;
+  };
+  if (!eat("include") || !eat(":") || !eat("\"")) return std::nullopt;
+  const size_t close = line.find('"', i);
+  if (close == std::string::npos) return std::nullopt;
+  const std::string file = line.substr(i, close - i);
+  i = close + 1;
+  skip();
+  if (i < line.size() && line[i] != '#') return std::nullopt;
+  return file;
+}
+
 // `include: "FILE"` alone on its line (a comment may follow): FILE's lines in its place, FILE
 // relative to the folder of the file that includes it. `open` is the chain of files being
 // included (a file that includes itself, directly or not, is refused), at most 16 deep.
 void ExpandIncludes(const std::string& text, const std::string& file, std::vector<std::string>* open, std::string* out,
                     std::vector<std::pair<std::string, int>>* origins) {
-  static const std::regex directive(R"re(^\s*include\s*:\s*"([^"]*)"\s*(#.*)?$)re");
   std::stringstream in(text);
   std::string line;
   int n = 0;
   while (std::getline(in, line)) {
     ++n;
-    std::smatch m;
-    if (!std::regex_match(line, m, directive)) {
+    const std::optional<std::string> included = IncludeOf(line);
+    if (!included) {
       *out += line + "\n";
       origins->emplace_back(file, n);
       continue;
     }
     const std::string where = file + ":" + std::to_string(n);
-    std::filesystem::path target(m[1].str());
+    std::filesystem::path target(*included);
     if (target.empty()) throw InputError(where + ": include: an empty file name; expected include: \"FILE\"");
     if (target.is_relative()) target = std::filesystem::path(file).parent_path() / target;
     const std::string name = target.lexically_normal().string();

@@ -217,14 +217,20 @@ def read_histories(out):
                        if os.path.isfile(os.path.join(out, d, "history.csv"))] if os.path.isdir(out) else []
     for folder in folders:
         path = os.path.join(folder, "history.csv")
-        if not os.path.isfile(path):
-            continue
-        data = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
-        if data.size == 0 or data.dtype.names is None:
-            continue
-        for name in data.dtype.names[1:]:
-            probes.setdefault(name, (np.atleast_1d(data["time"]), np.atleast_1d(data[name])))
+        if os.path.isfile(path):
+            for name, column in (history_table(path) or {}).items():
+                probes.setdefault(name, column)
     return probes
+
+
+def history_table(path):
+    """A history CSV (a `time` column first, then one per probe) as {probe: (times, values)};
+    None if it has no rows or its header does not start with `time`. ValueError if it is no
+    CSV table."""
+    data = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
+    if data.size == 0 or data.dtype.names is None or data.dtype.names[0] != "time":
+        return None
+    return {n: (np.atleast_1d(data["time"]), np.atleast_1d(data[n])) for n in data.dtype.names[1:]}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -388,6 +394,11 @@ def with_study_sets(runner, scenario_path, sets):
     return runner.scenario_json(scenario_path, sets), study, sets
 
 
+def start_from(state, time):
+    """The overrides that start a run at `time` [s] from a saved state (a final_state.pb)."""
+    return [f"numerics.start_time={time!r}", f'numerics.initial_state="{state}"']
+
+
 def settled_start(runner, scenario_path, study, sets, out):
     """study.restart_time: one run of the scene up to that time (its own step, no output), whose
     final state every run of the study then starts from (numerics.initial_state); the overrides
@@ -401,7 +412,7 @@ def settled_start(runner, scenario_path, study, sets, out):
     state = os.path.abspath(os.path.join(settle["out"], "final_state.pb"))
     if settle["code"] != 0 or not os.path.isfile(state):
         fail(f"the settling run to t = {restart:g} s failed (exit {settle['code']}): {settle['message']}", 3)
-    return ([f"numerics.start_time={restart!r}", f'numerics.initial_state="{state}"'],
+    return (start_from(state, restart),
             f"Every run starts at t = {restart:g} s from the state of one settling run of the scene "
             f"(its own step, {settle['wall']:.1f} s): the errors are those of the window alone.")
 
@@ -1103,12 +1114,12 @@ def recorded_history(scenario_path, spec, i):
     if not os.path.isfile(path):
         fail(f"{where}: no such file: {path}")
     try:
-        data = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
+        table = history_table(path)
     except ValueError as e:
         fail(f"{where}: {path} is not a CSV table: {e}")
-    if data.dtype.names is None or "time" not in data.dtype.names or len(data.dtype.names) < 2:
-        fail(f"{where}: {path} needs a header with a `time` column and one column per probe")
-    return {n: (np.atleast_1d(data["time"]), np.atleast_1d(data[n])) for n in data.dtype.names if n != "time"}
+    if not table:
+        fail(f"{where}: {path} needs a header with a `time` column first, one column per probe, and rows")
+    return table
 
 
 def settle_statically(runner, runs, out):
@@ -1131,7 +1142,7 @@ def settle_statically(runner, runs, out):
             r.update({"code": st["code"] or 3, "wall": float("nan"), "seconds": float("nan"), "summary": st["summary"],
                       "message": f"its static equilibrium failed: {st['message']}"})
             continue
-        r["sets"] = r["sets"] + [f"numerics.start_time={r['settled_at']!r}", f'numerics.initial_state="{state}"']
+        r["sets"] = r["sets"] + start_from(state, r["settled_at"])
 
 
 def compare_measure(history, m):
@@ -1142,7 +1153,7 @@ def compare_measure(history, m):
     window = (t >= float(m.get("from", -np.inf))) & (t <= float(m.get("to", np.inf)))
     if not window.any():
         return float("nan")
-    kind = m.get("kind", "MEAN")
+    kind = m["kind"]  # checked by study_compare
     if kind == "MEAN":
         return float(np.mean(v[window]))
     if kind == "MAX":

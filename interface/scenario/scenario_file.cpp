@@ -207,6 +207,13 @@ std::string FormatParameter(double v) {
   return buffer;
 }
 
+// `path` is `prefix` or a field or element under it ("a.b" under "a", "a[2]" under "a", not
+// "ab" nor "a[20]" under "a[2]").
+bool Within(const std::string& path, const std::string& prefix) {
+  return path.compare(0, prefix.size(), prefix) == 0 &&
+         (path.size() == prefix.size() || path[prefix.size()] == '.' || path[prefix.size()] == '[');
+}
+
 bool IsIdentifier(const std::string& name) {
   if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
   return std::all_of(name.begin(), name.end(),
@@ -315,13 +322,14 @@ void ScenarioFile::ParseText(const std::string& text) {
   }
 }
 
-std::map<std::string, double> ScenarioFile::EvaluateParameters() const {
-  std::map<std::string, double> values;
-  std::string known;
-  const NameLookup lookup = [&values](const std::string& name) -> std::optional<double> {
-    const auto v = values.find(name);
-    return v == values.end() ? std::nullopt : std::optional<double>(v->second);
-  };
+std::optional<double> ScenarioFile::ParameterValues::Find(const std::string& name) const {
+  const auto v = values.find(name);
+  return v == values.end() ? std::nullopt : std::optional<double>(v->second);
+}
+
+ScenarioFile::ParameterValues ScenarioFile::EvaluateParameters() const {
+  ParameterValues out;
+  const NameLookup lookup = [&out](const std::string& name) { return out.Find(name); };
   for (int i = 0; i < proto_.parameters_size(); ++i) {
     const scenario::Parameter& p = proto_.parameters(i);
     const std::string path = "parameters[" + std::to_string(i) + "]";
@@ -330,7 +338,7 @@ std::map<std::string, double> ScenarioFile::EvaluateParameters() const {
                                "' is not a parameter name; expected letters, digits and _, not starting "
                                "with a digit, and not 'pi'");
     }
-    if (values.count(p.name()) != 0) Fail(path + ".name", "'" + p.name() + "' is defined twice");
+    if (out.values.count(p.name()) != 0) Fail(path + ".name", "'" + p.name() + "' is defined twice");
     double v = 0.0;
     switch (p.definition_case()) {
       case scenario::Parameter::kValue:
@@ -338,64 +346,62 @@ std::map<std::string, double> ScenarioFile::EvaluateParameters() const {
         break;
       case scenario::Parameter::kExpression:
         v = EvaluateExpression(p.expression(), lookup, Where(path + ".expression") + ": " + path + ".expression",
-                               known.empty() ? "none is defined before it" : "defined before it: " + known);
+                               out.names.empty() ? "none is defined before it" : "defined before it: " + out.names);
         break;
       default:
         Fail(path, "'" + p.name() + "' has neither a value nor an expression");
     }
     if (!std::isfinite(v)) Fail(path + ".value", "is " + FormatParameter(v) + "; expected a finite number");
-    values[p.name()] = v;
-    known += (known.empty() ? "" : ", ") + p.name();
+    out.values[p.name()] = v;
+    out.names += (out.names.empty() ? "" : ", ") + p.name();
   }
-  return values;
+  return out;
+}
+
+std::string ScenarioFile::ExpandParameters(const std::string& joined,
+                                           const std::vector<std::pair<std::string, int>>& origins,
+                                           const std::string& display_name, const std::vector<std::string>& overrides,
+                                           ParameterValues* parameters) {
+  const auto place_of = [&origins, &display_name](int line, int column) {
+    return PlaceOf(origins, display_name, line, column);
+  };
+  const std::vector<Placeholder> places = FindPlaceholders(joined, place_of);
+  if (places.empty()) return joined;
+  std::string blanked = joined;
+  for (const Placeholder& p : places) {
+    blanked.replace(p.begin, p.end - p.begin, "0" + std::string(p.end - p.begin - 1, ' '));
+  }
+  ScenarioFile first;
+  first.path_ = display_name;
+  first.line_origins_ = origins;
+  first.ParseText(blanked);
+  for (const std::string& argument : overrides) {
+    if (argument.rfind("parameters", 0) == 0) first.ApplyOverride(argument);
+  }
+  *parameters = first.EvaluateParameters();
+  const NameLookup lookup = [parameters](const std::string& name) { return parameters->Find(name); };
+  const std::string known = parameters->names.empty() ? "the scenario defines none" : "defined: " + parameters->names;
+  std::string expanded;
+  size_t copied = 0;
+  for (const Placeholder& p : places) {
+    const std::string where = place_of(p.line, p.column) + ": ${" + p.expression + "}";
+    expanded += joined.substr(copied, p.begin - copied) +
+                FormatParameter(EvaluateExpression(p.expression, lookup, where, known));
+    copied = p.end;
+  }
+  return expanded + joined.substr(copied);
 }
 
 ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
                                  const std::vector<std::string>& overrides) {
-  auto of_parameters = [](const std::string& argument) { return argument.rfind("parameters", 0) == 0; };
   // Included files first: their lines in place of each `include: "FILE"` line, every line
-  // remembering the file and line it came from.
+  // remembering the file and line it came from. Then the parameters' ${…}.
   std::string joined;
   std::vector<std::pair<std::string, int>> origins;
   std::vector<std::string> open{display_name};
   ExpandIncludes(text, display_name, &open, &joined, &origins);
-  const auto place_of = [&origins, &display_name](int line, int column) {
-    return PlaceOf(origins, display_name, line, column);
-  };
-  // Parameters: the text is read once with each ${…} blanked (same columns), the parameters
-  // taken from it with their overrides, and every ${…} replaced by its value.
-  const std::string& text_in = joined;
-  std::string expanded = text_in;
-  const std::vector<Placeholder> places = FindPlaceholders(text_in, place_of);
-  if (!places.empty()) {
-    std::string blanked = text_in;
-    for (const Placeholder& p : places)
-      blanked.replace(p.begin, p.end - p.begin, "0" + std::string(p.end - p.begin - 1, ' '));
-    ScenarioFile first;
-    first.path_ = display_name;
-    first.line_origins_ = origins;
-    first.ParseText(blanked);
-    for (const std::string& argument : overrides) {
-      if (of_parameters(argument)) first.ApplyOverride(argument);
-    }
-    const std::map<std::string, double> values = first.EvaluateParameters();
-    std::string known;
-    for (const auto& p : first.proto_.parameters()) known += (known.empty() ? "" : ", ") + p.name();
-    const NameLookup lookup = [&values](const std::string& name) -> std::optional<double> {
-      const auto v = values.find(name);
-      return v == values.end() ? std::nullopt : std::optional<double>(v->second);
-    };
-    expanded.clear();
-    size_t copied = 0;
-    for (const Placeholder& p : places) {
-      const std::string where = place_of(p.line, p.column) + ": ${" + p.expression + "}";
-      expanded += text_in.substr(copied, p.begin - copied) +
-                  FormatParameter(EvaluateExpression(
-                      p.expression, lookup, where, known.empty() ? "the scenario defines none" : "defined: " + known));
-      copied = p.end;
-    }
-    expanded += text_in.substr(copied);
-  }
+  ParameterValues substituted;
+  const std::string expanded = ExpandParameters(joined, origins, display_name, overrides, &substituted);
   ScenarioFile file;
   file.path_ = display_name;
   file.line_origins_ = std::move(origins);
@@ -570,37 +576,32 @@ void ScenarioFile::NoteCopyOverride(const std::string& argument) {
   if (path.size() >= endpoint.size() && path.compare(path.size() - endpoint.size(), endpoint.size(), endpoint) == 0) {
     return;
   }
-  for (const PatternOrigin& o : pattern_origins_) {
-    const bool inside =
-        path.compare(0, o.expanded.size(), o.expanded) == 0 &&
-        (path.size() == o.expanded.size() || path[o.expanded.size()] == '.' || path[o.expanded.size()] == '[');
-    if (!inside) continue;
-    warnings_.push_back("--set " + argument + " changes copy " + std::to_string(o.copy) + " of pattern '" + o.pattern +
-                        "' only (" + o.expanded + " is that copy of " + o.source + "); to change every copy, set " +
-                        o.source + path.substr(o.expanded.size()));
-    return;
+  if (const PatternOrigin* o = CopyOf(path)) {
+    warnings_.push_back("--set " + argument + " changes copy " + std::to_string(o->copy) + " of pattern '" +
+                        o->pattern + "' only (" + o->expanded + " is that copy of " + o->source +
+                        "); to change every copy, set " + o->source + path.substr(o->expanded.size()));
   }
+}
+
+const PatternOrigin* ScenarioFile::CopyOf(const std::string& field_path) const {
+  for (const PatternOrigin& o : pattern_origins_) {
+    if (Within(field_path, o.expanded)) return &o;
+  }
+  return nullptr;
 }
 
 std::string ScenarioFile::Where(const std::string& field_path) const {
   if (const std::string set = OverrideOf(field_path); !set.empty()) return set;  // a copy's own override
-  for (const PatternOrigin& o : pattern_origins_) {
-    const std::string& e = o.expanded;
-    if (field_path.rfind(e, 0) == 0 && (field_path.size() == e.size() || field_path[e.size()] == '.')) {
-      return WhereInFile(o.source + field_path.substr(e.size())) + " (copy " + std::to_string(o.copy) +
-             " of pattern '" + o.pattern + "')";
-    }
+  if (const PatternOrigin* o = CopyOf(field_path)) {
+    return WhereInFile(o->source + field_path.substr(o->expanded.size())) + " (copy " + std::to_string(o->copy) +
+           " of pattern '" + o->pattern + "')";
   }
   return WhereInFile(field_path);
 }
 
 std::string ScenarioFile::OverrideOf(const std::string& field_path) const {
   for (auto it = overridden_.rbegin(); it != overridden_.rend(); ++it) {
-    const std::string& set_path = it->first;
-    if (field_path == set_path || (field_path.rfind(set_path, 0) == 0 &&
-                                   (field_path[set_path.size()] == '.' || field_path[set_path.size()] == '['))) {
-      return "--set " + it->second;
-    }
+    if (Within(field_path, it->first)) return "--set " + it->second;
   }
   return "";
 }

@@ -6,6 +6,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -54,9 +55,21 @@ class ScenarioFile {
   void ParseText(const std::string& text);
   // "file:line:col" of a place (1-based) in the expanded text: the included file's own line.
   std::string Place(int line, int column) const;
-  // The parameters' values in order (Scenario.parameters), each checked: InputError naming
-  // the parameter's place for a bad name, a repeated one, no definition or a bad expression.
-  std::map<std::string, double> EvaluateParameters() const;
+  // The parameters' values (Scenario.parameters), each checked in order: InputError naming the
+  // parameter's place for a bad name, a repeated one, no definition or a bad expression.
+  struct ParameterValues {
+    std::map<std::string, double> values;
+    std::string names;  // in definition order, "R, c, droop"
+    std::optional<double> Find(const std::string& name) const;
+  };
+  ParameterValues EvaluateParameters() const;
+  // The joined text with every ${…} replaced by its value (Scenario.parameters read from the
+  // text with each ${…} blanked to the same width, and their `--set` overrides applied);
+  // `parameters` gets those values (empty if there is no ${…}).
+  static std::string ExpandParameters(const std::string& joined,
+                                      const std::vector<std::pair<std::string, int>>& origins,
+                                      const std::string& display_name, const std::vector<std::string>& overrides,
+                                      ParameterValues* parameters);
   void ApplyOverride(const std::string& argument);
   // After ApplyOverride of `argument`: a warning if it set a field of a pattern's copy.
   void NoteCopyOverride(const std::string& argument);
@@ -75,6 +88,8 @@ class ScenarioFile {
   // Where the patterns' copies came from (ExpandPatterns).
   std::vector<PatternOrigin> pattern_origins_;
   std::string WhereInFile(const std::string& field_path) const;
+  // The pattern copy that `field_path` lies in (it or a field under it), or nullptr.
+  const PatternOrigin* CopyOf(const std::string& field_path) const;
   // "--set ARG" if an override set the field or an enclosing one, else empty.
   std::string OverrideOf(const std::string& field_path) const;
 };

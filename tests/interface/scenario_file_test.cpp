@@ -202,27 +202,19 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   EXPECT_EQ(f.Where("numerics.step"), main + ":6:24");
   // Mistakes inside an included file name its own line; a missing file or a cycle, the
   // include line.
-  write("parts/more.pbtxt", "bodies { name: \"b\" mass: two\n         inertia: [1, 1, 1] }\n");
-  EXPECT_NE(MessageOf([&] { ScenarioFile::Load(main, {}); }).find(parts + "/more.pbtxt:1:26:"), std::string::npos)
-      << MessageOf([&] { ScenarioFile::Load(main, {}); });
-  write("parts/more.pbtxt", "bodies { name: \"b\" mass: ${2 * m\n inertia: [1, 1, 1] }\n");
-  EXPECT_NE(MessageOf([&] {
-              ScenarioFile::Load(main, {});
-            }).find(parts + "/more.pbtxt:1:26: '${' without its '}' on the same line"),
-            std::string::npos)
-      << MessageOf([&] { ScenarioFile::Load(main, {}); });
-  write("parts/more.pbtxt", "include: \"../main.pbtxt\"\n");
-  EXPECT_NE(MessageOf([&] {
-              ScenarioFile::Load(main, {});
-            }).find(parts + "/more.pbtxt:1: include: '" + main + "' is already being included (a cycle)"),
-            std::string::npos)
-      << MessageOf([&] { ScenarioFile::Load(main, {}); });
-  write("parts/more.pbtxt", "include: \"nowhere.pbtxt\"\n");
-  EXPECT_NE(MessageOf([&] {
-              ScenarioFile::Load(main, {});
-            }).find(parts + "/more.pbtxt:1: include: cannot read the included file '" + parts + "/nowhere.pbtxt'"),
-            std::string::npos)
-      << MessageOf([&] { ScenarioFile::Load(main, {}); });
+  // With more.pbtxt as `text`, loading main.pbtxt fails with a message holding `fragment`.
+  auto expect_error = [&](const std::string& text, const std::string& fragment) {
+    write("parts/more.pbtxt", text);
+    const std::string message = MessageOf([&] { ScenarioFile::Load(main, {}); });
+    EXPECT_NE(message.find(fragment), std::string::npos) << message;
+  };
+  expect_error("bodies { name: \"b\" mass: two\n         inertia: [1, 1, 1] }\n", parts + "/more.pbtxt:1:26:");
+  expect_error("bodies { name: \"b\" mass: ${2 * m\n inertia: [1, 1, 1] }\n",
+               parts + "/more.pbtxt:1:26: '${' without its '}' on the same line");
+  expect_error("include: \"../main.pbtxt\"\n",
+               parts + "/more.pbtxt:1: include: '" + main + "' is already being included (a cycle)");
+  expect_error("include: \"nowhere.pbtxt\"\n",
+               parts + "/more.pbtxt:1: include: cannot read the included file '" + parts + "/nowhere.pbtxt'");
   std::filesystem::remove_all(dir);
 }
 

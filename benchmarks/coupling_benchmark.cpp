@@ -4,19 +4,17 @@
 // run, for ipc and tcp, between two processes (fork), for 1 and 12 interface nodes.
 // Target (issue 6): the protocol within 1.25× of the raw ping-pong. Peer figures on this kind of
 // machine (docs/reference/peers.md): ipc 38-79 µs, tcp 44-81 µs per round trip.
+#include <google/protobuf/util/json_util.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
-#include <string>
-#include <zmq.hpp>
-
-#include <google/protobuf/util/json_util.h>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <zmq.hpp>
 
 #include "interface/coupling/channel.h"
 #include "run_summary.pb.h"
@@ -113,17 +111,23 @@ void RelaxationTable() {
     const char* sets;
   };
   const Case cases[] = {
-      {"pendulum_stop", "CONSTANT w=0.05", "--set coupling.iteration.relaxation=CONSTANT --set coupling.iteration.relaxation_factor=0.05 --set coupling.iteration.max_iterations=200"},
+      {"pendulum_stop", "CONSTANT w=0.05",
+       "--set coupling.iteration.relaxation=CONSTANT --set coupling.iteration.relaxation_factor=0.05 --set "
+       "coupling.iteration.max_iterations=200"},
       {"pendulum_stop", "AITKEN", "--set coupling.iteration.relaxation=AITKEN"},
-      {"pendulum_stop", "IQN-ILS", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=0"},
-      {"pendulum_stop", "IQN-ILS(4)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
-      {"pendulum_stop", "IQN-ILS(16)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=16"},
+      {"pendulum_stop", "IQN-ILS",
+       "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=0"},
+      {"pendulum_stop", "IQN-ILS(4)",
+       "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
+      {"pendulum_stop", "IQN-ILS(16)",
+       "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=16"},
       {"tied_drop", "CONSTANT w=0.5", "--set coupling.iteration.relaxation=CONSTANT"},
       {"tied_drop", "AITKEN", "--set coupling.iteration.relaxation=AITKEN"},
       {"tied_drop", "IQN-ILS", "--set coupling.iteration.relaxation=IQN_ILS"},
       {"tied_drop", "IQN-ILS(4)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
       {"linear_oscillator", "AITKEN", "--set coupling.iteration.relaxation=AITKEN"},
-      {"linear_oscillator", "IQN-ILS(4)", "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
+      {"linear_oscillator", "IQN-ILS(4)",
+       "--set coupling.iteration.relaxation=IQN_ILS --set coupling.iteration.reuse_steps=4"},
   };
   std::printf("\ncoupling iterations per step (all steps converged unless the exit code says otherwise)\n");
   std::printf("%-18s %-16s %5s %10s %8s %10s\n", "scene", "relaxation", "exit", "mean/step", "max", "wall [s]");
@@ -148,8 +152,8 @@ void RelaxationTable() {
 
 int main() {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  std::printf("%-5s %6s %12s %10s %10s %15s %7s\n", "", "nodes", "request [B]", "reply [B]", "raw [us]", "protocol [us]",
-              "ratio");
+  std::printf("%-5s %6s %12s %10s %10s %15s %7s\n", "", "nodes", "request [B]", "reply [B]", "raw [us]",
+              "protocol [us]", "ratio");
   int case_id = 0;
   for (const std::string transport : {"ipc", "tcp"}) {
     for (int nodes : {1, 12}) {

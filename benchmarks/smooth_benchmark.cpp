@@ -59,8 +59,9 @@ std::string Chain(int n, bool closed) {
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d a = point(i), b = point(i + 1), d = b - a;
     const double pitch = -std::atan2(d.z(), d.x());  // rotation about y taking x onto the link
-    text += " bodies { name: \"l" + std::to_string(i) + "\" mass: 1 inertia: [0.001, 0.02, 0.02] position: " +
-            vec(0.5 * (a + b)) + " rotation: " + vec(Eigen::Vector3d(0, pitch, 0)) + " }\n";
+    text += " bodies { name: \"l" + std::to_string(i) +
+            "\" mass: 1 inertia: [0.001, 0.02, 0.02] position: " + vec(0.5 * (a + b)) +
+            " rotation: " + vec(Eigen::Vector3d(0, pitch, 0)) + " }\n";
   }
   for (int i = 0; i <= (closed ? n : n - 1); ++i) {
     const std::string b1 = i == 0 ? "ground" : "l" + std::to_string(i - 1);
@@ -131,9 +132,9 @@ int main() {
       std::vector<double> errors;
       DaeState exact;
       if (std::string(scene) == "flat_disc_top") {
-        exact = Run(ScenarioFile::Load(hard + scene + ".pbtxt",
-                                       {"numerics.smooth.integrator=IDA", "numerics.smooth.ida_relative_tolerance=1e-11",
-                                        "numerics.smooth.ida_absolute_tolerance=1e-11"}),
+        exact = Run(ScenarioFile::Load(hard + scene + ".pbtxt", {"numerics.smooth.integrator=IDA",
+                                                                 "numerics.smooth.ida_relative_tolerance=1e-11",
+                                                                 "numerics.smooth.ida_absolute_tolerance=1e-11"}),
                     2.0, 0.01)
                     .state;
       }

@@ -2,12 +2,12 @@
 // checked against central differences.
 #include "interface/scenario/time_function.h"
 
-#include "interface/run/errors.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
+
+#include "interface/run/errors.h"
 
 namespace cosim::interface {
 namespace {
@@ -50,7 +50,8 @@ TEST(TimeFunction, CosinePulseRisesToItsPeakAndBackWithItsDerivativesAndIntegral
   EXPECT_DOUBLE_EQ(pulse.Value(5.5), 0.0);
   for (double t : {1.3, 2.0, 3.7, 4.9}) {
     EXPECT_NEAR(pulse.Derivative(t), (pulse.Value(t + 1e-6) - pulse.Value(t - 1e-6)) / 2e-6, 1e-6 * 25.0);
-    EXPECT_NEAR(pulse.SecondDerivative(t), (pulse.Derivative(t + 1e-6) - pulse.Derivative(t - 1e-6)) / 2e-6, 1e-5 * 25.0);
+    EXPECT_NEAR(pulse.SecondDerivative(t), (pulse.Derivative(t + 1e-6) - pulse.Derivative(t - 1e-6)) / 2e-6,
+                1e-5 * 25.0);
   }
   EXPECT_NEAR(pulse.Integral(10.0), 0.5 * 25.0 * 4.0, 1e-12);  // the mean ½ peak over its duration
   scenario::TimeFunction bad;

@@ -422,7 +422,19 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   }
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
-  (void)file.EvaluateParameters();  // bad definitions are refused even where no ${…} uses them
+  // Bad definitions are refused even where no ${…} uses them; and every ${…} was replaced with
+  // the values the parameters have here. A definition holding a ${…} itself (`value: ${b}`)
+  // was read as 0 when the ${…} were replaced: it is refused, not used with two values.
+  const ParameterValues values = file.EvaluateParameters();
+  for (int i = 0; i < file.proto_.parameters_size() && !substituted.names.empty(); ++i) {
+    const std::string& name = file.proto_.parameters(i).name();
+    if (substituted.Find(name) != values.Find(name)) {
+      file.Fail("parameters[" + std::to_string(i) + "]",
+                "'" + name +
+                    "' is written with ${…}, which the parameters cannot use; define it from others "
+                    "with expression: \"…\"");
+    }
+  }
   // The name becomes the default output folder runs/<name>.
   if (file.proto_.has_name()) Checks(file).Name("name", true, file.proto_.name());
   return file;

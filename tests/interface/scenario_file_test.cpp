@@ -173,6 +173,13 @@ TEST(Parameters, MistakesNameTheirPlace) {
                 .find("parameters[0].expression: 'b + 1' at column 1: no parameter 'b'; none is defined before it"),
             std::string::npos);
   EXPECT_NE(error("parameters { name: \"a\" }").find("'a' has neither a value nor an expression"), std::string::npos);
+  // A definition written with ${…} (read as 0 while the ${…} are replaced: `mass: ${a + 1}` was
+  // 1 with a = 2) is refused; `expression:` is the way.
+  EXPECT_NE(error(p + "parameters { name: \"a\" value: ${R} }\nnumerics { end_time: ${a + 1} }")
+                .find("parameters[1]: 'a' is written with ${…}, which the parameters cannot use"),
+            std::string::npos)
+      << error(p + "parameters { name: \"a\" value: ${R} }\nnumerics { end_time: ${a + 1} }");
+  EXPECT_EQ(error(p + "parameters { name: \"a\" expression: \"R\" }\nnumerics { end_time: ${a + 1} }"), "(no error)");
   EXPECT_NE(error(p + "numerics { end_time: ${R} }", {"parameters[R].value=inf"}).find("parameters[0].value"),
             std::string::npos);
 }

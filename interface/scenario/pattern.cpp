@@ -74,37 +74,9 @@ void Substitute(pb::Message* m, const std::string& k) {
   ForEachChild(m, [&](pb::Message* child) { Substitute(child, k); });
 }
 
-// Every geometry-annotated 3-vector list of `m` (and below) turned by R about `origin`.
-void Turn(pb::Message* m, const Eigen::Matrix3d& R, const Eigen::Vector3d& origin) {
-  const pb::Reflection* r = m->GetReflection();
-  std::vector<const pb::FieldDescriptor*> fields;
-  r->ListFields(*m, &fields);
-  ForEachChild(m, [&](pb::Message* child) { Turn(child, R, origin); });
-  for (const pb::FieldDescriptor* f : fields) {
-    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE || !f->is_repeated()) continue;
-    const scenario::Geometry g = f->options().GetExtension(scenario::geometry);
-    if (g == scenario::GEOMETRY_NONE) continue;
-    const int n = r->FieldSize(*m, f);
-    for (int i = 0; i + 2 < n; i += 3) {  // a wrong length is the reader's to report
-      Eigen::Vector3d v(r->GetRepeatedDouble(*m, f, i), r->GetRepeatedDouble(*m, f, i + 1), r->GetRepeatedDouble(*m, f, i + 2));
-      if (g == scenario::POINT) {
-        v = origin + R * (v - origin);
-      } else if (g == scenario::DIRECTION) {
-        v = R * v;
-      } else {  // rotation vector: R · R(v)
-        const double angle = v.norm();
-        const Eigen::Matrix3d Rv = angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
-        const Eigen::AngleAxisd turned(R * Rv);
-        v = turned.angle() * turned.axis();
-      }
-      for (int c = 0; c < 3; ++c) r->SetRepeatedDouble(m, f, i + c, v(c));
-    }
-  }
-}
-
 // Appends the lists of `from` to those of `to`, recording where each element came from.
 void Append(const pb::Message& from, pb::Message* to, const std::string& source, const std::string& target,
-            const std::string& pattern, int copy, std::vector<PatternOrigin>* origins) {
+            const std::string& pattern, int copy, const Pose& turn, std::vector<PatternOrigin>* origins) {
   const pb::Reflection* rf = from.GetReflection();
   const pb::Reflection* rt = to->GetReflection();
   std::vector<const pb::FieldDescriptor*> fields;
@@ -112,13 +84,13 @@ void Append(const pb::Message& from, pb::Message* to, const std::string& source,
   for (const pb::FieldDescriptor* f : fields) {
     const std::string s = Join(source, f->name()), t = Join(target, f->name());
     if (!f->is_repeated()) {
-      Append(rf->GetMessage(from, f), rt->MutableMessage(to, f), s, t, pattern, copy, origins);
+      Append(rf->GetMessage(from, f), rt->MutableMessage(to, f), s, t, pattern, copy, turn, origins);
       continue;
     }
     for (int i = 0; i < rf->FieldSize(from, f); ++i) {
       const int at = rt->FieldSize(*to, f);
       rt->AddMessage(to, f)->CopyFrom(rf->GetRepeatedMessage(from, f, i));
-      origins->push_back({Indexed(t, at), Indexed(s, i), pattern, copy});
+      origins->push_back({Indexed(t, at), Indexed(s, i), pattern, copy, turn});
     }
   }
 }
@@ -192,8 +164,10 @@ std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
       scenario::Scenario copy = pat.each();
       Substitute(&copy, std::to_string(k));
       const double psi = pat.first_azimuth() + (k - 1) * 2.0 * std::numbers::pi / pat.count();
-      Turn(&copy, Eigen::AngleAxisd(psi, axis.normalized()).toRotationMatrix(), origin);
-      Append(copy, proto, path + ".each", "", pat.name(), k, &origins);
+      // Elements written in a frame stay as they are: the frame turns (reference_frames.h).
+      const Pose turn = RotationAbout(psi * axis.normalized(), origin);
+      TransformGeometry(&copy, turn, true);
+      Append(copy, proto, path + ".each", "", pat.name(), k, turn, &origins);
     }
   }
   ExpandReferences(proto, counts);

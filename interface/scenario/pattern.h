@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "interface/scenario/reference_frames.h"
 #include "scenario.pb.h"
 
 namespace cosim::interface {
@@ -17,6 +18,7 @@ struct PatternOrigin {
   std::string source;    // e.g. "patterns[0].each.model.bodies[1]"
   std::string pattern;   // the pattern's name
   int copy = 0;          // k, 1-based
+  Pose turn;             // the copy's rotation about the pattern's axis
 };
 
 // Expands and clears proto->patterns. `fail(path, message)` must throw (InputError with the

@@ -422,6 +422,14 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   }
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
+  // Frames last, so that every override of a frame or of an element written in one counts.
+  ResolveReferences(
+      &file.proto_,
+      [&file](const std::string& path) -> std::optional<Pose> {
+        const PatternOrigin* o = file.CopyOf(path);
+        return o != nullptr ? std::optional<Pose>(o->turn) : std::nullopt;
+      },
+      [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   // Bad definitions are refused even where no ${…} uses them; and every ${…} was replaced with
   // the values the parameters have here. A definition holding a ${…} itself (`value: ${b}`)
   // was read as 0 when the ${…} were replaced: it is refused, not used with two values.

@@ -1,0 +1,223 @@
+#include "interface/scenario/reference_frames.h"
+
+#include <Eigen/Geometry>
+#include <map>
+#include <vector>
+
+namespace cosim::interface {
+
+namespace {
+
+namespace pb = google::protobuf;
+
+Eigen::Vector3d RotationVector(const Eigen::Matrix3d& rotation) {
+  const Eigen::AngleAxisd aa(rotation);
+  return aa.angle() * aa.axis();
+}
+
+Eigen::Matrix3d RotationMatrix(const Eigen::Vector3d& v) {
+  const double angle = v.norm();
+  return angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+}
+
+// The element's `reference` field, or nullptr if its message has none.
+const pb::FieldDescriptor* ReferenceField(const pb::Message& m) {
+  const pb::FieldDescriptor* f = m.GetDescriptor()->FindFieldByName("reference");
+  return f != nullptr && f->cpp_type() == pb::FieldDescriptor::CPPTYPE_STRING && !f->is_repeated() ? f : nullptr;
+}
+
+bool SetsReference(const pb::Message& m) {
+  const pb::FieldDescriptor* f = ReferenceField(m);
+  return f != nullptr && m.GetReflection()->HasField(m, f);
+}
+
+std::string Indexed(const std::string& path, int index) { return path + "[" + std::to_string(index) + "]"; }
+std::string Join(const std::string& prefix, const std::string& field) {
+  return prefix.empty() ? field : prefix + "." + field;
+}
+
+class Resolver {
+ public:
+  Resolver(scenario::Scenario* proto, const std::function<std::optional<Pose>(const std::string&)>& copy_pose,
+           const std::function<void(const std::string&, const std::string&)>& fail)
+      : proto_(proto), copy_pose_(copy_pose), fail_(fail) {}
+
+  void Run() {
+    scenario::Model* model = proto_->mutable_model();
+    for (int i = 0; i < model->references_size(); ++i) {
+      const std::string& name = model->references(i).name();
+      const std::string path = Indexed("model.references", i);
+      if (name.empty()) fail_(path + ".name", "missing; a frame is used by its name (reference: \"NAME\")");
+      if (!index_.emplace(name, i).second) {
+        fail_(path + ".name", "'" + name + "' names " + Indexed("model.references", index_[name]) + " already");
+      }
+      names_ += (names_.empty() ? "" : ", ") + name;
+    }
+    global_.resize(model->references_size());
+    state_.assign(model->references_size(), kUnvisited);
+    for (int i = 0; i < model->references_size(); ++i) Resolve(i);
+    // Every frame now global: its parent is dropped so that reading the result again is the same.
+    for (int i = 0; i < model->references_size(); ++i) {
+      scenario::Reference* r = model->mutable_references(i);
+      r->clear_reference();
+      r->clear_position();
+      r->clear_rotation();
+      for (int c = 0; c < 3; ++c) r->add_position(global_[i].translation(c));
+      const Eigen::Vector3d v = RotationVector(global_[i].rotation);
+      for (int c = 0; c < 3; ++c) r->add_rotation(v(c));
+    }
+    Place(proto_, "");
+  }
+
+ private:
+  enum State { kUnvisited, kResolving, kDone };
+
+  Eigen::Vector3d Vector3(const pb::RepeatedField<double>& v, const std::string& path) const {
+    if (v.empty()) return Eigen::Vector3d::Zero();
+    if (v.size() != 3) fail_(path, "expected [x, y, z], got " + std::to_string(v.size()) + " values");
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+
+  // The index of frame `name`, named at field `path`.
+  int Find(const std::string& name, const std::string& path) const {
+    const auto it = index_.find(name);
+    if (it == index_.end()) {
+      fail_(path, "'" + name + "' is not a frame; model.references defines " + (names_.empty() ? "none" : names_));
+    }
+    return it->second;
+  }
+
+  // The map from P's frame to the global one for an element M at `path` written in P
+  // (reference_frames.h): global(P), turned from the template's view if M is in a copy.
+  Pose FrameFor(const std::string& path, int parent) const {
+    const std::optional<Pose> turn = copy_pose_(path);
+    if (!turn) return global_[parent];
+    const Pose parent_turn = copy_pose_(Indexed("model.references", parent)).value_or(Pose{});
+    return *turn * parent_turn.Inverse() * global_[parent];
+  }
+
+  void Resolve(int i) {
+    if (state_[i] == kDone) return;
+    const scenario::Reference& r = proto_->model().references(i);
+    const std::string path = Indexed("model.references", i);
+    if (state_[i] == kResolving) {
+      std::string cycle = r.name();
+      for (auto it = chain_.rbegin(); it != chain_.rend() && *it != i; ++it) {
+        cycle = proto_->model().references(*it).name() + " → " + cycle;
+      }
+      fail_(path + ".reference", "frames placed relative to each other in a cycle: " + r.name() + " → " + cycle);
+    }
+    state_[i] = kResolving;
+    chain_.push_back(i);
+    const Pose local{RotationMatrix(Vector3(r.rotation(), path + ".rotation")),
+                     Vector3(r.position(), path + ".position")};
+    if (r.has_reference()) {
+      const int parent = Find(r.reference(), path + ".reference");
+      Resolve(parent);
+      global_[i] = FrameFor(path, parent) * local;
+    } else {
+      global_[i] = local;  // global; a pattern has turned it with its copy already
+    }
+    chain_.pop_back();
+    state_[i] = kDone;
+  }
+
+  // Every element below `m` (at field path `path`) that is written in a frame, placed globally.
+  void Place(pb::Message* m, const std::string& path) {
+    if (m->GetDescriptor() == scenario::Reference::descriptor()) return;  // resolved above
+    if (SetsReference(*m)) {
+      const pb::FieldDescriptor* field = ReferenceField(*m);
+      const pb::Reflection* r = m->GetReflection();
+      const int parent = Find(r->GetString(*m, field), Join(path, "reference"));
+      // A body's (or node's) left-out position and rotation are the frame's origin and orientation.
+      for (const char* name : {"position", "rotation"}) {
+        const pb::FieldDescriptor* f = m->GetDescriptor()->FindFieldByName(name);
+        if (f == nullptr || !f->is_repeated() || f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE) continue;
+        if (f->options().GetExtension(scenario::geometry) == scenario::GEOMETRY_NONE || r->FieldSize(*m, f) != 0)
+          continue;
+        for (int c = 0; c < 3; ++c) r->AddDouble(m, f, 0.0);
+      }
+      TransformGeometry(m, FrameFor(path, parent), false);
+      r->ClearField(m, field);
+      return;
+    }
+    const pb::Reflection* r = m->GetReflection();
+    std::vector<const pb::FieldDescriptor*> fields;
+    r->ListFields(*m, &fields);
+    for (const pb::FieldDescriptor* f : fields) {
+      if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
+      if (!f->is_repeated()) {
+        Place(r->MutableMessage(m, f), Join(path, f->name()));
+        continue;
+      }
+      for (int i = 0; i < r->FieldSize(*m, f); ++i)
+        Place(r->MutableRepeatedMessage(m, f, i), Indexed(Join(path, f->name()), i));
+    }
+  }
+
+  scenario::Scenario* proto_;
+  const std::function<std::optional<Pose>(const std::string&)>& copy_pose_;
+  const std::function<void(const std::string&, const std::string&)>& fail_;
+  std::map<std::string, int> index_;
+  std::string names_;  // in definition order, "hub, hinge1, …"
+  std::vector<Pose> global_;
+  std::vector<State> state_;
+  std::vector<int> chain_;  // the frames being resolved, outermost first
+};
+
+}  // namespace
+
+Pose Pose::operator*(const Pose& inner) const {
+  return Pose{rotation * inner.rotation, rotation * inner.translation + translation};
+}
+
+Pose Pose::Inverse() const { return Pose{rotation.transpose(), -(rotation.transpose() * translation)}; }
+
+Pose RotationAbout(const Eigen::Vector3d& v, const Eigen::Vector3d& origin) {
+  const Eigen::Matrix3d R = RotationMatrix(v);
+  return Pose{R, origin - R * origin};
+}
+
+void TransformGeometry(pb::Message* message, const Pose& pose, bool skip_referenced) {
+  const pb::Reflection* r = message->GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  r->ListFields(*message, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+      auto visit = [&](pb::Message* child) {
+        if (!(skip_referenced && SetsReference(*child))) TransformGeometry(child, pose, skip_referenced);
+      };
+      if (!f->is_repeated()) {
+        visit(r->MutableMessage(message, f));
+      } else {
+        for (int i = 0; i < r->FieldSize(*message, f); ++i) visit(r->MutableRepeatedMessage(message, f, i));
+      }
+      continue;
+    }
+    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE || !f->is_repeated()) continue;
+    const scenario::Geometry g = f->options().GetExtension(scenario::geometry);
+    if (g == scenario::GEOMETRY_NONE) continue;
+    const int n = r->FieldSize(*message, f);
+    for (int i = 0; i + 2 < n; i += 3) {
+      Eigen::Vector3d v(r->GetRepeatedDouble(*message, f, i), r->GetRepeatedDouble(*message, f, i + 1),
+                        r->GetRepeatedDouble(*message, f, i + 2));
+      if (g == scenario::POINT) {
+        v = pose.rotation * v + pose.translation;
+      } else if (g == scenario::DIRECTION) {
+        v = pose.rotation * v;
+      } else {
+        v = RotationVector(pose.rotation * RotationMatrix(v));
+      }
+      for (int c = 0; c < 3; ++c) r->SetRepeatedDouble(message, f, i + c, v(c));
+    }
+  }
+}
+
+void ResolveReferences(scenario::Scenario* proto,
+                       const std::function<std::optional<Pose>(const std::string&)>& copy_pose,
+                       const std::function<void(const std::string&, const std::string&)>& fail) {
+  if (!proto->has_model()) return;
+  Resolver(proto, copy_pose, fail).Run();
+}
+
+}  // namespace cosim::interface

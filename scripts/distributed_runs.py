@@ -61,8 +61,9 @@ def run_on_worker(job, bundle):
     with tempfile.TemporaryDirectory(prefix="cosim-run-") as tmp:
         unpack(bundle, os.path.join(tmp, "scene"))
         sets = list(job["sets"])
-        for k, (name, data) in enumerate(job["files"].items()):
-            path = os.path.join(tmp, "files", str(k), os.path.basename(name))
+        for name, data in job["files"].items():
+            # Under the same absolute path below tmp/files: a coupled state keeps its layout.
+            path = os.path.join(tmp, "files", name.lstrip(os.sep))
             os.makedirs(os.path.dirname(path), exist_ok=True)
             with open(path, "wb") as f:
                 f.write(data)
@@ -127,12 +128,20 @@ class Cluster:
 
 def file_sets(sets):
     """The files an override names by an existing absolute path ({path: bytes}), shipped with
-    the run (e.g. numerics.initial_state="/…/final_state.pb")."""
+    the run (e.g. numerics.initial_state="/…/final_state.pb"); with a final_state.pb, the contact
+    processes' states in the folders beside it (a coupled run's, NAME/final_state.pb)."""
     files = {}
     for s in sets:
         _, _, value = s.partition("=")
         path = value.strip().strip('"').strip("'")
-        if os.path.isabs(path) and os.path.isfile(path):
-            with open(path, "rb") as f:
-                files[path] = f.read()
+        if not (os.path.isabs(path) and os.path.isfile(path)):
+            continue
+        shipped = [path]
+        if os.path.basename(path) == "final_state.pb":
+            folder = os.path.dirname(path)
+            shipped += sorted(os.path.join(folder, d, "final_state.pb") for d in os.listdir(folder)
+                              if os.path.isfile(os.path.join(folder, d, "final_state.pb")))
+        for name in shipped:
+            with open(name, "rb") as f:
+                files[name] = f.read()
     return files

@@ -21,6 +21,7 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/expression.h"
+#include "interface/scenario/station_files.h"
 
 namespace cosim::interface {
 
@@ -422,6 +423,10 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   }
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
+  // Section tables from their CSV files (after the overrides: one may name another file).
+  LoadStationFiles(
+      &file.proto_, [&file](const std::string& given) { return file.PathBeside(given); },
+      [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   // Frames last, so that every override of a frame or of an element written in one counts.
   ResolveReferences(
       &file.proto_,
@@ -608,6 +613,12 @@ const PatternOrigin* ScenarioFile::CopyOf(const std::string& field_path) const {
     if (Within(field_path, o.expanded)) return &o;
   }
   return nullptr;
+}
+
+std::filesystem::path ScenarioFile::PathBeside(const std::string& given) const {
+  std::filesystem::path path(given);
+  if (path.is_relative()) path = std::filesystem::path(path_).parent_path() / path;
+  return path;
 }
 
 std::string ScenarioFile::Where(const std::string& field_path) const {

@@ -4,6 +4,7 @@
 // name that place.
 #include <google/protobuf/text_format.h>
 
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -34,6 +35,9 @@ class ScenarioFile {
 
   const scenario::Scenario& proto() const { return proto_; }
   const std::string& path() const { return path_; }
+  // A path the scenario gives (initial_state, c81_file): relative to the scenario file's folder,
+  // absolute as it is.
+  std::filesystem::path PathBeside(const std::string& given) const;
   const std::vector<std::string>& overrides() const { return overrides_; }
   // What the input does that it may not mean, one sentence each: an override that reaches one
   // copy of a pattern (the template's own path is given). The launcher prints them; every

@@ -60,7 +60,8 @@ void ContactServer::Answer(const Envelope& e) {
                      interface::FormatNumber(hello.start_time()) + "; expected a finite time [s]");
   }
   // Obstacles attached to smooth bodies: the Hello lists them with their start frames, in
-  // which their scenario geometry (global, at the start) becomes fixed.
+  // which their scenario geometry (global, at the start) becomes fixed (a restart keeps the
+  // geometry its first run fixed).
   std::map<std::string, const Obstacle*> needed;  // the body-attached obstacles this process's nodes touch
   for (const Contact& c : simulation_->model().contacts) {
     const Obstacle& o = simulation_->model().obstacles[static_cast<size_t>(c.obstacle)];
@@ -84,9 +85,11 @@ void ContactServer::Answer(const Envelope& e) {
     needed.erase(it);
     DrivenFrame& d = simulation_->mutable_data()->frames[static_cast<size_t>(found.driven)];
     d.start = d.end = ReadFrame(hello.obstacle_frames(i), "Hello.obstacle_frames[" + std::to_string(i) + "]");
-    d.point_body = d.start.rotation.transpose() * (found.point - d.start.origin);
-    d.normal_body = d.start.rotation.transpose() * found.normal;
-    d.tangent_body = d.start.rotation.transpose() * found.tangent;
+    if (!keep_attached_geometry_) {
+      d.point_body = d.start.rotation.transpose() * (found.point - d.start.origin);
+      d.normal_body = d.start.rotation.transpose() * found.normal;
+      d.tangent_body = d.start.rotation.transpose() * found.tangent;
+    }
     d.t0 = d.t1 = hello.start_time();
     moving_.push_back(found.driven);
   }

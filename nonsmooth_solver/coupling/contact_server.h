@@ -53,6 +53,9 @@ class ContactServer {
   std::function<void(double time)> on_accept;
   // numerics.adaptive.resting_speed [m/s] (Kinematics.time_to_contact; ContactStepper::TimeToContact).
   void set_resting_speed(double speed) { resting_speed_ = speed; }
+  // A restarted process (ContactStepper::UseSavedState): its attached obstacles keep the saved
+  // body-frame geometry, which the Hello's frames (the body as it has turned since) must not redo.
+  void keep_attached_geometry() { keep_attached_geometry_ = true; }
   long long accepted_steps() const { return accepted_; }
   long long tentative_steps() const { return tentative_; }
   long long rejected_steps() const { return rejected_; }              // StepEnd(accepted = false): adaptive steps
@@ -95,6 +98,7 @@ class ContactServer {
   int64_t step_ = -1;  // the step under way
   int64_t last_accepted_ = -1;
   double accepted_time_ = 0.0;
+  bool keep_attached_geometry_ = false;
   double resting_speed_ = 0.0;
   long long rejected_ = 0;
   long long accepted_ = 0, tentative_ = 0;

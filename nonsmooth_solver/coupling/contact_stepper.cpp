@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 
 #include "interface/run/errors.h"
@@ -13,8 +15,133 @@ namespace cosim::nonsmooth {
 using interface::FormatNumber;
 
 void ContactStepper::Step(double t, double h) {
+  // Standalone: a failed step leaves its state, and the run's saved state is the step's start.
+  SaveStart();
+  stepping_ = true;
   StepTentatively(t, h);
   CheckAccepted(t + h);
+  stepping_ = false;
+}
+
+namespace {
+
+void AddVector(const Eigen::Vector3d& v, google::protobuf::RepeatedField<double>* to) {
+  for (int i = 0; i < 3; ++i) to->Add(v(i));
+}
+
+Eigen::Vector3d Vector(const google::protobuf::RepeatedField<double>& v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
+
+}  // namespace
+
+bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const std::string& process) {
+  scenario_name_ = interface::ScenarioName(file);
+  process_ = process;
+  if (!file.proto().numerics().has_initial_state()) return false;
+  const std::string place = "numerics.initial_state";
+  std::filesystem::path path = file.PathBeside(file.proto().numerics().initial_state());
+  if (!process.empty()) path = path.parent_path() / process / "final_state.pb";
+  std::ifstream in(path, std::ios::binary);
+  state::ContactState s;
+  if (!in || !s.ParseFromIstream(&in)) {
+    file.Fail(place, "'" + path.string() + "' is not a readable final_state.pb of a contact process" +
+                         (process.empty() ? std::string()
+                                          : " (a coupled run's contact process '" + process +
+                                                "' reads its own beside the smooth solver's state)"));
+  }
+  const ContactModel& model = this->model();
+  auto refuse = [&](const std::string& what) {
+    file.Fail(place, "'" + path.string() + "' " + what + "; expected a state written by a run of this scene");
+  };
+  if (s.scenario() != scenario_name_) refuse("is a state of scenario '" + s.scenario() + "', not of '" + scenario_name_ + "'");
+  if (s.process() != process) refuse("is the state of process '" + s.process() + "', not of '" + process + "'");
+  if (s.method() != MethodName()) {
+    refuse("was written by the " + s.method() + " method, and this process runs " + MethodName());
+  }
+  bool same_nodes = s.nodes_size() == static_cast<int>(model.nodes.size());
+  for (int n = 0; same_nodes && n < s.nodes_size(); ++n) same_nodes = s.nodes(n) == model.nodes[static_cast<size_t>(n)].name;
+  const int nodes = static_cast<int>(model.nodes.size()), contacts = static_cast<int>(model.contacts.size());
+  if (!same_nodes || s.q_size() != 3 * nodes || s.v_size() != 3 * nodes || s.contacts() != contacts ||
+      s.impulse_size() != contacts || s.attached_size() != model.driven_frames ||
+      (s.friction_impulse_size() != 0 && s.friction_impulse_size() != 3 * contacts) ||
+      (s.impact_speed_size() != 0 && s.impact_speed_size() != contacts)) {
+    refuse("holds " + std::to_string(s.nodes_size()) + " nodes, " + std::to_string(s.contacts()) + " contacts and " +
+           std::to_string(s.attached_size()) + " attached obstacles; this process has " + std::to_string(nodes) +
+           ", " + std::to_string(contacts) + " and " + std::to_string(model.driven_frames) + " (the same nodes in order)");
+  }
+  if (std::abs(s.time() - time()) > 1e-9 * std::max(1.0, std::abs(time()))) {
+    file.Fail(place, "the contact state '" + path.string() + "' is at t = " + FormatNumber(s.time()) +
+                         " s but numerics.start_time is " + FormatNumber(time()) +
+                         " s; expected them equal (--set numerics.start_time=" + FormatNumber(s.time()) + ")");
+  }
+  auto finite = [](const google::protobuf::RepeatedField<double>& v) {
+    return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+  };
+  if (!finite(s.q()) || !finite(s.v()) || !finite(s.impulse()) || !finite(s.friction_impulse()) ||
+      !finite(s.impact_speed())) {
+    refuse("holds a non-finite value");
+  }
+  std::vector<DrivenFrame>& frames = mutable_data()->frames;
+  for (const Obstacle& o : model.obstacles) {
+    if (o.driven < 0) continue;
+    const state::ContactState::AttachedObstacle& a = s.attached(o.driven);
+    if (a.obstacle() != o.name || a.point_size() != 3 || a.normal_size() != 3 || a.tangent_size() != 3 ||
+        a.origin_size() != 3 || a.rotation_size() != 9 || a.velocity_size() != 3 || a.angular_velocity_size() != 3 ||
+        !finite(a.point()) || !finite(a.normal()) || !finite(a.tangent()) || !finite(a.origin()) ||
+        !finite(a.rotation()) || !finite(a.velocity()) || !finite(a.angular_velocity())) {
+      refuse("does not hold the body-frame geometry of obstacle '" + o.name + "' as attached obstacle " +
+             std::to_string(o.driven));
+    }
+    DrivenFrame& d = frames[static_cast<size_t>(o.driven)];
+    d.point_body = Vector(a.point());
+    d.normal_body = Vector(a.normal());
+    d.tangent_body = Vector(a.tangent());
+    d.start.origin = Vector(a.origin());
+    d.start.rotation = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.rotation().data());
+    d.start.velocity = Vector(a.velocity());
+    d.start.angular_velocity = Vector(a.angular_velocity());
+    d.end = d.start;
+    d.t0 = d.t1 = s.time();
+  }
+  SetState(s);
+  return true;
+}
+
+void ContactStepper::EndOutput() {
+  if (output_folder_.empty()) return;
+  if (stepping_) RestoreStart();
+  state::ContactState s;
+  s.set_scenario(scenario_name_);
+  s.set_process(process_);
+  s.set_method(MethodName());
+  s.set_time(time());
+  const ContactModel& model = this->model();
+  for (const ContactNode& n : model.nodes) s.add_nodes(n.name);
+  s.mutable_q()->Add(positions().data(), positions().data() + positions().size());
+  s.mutable_v()->Add(velocities().data(), velocities().data() + velocities().size());
+  s.set_contacts(static_cast<int>(model.contacts.size()));
+  std::vector<const Obstacle*> attached(static_cast<size_t>(model.driven_frames), nullptr);
+  for (const Obstacle& o : model.obstacles) {
+    if (o.driven >= 0) attached[static_cast<size_t>(o.driven)] = &o;
+  }
+  for (size_t i = 0; i < attached.size(); ++i) {
+    const DrivenFrame& d = data().frames[i];
+    state::ContactState::AttachedObstacle* a = s.add_attached();
+    a->set_obstacle(attached[i] != nullptr ? attached[i]->name : "");
+    AddVector(d.point_body, a->mutable_point());
+    AddVector(d.normal_body, a->mutable_normal());
+    AddVector(d.tangent_body, a->mutable_tangent());
+    const BodyFrame f = d.At(time());
+    AddVector(f.origin, a->mutable_origin());
+    for (int r = 0; r < 3; ++r) AddVector(f.rotation.row(r).transpose(), a->mutable_rotation());
+    AddVector(f.velocity, a->mutable_velocity());
+    AddVector(f.angular_velocity, a->mutable_angular_velocity());
+  }
+  GetState(&s);
+  const std::string path = output_folder_ + "/final_state.pb";
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out || !s.SerializeToOstream(&out)) {
+    throw InputError("cannot write " + path + " (choose a writable output folder; is the disk full?)");
+  }
 }
 
 void ContactStepper::StepTentatively(double t, double h) {

@@ -8,6 +8,7 @@
 
 #include "interface/run/run_driver.h"
 #include "nonsmooth_solver/model/contact_model.h"
+#include "state.pb.h"
 
 namespace cosim::nonsmooth {
 
@@ -72,6 +73,20 @@ class ContactStepper : public interface::Simulation {
   // The method's step from t to t + h (Moreau–Jean, the penalty law).
   virtual void Advance(double t, double h) = 0;
 
+  // Saved states (numerics.initial_state; proto/state.proto ContactState). UseSavedState
+  // remembers the scene's name and this process's ("" standalone) for the state this run will
+  // write, and, if the scenario names an initial state, starts from it: standalone the file
+  // itself, a coupled process NAME the file NAME/final_state.pb in the folder of the smooth
+  // solver's state (where the run that wrote both put it). A state of another scene, process,
+  // method, node set or time is refused (InputError naming numerics.initial_state). Returns
+  // whether it started from one (then the attached obstacles keep the saved body-frame geometry).
+  bool UseSavedState(const interface::ScenarioFile& file, const std::string& process);
+  // The run's output folder: at its end final_state.pb there holds the last accepted state.
+  void BeginOutput(const std::string& folder) override { output_folder_ = folder; }
+  void EndOutput() override;
+  // "moreau_jean" or "penalty": a saved state restarts its own method only.
+  virtual std::string MethodName() const = 0;
+
   // The model's probes, from the state above (the same for every contact method).
   std::vector<std::string> ProbeNames() const override;
   void Probe(std::vector<double>* values) const override;
@@ -79,6 +94,16 @@ class ContactStepper : public interface::Simulation {
   // touch it, `in_contact` = 1 on a node (and its plane) whose contact is closed or acted in
   // the last step (interface/visual).
   void Visual(interface::VisualFrame* frame) const override;
+
+ protected:
+  // The method's part of a saved state: time, nodes' q and v, impulses and its own memory (the
+  // sizes are checked before SetState).
+  virtual void GetState(state::ContactState* s) const = 0;
+  virtual void SetState(const state::ContactState& s) = 0;
+
+ private:
+  std::string scenario_name_, process_, output_folder_;
+  bool stepping_ = false;  // a standalone step under way: its start is the state to save
 };
 
 }  // namespace cosim::nonsmooth

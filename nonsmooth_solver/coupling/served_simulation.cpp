@@ -32,6 +32,7 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   options.keys = interface::CurveKeysFromEnvironment();
   channel_ = std::make_unique<interface::Channel>(context_.get(), options);
   server_ = std::make_unique<ContactServer>(simulation_.get(), channel_.get(), file.proto().name());
+  if (simulation_->UseSavedState(file, process)) server_->keep_attached_geometry();
   adaptive_ = file.proto().numerics().adaptive().enabled();
   const double resting = file.proto().numerics().adaptive().resting_speed();
   if (!(resting >= 0.0) || !std::isfinite(resting)) {
@@ -80,6 +81,13 @@ void ServedContactSimulation::Finish(ExitCode code, const std::string& reason) {
   channel_->Send();
 }
 
+void ServedContactSimulation::EndOutput() {
+  // A step the coordinator did not accept (the run failed in it) leaves a tentative state: the
+  // saved one is the step's start, the last accepted.
+  if (handshaken_ && simulation_->time() != server_->accepted_time()) simulation_->RestoreStart();
+  simulation_->EndOutput();
+}
+
 int RunContactProgram(const std::string& program, int argc, char** argv,
                       const ServedContactSimulation::StepperFactory& make) {
   return interface::RunProgram(
@@ -95,7 +103,9 @@ int RunContactProgram(const std::string& program, int argc, char** argv,
           file.Fail("numerics.adaptive", "a contact-only scene takes fixed steps (the adaptive step is the smooth "
                                          "solver's, standalone or as the coordinator of a coupled run); remove it");
         }
-        return make(file, nullptr);  // every node; obstacles on smooth bodies refused
+        std::unique_ptr<ContactStepper> stepper = make(file, nullptr);  // every node; obstacles on smooth bodies refused
+        stepper->UseSavedState(file, "");
+        return stepper;
       });
 }
 

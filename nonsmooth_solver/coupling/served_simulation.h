@@ -34,6 +34,9 @@ class ServedContactSimulation : public interface::Simulation {
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
   void Finish(ExitCode code, const std::string& reason) override;
+  // final_state.pb in this process's folder: its last accepted state (ContactState).
+  void BeginOutput(const std::string& folder) override { simulation_->BeginOutput(folder); }
+  void EndOutput() override;
 
  private:
   std::unique_ptr<ContactStepper> simulation_;

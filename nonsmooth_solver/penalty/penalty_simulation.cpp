@@ -219,4 +219,21 @@ void PenaltySimulation::FillSummary(run::RunSummary* summary) const {
   }
 }
 
+void PenaltySimulation::GetState(state::ContactState* s) const {
+  s->mutable_impulse()->Add(state_.impulse.data(), state_.impulse.data() + state_.impulse.size());
+  s->mutable_impact_speed()->Add(state_.impact_speed.data(), state_.impact_speed.data() + state_.impact_speed.size());
+}
+
+void PenaltySimulation::SetState(const state::ContactState& s) {
+  state_.time = s.time();
+  state_.q = Eigen::Map<const Eigen::VectorXd>(s.q().data(), s.q_size());
+  state_.v = Eigen::Map<const Eigen::VectorXd>(s.v().data(), s.v_size());
+  state_.impulse = Eigen::Map<const Eigen::VectorXd>(s.impulse().data(), s.impulse_size());
+  state_.impact_speed.setZero();
+  if (s.impact_speed_size() == state_.impact_speed.size()) {
+    state_.impact_speed = Eigen::Map<const Eigen::VectorXd>(s.impact_speed().data(), s.impact_speed_size());
+  }
+  saved_ = state_;
+}
+
 }  // namespace cosim::nonsmooth

@@ -54,10 +54,16 @@ class PenaltySimulation : public ContactStepper {
   const Eigen::VectorXd& velocities() const override { return state_.v; }
   bool Impact(int node) const override;
   std::string SolverName() const override;
+  std::string MethodName() const override { return "penalty"; }
 
   double Gap(int contact) const override;
   double GapRate(int contact) const override;
   double Impulse(int contact) const override { return state_.impulse(contact); }
+
+ protected:
+  // The last step's impulses and each contact's onset speed, with the nodes' state.
+  void GetState(state::ContactState* s) const override;
+  void SetState(const state::ContactState& s) override;
 
  private:
   struct State {

@@ -67,4 +67,26 @@ bool ContactSimulation::Sensitivities(double h, Eigen::VectorXd* position, Eigen
   return true;
 }
 
+void ContactSimulation::GetState(state::ContactState* s) const {
+  const Eigen::VectorXd& impulse = integrator_->impulses();
+  s->mutable_impulse()->Add(impulse.data(), impulse.data() + impulse.size());
+  const Eigen::MatrixXd& friction = integrator_->friction_impulses();  // 3 × contacts, column-major
+  s->mutable_friction_impulse()->Add(friction.data(), friction.data() + friction.size());
+}
+
+void ContactSimulation::SetState(const state::ContactState& s) {
+  MoreauJean::Checkpoint c;
+  integrator_->SaveTo(&c);  // the sizes, and the driven frames as UseSavedState left them
+  c.time = s.time();
+  c.q = Eigen::Map<const Eigen::VectorXd>(s.q().data(), s.q_size());
+  c.v = Eigen::Map<const Eigen::VectorXd>(s.v().data(), s.v_size());
+  c.impulse = Eigen::Map<const Eigen::VectorXd>(s.impulse().data(), s.impulse_size());
+  c.friction_impulse.setZero();
+  if (s.friction_impulse_size() == c.friction_impulse.size()) {
+    c.friction_impulse = Eigen::Map<const Eigen::MatrixXd>(s.friction_impulse().data(), c.friction_impulse.rows(),
+                                                           c.friction_impulse.cols());
+  }
+  integrator_->Restore(c);
+}
+
 }  // namespace cosim::nonsmooth

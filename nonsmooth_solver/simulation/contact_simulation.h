@@ -37,12 +37,18 @@ class ContactSimulation : public ContactStepper {
   double GapRate(int contact) const override { return integrator_->GapRate(contact); }
   double Impulse(int contact) const override { return integrator_->impulses()(contact); }
   std::string SolverName() const override { return "nonsmooth_solver (Moreau-Jean, LCP via Siconos Numerics)"; }
+  std::string MethodName() const override { return "moreau_jean"; }
   bool SupportsInterfaceJacobians() const override { return true; }
   void EnableInterfaceJacobians() override { integrator_->set_compute_sensitivities(true); }
   void SetInterfaceStiffness(const Eigen::VectorXd& stiffness, const Eigen::VectorXd& reference) override;
   const Eigen::VectorXd* AppliedForces() const override { return &integrator_->applied_forces(); }
   // Moreau–Jean: q_{k+1} = q_k + h(θ v_{k+1} + (1−θ) v_k), so ∂q/∂f = hθ ∂v/∂f.
   bool Sensitivities(double h, Eigen::VectorXd* position, Eigen::VectorXd* velocity) const override;
+
+ protected:
+  // The last step's impulses, normal and tangential (3 per contact), with the nodes' state.
+  void GetState(state::ContactState* s) const override;
+  void SetState(const state::ContactState& s) override;
 
  private:
   std::unique_ptr<const ContactModel> model_;  // stable address for the integrator

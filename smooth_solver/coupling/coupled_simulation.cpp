@@ -248,6 +248,7 @@ void CoupledSmoothSimulation::Finish(ExitCode code, const std::string& reason) {
 }
 
 void CoupledSmoothSimulation::BeginOutput(const std::string& folder) {
+  simulation_->BeginOutput(folder);  // final_state.pb: the smooth side's state (each contact process saves its own)
   iterations_ = std::make_unique<interface::OutputFile>(folder + "/coupling.csv");
   std::fprintf(iterations_->get(), "step,iteration,reaction_residual,displacement_change,relaxation_factor\n");
   iterations_->EndRow();
@@ -264,6 +265,7 @@ void CoupledSmoothSimulation::WriteIterations() {
 
 void CoupledSmoothSimulation::EndOutput() {
   if (iterations_ != nullptr && !iterations_->Flush()) throw InputError(iterations_->error() + " (is the disk full?)");
+  simulation_->EndOutput();
 }
 
 }  // namespace cosim::smooth

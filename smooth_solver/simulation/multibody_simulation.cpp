@@ -27,8 +27,7 @@ namespace {
 state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFile& file, const std::string& scenario,
                                const MultibodySystem& system, size_t joints, double start_time) {
   const std::string place = "numerics.initial_state";
-  std::filesystem::path path(file.proto().numerics().initial_state());
-  if (path.is_relative()) path = std::filesystem::path(file.path()).parent_path() / path;
+  const std::filesystem::path path = file.PathBeside(file.proto().numerics().initial_state());
   std::ifstream in(path, std::ios::binary);
   state::SmoothState s;
   if (!in || !s.ParseFromIstream(&in)) {
@@ -480,11 +479,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   // the closed locks, as it did in that run.
   std::optional<state::SmoothState> restart;
   if (numerics_.has_initial_state()) {
-    if (coupled) {
-      checks.Fail("numerics.initial_state",
-                  "a coupled run cannot restart from a saved state yet (its contact processes' "
-                  "states are not saved); remove it");
-    }
     restart = ReadRestart(checks, file, scenario_name_, *system, model_.joints.size(), time_);
   }
   DaeState initial;
@@ -499,6 +493,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   }
   HoldClosedLocks(system.get(), initial.q, time_);
   reference_q_ = initial.q;
+  if (numerics_.smooth().settle()) Settle(checks, coupled, system.get(), &initial);
   reference_time_ = restart ? restart->reference_time() : time_;
   system_ = std::move(system);
   if (!restart) system_->AcceptStep(initial.q, initial.qdot, time_);
@@ -854,6 +849,42 @@ void MultibodySimulation::Interpolate(double t) {
 
 CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
 
+void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial) {
+  const std::string place = "numerics.smooth.settle";
+  if (coupled) {
+    checks.Fail(place, "a coupled run's stops are its contact processes', which a static solve of the smooth model "
+                       "cannot hold; start it from a saved state (numerics.initial_state) instead");
+  }
+  if (numerics_.has_initial_state()) checks.Fail(place, "a run from a saved state (numerics.initial_state) is settled "
+                                                        "already; remove one of them");
+  if (static_ || numerics_.smooth().analysis() != sc::SmoothSettings::DYNAMIC) {
+    checks.Fail(place, "settles the start of a DYNAMIC analysis; remove it");
+  }
+  if (numerics_.smooth().integrator() == sc::SmoothSettings::IDA) {
+    checks.Fail(place, "settles the start of a CGα run; IDA, the reference, starts from the scenario as given");
+  }
+  EquilibriumOptions options;
+  options.t = time_;
+  options.tolerance = numerics_.smooth().newton_tolerance();
+  options.max_iterations = std::max(50, numerics_.smooth().newton_max_iterations());
+  const EquilibriumResult r = StaticEquilibrium(*system, initial->q, SpinningFrame{}, options);
+  if (!r.converged) {
+    throw NumericalError("numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) +
+                         " s (residual " + interface::FormatNumber(r.residual) + " after " +
+                         std::to_string(r.iterations) +
+                         " Newton iterations); the scene may have no equilibrium at rest (a free body, a load no "
+                         "stop holds): remove settle, or raise numerics.smooth.newton_max_iterations");
+  }
+  settle_iterations_ = r.iterations;
+  // The settled configuration as the start: velocities consistent with it again (the drives'
+  // speeds), accelerations and multipliers too, and the elements' memories from there.
+  system->q0 = r.q;
+  system->qdot0 = Eigen::VectorXd::Zero(r.q.size());
+  system->AcceptStep(system->q0, system->qdot0, time_);
+  InitialConditionReport report;
+  *initial = ConsistentInitialState(*system, time_, &report);
+}
+
 void MultibodySimulation::StaticStep(double t1) {
   // The equilibrium with the loads, drives and prescribed motions of t1, from the last one (or
   // the initial configuration): a continuation in the scene's own time functions, which ramp
@@ -940,6 +971,7 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   counters["coordinates"] = static_cast<double>(system_->coordinates);
   counters["constraints"] = static_cast<double>(system_->constraints.size());
   counters["initial_kinsol_iterations"] = static_cast<double>(initial_report_.kinsol_iterations);
+  if (numerics_.smooth().settle()) counters["settle_newton_iterations"] = static_cast<double>(settle_iterations_);
   counters["initial_position_change"] = initial_report_.position_change;
   counters["initial_velocity_change"] = initial_report_.velocity_change;
   if (ida_) counters["ida_internal_steps"] = static_cast<double>(ida_steps_);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "interface/run/run_driver.h"
+#include "interface/scenario/checks.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
@@ -109,6 +110,11 @@ class MultibodySimulation : public interface::Simulation {
   };
   // numerics.smooth.analysis STATIC: the equilibrium at t1 in place of a time step.
   void StaticStep(double t1);
+  // numerics.smooth.settle: `initial` (closed) moved to the static equilibrium at start_time,
+  // velocities and accelerations made consistent there. InputError for a run it does not fit,
+  // NumericalError if there is no equilibrium.
+  void Settle(const interface::Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial);
+  int settle_iterations_ = 0;
   void UnwrapAngles(const Eigen::VectorXd& q);
   bool static_ = false;
   // A body's vector quantity (kind), in the probe's frame.

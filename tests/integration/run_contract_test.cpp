@@ -605,6 +605,35 @@ TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
     EXPECT_NEAR(tip[k], tip0, 1e-3) << "t = " << time[k];
     EXPECT_NEAR(flap[k], flap0, 1e-3) << "t = " << time[k];
   }
+  // The same in one run (numerics.smooth.settle): the equilibrium at t = 0 from the first row
+  // on — the static solve is the STATIC analysis's, at the drives of t = 0 instead of 0.02 s,
+  // when the hub has not moved — and the rotor stays there as the restarted run does.
+  const Result settled =
+      Launch(scene + " --out " + (dir / "settled").string() + " --set numerics.smooth.settle=true --set numerics.end_time=1");
+  ASSERT_EQ(settled.code, 0) << settled.output;
+  const Table one = ReadTable(dir / "settled" / "history.csv");
+  const std::vector<double> tip1 = one.Column("blade1_tip_z"), flap1 = one.Column("blade1_flap");
+  ASSERT_EQ(one.size(), 501u);
+  EXPECT_NEAR(tip1[0], tip0, 1e-4);
+  EXPECT_NEAR(flap1[0], flap0, 1e-4);
+  for (size_t k = 0; k < one.size(); ++k) {
+    EXPECT_NEAR(tip1[k], tip0, 1e-3) << "t = " << one.Column("time")[k];
+    EXPECT_NEAR(flap1[k], flap0, 1e-3) << "t = " << one.Column("time")[k];
+  }
+  EXPECT_GT(ReadSummary(dir / "settled").counters().at("settle_newton_iterations"), 0.0);
+  // Where it does not fit it is refused naming the field: a coupled run (its stops are the
+  // contact processes'), a start from a saved state (settled already).
+  const Result coupled = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + (dir / "coupled").string() +
+                                " --set numerics.smooth.settle=true");
+  EXPECT_EQ(coupled.code, 2) << coupled.output;
+  EXPECT_NE(coupled.output.find("numerics.smooth.settle: a coupled run's stops are its contact processes'"),
+            std::string::npos)
+      << coupled.output;
+  const Result both = Launch(scene + " --out " + (dir / "both").string() + " --set numerics.smooth.settle=true" +
+                             " --set numerics.initial_state=" + (dir / "static" / "final_state.pb").string() +
+                             " --set numerics.start_time=0.02");
+  EXPECT_EQ(both.code, 2) << both.output;
+  EXPECT_NE(both.output.find("numerics.smooth.settle: a run from a saved state"), std::string::npos) << both.output;
 }
 
 TEST(RunContract, JoinedHistoryPutsEveryProcesssProbesSideBySide) {

@@ -225,6 +225,60 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
+  // Beam.stations_file: a CSV beside the scenario, header = BeamStation's fields in any order
+  // (here a subset; the others keep their defaults, an empty cell too), '#' lines skipped. The
+  // scenario then holds exactly the stations written inline would give, and no file name.
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cosim_stations_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  write("blade.csv", "# Puma-like blade, two stations\ns, mass, ea, gj, ei_flap, ei_lag, twist\n"
+                     "0.5, 10.2, 3e8, 2.5e4, 1.1e5, 2e6, 0.1\n7.5, 8.0, 3e8, 2.5e4, 9e4, 1.8e6,\n");
+  write("aero.csv", "s,chord,airfoil\n1.5,0.54,naca0012\n7.5,0.54,naca0012\n");
+  const std::string head = "name: \"tab\"\nmodel {\n  beams { name: \"b\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] "
+                           "elements: 2 stations_file: \"blade.csv\" }\n"
+                           "  air { surfaces { name: \"s\" beam: \"b\" stations_file: \"aero.csv\" } }\n}\n";
+  write("main.pbtxt", head);
+  const ScenarioFile f = ScenarioFile::Load((dir / "main.pbtxt").string(), {});
+  const auto& beam = f.proto().model().beams(0);
+  EXPECT_FALSE(beam.has_stations_file());
+  ASSERT_EQ(beam.stations_size(), 2);
+  EXPECT_EQ(beam.stations(1).s(), 7.5);
+  EXPECT_EQ(beam.stations(0).ei_lag(), 2e6);
+  EXPECT_EQ(beam.stations(0).twist(), 0.1);
+  EXPECT_FALSE(beam.stations(1).has_twist());  // empty cell: the default
+  EXPECT_FALSE(beam.stations(0).has_ga_flap());
+  const auto& surface = f.proto().model().air().surfaces(0);
+  ASSERT_EQ(surface.stations_size(), 2);
+  EXPECT_EQ(surface.stations(1).airfoil(), "naca0012");
+  EXPECT_EQ(surface.stations(0).chord(), 0.54);
+  // Mistakes name the file, its line and the column, and the field that names the file.
+  auto error_with = [&](const std::string& csv) {
+    write("blade.csv", csv);
+    return MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), {}); });
+  };
+  const std::string csv = (dir / "blade.csv").string();
+  std::string m = error_with("s,mass,eiflap\n0,1,2\n");
+  EXPECT_NE(m.find("main.pbtxt:3:"), std::string::npos) << m;
+  EXPECT_NE(m.find("model.beams[0].stations_file: '" + csv + "' line 1: 'eiflap' is not a field of BeamStation; "
+                   "expected a header of s, ea,"),
+            std::string::npos)
+      << m;
+  m = error_with("s,mass\n0,1\n1,heavy\n");
+  EXPECT_NE(m.find("'" + csv + "' line 3, column 'mass': 'heavy' is not a finite number"), std::string::npos) << m;
+  m = error_with("s,mass\n0,1,2\n");
+  EXPECT_NE(m.find("line 2: 3 cells; the header has 2 columns"), std::string::npos) << m;
+  m = error_with("s,mass,s\n");
+  EXPECT_NE(m.find("column 's' is given twice"), std::string::npos) << m;
+  m = error_with("# nothing\n");
+  EXPECT_NE(m.find("holds no stations"), std::string::npos) << m;
+  std::filesystem::remove(dir / "blade.csv");
+  m = MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), {}); });
+  EXPECT_NE(m.find("'" + csv + "' cannot be read"), std::string::npos) << m;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ScenarioFile, ChecksNameFieldValueAndExpectation) {
   const ScenarioFile f = ScenarioFile::Parse(kText, "f.pbtxt", {"model.contact_nodes[0].mass=-1"});
   const Checks checks(f);

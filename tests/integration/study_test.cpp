@@ -125,6 +125,37 @@ TEST(Study, EnvelopeSweepsTwoAxesOnALocalClusterOfTwoWorkersAndKeepsFailedPoints
   EXPECT_NE(report.find("exit 2 (bad input)"), std::string::npos) << report;
 }
 
+TEST(Study, ACoSimulatedEnvelopeStartsEveryPointFromOneSavedStateContactProcessIncluded) {
+  // tests/data/envelope/spinning_stop.pbtxt (the spinning pendulum striking a stop that turns with
+  // its hub), study.restart_time 0.3 s: one run to 0.3 s, then both restitution points from its
+  // states — the smooth solver's and the contact process's, shipped together to the Dask workers
+  // — over [0.3, 0.8] s. Each point's history starts at 0.3 s; the tip reaches the axis (z = −1 m,
+  // the rod's length) in the step of the exact impact at 0.55014 s, whatever the restitution;
+  // and the stop's peak impulse grows as 1 + e (Newton's law on the same impact speed):
+  // 1.8 / 1.5 = 1.2.
+  const fs::path out = TempDir("study_envelope_restart");
+  ASSERT_EQ(Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/spinning_stop.pbtxt --out " +
+                      out.string(),
+                  out / "log.txt"),
+            0)
+      << Slurp(out / "log.txt");
+  EXPECT_TRUE(fs::exists(out / "runs" / "settle" / "stops" / "final_state.pb"));
+  const Table runs = ReadTable(out / "runs.csv");
+  ASSERT_EQ(runs.size(), 2u);
+  const std::vector<double> code = runs.Column("exit"), lowest = runs.Column("tip_lowest"),
+                            when = runs.Column("tip_lowest_time"), force = runs.Column("peak_stop_force");
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(code[i], 0.0);
+    EXPECT_NEAR(lowest[i], -1.0, 1e-5);
+    EXPECT_NEAR(when[i], 0.550144, 0.0005 + 1e-9);
+    const Table history = ReadTable(out / "runs" / ("p" + std::to_string(i)) / "stops" / "history.csv");
+    EXPECT_NEAR(history.Column("time").front(), 0.3, 1e-12);
+  }
+  EXPECT_NEAR(force[1] / force[0], 1.8 / 1.5, 1e-3);
+  EXPECT_NE(Slurp(out / "report.md").find("Every run starts at t = 0.3 s from the state of one settling run"),
+            std::string::npos);
+}
+
 TEST(Study, RunsGoToTheClusterOfAGivenScheduler) {
   // A cluster as it would run on other machines: dask-scheduler and a dask-worker started by
   // hand (here on this machine, the worker in a folder of its own with COSIM_BIN_DIR naming the

@@ -1,7 +1,6 @@
 #include "interface/scenario/pattern.h"
 
 #include <Eigen/Geometry>
-
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -13,10 +12,13 @@ namespace {
 namespace pb = google::protobuf;
 
 std::string Indexed(const std::string& path, int index) { return path + "[" + std::to_string(index) + "]"; }
-std::string Join(const std::string& prefix, const std::string& field) { return prefix.empty() ? field : prefix + "." + field; }
+std::string Join(const std::string& prefix, const std::string& field) {
+  return prefix.empty() ? field : prefix + "." + field;
+}
 
 void ReplaceAll(std::string* s, const std::string& from, const std::string& to) {
-  for (size_t at = s->find(from); at != std::string::npos; at = s->find(from, at + to.size())) s->replace(at, from.size(), to);
+  for (size_t at = s->find(from); at != std::string::npos; at = s->find(from, at + to.size()))
+    s->replace(at, from.size(), to);
 }
 
 // fn(child) for every message directly below m (singular fields and list elements).
@@ -45,8 +47,9 @@ void CheckOnlyLists(const pb::Message& m, const std::string& path,
     if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE && !f->is_repeated()) {
       CheckOnlyLists(m.GetReflection()->GetMessage(m, f), p, fail);
     } else if (!(f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE && f->is_repeated())) {
-      fail(p, "a pattern repeats list elements (bodies, joints, beams, forces, surfaces, contact nodes, probes, …); "
-              "set this field in the scenario itself");
+      fail(p,
+           "a pattern repeats list elements (bodies, joints, beams, forces, surfaces, contact nodes, probes, …); "
+           "set this field in the scenario itself");
     }
   }
 }
@@ -139,7 +142,8 @@ std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
   for (int p = 0; p < patterns.size(); ++p) {
     const scenario::Pattern& pat = patterns[p];
     const std::string path = Indexed("patterns", p);
-    if (!pat.has_name() || pat.name().empty()) fail(path + ".name", "missing; a pattern's name is what {NAME} refers to");
+    if (!pat.has_name() || pat.name().empty())
+      fail(path + ".name", "missing; a pattern's name is what {NAME} refers to");
     for (char c : pat.name()) {
       if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_') {
         fail(path + ".name", "'" + pat.name() + "' is not a name of letters, digits and '_'");
@@ -147,9 +151,11 @@ std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
     }
     if (counts.count(pat.name()) != 0) fail(path + ".name", "'" + pat.name() + "' names another pattern already");
     if (!pat.has_count() || pat.count() < 1 || pat.count() > 1000) {
-      fail(path + ".count", "expected 1 to 1000 copies, got " + (pat.has_count() ? std::to_string(pat.count()) : "none"));
+      fail(path + ".count",
+           "expected 1 to 1000 copies, got " + (pat.has_count() ? std::to_string(pat.count()) : "none"));
     }
-    auto vector3 = [&](const google::protobuf::RepeatedField<double>& v, const std::string& field, const Eigen::Vector3d& fallback) {
+    auto vector3 = [&](const google::protobuf::RepeatedField<double>& v, const std::string& field,
+                       const Eigen::Vector3d& fallback) {
       if (v.empty()) return fallback;
       if (v.size() != 3) fail(path + "." + field, "expected [x, y, z], got " + std::to_string(v.size()) + " values");
       return Eigen::Vector3d(v[0], v[1], v[2]);

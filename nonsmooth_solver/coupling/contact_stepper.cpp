@@ -52,21 +52,23 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
   auto refuse = [&](const std::string& what) {
     file.Fail(place, "'" + path.string() + "' " + what + "; expected a state written by a run of this scene");
   };
-  if (s.scenario() != scenario_name_) refuse("is a state of scenario '" + s.scenario() + "', not of '" + scenario_name_ + "'");
+  if (s.scenario() != scenario_name_)
+    refuse("is a state of scenario '" + s.scenario() + "', not of '" + scenario_name_ + "'");
   if (s.process() != process) refuse("is the state of process '" + s.process() + "', not of '" + process + "'");
   if (s.method() != MethodName()) {
     refuse("was written by the " + s.method() + " method, and this process runs " + MethodName());
   }
   bool same_nodes = s.nodes_size() == static_cast<int>(model.nodes.size());
-  for (int n = 0; same_nodes && n < s.nodes_size(); ++n) same_nodes = s.nodes(n) == model.nodes[static_cast<size_t>(n)].name;
+  for (int n = 0; same_nodes && n < s.nodes_size(); ++n)
+    same_nodes = s.nodes(n) == model.nodes[static_cast<size_t>(n)].name;
   const int nodes = static_cast<int>(model.nodes.size()), contacts = static_cast<int>(model.contacts.size());
   if (!same_nodes || s.q_size() != 3 * nodes || s.v_size() != 3 * nodes || s.contacts() != contacts ||
       s.impulse_size() != contacts || s.attached_size() != model.driven_frames ||
       (s.friction_impulse_size() != 0 && s.friction_impulse_size() != 3 * contacts) ||
       (s.impact_speed_size() != 0 && s.impact_speed_size() != contacts)) {
     refuse("holds " + std::to_string(s.nodes_size()) + " nodes, " + std::to_string(s.contacts()) + " contacts and " +
-           std::to_string(s.attached_size()) + " attached obstacles; this process has " + std::to_string(nodes) +
-           ", " + std::to_string(contacts) + " and " + std::to_string(model.driven_frames) + " (the same nodes in order)");
+           std::to_string(s.attached_size()) + " attached obstacles; this process has " + std::to_string(nodes) + ", " +
+           std::to_string(contacts) + " and " + std::to_string(model.driven_frames) + " (the same nodes in order)");
   }
   if (std::abs(s.time() - time()) > 1e-9 * std::max(1.0, std::abs(time()))) {
     file.Fail(place, "the contact state '" + path.string() + "' is at t = " + FormatNumber(s.time()) +

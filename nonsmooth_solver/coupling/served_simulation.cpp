@@ -36,7 +36,8 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
   adaptive_ = file.proto().numerics().adaptive().enabled();
   const double resting = file.proto().numerics().adaptive().resting_speed();
   if (!(resting >= 0.0) || !std::isfinite(resting)) {
-    file.Fail("numerics.adaptive.resting_speed", "must be a finite speed >= 0 [m/s], got " + interface::FormatNumber(resting));
+    file.Fail("numerics.adaptive.resting_speed",
+              "must be a finite speed >= 0 [m/s], got " + interface::FormatNumber(resting));
   }
   server_->set_resting_speed(resting);
 }
@@ -73,7 +74,7 @@ void ServedContactSimulation::Finish(ExitCode code, const std::string& reason) {
     return;
   }
   if (code == ExitCode::kPeerFailure) return;  // the coordinator is gone or broke the protocol
-  if (channel_->peer_stopped()) return;         // the coordinator ended the run: it knows
+  if (channel_->peer_stopped()) return;        // the coordinator ended the run: it knows
   // This side failed (its step or bad input): tell the coordinator, which is waiting.
   auto* stop = channel_->Outgoing(step_, 0).mutable_shutdown();
   stop->set_exit_code(static_cast<int>(code));
@@ -92,18 +93,22 @@ int RunContactProgram(const std::string& program, int argc, char** argv,
                       const ServedContactSimulation::StepperFactory& make) {
   return interface::RunProgram(
       program, argc, argv,
-      [&](const interface::ScenarioFile& file, const interface::CommandLine& cli) -> std::unique_ptr<interface::Simulation> {
+      [&](const interface::ScenarioFile& file,
+          const interface::CommandLine& cli) -> std::unique_ptr<interface::Simulation> {
         if (!cli.process.empty()) return std::make_unique<ServedContactSimulation>(file, cli.process, make);
         if (file.proto().coupling().interface_nodes_size() > 0) {
           file.Fail("coupling.interface_nodes",
                     "the contact nodes are tied to the smooth model: run the coupled scene with scripts/cosim run "
-                    "(or " + program + " --process NAME under a coordinator)");
+                    "(or " +
+                        program + " --process NAME under a coordinator)");
         }
         if (file.proto().numerics().adaptive().enabled()) {
-          file.Fail("numerics.adaptive", "a contact-only scene takes fixed steps (the adaptive step is the smooth "
-                                         "solver's, standalone or as the coordinator of a coupled run); remove it");
+          file.Fail("numerics.adaptive",
+                    "a contact-only scene takes fixed steps (the adaptive step is the smooth "
+                    "solver's, standalone or as the coordinator of a coupled run); remove it");
         }
-        std::unique_ptr<ContactStepper> stepper = make(file, nullptr);  // every node; obstacles on smooth bodies refused
+        std::unique_ptr<ContactStepper> stepper =
+            make(file, nullptr);  // every node; obstacles on smooth bodies refused
         stepper->UseSavedState(file, "");
         return stepper;
       });

@@ -22,8 +22,8 @@ namespace cosim::nonsmooth {
 
 class ServedContactSimulation : public interface::Simulation {
  public:
-  using StepperFactory =
-      std::function<std::unique_ptr<ContactStepper>(const interface::ScenarioFile&, const std::set<std::string>* nodes)>;
+  using StepperFactory = std::function<std::unique_ptr<ContactStepper>(const interface::ScenarioFile&,
+                                                                       const std::set<std::string>* nodes)>;
   // Throws InputError for an unknown process or a missing endpoint.
   ServedContactSimulation(const interface::ScenarioFile& file, const std::string& process, const StepperFactory& make);
   ~ServedContactSimulation() override;

@@ -1,12 +1,11 @@
 #include "nonsmooth_solver/penalty/penalty_simulation.h"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <tuple>
-
-#include <Eigen/LU>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -43,12 +42,14 @@ PenaltySimulation::PenaltySimulation(const interface::ScenarioFile& file, const 
                       "; penalty_solver is frictionless (use nonsmooth_solver for Coulomb friction)");
     }
     if (!(contact.restitution > 0.0)) {
-      checks.Fail("model.contact_nodes[" + model_->nodes[static_cast<size_t>(contact.node)].name + "].contacts",
-                  "contact '" + contact.name + "' has restitution 0; penalty_solver's law needs e > 0 (it divides by e)");
+      checks.Fail(
+          "model.contact_nodes[" + model_->nodes[static_cast<size_t>(contact.node)].name + "].contacts",
+          "contact '" + contact.name + "' has restitution 0; penalty_solver's law needs e > 0 (it divides by e)");
     }
     auto it = law_restitution.find(contact.restitution);
     if (it == law_restitution.end()) {
-      it = law_restitution.emplace(contact.restitution, interface::LawRestitution(contact.restitution, law.exponent)).first;
+      it = law_restitution.emplace(contact.restitution, interface::LawRestitution(contact.restitution, law.exponent))
+               .first;
     }
     laws_.push_back(law);
     laws_.back().restitution = it->second;
@@ -68,7 +69,8 @@ PenaltySimulation::PenaltySimulation(const interface::ScenarioFile& file, const 
   saved_ = state_;
   external_ = Eigen::VectorXd::Zero(n);
   mass_.resize(n);
-  for (size_t i = 0; i < model_->nodes.size(); ++i) mass_.segment<3>(3 * static_cast<Eigen::Index>(i)).setConstant(model_->nodes[i].mass);
+  for (size_t i = 0; i < model_->nodes.size(); ++i)
+    mass_.segment<3>(3 * static_cast<Eigen::Index>(i)).setConstant(model_->nodes[i].mass);
   for (Eigen::VectorXd* w : {&f0_, &f1_, &q1_, &v1_, &residual_, &dv_}) w->resize(n);
   for (Eigen::VectorXd* w : {&c0_, &c1_}) w->resize(m);
   for (Eigen::MatrixXd* w : {&K_, &C_, &J_}) w->resize(n, n);
@@ -119,7 +121,8 @@ void PenaltySimulation::Forces(double t, const Eigen::VectorXd& q, const Eigen::
     const auto o = 3 * static_cast<Eigen::Index>(ct.node);
     const Eigen::Vector3d x = q.segment<3>(o), n = ob.NormalAt(t, state_.data);
     // δ = −n·(x − p), δ̇ = −(n·ẋ + bias): the force f n pushes the node out along n.
-    const double delta = -ob.Gap(t, x, state_.data), rate = -(n.dot(v.segment<3>(o)) + ob.GapRateBias(t, x, state_.data));
+    const double delta = -ob.Gap(t, x, state_.data),
+                 rate = -(n.dot(v.segment<3>(o)) + ob.GapRateBias(t, x, state_.data));
     const interface::HuntCrossleyForce law =
         interface::EvaluateHuntCrossley(laws_[c], state_.impact_speed(static_cast<Eigen::Index>(c)), delta, rate);
     f->segment<3>(o) += law.f * n;
@@ -156,20 +159,21 @@ void PenaltySimulation::Substep(double t, double h) {
     ++newton_iterations_;
     // Relative to the largest term of R (momenta and impulses), so that round-off always
     // passes: the impulses h f are the large terms of a long step into a stiff contact.
-    const double scale = std::max({1.0, (mass_.array() * v0.array().abs()).maxCoeff(),
-                                   (mass_.array() * v1_.array().abs()).maxCoeff(),
-                                   0.5 * h * f0_.lpNorm<Eigen::Infinity>(), 0.5 * h * f1_.lpNorm<Eigen::Infinity>()});
+    const double scale =
+        std::max({1.0, (mass_.array() * v0.array().abs()).maxCoeff(), (mass_.array() * v1_.array().abs()).maxCoeff(),
+                  0.5 * h * f0_.lpNorm<Eigen::Infinity>(), 0.5 * h * f1_.lpNorm<Eigen::Infinity>()});
     if (residual_.lpNorm<Eigen::Infinity>() <= 1e-12 * scale) break;
     // The last correction was at round-off (a stiff contact's h² K amplifies the round-off of
     // v₁ in R beyond the test above): no iteration can do better.
-    if (it > 0 && dv_.lpNorm<Eigen::Infinity>() <= 64.0 * std::numeric_limits<double>::epsilon() *
-                                                      std::max(1.0, v1_.lpNorm<Eigen::Infinity>())) {
+    if (it > 0 && dv_.lpNorm<Eigen::Infinity>() <=
+                      64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, v1_.lpNorm<Eigen::Infinity>())) {
       break;
     }
     if (it == 50 || !residual_.allFinite()) {
-      throw NumericalError("penalty_solver: Newton did not converge in the step from t = " + interface::FormatNumber(t) +
-                           " s (residual " + interface::FormatNumber(residual_.lpNorm<Eigen::Infinity>()) +
-                           " N s): shorten the step, raise numerics.penalty.substeps or lower numerics.penalty.stiffness");
+      throw NumericalError(
+          "penalty_solver: Newton did not converge in the step from t = " + interface::FormatNumber(t) +
+          " s (residual " + interface::FormatNumber(residual_.lpNorm<Eigen::Infinity>()) +
+          " N s): shorten the step, raise numerics.penalty.substeps or lower numerics.penalty.stiffness");
     }
     J_ = 0.5 * h * (C_ + 0.5 * h * K_);
     J_.diagonal() += mass_;
@@ -188,12 +192,14 @@ void PenaltySimulation::Advance(double t, double h) {
   const double dt = h / substeps_;
   for (int s = 0; s < substeps_; ++s) Substep(t + s * dt, dt);
   state_.time = t + h;
-  for (size_t c = 0; c < model.contacts.size(); ++c) max_penetration_ = std::max(max_penetration_, -Gap(static_cast<int>(c)));
+  for (size_t c = 0; c < model.contacts.size(); ++c)
+    max_penetration_ = std::max(max_penetration_, -Gap(static_cast<int>(c)));
 }
 
 double PenaltySimulation::Gap(int contact) const {
   const Contact& c = model_->contacts[static_cast<size_t>(contact)];
-  return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node), state_.data);
+  return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node),
+                                                                state_.data);
 }
 
 double PenaltySimulation::GapRate(int contact) const {

@@ -23,14 +23,13 @@
 // It exists to prove that the contact process can be swapped without touching the smooth side:
 // it speaks the same protocol through the same ContactServer (docs/protocol.md).
 #include <Eigen/Core>
-
 #include <memory>
 #include <set>
 #include <string>
 #include <vector>
 
-#include "nonsmooth_solver/coupling/contact_stepper.h"
 #include "interface/contact/hunt_crossley.h"
+#include "nonsmooth_solver/coupling/contact_stepper.h"
 
 namespace cosim::nonsmooth {
 
@@ -77,8 +76,8 @@ class PenaltySimulation : public ContactStepper {
   // `contact`; with `K`, `C`: −∂f/∂q and −∂f/∂v (the bias of a moving plane's velocity field
   // is left out of ∂f/∂q: Newton converges a little slower on spinning planes, to the same
   // solution).
-  void Forces(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v, Eigen::VectorXd* f, Eigen::VectorXd* contact,
-              Eigen::MatrixXd* K, Eigen::MatrixXd* C) const;
+  void Forces(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& v, Eigen::VectorXd* f,
+              Eigen::VectorXd* contact, Eigen::MatrixXd* K, Eigen::MatrixXd* C) const;
   void Substep(double t, double h);
 
   std::unique_ptr<const ContactModel> model_;

@@ -852,11 +852,14 @@ CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrat
 void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial) {
   const std::string place = "numerics.smooth.settle";
   if (coupled) {
-    checks.Fail(place, "a coupled run's stops are its contact processes', which a static solve of the smooth model "
-                       "cannot hold; start it from a saved state (numerics.initial_state) instead");
+    checks.Fail(place,
+                "a coupled run's stops are its contact processes', which a static solve of the smooth model "
+                "cannot hold; start it from a saved state (numerics.initial_state) instead");
   }
-  if (numerics_.has_initial_state()) checks.Fail(place, "a run from a saved state (numerics.initial_state) is settled "
-                                                        "already; remove one of them");
+  if (numerics_.has_initial_state())
+    checks.Fail(place,
+                "a run from a saved state (numerics.initial_state) is settled "
+                "already; remove one of them");
   if (static_ || numerics_.smooth().analysis() != sc::SmoothSettings::DYNAMIC) {
     checks.Fail(place, "settles the start of a DYNAMIC analysis; remove it");
   }

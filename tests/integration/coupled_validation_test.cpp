@@ -380,7 +380,8 @@ TEST(CoupledRestart, ARunRestartedFromItsSavedStatesContinuesItContactProcessInc
                                " --set numerics.start_time=0.3 --set numerics.end_time=0.8");
   ASSERT_EQ(second.code, 0) << second.output;
   const Table a = ReadTable(dir / "whole" / "history.csv"), b = ReadTable(dir / "second" / "history.csv");
-  const Table ac = ReadTable(dir / "whole" / "stops" / "history.csv"), bc = ReadTable(dir / "second" / "stops" / "history.csv");
+  const Table ac = ReadTable(dir / "whole" / "stops" / "history.csv"),
+              bc = ReadTable(dir / "second" / "stops" / "history.csv");
   ASSERT_EQ(b.size(), 1001u);
   ASSERT_EQ(a.size(), 1601u);
   double flap = 0.0, node = 0.0;

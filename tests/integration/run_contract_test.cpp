@@ -608,8 +608,8 @@ TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
   // The same in one run (numerics.smooth.settle): the equilibrium at t = 0 from the first row
   // on — the static solve is the STATIC analysis's, at the drives of t = 0 instead of 0.02 s,
   // when the hub has not moved — and the rotor stays there as the restarted run does.
-  const Result settled =
-      Launch(scene + " --out " + (dir / "settled").string() + " --set numerics.smooth.settle=true --set numerics.end_time=1");
+  const Result settled = Launch(scene + " --out " + (dir / "settled").string() +
+                                " --set numerics.smooth.settle=true --set numerics.end_time=1");
   ASSERT_EQ(settled.code, 0) << settled.output;
   const Table one = ReadTable(dir / "settled" / "history.csv");
   const std::vector<double> tip1 = one.Column("blade1_tip_z"), flap1 = one.Column("blade1_flap");

@@ -233,12 +233,14 @@ TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
       std::filesystem::temp_directory_path() / ("cosim_stations_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
-  write("blade.csv", "# Puma-like blade, two stations\ns, mass, ea, gj, ei_flap, ei_lag, twist\n"
-                     "0.5, 10.2, 3e8, 2.5e4, 1.1e5, 2e6, 0.1\n7.5, 8.0, 3e8, 2.5e4, 9e4, 1.8e6,\n");
+  write("blade.csv",
+        "# Puma-like blade, two stations\ns, mass, ea, gj, ei_flap, ei_lag, twist\n"
+        "0.5, 10.2, 3e8, 2.5e4, 1.1e5, 2e6, 0.1\n7.5, 8.0, 3e8, 2.5e4, 9e4, 1.8e6,\n");
   write("aero.csv", "s,chord,airfoil\n1.5,0.54,naca0012\n7.5,0.54,naca0012\n");
-  const std::string head = "name: \"tab\"\nmodel {\n  beams { name: \"b\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] "
-                           "elements: 2 stations_file: \"blade.csv\" }\n"
-                           "  air { surfaces { name: \"s\" beam: \"b\" stations_file: \"aero.csv\" } }\n}\n";
+  const std::string head =
+      "name: \"tab\"\nmodel {\n  beams { name: \"b\" root: [0, 0, 0] axis: [1, 0, 0] chord: [0, 1, 0] "
+      "elements: 2 stations_file: \"blade.csv\" }\n"
+      "  air { surfaces { name: \"s\" beam: \"b\" stations_file: \"aero.csv\" } }\n}\n";
   write("main.pbtxt", head);
   const ScenarioFile f = ScenarioFile::Load((dir / "main.pbtxt").string(), {});
   const auto& beam = f.proto().model().beams(0);
@@ -261,7 +263,8 @@ TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
   const std::string csv = (dir / "blade.csv").string();
   std::string m = error_with("s,mass,eiflap\n0,1,2\n");
   EXPECT_NE(m.find("main.pbtxt:3:"), std::string::npos) << m;
-  EXPECT_NE(m.find("model.beams[0].stations_file: '" + csv + "' line 1: 'eiflap' is not a field of BeamStation; "
+  EXPECT_NE(m.find("model.beams[0].stations_file: '" + csv +
+                   "' line 1: 'eiflap' is not a field of BeamStation; "
                    "expected a header of s, ea,"),
             std::string::npos)
       << m;

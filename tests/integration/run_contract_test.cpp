@@ -526,6 +526,29 @@ TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   EXPECT_EQ(static_cast<double>(log.size()), smooth.coupling_iterations().total());
 }
 
+TEST(RunContract, AContactOnlyRunRestartsFromItsSavedStateExactly) {
+  // A standalone contact run saves its ContactState too. Moreau–Jean carries nothing from step to
+  // step but the nodes' state (the impulses are the last step's, for the probes), so the
+  // bouncing ball run to 1.5 s and restarted to 3 s is the run made in one go to round-off,
+  // bounces included.
+  const fs::path dir = TempDir("ball_restart");
+  const std::string ball = kScenarios + "/bouncing_ball.pbtxt";
+  ASSERT_EQ(Launch(ball + " --out " + (dir / "whole").string() + " --set numerics.end_time=3").code, 0);
+  ASSERT_EQ(Launch(ball + " --out " + (dir / "first").string() + " --set numerics.end_time=1.5").code, 0);
+  const Result second = Launch(ball + " --out " + (dir / "second").string() +
+                               " --set numerics.initial_state=" + (dir / "first" / "final_state.pb").string() +
+                               " --set numerics.start_time=1.5 --set numerics.end_time=3");
+  ASSERT_EQ(second.code, 0) << second.output;
+  const Table a = ReadTable(dir / "whole" / "history.csv"), b = ReadTable(dir / "second" / "history.csv");
+  ASSERT_EQ(b.size(), 301u);
+  ASSERT_EQ(a.size(), 601u);
+  double worst = 0.0;
+  for (size_t k = 0; k < b.size(); ++k) {
+    for (size_t c = 0; c < b.header.size(); ++c) worst = std::max(worst, std::abs(a.rows[k + 300][c] - b.rows[k][c]));
+  }
+  EXPECT_LT(worst, 1e-12);
+}
+
 TEST(RunContract, ProbeScaleMultipliesItsColumnOnly) {
   // output.probes[i].scale: an angle in degrees; the other columns as they were; zero refused.
   const fs::path plain = TempDir("scale_plain"), degrees = TempDir("scale_degrees"), zero = TempDir("scale_zero");

@@ -174,4 +174,12 @@ bool ReadSummaryJson(const std::string& path, run::RunSummary* summary) {
   return google::protobuf::util::JsonStringToMessage(text.str(), summary).ok();
 }
 
+void WriteFinalState(const std::string& folder, const google::protobuf::Message& message) {
+  const std::string path = folder + "/final_state.pb";
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out || !message.SerializeToOstream(&out)) {
+    throw InputError("cannot write " + path + " (choose a writable output folder; is the disk full?)");
+  }
+}
+
 }  // namespace cosim::interface

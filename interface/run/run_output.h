@@ -34,6 +34,10 @@ class IterationCounter {
   long long max_ = 0;
 };
 
+// `message` in binary protobuf as `folder`/final_state.pb, a run's saved state
+// (proto/state.proto); InputError naming the file if it cannot be written.
+void WriteFinalState(const std::string& folder, const google::protobuf::Message& message);
+
 // A text file of an output folder written row by row: buffered, flushed at least every
 // second, every write checked. Rows are written with Print (printf format) and ended with
 // EndRow, which throws InputError naming the file at the first failed write.

@@ -1,5 +1,6 @@
 #include "interface/scenario/checks.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -98,6 +99,13 @@ std::string Checks::Name(const std::string& path, bool has, const std::string& v
                    std::to_string(kMaxNameLength));
   }
   return value;
+}
+
+void Checks::StateTime(const std::string& what, double state_time, double start_time) const {
+  if (std::abs(state_time - start_time) <= 1e-9 * std::max(1.0, std::abs(start_time))) return;
+  Fail("numerics.initial_state",
+       what + " is at t = " + FormatNumber(state_time) + " s but numerics.start_time is " + FormatNumber(start_time) +
+           " s; expected them equal (--set numerics.start_time=" + FormatNumber(state_time) + ")");
 }
 
 std::string ElementPath(const std::string& list, int index) { return list + "[" + std::to_string(index) + "]"; }

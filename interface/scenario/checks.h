@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "interface/scenario/message_tree.h"
 #include "interface/scenario/scenario_file.h"
 
 namespace cosim::interface {
@@ -20,10 +21,6 @@ std::string FormatNumber(double value);
 // 200 bytes, else its first 200 (cut at a character boundary) and its length, so that a 20 MB
 // name cannot make a 20 MB summary.
 std::string EchoedText(const std::string& text);
-
-// The field path of element `index` of a repeated field: ElementPath("model.bodies", 2) is
-// "model.bodies[2]".
-std::string ElementPath(const std::string& list, int index);
 
 class Checks {
  public:
@@ -51,6 +48,10 @@ class Checks {
   // A name: present, [A-Za-z0-9_.-]+, not only dots, at most kMaxNameLength characters.
   static constexpr size_t kMaxNameLength = 128;
   std::string Name(const std::string& path, bool has, const std::string& value) const;
+  // A saved state (numerics.initial_state; `what` says which, e.g. "the state") written at
+  // `state_time` starts a run at numerics.start_time `start_time`: equal to 1e-9 relative, else
+  // InputError naming numerics.initial_state and the --set that makes them equal.
+  void StateTime(const std::string& what, double state_time, double start_time) const;
 
  private:
   const ScenarioFile& file_;

@@ -5,36 +5,17 @@
 #include <map>
 #include <numbers>
 
+#include "interface/scenario/message_tree.h"
+
 namespace cosim::interface {
 
 namespace {
 
 namespace pb = google::protobuf;
 
-std::string Indexed(const std::string& path, int index) { return path + "[" + std::to_string(index) + "]"; }
-std::string Join(const std::string& prefix, const std::string& field) {
-  return prefix.empty() ? field : prefix + "." + field;
-}
-
 void ReplaceAll(std::string* s, const std::string& from, const std::string& to) {
   for (size_t at = s->find(from); at != std::string::npos; at = s->find(from, at + to.size()))
     s->replace(at, from.size(), to);
-}
-
-// fn(child) for every message directly below m (singular fields and list elements).
-template <class F>
-void ForEachChild(pb::Message* m, F&& fn) {
-  const pb::Reflection* r = m->GetReflection();
-  std::vector<const pb::FieldDescriptor*> fields;
-  r->ListFields(*m, &fields);
-  for (const pb::FieldDescriptor* f : fields) {
-    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
-    if (f->is_repeated()) {
-      for (int i = 0; i < r->FieldSize(*m, f); ++i) fn(r->MutableRepeatedMessage(m, f, i));
-    } else {
-      fn(r->MutableMessage(m, f));
-    }
-  }
 }
 
 // `each` may set lists (repeated messages) inside containers (singular messages) only.
@@ -43,7 +24,7 @@ void CheckOnlyLists(const pb::Message& m, const std::string& path,
   std::vector<const pb::FieldDescriptor*> fields;
   m.GetReflection()->ListFields(m, &fields);
   for (const pb::FieldDescriptor* f : fields) {
-    const std::string p = Join(path, f->name());
+    const std::string p = FieldPath(path, f->name());
     if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE && !f->is_repeated()) {
       CheckOnlyLists(m.GetReflection()->GetMessage(m, f), p, fail);
     } else if (!(f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE && f->is_repeated())) {
@@ -74,7 +55,7 @@ void Substitute(pb::Message* m, const std::string& k) {
       }
     }
   }
-  ForEachChild(m, [&](pb::Message* child) { Substitute(child, k); });
+  ForEachChild(m, "", [&](pb::Message* child, const std::string&) { Substitute(child, k); });
 }
 
 // Appends the lists of `from` to those of `to`, recording where each element came from.
@@ -85,7 +66,7 @@ void Append(const pb::Message& from, pb::Message* to, const std::string& source,
   std::vector<const pb::FieldDescriptor*> fields;
   rf->ListFields(from, &fields);
   for (const pb::FieldDescriptor* f : fields) {
-    const std::string s = Join(source, f->name()), t = Join(target, f->name());
+    const std::string s = FieldPath(source, f->name()), t = FieldPath(target, f->name());
     if (!f->is_repeated()) {
       Append(rf->GetMessage(from, f), rt->MutableMessage(to, f), s, t, pattern, copy, turn, origins);
       continue;
@@ -93,7 +74,7 @@ void Append(const pb::Message& from, pb::Message* to, const std::string& source,
     for (int i = 0; i < rf->FieldSize(from, f); ++i) {
       const int at = rt->FieldSize(*to, f);
       rt->AddMessage(to, f)->CopyFrom(rf->GetRepeatedMessage(from, f, i));
-      origins->push_back({Indexed(t, at), Indexed(s, i), pattern, copy, turn});
+      origins->push_back({ElementPath(t, at), ElementPath(s, i), pattern, copy, turn});
     }
   }
 }
@@ -103,7 +84,7 @@ void ExpandReferences(pb::Message* m, const std::map<std::string, int>& counts) 
   const pb::Reflection* r = m->GetReflection();
   std::vector<const pb::FieldDescriptor*> fields;
   r->ListFields(*m, &fields);
-  ForEachChild(m, [&](pb::Message* child) { ExpandReferences(child, counts); });
+  ForEachChild(m, "", [&](pb::Message* child, const std::string&) { ExpandReferences(child, counts); });
   for (const pb::FieldDescriptor* f : fields) {
     if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_STRING || !f->is_repeated()) continue;
     std::vector<std::string> entries;
@@ -141,7 +122,7 @@ std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
   proto->clear_patterns();
   for (int p = 0; p < patterns.size(); ++p) {
     const scenario::Pattern& pat = patterns[p];
-    const std::string path = Indexed("patterns", p);
+    const std::string path = ElementPath("patterns", p);
     if (!pat.has_name() || pat.name().empty())
       fail(path + ".name", "missing; a pattern's name is what {NAME} refers to");
     for (char c : pat.name()) {

@@ -4,6 +4,8 @@
 #include <map>
 #include <vector>
 
+#include "interface/scenario/message_tree.h"
+
 namespace cosim::interface {
 
 namespace {
@@ -31,11 +33,6 @@ bool SetsReference(const pb::Message& m) {
   return f != nullptr && m.GetReflection()->HasField(m, f);
 }
 
-std::string Indexed(const std::string& path, int index) { return path + "[" + std::to_string(index) + "]"; }
-std::string Join(const std::string& prefix, const std::string& field) {
-  return prefix.empty() ? field : prefix + "." + field;
-}
-
 class Resolver {
  public:
   Resolver(scenario::Scenario* proto, const std::function<std::optional<Pose>(const std::string&)>& copy_pose,
@@ -46,10 +43,10 @@ class Resolver {
     scenario::Model* model = proto_->mutable_model();
     for (int i = 0; i < model->references_size(); ++i) {
       const std::string& name = model->references(i).name();
-      const std::string path = Indexed("model.references", i);
+      const std::string path = ElementPath("model.references", i);
       if (name.empty()) fail_(path + ".name", "missing; a frame is used by its name (reference: \"NAME\")");
       if (!index_.emplace(name, i).second) {
-        fail_(path + ".name", "'" + name + "' names " + Indexed("model.references", index_[name]) + " already");
+        fail_(path + ".name", "'" + name + "' names " + ElementPath("model.references", index_[name]) + " already");
       }
       names_ += (names_.empty() ? "" : ", ") + name;
     }
@@ -92,14 +89,14 @@ class Resolver {
   Pose FrameFor(const std::string& path, int parent) const {
     const std::optional<Pose> turn = copy_pose_(path);
     if (!turn) return global_[parent];
-    const Pose parent_turn = copy_pose_(Indexed("model.references", parent)).value_or(Pose{});
+    const Pose parent_turn = copy_pose_(ElementPath("model.references", parent)).value_or(Pose{});
     return *turn * parent_turn.Inverse() * global_[parent];
   }
 
   void Resolve(int i) {
     if (state_[i] == kDone) return;
     const scenario::Reference& r = proto_->model().references(i);
-    const std::string path = Indexed("model.references", i);
+    const std::string path = ElementPath("model.references", i);
     if (state_[i] == kResolving) {
       std::string cycle = r.name();
       for (auto it = chain_.rbegin(); it != chain_.rend() && *it != i; ++it) {
@@ -128,7 +125,7 @@ class Resolver {
     if (SetsReference(*m)) {
       const pb::FieldDescriptor* field = ReferenceField(*m);
       const pb::Reflection* r = m->GetReflection();
-      const int parent = Find(r->GetString(*m, field), Join(path, "reference"));
+      const int parent = Find(r->GetString(*m, field), FieldPath(path, "reference"));
       // A body's (or node's) left-out position and rotation are the frame's origin and orientation.
       for (const char* name : {"position", "rotation"}) {
         const pb::FieldDescriptor* f = m->GetDescriptor()->FindFieldByName(name);
@@ -141,18 +138,7 @@ class Resolver {
       r->ClearField(m, field);
       return;
     }
-    const pb::Reflection* r = m->GetReflection();
-    std::vector<const pb::FieldDescriptor*> fields;
-    r->ListFields(*m, &fields);
-    for (const pb::FieldDescriptor* f : fields) {
-      if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
-      if (!f->is_repeated()) {
-        Place(r->MutableMessage(m, f), Join(path, f->name()));
-        continue;
-      }
-      for (int i = 0; i < r->FieldSize(*m, f); ++i)
-        Place(r->MutableRepeatedMessage(m, f, i), Indexed(Join(path, f->name()), i));
-    }
+    ForEachChild(m, path, [this](pb::Message* child, const std::string& at) { Place(child, at); });
   }
 
   scenario::Scenario* proto_;
@@ -179,21 +165,13 @@ Pose RotationAbout(const Eigen::Vector3d& v, const Eigen::Vector3d& origin) {
 }
 
 void TransformGeometry(pb::Message* message, const Pose& pose, bool skip_referenced) {
+  ForEachChild(message, "", [&](pb::Message* child, const std::string&) {
+    if (!(skip_referenced && SetsReference(*child))) TransformGeometry(child, pose, skip_referenced);
+  });
   const pb::Reflection* r = message->GetReflection();
   std::vector<const pb::FieldDescriptor*> fields;
   r->ListFields(*message, &fields);
   for (const pb::FieldDescriptor* f : fields) {
-    if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-      auto visit = [&](pb::Message* child) {
-        if (!(skip_referenced && SetsReference(*child))) TransformGeometry(child, pose, skip_referenced);
-      };
-      if (!f->is_repeated()) {
-        visit(r->MutableMessage(message, f));
-      } else {
-        for (int i = 0; i < r->FieldSize(*message, f); ++i) visit(r->MutableRepeatedMessage(message, f, i));
-      }
-      continue;
-    }
     if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE || !f->is_repeated()) continue;
     const scenario::Geometry g = f->options().GetExtension(scenario::geometry);
     if (g == scenario::GEOMETRY_NONE) continue;

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <vector>
 
+#include "interface/scenario/message_tree.h"
+
 namespace cosim::interface {
 
 namespace {
@@ -135,19 +137,7 @@ void Walk(pb::Message* m, const std::string& path,
   const pb::FieldDescriptor* stations = m->GetDescriptor()->FindFieldByName("stations");
   if (file_field != nullptr && stations != nullptr && r->HasField(*m, file_field))
     Load(m, stations, path, resolve, fail);
-  std::vector<const pb::FieldDescriptor*> fields;
-  r->ListFields(*m, &fields);
-  for (const pb::FieldDescriptor* f : fields) {
-    if (f->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
-    const std::string p = path.empty() ? f->name() : path + "." + f->name();
-    if (!f->is_repeated()) {
-      Walk(r->MutableMessage(m, f), p, resolve, fail);
-      continue;
-    }
-    for (int i = 0; i < r->FieldSize(*m, f); ++i) {
-      Walk(r->MutableRepeatedMessage(m, f, i), p + "[" + std::to_string(i) + "]", resolve, fail);
-    }
-  }
+  ForEachChild(m, path, [&](pb::Message* child, const std::string& at) { Walk(child, at, resolve, fail); });
 }
 
 }  // namespace

@@ -70,11 +70,7 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
            std::to_string(s.attached_size()) + " attached obstacles; this process has " + std::to_string(nodes) + ", " +
            std::to_string(contacts) + " and " + std::to_string(model.driven_frames) + " (the same nodes in order)");
   }
-  if (std::abs(s.time() - time()) > 1e-9 * std::max(1.0, std::abs(time()))) {
-    file.Fail(place, "the contact state '" + path.string() + "' is at t = " + FormatNumber(s.time()) +
-                         " s but numerics.start_time is " + FormatNumber(time()) +
-                         " s; expected them equal (--set numerics.start_time=" + FormatNumber(s.time()) + ")");
-  }
+  interface::Checks(file).StateTime("the contact state '" + path.string() + "'", s.time(), time());
   auto finite = [](const google::protobuf::RepeatedField<double>& v) {
     return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
   };
@@ -139,11 +135,7 @@ void ContactStepper::EndOutput() {
     AddVector(f.angular_velocity, a->mutable_angular_velocity());
   }
   GetState(&s);
-  const std::string path = output_folder_ + "/final_state.pb";
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out || !s.SerializeToOstream(&out)) {
-    throw InputError("cannot write " + path + " (choose a writable output folder; is the disk full?)");
-  }
+  interface::WriteFinalState(output_folder_, s);
 }
 
 void ContactStepper::StepTentatively(double t, double h) {

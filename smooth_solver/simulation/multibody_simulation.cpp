@@ -46,11 +46,7 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
                            std::to_string(system.constraints.size()) +
                            ": expected a state written by a run of the same scene");
   }
-  if (std::abs(s.time() - start_time) > 1e-9 * std::max(1.0, std::abs(start_time))) {
-    checks.Fail(place, "the state is at t = " + interface::FormatNumber(s.time()) + " s but numerics.start_time is " +
-                           interface::FormatNumber(start_time) + " s; expected them equal (--set numerics.start_time=" +
-                           interface::FormatNumber(s.time()) + ")");
-  }
+  checks.StateTime("the state", s.time(), start_time);
   for (int i = 0; i < s.q_size(); ++i) {
     if (!std::isfinite(s.q(i)) || !std::isfinite(s.qdot(i))) {
       checks.Fail(place,
@@ -958,11 +954,7 @@ void MultibodySimulation::EndOutput() {
   saved.mutable_angle_offsets()->Add(angle_offset_.begin(), angle_offset_.end());
   saved.mutable_reference_q()->Add(reference_q_.data(), reference_q_.data() + reference_q_.size());
   saved.set_reference_time(reference_time_);
-  const std::string path = output_folder_ + "/final_state.pb";
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out || !saved.SerializeToOstream(&out)) {
-    throw InputError("cannot write " + path + " (choose a writable output folder; is the disk full?)");
-  }
+  interface::WriteFinalState(output_folder_, saved);
 }
 
 void MultibodySimulation::FillSummary(run::RunSummary* summary) const {

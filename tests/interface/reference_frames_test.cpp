@@ -13,6 +13,7 @@
 
 #include "interface/run/errors.h"
 #include "interface/scenario/scenario_file.h"
+#include "tests/interface/message_of.h"
 
 namespace cosim::interface {
 namespace {
@@ -61,15 +62,6 @@ Vector3d V(const google::protobuf::RepeatedField<double>& v) { return Vector3d(v
 // Copy k's turn about z by ψ_k = 0.3 + (k − 1) 2π/3.
 Eigen::Isometry3d Turn(int k) {
   return Frame(Vector3d::Zero(), Vector3d(0, 0, 0.3 + (k - 1) * 2 * std::numbers::pi / 3));
-}
-
-std::string MessageOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 TEST(ReferenceFrames, PlaceEachPartAsTheComposedTransformations) {

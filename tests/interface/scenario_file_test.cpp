@@ -16,6 +16,7 @@
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
+#include "tests/interface/message_of.h"
 
 namespace cosim::interface {
 namespace {
@@ -35,15 +36,6 @@ model {
 numerics { end_time: 1 step: 0.1 }
 coupling { processes { name: "p" } }
 )";
-
-std::string MessageOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
 
 TEST(ScenarioFile, SyntaxErrorNamesLineAndColumn) {
   // Line 3 has a misspelt field; protobuf's tokenizer reports its 0-based position, which

@@ -80,6 +80,10 @@ Eigen::VectorXd WithoutOrigin(const MultibodySystem& system, const Eigen::Vector
 
 }  // namespace
 
+Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame) {
+  return PerTriple(system.coordinates, Skew(frame.omega)) * WithoutOrigin(system, q, frame.origin);
+}
+
 EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess,
                                const SpinningFrame& frame, const EquilibriumOptions& options) {
   const int n = system.coordinates, m = system.constraints.size(), N = n + m;

@@ -41,6 +41,10 @@ struct EquilibriumResult {
   double residual = 0.0;  // max norm of the force and constraint residual at the end
 };
 
+// The velocities of a rigid rotation with the frame, q̇ = W q̂ (Ω × every point taken from the
+// origin, Ω × every direction): a state at rest in the spinning frame.
+Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame);
+
 // Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t)] = 0 from `q_guess` (full steps: ramp large
 // loads, e.g. through the loads' time functions). The rotors' inflow is updated at the
 // iterates (AcceptStep: the system's data changes).

@@ -101,10 +101,22 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
 
 void Coordinator::Handshake(const std::string& scenario_name, double start_time, double step) {
   // The start: accelerations with the coupling rows left out (free interface points, λ = 0),
-  // a_0 = q̈_0 (a shifted start would impose end-of-step coordinates at the wrong time).
-  std::vector<int> every_point(system_.interface_points.size());
-  for (size_t k = 0; k < every_point.size(); ++k) every_point[k] = static_cast<int>(k);
-  RestartWithCouplingRowsFree(integrator_->state(), start_time, every_point);
+  // a_0 = q̈_0 (a shifted start would impose end-of-step coordinates at the wrong time). A
+  // settled start knows the nodes' motion (at rest, or turning with the rotor): its state, the
+  // rows held, stands, and its multipliers are the first reactions the peers hold (without
+  // them the blades sank 0.006° in the first steps before the reactions caught up).
+  if (settings_.settled_start) {
+    for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+      lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) =
+          system_.InterfaceReaction(static_cast<int>(k), integrator_->state().lambda);
+    }
+    filtered_start_ = lambda_start_;
+    x_ = accepted_x_ = applied_ = lambda_start_;
+  } else {
+    std::vector<int> every_point(system_.interface_points.size());
+    for (size_t k = 0; k < every_point.size(); ++k) every_point[k] = static_cast<int>(k);
+    RestartWithCouplingRowsFree(integrator_->state(), start_time, every_point);
+  }
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     const Eigen::Vector3d a = system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
     for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
@@ -297,10 +309,7 @@ std::string Coordinator::CouplingState() const {
          (worst.empty() ? "" : "; largest force mismatch " + interface::FormatNumber(largest) + " N at " + worst);
 }
 
-void Coordinator::BeginStep(double t, double h, const DaeState& frames) {
-  // With interface Jacobians the frames are the pre-solve's at the step's end; without, the
-  // start's advanced by h.
-  const double ahead = jacobians_ ? 0.0 : h;
+void Coordinator::BeginStep(double t, double h, const DaeState& frames, double ahead) {
   for (size_t q = 0; q < peers_.size(); ++q) {
     Peer& peer = peers_[q];
     auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();  // (accepts a pending step)
@@ -614,11 +623,14 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     result.time_to_contact = time_to_contact_;
     return result;
   };
-  if (jacobians_) {
-    Linearise(t, h);
-    BeginStep(t, h, iterate_);
+  if (jacobians_) Linearise(t, h);
+  // The moving obstacles' frames: the pre-solve's at the step's end; without one (no interface
+  // Jacobians, or a pre-solve CGα could not take: iterate_ then holds an earlier step's solve, or
+  // nothing in a run's first step) the start's advanced by h.
+  if (iterate_solved_) {
+    BeginStep(t, h, iterate_, 0.0);
   } else {
-    BeginStep(t, h, integrator_->state());
+    BeginStep(t, h, integrator_->state(), h);
   }
   const bool free_flight = !jacobians_ && settings_.free_flight_margin > 0.0 && !in_contact_ &&
                            time_to_contact_ > settings_.free_flight_margin * h;

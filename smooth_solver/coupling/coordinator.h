@@ -40,6 +40,9 @@
 namespace cosim::smooth {
 
 struct CouplingSettings {
+  // The smooth model starts settled on the nodes (numerics.smooth.settle): the state's coupling
+  // rows hold, their multipliers are the nodes' first reactions.
+  bool settled_start = false;
   int max_iterations = 50;
   double displacement_tolerance = 1e-9;  // [m], absolute, on the interface positions
   double reaction_tolerance = 1e-6;      // relative to max(1 N, |x̃|)
@@ -154,8 +157,9 @@ class Coordinator {
 
   // The stages of a step (Try).
   // Sends StepBegin (iteration 0's reactions: x_, and with interface Jacobians the stiffness
-  // and positions of the smooth side's linearisation) and receives the kinematics.
-  void BeginStep(double t, double h, const DaeState& frames);
+  // and positions of the smooth side's linearisation) and receives the kinematics. The moving
+  // obstacles' frames are those of `frames` advanced by `ahead` [s] at their rates.
+  void BeginStep(double t, double h, const DaeState& frames, double ahead);
   // Reactions of `iteration` (x_, the frames of `frames`) to every peer, and their kinematics.
   void Exchange(int iteration, const DaeState& frames);
   // Peer q's reactions x_ (and E, k̂) and the frames of `frames` advanced `ahead` (recorded in

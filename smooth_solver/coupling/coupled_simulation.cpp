@@ -137,6 +137,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   settings.interface_jacobians = it.interface_jacobians();
   settings.accept_agreeing_linearisation = it.accept_agreeing_linearisation();
   settings.free_flight_margin = it.free_flight_margin();
+  settings.settled_start = file.proto().numerics().smooth().settle();
   if (!(settings.free_flight_margin >= 0.0) || !std::isfinite(settings.free_flight_margin)) {
     checks.Fail("coupling.iteration.free_flight_margin",
                 "must be a finite number of steps >= 0 (0: always iterate), got " +

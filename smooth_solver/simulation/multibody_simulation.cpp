@@ -12,6 +12,7 @@
 #include "interface/scenario/checks.h"
 #include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
+#include "smooth_solver/simulation/node_rest.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "state.pb.h"
 
@@ -76,7 +77,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     // Standalone, nothing would move the imposed points: they would stay where they start.
     checks.Fail("coupling.interface_nodes",
                 "a coupled scene needs its contact processes; smooth_solver alone cannot "
-                "run it (the coupled run through scripts/cosim run is issue 6, in progress)");
+                "run it: run it with scripts/cosim run, which starts them and sets their endpoints");
   }
   std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
   std::map<std::string, int> elastic_index;
@@ -847,11 +848,6 @@ CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrat
 
 void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial) {
   const std::string place = "numerics.smooth.settle";
-  if (coupled) {
-    checks.Fail(place,
-                "a coupled run's stops are its contact processes', which a static solve of the smooth model "
-                "cannot hold; start it from a saved state (numerics.initial_state) instead");
-  }
   if (numerics_.has_initial_state())
     checks.Fail(place,
                 "a run from a saved state (numerics.initial_state) is settled "
@@ -862,26 +858,86 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   if (numerics_.smooth().integrator() == sc::SmoothSettings::IDA) {
     checks.Fail(place, "settles the start of a CGα run; IDA, the reference, starts from the scenario as given");
   }
+  // A rotor turning at the start settles in the frame spinning with it: at rest there, under
+  // the centrifugal loads as well (the blades coned and stiffened), and starts with the frame's
+  // rigid rotation.
+  const SpinningFrame spin = SpinAtStart(checks, *system, *initial);
+  // Coupled: each interface point pinned where its contact node starts (the tie rows' imposed
+  // values, rotor-sailing paper Eq. (6)), so the smooth model settles on the nodes as on fixed
+  // supports; whether the nodes can rest there is checked after the solve.
+  std::vector<RestingNode> nodes;
+  if (coupled) {
+    nodes = ReadRestingNodes(checks, *system, time_, spin);
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Eigen::Vector3d rate = spin.omega.cross(nodes[k].position - spin.origin);
+      const Eigen::Vector3d acceleration = spin.omega.cross(rate);
+      for (size_t j = 0; j < 3; ++j) {
+        ImposedCoordinate& x = system->mutable_data()->imposed[3 * k + j];
+        x.value = nodes[k].position(static_cast<Eigen::Index>(j));
+        x.rate = rate(static_cast<Eigen::Index>(j));
+        x.acceleration = acceleration(static_cast<Eigen::Index>(j));
+      }
+    }
+  }
   EquilibriumOptions options;
   options.t = time_;
   options.tolerance = numerics_.smooth().newton_tolerance();
   options.max_iterations = std::max(50, numerics_.smooth().newton_max_iterations());
-  const EquilibriumResult r = StaticEquilibrium(*system, initial->q, SpinningFrame{}, options);
+  const EquilibriumResult r = StaticEquilibrium(*system, initial->q, spin, options);
   if (!r.converged) {
     throw NumericalError("numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) +
-                         " s (residual " + interface::FormatNumber(r.residual) + " after " +
+                         " s" + (spin.omega.isZero() ? std::string() : " in the frame spinning with the rotor") +
+                         " (residual " + interface::FormatNumber(r.residual) + " after " +
                          std::to_string(r.iterations) +
                          " Newton iterations); the scene may have no equilibrium at rest (a free body, a load no "
                          "stop holds): remove settle, or raise numerics.smooth.newton_max_iterations");
   }
   settle_iterations_ = r.iterations;
-  // The settled configuration as the start: velocities consistent with it again (the drives'
-  // speeds), accelerations and multipliers too, and the elements' memories from there.
+  if (coupled) {
+    std::vector<Eigen::Vector3d> forces;
+    for (size_t k = 0; k < nodes.size(); ++k) forces.push_back(system->InterfaceReaction(static_cast<int>(k), r.lambda));
+    CheckNodesRest(checks, nodes, forces);
+  }
+  // The settled configuration as the start, as solved: a position projection would close the
+  // regularised coupling rows exactly (Φ = 0 instead of Φ = cλ), pulling each interface point
+  // back by its tie's stretch through every coordinate at once (observed: a 2.8e5 N spurious shear
+  // in the Puma blade's first beam element). Velocities: the frame's rigid rotation (zero at
+  // rest) made consistent with the drives, then the accelerations and multipliers, and the
+  // elements' memories from there.
   system->q0 = r.q;
-  system->qdot0 = Eigen::VectorXd::Zero(r.q.size());
+  system->qdot0 = SpinningVelocity(*system, r.q, spin);
   system->AcceptStep(system->q0, system->qdot0, time_);
-  InitialConditionReport report;
-  *initial = ConsistentInitialState(*system, time_, &report);
+  DaeState settled;
+  settled.q = r.q;
+  settled.qdot = system->qdot0;
+  ProjectVelocities(*system, time_, &settled);
+  ConsistentAccelerations(*system, time_, &settled);
+  *initial = settled;
+}
+
+SpinningFrame MultibodySimulation::SpinAtStart(const Checks& checks, const MultibodySystem& system,
+                                               const DaeState& initial) const {
+  // The revolute joint to the ground that turns at the start (a rotor's shaft, driven or
+  // spinning freely): its moving body's angular velocity, about the joint's point.
+  SpinningFrame spin;
+  std::string found;
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    const JointMeasure& m = system.joints[j];
+    if (!m.rotational || (m.body1 >= 0 && m.body2 >= 0)) continue;
+    if (std::abs(system.JointRate(static_cast<int>(j), initial.q, initial.qdot)) <= 1e-12) continue;
+    const Joint& joint = model_.joints[j];
+    if (!found.empty()) {
+      checks.Fail("numerics.smooth.settle",
+                  "joints '" + found + "' and '" + joint.name +
+                      "' both turn against the ground at the start; a settled start spins with one rotor: start "
+                      "the others at rest, or remove settle");
+    }
+    found = joint.name;
+    const bool ground_first = m.body1 < 0;
+    spin.omega = BodyAngularRate(initial.q, initial.qdot, ground_first ? m.body2 : m.body1);
+    spin.origin = joint.body_points ? (ground_first ? joint.point1 : joint.point2) : joint.point;
+  }
+  return spin;
 }
 
 void MultibodySimulation::StaticStep(double t1) {

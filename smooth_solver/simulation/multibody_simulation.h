@@ -10,6 +10,7 @@
 #include "interface/scenario/checks.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
+#include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/simulation/watchdog.h"
@@ -114,6 +115,8 @@ class MultibodySimulation : public interface::Simulation {
   // velocities and accelerations made consistent there. InputError for a run it does not fit,
   // NumericalError if there is no equilibrium.
   void Settle(const interface::Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial);
+  SpinningFrame SpinAtStart(const interface::Checks& checks, const MultibodySystem& system,
+                            const DaeState& initial) const;
   int settle_iterations_ = 0;
   void UnwrapAngles(const Eigen::VectorXd& q);
   bool static_ = false;

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <numbers>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -644,19 +645,57 @@ TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
     EXPECT_NEAR(flap1[k], flap0, 1e-3) << "t = " << one.Column("time")[k];
   }
   EXPECT_GT(ReadSummary(dir / "settled").counters().at("settle_newton_iterations"), 0.0);
-  // Where it does not fit it is refused naming the field: a coupled run (its stops are the
-  // contact processes'), a start from a saved state (settled already).
-  const Result coupled = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + (dir / "coupled").string() +
+  // Where it does not fit it is refused naming the field: a co-simulated rotor whose blades are
+  // drawn level above their droop planes (small_rotor/droop_rest: they land at 0.3 s), where
+  // the nodes pinned in mid-air would hold the blades up; a start from a saved state (settled
+  // already).
+  const Result coupled = Launch(kScenarios + "/small_rotor/droop_rest.pbtxt --out " + (dir / "coupled").string() +
                                 " --set numerics.smooth.settle=true");
   EXPECT_EQ(coupled.code, 2) << coupled.output;
-  EXPECT_NE(coupled.output.find("numerics.smooth.settle: a coupled run's stops are its contact processes'"),
-            std::string::npos)
+  EXPECT_NE(coupled.output.find("numerics.smooth.settle: contact node 'blade1_node'"), std::string::npos)
       << coupled.output;
+  EXPECT_NE(coupled.output.find("cannot rest where it starts"), std::string::npos) << coupled.output;
+  EXPECT_NE(coupled.output.find("it touches no plane"), std::string::npos) << coupled.output;
   const Result both = Launch(scene + " --out " + (dir / "both").string() + " --set numerics.smooth.settle=true" +
                              " --set numerics.initial_state=" + (dir / "static" / "final_state.pb").string() +
                              " --set numerics.start_time=0.02");
   EXPECT_EQ(both.code, 2) << both.output;
   EXPECT_NE(both.output.find("numerics.smooth.settle: a run from a saved state"), std::string::npos) << both.output;
+}
+
+TEST(RunContract, ARotorTurningAtTheStartSettlesInItsSpinningFrame) {
+  // small_rotor/droop_rest_continuous: three rigid blades on a hub driven at Ω = 3 rad/s from
+  // t = 0, drawn 1° above their droop stops (−5°). Settled, the start is the equilibrium in the
+  // frame spinning with the hub: each blade on its stop under its weight and centrifugal load,
+  // the stop moment M(β) = m g r cos β + Ω² sin β (cos β (I_ss − I_nn) + e m r) (a rigid plank
+  // about its flap hinge: m = 40 kg, r = 1.9915 m, e = 0.25 m, I_ss = 212.284, I_nn = 0.00533
+  // kg m² from its inertia), which the stop law K δ^1.5 (K = 1e8, δ the angle past −5°) carries.
+  // At rest (no spin) it would be 778 N m; the scene's own run, landing and bouncing, comes to
+  // rest at −5.01884° and 596.29 N m after 0.3 s (its header). Settled, that is the first row,
+  // and it stays there.
+  const fs::path dir = TempDir("spinning_settle");
+  const Result r = Launch(kScenarios + "/small_rotor/droop_rest_continuous.pbtxt --out " + dir.string() +
+                          " --set numerics.smooth.settle=true --set numerics.end_time=0.5");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const Table run = ReadTable(dir / "history.csv");
+  const double m = 40.0, g = 9.81, rc = 1.9915, e = 0.25, omega = 3.0;
+  const double i_ss = (53.64708333333333 + 53.94027666666666 - 0.30380666666666667) / 2.0 + m * rc * rc;
+  const double i_nn = (0.30380666666666667 + 53.64708333333333 - 53.94027666666666) / 2.0;
+  const double deg = std::numbers::pi / 180.0;
+  for (int k = 1; k <= 3; ++k) {
+    const std::string blade = "blade" + std::to_string(k);
+    const std::vector<double> flap = run.Column(blade + "_flap"), moment = run.Column(blade + "_stop_moment");
+    const double beta = flap[0] * deg;
+    const double expected =
+        m * g * rc * std::cos(beta) + omega * omega * std::sin(beta) * (std::cos(beta) * (i_ss - i_nn) + e * m * rc);
+    EXPECT_NEAR(moment[0], expected, 1e-3 * expected) << blade;
+    EXPECT_NEAR(moment[0], 1e8 * std::pow(-5.0 * deg - beta, 1.5), 1e-3 * expected) << blade;
+    EXPECT_NEAR(flap[0], -5.01884, 1e-4) << blade;
+    for (size_t i = 0; i < flap.size(); ++i) {
+      EXPECT_NEAR(flap[i], flap[0], 1e-5) << blade << " t = " << run.Column("time")[i];
+    }
+  }
+  EXPECT_NEAR(run.Column("hub_speed")[0], 3.0, 1e-12);
 }
 
 TEST(RunContract, JoinedHistoryPutsEveryProcesssProbesSideBySide) {
@@ -806,6 +845,74 @@ TEST(CoupledRun, PumaRotorRestsOnItsDroopPlanesWithOneContactProcessPerBlade) {
       EXPECT_NEAR(flap[i], -10.0, 0.1) << blade << " sample " << i;
     }
   }
+}
+
+TEST(CoupledRun, ThePumaSettledOnItsContactNodesStartsAtRest) {
+  // numerics.smooth.settle in the co-simulated Puma: the static solve pins each blade's tie
+  // where its contact node starts, on its droop plane, and the run starts from there.
+  // - The blade's loads are the continuous twin's, whose stop is a joint law instead of a node:
+  //   the root shear of the first row agrees within 0.5 % (both settled; observed 700.3 N).
+  // - The tie's stretch is what sinks the blade below −10°: c F / d of flap, F the node's force
+  //   (measured independently, as the contact process's mean droop impulse per step over the
+  //   second) and d = 0.15149 m from the flap hinge to the node (the force is normal to that
+  //   radius); observed −10.0297°.
+  // - It stays there: over the first second the tip moves by less than 1 mm (observed 0.35 mm;
+  //   started straight, it swings over 0.46 m, CoupledRun.PumaRotorRestsOnItsDroopPlanes…) and
+  //   the flap by less than 2.5e-3° over the first half second, before the hub's spin-up
+  //   (started straight: 0.055°). Observed: 1.96e-3° in the first 2 ms, the resting contact's
+  //   first exchanges, down to 2.3e-4° after 0.2 s. The coordinator starts from the settled
+  //   ties' multipliers; from zero reactions, as an unsettled start does, the first dip was
+  //   6.4e-3°.
+  // A first version projected the settled positions onto Φ = 0, which closed the ties' stretch
+  // through every coordinate at once: 2.8e5 N of spurious shear in the first beam element and a
+  // first step that did not converge.
+  const fs::path dir = TempDir("puma_cosim_settled");
+  const Result twin = Launch(kScenarios + "/puma/engage_disengage_continuous.pbtxt --out " +
+                             (dir / "continuous").string() +
+                             " --set numerics.smooth.settle=true --set numerics.end_time=0.002");
+  ASSERT_EQ(twin.code, 0) << twin.output;
+  const Result r = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + (dir / "cosim").string() +
+                          " --set numerics.smooth.settle=true --set numerics.end_time=1");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_GT(ReadSummary(dir / "cosim").counters().at("settle_newton_iterations"), 0.0);
+  const auto continuous = ReadTable(dir / "continuous" / "history.csv");
+  const auto smooth = ReadTable(dir / "cosim" / "history.csv");
+  const std::vector<double> time = smooth.Column("time");
+  const double c = 5e-9, d = std::hypot(0.421145099797 - 0.289, 0.074072077057), h = 1e-3;
+  for (int k = 1; k <= 4; ++k) {
+    const std::string blade = "blade" + std::to_string(k);
+    const std::vector<double> flap = smooth.Column(blade + "_flap"), tip = smooth.Column(blade + "_tip_z");
+    const double shear = continuous.Column(blade + "_root_shear_z")[0];
+    EXPECT_NEAR(smooth.Column(blade + "_root_shear_z")[0], shear, 5e-3 * std::abs(shear)) << blade;
+    const std::vector<double> impulse =
+        ReadTable(dir / "cosim" / ("stops" + std::to_string(k)) / "history.csv").Column(blade + "_droop_impulse");
+    ASSERT_GT(impulse.size(), 100u);
+    double sum = 0.0;
+    for (size_t i = 1; i < impulse.size(); ++i) sum += impulse[i];
+    const double force = sum / static_cast<double>(impulse.size() - 1) / h;
+    EXPECT_NEAR(flap[0], -10.0 - c * force / d * 180.0 / std::numbers::pi, 1e-4) << blade << ": node force " << force << " N";
+    for (size_t i = 0; i < flap.size(); ++i) {
+      EXPECT_NEAR(tip[i], tip[0], 1e-3) << blade << " t = " << time[i];
+      if (time[i] <= 0.5) EXPECT_NEAR(flap[i], flap[0], 2.5e-3) << blade << " t = " << time[i];
+    }
+  }
+}
+
+TEST(CoupledRun, AFirstStepWhosePreSolveFailsEndsWithExitThree) {
+  // With interface Jacobians the coordinator first solves the smooth step against the peers'
+  // last answers; when CGα cannot (here: one Newton iteration allowed), the moving obstacles'
+  // frames are taken from the step's start. In a run's first step there was no earlier solve
+  // to take them from: the coordinator read an empty state and died of a segmentation fault
+  // (spinning_pendulum, its stop on the hub; the launcher reported signal 11, exit 4). Now the
+  // step fails as a numerical failure, exit 3, with CGα's reason.
+  const fs::path out = TempDir("first_presolve_fails");
+  const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/spinning_pendulum.pbtxt --out " +
+                          out.string() + " --set numerics.smooth.newton_max_iterations=1");
+  ASSERT_EQ(r.code, 3) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.status(), "failed");
+  EXPECT_NE(s.reason().find("Newton did not converge in 1 iterations"), std::string::npos) << s.reason();
+  EXPECT_EQ(s.reason().find("signal"), std::string::npos) << s.reason();
 }
 
 TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {

@@ -893,7 +893,9 @@ TEST(CoupledRun, ThePumaSettledOnItsContactNodesStartsAtRest) {
     EXPECT_NEAR(flap[0], -10.0 - c * force / d * 180.0 / std::numbers::pi, 1e-4) << blade << ": node force " << force << " N";
     for (size_t i = 0; i < flap.size(); ++i) {
       EXPECT_NEAR(tip[i], tip[0], 1e-3) << blade << " t = " << time[i];
-      if (time[i] <= 0.5) EXPECT_NEAR(flap[i], flap[0], 2.5e-3) << blade << " t = " << time[i];
+      if (time[i] <= 0.5) {
+        EXPECT_NEAR(flap[i], flap[0], 2.5e-3) << blade << " t = " << time[i];
+      }
     }
   }
 }

@@ -47,9 +47,9 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       }
       for (int i = 1; i < table.time_size(); ++i) {
         if (!(table.time(i) > table.time(i - 1))) {
-          checks.Fail(path + ".table.time[" + std::to_string(i) + "]",
-                      "times must increase strictly, got " + FormatNumber(table.time(i)) + " after " +
-                          FormatNumber(table.time(i - 1)));
+          checks.Fail(path + ".table.time[" + std::to_string(i) + "]", "times must increase strictly, got " +
+                                                                           FormatNumber(table.time(i)) + " after " +
+                                                                           FormatNumber(table.time(i - 1)));
         }
       }
       f.time_.assign(table.time().begin(), table.time().end());
@@ -64,8 +64,22 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       }
       break;
     }
+    case scenario::TimeFunction::kHarmonic: {
+      const auto& h = proto.harmonic();
+      f.kind_ = Kind::kHarmonic;
+      checks.Require(path + ".harmonic.amplitude", h.has_amplitude(), "the amplitude");
+      if (!std::isfinite(h.amplitude())) checks.Fail(path + ".harmonic.amplitude", "must be finite");
+      f.final_value_ = h.amplitude();
+      f.period_ = checks.Positive(path + ".harmonic.period", h.has_period(), h.period(), "s");
+      f.phase_ = h.phase();
+      f.start_time_ = h.start_time();
+      f.ramp_time_ = checks.NonNegative(path + ".harmonic.ramp_time", h.ramp_time(), "s");
+      break;
+    }
     case scenario::TimeFunction::KIND_NOT_SET:
-      checks.Fail(path, "empty function; give constant, cosine_ramp { ... }, cosine_pulse { ... }, table { ... } or sum { ... }");
+      checks.Fail(path,
+                  "empty function; give constant, cosine_ramp { ... }, cosine_pulse { ... }, table { ... }, "
+                  "harmonic { ... } or sum { ... }");
   }
   return f;
 }
@@ -77,7 +91,10 @@ double TimeFunction::Value(double t) const {
       for (const TimeFunction& term : terms_) sum += term.Value(t);
       return sum;
     }
-    case Kind::kConstant: return constant_;
+    case Kind::kConstant:
+      return constant_;
+    case Kind::kHarmonic:
+      return HarmonicDerivative(t, 0);
     case Kind::kCosineRamp: {
       // Eq. (37) of the CGα paper: ½ (1 − cos(π τ / T)) Ω for 0 <= τ < T.
       const double tau = t - start_time_;
@@ -109,7 +126,10 @@ double TimeFunction::Derivative(double t) const {
       for (const TimeFunction& term : terms_) sum += term.Derivative(t);
       return sum;
     }
-    case Kind::kConstant: return 0.0;
+    case Kind::kConstant:
+      return 0.0;
+    case Kind::kHarmonic:
+      return HarmonicDerivative(t, 1);
     case Kind::kCosineRamp: {
       const double tau = t - start_time_;
       if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
@@ -135,6 +155,7 @@ double TimeFunction::SecondDerivative(double t) const {
     for (const TimeFunction& term : terms_) sum += term.SecondDerivative(t);
     return sum;
   }
+  if (kind_ == Kind::kHarmonic) return HarmonicDerivative(t, 2);
   if (kind_ != Kind::kCosineRamp && kind_ != Kind::kCosinePulse) return 0.0;
   const double tau = t - start_time_;
   if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
@@ -149,11 +170,34 @@ double TimeFunction::Integral(double t) const {
       for (const TimeFunction& term : terms_) sum += term.Integral(t);
       return sum;
     }
-    case Kind::kConstant: return constant_ * t;
+    case Kind::kConstant:
+      return constant_ * t;
+    case Kind::kHarmonic: {
+      // F(t) − F(0), F the integral from start_time: ∫ r A sin(ω τ + φ) dτ with r = ½ (1 − cos(a τ))
+      // over the ramp (a = π / T_r), the product split into sines of (ω ± a) τ + φ, each
+      // integrated exactly, and r = 1 after it (or throughout, without a ramp).
+      const double w = 2.0 * std::numbers::pi / period_;
+      auto sine = [&](double k, double from, double to) {  // ∫ sin(k τ + φ) dτ
+        if (k == 0.0) return (to - from) * std::sin(phase_);
+        return (std::cos(k * from + phase_) - std::cos(k * to + phase_)) / k;
+      };
+      auto from_start = [&](double at) {
+        const double tau = at - start_time_;
+        if (ramp_time_ <= 0.0) return final_value_ * sine(w, 0.0, tau);
+        if (tau <= 0.0) return 0.0;
+        const double a = std::numbers::pi / ramp_time_, ramp = std::min(tau, ramp_time_);
+        double value =
+            0.5 * final_value_ * (sine(w, 0.0, ramp) - 0.5 * (sine(w + a, 0.0, ramp) + sine(w - a, 0.0, ramp)));
+        if (tau > ramp_time_) value += final_value_ * sine(w, ramp_time_, tau);
+        return value;
+      };
+      return from_start(t) - from_start(0.0);
+    }
     case Kind::kCosineRamp: {
       // ∫ ½(1 − cos(π τ/T)) F dτ = ½ F (τ − (T/π) sin(π τ/T)) over the ramp, then F per second.
       const double tau = std::min(std::max(t - start_time_, 0.0), ramp_time_);
-      double value = 0.5 * final_value_ * (tau - ramp_time_ / std::numbers::pi * std::sin(std::numbers::pi * tau / ramp_time_));
+      double value =
+          0.5 * final_value_ * (tau - ramp_time_ / std::numbers::pi * std::sin(std::numbers::pi * tau / ramp_time_));
       if (t - start_time_ > ramp_time_) value += final_value_ * (t - start_time_ - ramp_time_);
       return value;
     }
@@ -178,6 +222,25 @@ double TimeFunction::Integral(double t) const {
     }
   }
   return 0.0;
+}
+
+double TimeFunction::HarmonicDerivative(double t, int order) const {
+  // f = r g with g = A sin(ω τ + φ): f' = r' g + r g', f'' = r'' g + 2 r' g' + r g''.
+  const double tau = t - start_time_;
+  if (tau < 0.0 && ramp_time_ > 0.0) return 0.0;
+  const double w = 2.0 * std::numbers::pi / period_, angle = w * tau + phase_;
+  const double g[3] = {final_value_ * std::sin(angle), final_value_ * w * std::cos(angle),
+                       -final_value_ * w * w * std::sin(angle)};
+  double r[3] = {1.0, 0.0, 0.0};
+  if (ramp_time_ > 0.0 && tau < ramp_time_) {
+    const double a = std::numbers::pi / ramp_time_;
+    r[0] = 0.5 * (1.0 - std::cos(a * tau));
+    r[1] = 0.5 * a * std::sin(a * tau);
+    r[2] = 0.5 * a * a * std::cos(a * tau);
+  }
+  if (order == 0) return r[0] * g[0];
+  if (order == 1) return r[1] * g[0] + r[0] * g[1];
+  return r[2] * g[0] + 2.0 * r[1] * g[1] + r[0] * g[2];
 }
 
 }  // namespace cosim::interface

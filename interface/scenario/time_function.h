@@ -1,10 +1,11 @@
 #pragma once
 // f(t) and df/dt of a scenario TimeFunction (constant, cosine ramp of Eq. (37) of the CGα
-// paper, a 1 − cos pulse, a piecewise-linear table, or a sum of them), validated when built.
+// paper, a 1 − cos pulse, a piecewise-linear table, a ramped harmonic, or a sum of them),
+// validated when built.
 #include <vector>
 
-#include "scenario.pb.h"
 #include "interface/scenario/checks.h"
+#include "scenario.pb.h"
 
 namespace cosim::interface {
 
@@ -23,12 +24,15 @@ class TimeFunction {
   bool IsZero() const { return kind_ == Kind::kConstant && constant_ == 0.0; }
 
  private:
-  enum class Kind { kConstant, kCosineRamp, kCosinePulse, kTable, kSum };
+  enum class Kind { kConstant, kCosineRamp, kCosinePulse, kTable, kSum, kHarmonic };
+  // A harmonic's value (derivative 0), its first or its second derivative at t; its ramp's.
+  double HarmonicDerivative(double t, int order) const;
   Kind kind_ = Kind::kConstant;
   double constant_ = 0.0;
   double final_value_ = 0.0, ramp_time_ = 1.0, start_time_ = 0.0;
   std::vector<double> time_, value_;
-  std::vector<TimeFunction> terms_;  // kSum
+  std::vector<TimeFunction> terms_;    // kSum
+  double period_ = 1.0, phase_ = 0.0;  // kHarmonic (amplitude in final_value_, ramp in ramp_time_)
 };
 
 }  // namespace cosim::interface

@@ -1,14 +1,13 @@
 #include "smooth_solver/model/multibody_model.h"
 
-#include "smooth_solver/aero/aero_model.h"
-
 #include <Eigen/Eigenvalues>
-
+#include <array>
 #include <cmath>
 #include <limits>
 #include <set>
 
 #include "interface/scenario/checks.h"
+#include "smooth_solver/aero/aero_model.h"
 
 namespace cosim::smooth {
 
@@ -21,23 +20,27 @@ namespace sc = cosim::scenario;
 namespace {
 
 // Eq. (8)'s parameters, validated.
-HuntCrossleyLaw ContactLaw(const Checks& checks, const std::string& path, bool has, const sc::ForceElement::HuntCrossley& l) {
+HuntCrossleyLaw ContactLaw(const Checks& checks, const std::string& path, bool has,
+                           const sc::ForceElement::HuntCrossley& l) {
   checks.Require(path, has, "law { stiffness: K restitution: e }");
   HuntCrossleyLaw law;
   law.stiffness = checks.Positive(path + ".stiffness", l.has_stiffness(), l.stiffness(), "N/m^n or N m/rad^n");
   law.exponent = checks.Positive(path + ".exponent", true, l.exponent(), "dimensionless");
   checks.Require(path + ".restitution", l.has_restitution(), "Newton's restitution e in (0, 1]");
   if (!(l.restitution() > 0.0 && l.restitution() <= 1.0)) {
-    checks.Fail(path + ".restitution", "must be in (0, 1] (the law divides by e), got " + FormatNumber(l.restitution()));
+    checks.Fail(path + ".restitution",
+                "must be in (0, 1] (the law divides by e), got " + FormatNumber(l.restitution()));
   }
   // As given, or the law's e whose own rebound is the given one (so that K → ∞ converges to
   // the Newton law with that e, as the nonsmooth model has it).
-  law.restitution = l.effective_restitution() ? interface::LawRestitution(l.restitution(), law.exponent) : l.restitution();
+  law.restitution =
+      l.effective_restitution() ? interface::LawRestitution(l.restitution(), law.exponent) : l.restitution();
   law.speed_threshold = checks.Positive(path + ".speed_threshold", true, l.speed_threshold(), "m/s or rad/s");
   return law;
 }
 
-Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const google::protobuf::RepeatedField<double>& v) {
+Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path,
+                        const google::protobuf::RepeatedField<double>& v) {
   Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
   if (v.size() == 3) {
     J.diagonal() << v.Get(0), v.Get(1), v.Get(2);
@@ -69,6 +72,88 @@ Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path, const goo
   return J;
 }
 
+// model.moving_bases: each a chain ground → surge → sway → heave (prismatic x, y, z) → yaw →
+// pitch → roll (revolute z, y', x'') → the base body, every joint driven by its function (zero if
+// absent), all at the base's point with the global axes at zero motion (scenario.proto,
+// MovingBase). The bodies first (the user's joints name the base), the joints after theirs.
+struct BaseLink {
+  const char* suffix;  // the link's body and joint: NAME.suffix; the last link's body is NAME
+  JointType type;
+  Eigen::Vector3d axis;
+};
+const std::array<BaseLink, 6> kBaseLinks{{{"surge", JointType::kPrismatic, Eigen::Vector3d::UnitX()},
+                                          {"sway", JointType::kPrismatic, Eigen::Vector3d::UnitY()},
+                                          {"heave", JointType::kPrismatic, Eigen::Vector3d::UnitZ()},
+                                          {"yaw", JointType::kRevolute, Eigen::Vector3d::UnitZ()},
+                                          {"pitch", JointType::kRevolute, Eigen::Vector3d::UnitY()},
+                                          {"roll", JointType::kRevolute, Eigen::Vector3d::UnitX()}}};
+
+// The bodies of the moving bases, declared into `names`; returns the index of each base's first.
+std::vector<int> AddMovingBaseBodies(const Checks& checks, NameTable* names, MultibodyModel* model) {
+  const sc::Model& m = checks.file().proto().model();
+  std::vector<int> first;
+  for (int i = 0; i < m.moving_bases_size(); ++i) {
+    const sc::MovingBase& b = m.moving_bases(i);
+    const std::string path = ElementPath("model.moving_bases", i);
+    if (b.name() == "ground") checks.Fail(path + ".name", "'ground' is the fixed frame; choose another name");
+    const std::string name = checks.Name(path + ".name", b.has_name(), b.name());
+    const Eigen::Vector3d point = checks.Vector3(path + ".point", b.point(), Eigen::Vector3d::Zero());
+    first.push_back(static_cast<int>(model->bodies.size()));
+    for (size_t k = 0; k < kBaseLinks.size(); ++k) {
+      RigidBody body;
+      const bool last = k + 1 == kBaseLinks.size();
+      body.name = names->Declare(path + ".name", true, last ? name : name + "." + kBaseLinks[k].suffix);
+      // The links' motion is prescribed: their masses only scale the drives' reactions.
+      body.mass = last ? checks.Positive(path + ".mass", true, b.mass(), "kg") : 1.0;
+      body.inertia = last && b.inertia_size() > 0 ? Inertia(checks, path + ".inertia", b.inertia())
+                                                  : Eigen::Matrix3d::Identity() * (last ? 1000.0 : 1.0);
+      body.position = point;
+      model->bodies.push_back(body);
+    }
+  }
+  return first;
+}
+
+void AddMovingBaseJoints(const Checks& checks, const std::vector<int>& first, NameTable* names, MultibodyModel* model) {
+  const sc::Model& m = checks.file().proto().model();
+  for (int i = 0; i < m.moving_bases_size(); ++i) {
+    const sc::MovingBase& b = m.moving_bases(i);
+    const std::string path = ElementPath("model.moving_bases", i);
+    const std::array<std::pair<bool, const sc::TimeFunction*>, 6> functions{{{b.has_surge(), &b.surge()},
+                                                                             {b.has_sway(), &b.sway()},
+                                                                             {b.has_heave(), &b.heave()},
+                                                                             {b.has_yaw(), &b.yaw()},
+                                                                             {b.has_pitch(), &b.pitch()},
+                                                                             {b.has_roll(), &b.roll()}}};
+    for (size_t k = 0; k < kBaseLinks.size(); ++k) {
+      Joint joint;
+      joint.name = names->Declare(path + ".name", true, b.name() + "." + kBaseLinks[k].suffix);
+      joint.type = kBaseLinks[k].type;
+      joint.body1 = k == 0 ? -1 : first[static_cast<size_t>(i)] + static_cast<int>(k) - 1;
+      joint.body2 = first[static_cast<size_t>(i)] + static_cast<int>(k);
+      joint.point = model->bodies[static_cast<size_t>(joint.body2)].position;
+      joint.axis = kBaseLinks[k].axis;
+      joint.driven = true;
+      if (functions[k].first) {
+        const std::string where = path + "." + kBaseLinks[k].suffix;
+        joint.drive = interface::TimeFunction::Build(checks, where, *functions[k].second);
+        // The scene is drawn at zero motion, at rest: a base displaced or moving at the start
+        // would carry its passengers only as far as the initial projections move them.
+        const double t0 = checks.file().proto().numerics().start_time();
+        const double value = joint.drive.Value(t0), rate = joint.drive.Derivative(t0);
+        const char* unit = joint.type == JointType::kPrismatic ? " m" : " rad";
+        if (std::abs(value) > 1e-12 || std::abs(rate) > 1e-12) {
+          checks.Fail(where, "is " + interface::FormatNumber(value) + unit + " at " + interface::FormatNumber(rate) +
+                                 unit + "/s at the start (t = " + interface::FormatNumber(t0) +
+                                 " s); the scene is drawn with the base at zero motion and at rest: start each "
+                                 "motion there (a harmonic with a ramp_time, or a constant cancelling its value)");
+        }
+      }
+      model->joints.push_back(joint);
+    }
+  }
+}
+
 }  // namespace
 
 MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
@@ -94,6 +179,7 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     body.angular_velocity = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
     model.bodies.push_back(body);
   }
+  const std::vector<int> first_base_body = AddMovingBaseBodies(checks, &body_names, &model);
   AddBeams(checks, &body_names, &model);
   auto find_body = [&](const std::string& path, bool has, const std::string& name) {
     checks.Require(path, has, "a body name or \"ground\"");
@@ -107,12 +193,23 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     Joint joint;
     joint.name = joint_names.Declare(path + ".name", j.has_name(), j.name());
     switch (j.type()) {
-      case sc::Joint::REVOLUTE: joint.type = JointType::kRevolute; break;
-      case sc::Joint::PRISMATIC: joint.type = JointType::kPrismatic; break;
-      case sc::Joint::SPHERICAL: joint.type = JointType::kSpherical; break;
-      case sc::Joint::UNIVERSAL: joint.type = JointType::kUniversal; break;
-      case sc::Joint::FIXED: joint.type = JointType::kFixed; break;
-      default: checks.Fail(path + ".type", "expected REVOLUTE, PRISMATIC, SPHERICAL, UNIVERSAL or FIXED");
+      case sc::Joint::REVOLUTE:
+        joint.type = JointType::kRevolute;
+        break;
+      case sc::Joint::PRISMATIC:
+        joint.type = JointType::kPrismatic;
+        break;
+      case sc::Joint::SPHERICAL:
+        joint.type = JointType::kSpherical;
+        break;
+      case sc::Joint::UNIVERSAL:
+        joint.type = JointType::kUniversal;
+        break;
+      case sc::Joint::FIXED:
+        joint.type = JointType::kFixed;
+        break;
+      default:
+        checks.Fail(path + ".type", "expected REVOLUTE, PRISMATIC, SPHERICAL, UNIVERSAL or FIXED");
     }
     joint.body1 = find_body(path + ".body1", j.has_body1(), j.body1());
     joint.body2 = find_body(path + ".body2", j.has_body2(), j.body2());
@@ -188,6 +285,7 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     }
     model.joints.push_back(joint);
   }
+  AddMovingBaseJoints(checks, first_base_body, &joint_names, &model);
   AddBeamClamps(checks, body_names, &joint_names, &model);
   AddAero(checks, body_names, &model);
   NameTable force_names(checks, "force element");
@@ -243,8 +341,8 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
         spec.joint = joint_names.Find(path + ".joint_spring.joint", js.joint());
         const JointType type = model.joints[static_cast<size_t>(spec.joint)].type;
         if (type != JointType::kRevolute && type != JointType::kPrismatic) {
-          checks.Fail(path + ".joint_spring.joint", "joint '" + js.joint() +
-                                                        "' has no single coordinate; only revolute and prismatic do");
+          checks.Fail(path + ".joint_spring.joint",
+                      "joint '" + js.joint() + "' has no single coordinate; only revolute and prismatic do");
         }
         const std::string unit = type == JointType::kRevolute ? "N m/rad" : "N/m";
         checks.Require(path + ".joint_spring.stiffness", js.has_stiffness(), "a stiffness in " + unit);
@@ -275,8 +373,9 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
         spec.plane_normal = normal.normalized();
         if (ob.has_prescribed()) {
           checks.Fail(path + ".continuous_contact.obstacle",
-                      "obstacle '" + cc.obstacle() + "' has a prescribed motion, which continuous contact does not "
-                      "follow yet; attach it to a body or fix it");
+                      "obstacle '" + cc.obstacle() +
+                          "' has a prescribed motion, which continuous contact does not "
+                          "follow yet; attach it to a body or fix it");
         }
         if (ob.has_attached_to_body()) {
           spec.plane_body = body_names.Find(opath + ".attached_to_body", ob.attached_to_body());
@@ -302,8 +401,8 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
         spec.upper = js.upper();
         if (!spec.has_lower && !spec.has_upper) checks.Fail(path + ".joint_stop", "give lower, upper or both [rad]");
         if (spec.has_lower && spec.has_upper && !(spec.lower < spec.upper)) {
-          checks.Fail(path + ".joint_stop.upper", "must be above lower (" + FormatNumber(spec.lower) + " rad), got " +
-                                                      FormatNumber(spec.upper));
+          checks.Fail(path + ".joint_stop.upper",
+                      "must be above lower (" + FormatNumber(spec.lower) + " rad), got " + FormatNumber(spec.upper));
         }
         spec.law = ContactLaw(checks, path + ".joint_stop.law", js.has_law(), js.law());
         break;
@@ -338,8 +437,8 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     if (contact_nodes.count(in.contact_node()) == 0) {
       std::string known;
       for (const auto& name : contact_nodes) known += (known.empty() ? "" : ", ") + name;
-      checks.Fail(path + ".contact_node", "no contact node named '" + in.contact_node() + "'" +
-                                             (known.empty() ? "" : "; known: " + known));
+      checks.Fail(path + ".contact_node",
+                  "no contact node named '" + in.contact_node() + "'" + (known.empty() ? "" : "; known: " + known));
     }
     if (!tied.insert(in.contact_node()).second) {
       checks.Fail(path + ".contact_node", "contact node '" + in.contact_node() + "' is tied to the smooth model twice");
@@ -349,13 +448,15 @@ MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
     bool elastic = false;
     for (const auto& e : file.proto().model().elastic_bodies()) elastic = elastic || e.name() == in.body();
     if (elastic) {
-      checks.Require(path + ".node", in.has_node(), "the elastic body's node (0-based index, tip_centre or root_centre)");
+      checks.Require(path + ".node", in.has_node(),
+                     "the elastic body's node (0-based index, tip_centre or root_centre)");
       if (in.point_size() != 0) checks.Fail(path + ".point", "an elastic body's point is a node: give `node` instead");
       spec.elastic_body = in.body();
       spec.elastic_point = in.node();
     } else {
       spec.body = body_names.Find(path + ".body", in.body());
-      if (in.has_node()) checks.Fail(path + ".node", "'" + in.body() + "' is a rigid body: give `point` (body frame offset)");
+      if (in.has_node())
+        checks.Fail(path + ".node", "'" + in.body() + "' is a rigid body: give `point` (body frame offset)");
       spec.point = checks.Vector3(path + ".point", in.point(), Eigen::Vector3d::Zero());
     }
     spec.regularization = checks.NonNegative(path + ".regularization", in.regularization(), "m/N");

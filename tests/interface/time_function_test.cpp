@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
 
 #include "interface/run/errors.h"
 
@@ -58,6 +59,60 @@ TEST(TimeFunction, CosinePulseRisesToItsPeakAndBackWithItsDerivativesAndIntegral
   bad.mutable_cosine_pulse()->set_peak(1.0);
   bad.mutable_cosine_pulse()->set_duration(0.0);
   EXPECT_THROW(TimeFunction::Build(checks, "x", bad), InputError);
+}
+
+TEST(TimeFunction, HarmonicStartsSmoothlyThroughItsRampWithExactDerivativesAndIntegral) {
+  // A deck's roll: 5° (0.0873 rad) with a 10 s period and a 0.4 rad phase from t = 1 s, its
+  // amplitude ramped in over 6 s: zero before the start, value and slope zero at it (r = r' = 0
+  // there), half the sine at half the ramp, the plain sine after it.
+  const ScenarioFile f = ScenarioFile::Parse("", "f", {});
+  const Checks checks(f);
+  const double a = 0.0873, period = 10.0, phase = 0.4, start = 1.0, ramp_time = 6.0;
+  scenario::TimeFunction proto;
+  auto* h = proto.mutable_harmonic();
+  h->set_amplitude(a);
+  h->set_period(period);
+  h->set_phase(phase);
+  h->set_start_time(start);
+  h->set_ramp_time(ramp_time);
+  const TimeFunction roll = TimeFunction::Build(checks, "x", proto);
+  const double w = 2.0 * std::numbers::pi / period;
+  EXPECT_DOUBLE_EQ(roll.Value(0.5), 0.0);
+  EXPECT_DOUBLE_EQ(roll.Value(start), 0.0);
+  EXPECT_DOUBLE_EQ(roll.Derivative(start), 0.0);
+  EXPECT_NEAR(roll.Value(9.0), a * std::sin(w * 8.0 + phase), 1e-15);
+  EXPECT_NEAR(roll.Value(start + 3.0), 0.5 * a * std::sin(w * 3.0 + phase), 1e-15);  // r(T/2) = ½
+  for (double t : {1.2, 3.0, 6.9, 7.1, 12.3}) {
+    EXPECT_NEAR(roll.Derivative(t), (roll.Value(t + 1e-6) - roll.Value(t - 1e-6)) / 2e-6, 1e-8) << t;
+    EXPECT_NEAR(roll.SecondDerivative(t), (roll.Derivative(t + 1e-6) - roll.Derivative(t - 1e-6)) / 2e-6, 1e-8)
+        << t;
+    EXPECT_NEAR((roll.Integral(t + 1e-6) - roll.Integral(t - 1e-6)) / 2e-6, roll.Value(t), 1e-9) << t;
+  }
+  // The integral against a fine midpoint sum from 0 to 12.3 s (through the ramp's end).
+  double sum = 0.0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) sum += roll.Value((i + 0.5) * 12.3 / n) * 12.3 / n;
+  EXPECT_NEAR(roll.Integral(12.3), sum, 1e-9);
+  // Without a ramp: A sin(ω (t − start) + φ) at every time, before the start too (so that a
+  // constant plus a harmonic, A (1 − cos ωt), is smooth where CGα's first step reads it, just
+  // before t = 0); its integral from 0, (cos(−ω start + φ) − cos(ω (t − start) + φ)) A / ω.
+  h->clear_ramp_time();
+  const TimeFunction plain = TimeFunction::Build(checks, "x", proto);
+  EXPECT_NEAR(plain.Value(start), a * std::sin(phase), 1e-15);
+  EXPECT_NEAR(plain.Value(0.0), a * std::sin(-w * start + phase), 1e-15);
+  EXPECT_NEAR(plain.Integral(4.0), a * (std::cos(-w * start + phase) - std::cos(w * 3.0 + phase)) / w, 1e-15);
+  // A period that is not positive, or no amplitude, is refused naming the field.
+  h->set_period(0.0);
+  try {
+    TimeFunction::Build(checks, "model.moving_bases[0].roll", proto);
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("model.moving_bases[0].roll.harmonic.period"), std::string::npos)
+        << e.what();
+  }
+  h->set_period(10.0);
+  h->clear_amplitude();
+  EXPECT_THROW(TimeFunction::Build(checks, "x", proto), InputError);
 }
 
 TEST(TimeFunction, SumOfARampUpAndARampDownIsAnEngagementAndRunDown) {

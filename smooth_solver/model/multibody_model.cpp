@@ -108,6 +108,7 @@ std::vector<int> AddMovingBaseBodies(const Checks& checks, NameTable* names, Mul
       body.inertia = last && b.inertia_size() > 0 ? Inertia(checks, path + ".inertia", b.inertia())
                                                   : Eigen::Matrix3d::Identity() * (last ? 1000.0 : 1.0);
       body.position = point;
+      model->base_bodies.push_back(static_cast<int>(model->bodies.size()));
       model->bodies.push_back(body);
     }
   }

@@ -88,6 +88,9 @@ struct MultibodyModel {
   std::vector<RigidBody> bodies;
   std::vector<Joint> joints;
   std::vector<int> hold_joints;  // joints whose coordinate and speed the initial state keeps
+  // The bodies of the moving bases (model.moving_bases: their links and the base), which start
+  // at rest: a shaft on a deck turns against them as against the ground.
+  std::vector<int> base_bodies;
   std::vector<ForceSpec> forces;
   std::vector<InterfacePointSpec> interface_points;
   // Beams: their nodes are bodies (with no mass of their own) among `bodies`.

@@ -895,7 +895,8 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   settle_iterations_ = r.iterations;
   if (coupled) {
     std::vector<Eigen::Vector3d> forces;
-    for (size_t k = 0; k < nodes.size(); ++k) forces.push_back(system->InterfaceReaction(static_cast<int>(k), r.lambda));
+    for (size_t k = 0; k < nodes.size(); ++k)
+      forces.push_back(system->InterfaceReaction(static_cast<int>(k), r.lambda));
     CheckNodesRest(checks, nodes, forces);
   }
   // The settled configuration as the start, as solved: a position projection would close the
@@ -917,13 +918,18 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
 
 SpinningFrame MultibodySimulation::SpinAtStart(const Checks& checks, const MultibodySystem& system,
                                                const DaeState& initial) const {
-  // The revolute joint to the ground that turns at the start (a rotor's shaft, driven or
-  // spinning freely): its moving body's angular velocity, about the joint's point.
+  // The revolute joint to the ground, or to a moving base (at rest at the start: a shaft on a
+  // deck), that turns at the start (a rotor's shaft, driven or spinning freely): its moving
+  // body's angular velocity, about the joint's point (the point's place at the start).
+  auto fixed = [&](int body) {
+    return body < 0 ||
+           std::find(model_.base_bodies.begin(), model_.base_bodies.end(), body) != model_.base_bodies.end();
+  };
   SpinningFrame spin;
   std::string found;
   for (size_t j = 0; j < model_.joints.size(); ++j) {
     const JointMeasure& m = system.joints[j];
-    if (!m.rotational || (m.body1 >= 0 && m.body2 >= 0)) continue;
+    if (!m.rotational || fixed(m.body1) == fixed(m.body2)) continue;
     if (std::abs(system.JointRate(static_cast<int>(j), initial.q, initial.qdot)) <= 1e-12) continue;
     const Joint& joint = model_.joints[j];
     if (!found.empty()) {
@@ -933,9 +939,15 @@ SpinningFrame MultibodySimulation::SpinAtStart(const Checks& checks, const Multi
                       "the others at rest, or remove settle");
     }
     found = joint.name;
-    const bool ground_first = m.body1 < 0;
-    spin.omega = BodyAngularRate(initial.q, initial.qdot, ground_first ? m.body2 : m.body1);
-    spin.origin = joint.body_points ? (ground_first ? joint.point1 : joint.point2) : joint.point;
+    const bool fixed_first = fixed(m.body1);
+    const int moving = fixed_first ? m.body2 : m.body1;
+    spin.omega = BodyAngularRate(initial.q, initial.qdot, moving);
+    // The joint's point as it is at the start, a point of the turning body on the axis.
+    const Eigen::Vector3d at = joint.body_points
+                                   ? (fixed_first ? joint.point2 : joint.point1)
+                                   : BodyAxes(system.q0, moving).transpose() *
+                                         (joint.point - system.q0.segment<3>(kCoordinatesPerBody * moving));
+    spin.origin = initial.q.segment<3>(kCoordinatesPerBody * moving) + BodyAxes(initial.q, moving) * at;
   }
   return spin;
 }

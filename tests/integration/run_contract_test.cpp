@@ -800,6 +800,18 @@ TEST(MovingBase, ARotorOnAStillDeckIsTheRotorOnTheGround) {
       EXPECT_NEAR(b[i][c], a[i][c], 1e-4 * scale + 1e-9) << a.header[c] << " row " << i;
     }
   }
+  // Settled, the shaft on the still deck is found as the rotor to spin with (a revolute joint
+  // against a moving base, not only against the ground): the same spinning equilibrium.
+  const std::string settle = " --set numerics.end_time=0.05 --set numerics.smooth.settle=true";
+  ASSERT_EQ(Launch(kScenarios + "/small_rotor/droop_rest_continuous.pbtxt --out " +
+                   (dir / "ground_settled").string() + settle)
+                .code,
+            0);
+  ASSERT_EQ(Launch((dir / "on_deck.pbtxt").string() + " --out " + (dir / "deck_settled").string() + settle).code, 0);
+  const Table sa = ReadTable(dir / "ground_settled" / "history.csv"), sb = ReadTable(dir / "deck_settled" / "history.csv");
+  EXPECT_NEAR(sb.Column("blade1_flap")[0], sa.Column("blade1_flap")[0], 1e-9);
+  EXPECT_NEAR(sb.Column("blade1_stop_moment")[0], sa.Column("blade1_stop_moment")[0], 1e-6);
+  EXPECT_NEAR(sb.Column("blade1_flap")[0], -5.01884, 1e-4);
   const Result moving = Launch((dir / "on_deck.pbtxt").string() + " --out " + (dir / "moving").string() +
                                " --set model.moving_bases[0].heave.harmonic.amplitude=0.5");
   EXPECT_EQ(moving.code, 2) << moving.output;

@@ -3,7 +3,6 @@
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseLU>
-
 #include <algorithm>
 #include <cmath>
 
@@ -81,11 +80,16 @@ Eigen::VectorXd WithoutOrigin(const MultibodySystem& system, const Eigen::Vector
 }  // namespace
 
 Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame) {
-  return PerTriple(system.coordinates, Skew(frame.omega)) * WithoutOrigin(system, q, frame.origin);
+  // W q̂ triple by triple (no sparse W built: the static solve calls this every iteration).
+  const Eigen::VectorXd qh = WithoutOrigin(system, q, frame.origin);
+  Eigen::VectorXd v(q.size());
+  for (Eigen::Index k = 0; k + 2 < q.size(); k += 3)
+    v.segment<3>(k) = frame.omega.cross(Eigen::Vector3d(qh.segment<3>(k)));
+  return v;
 }
 
-EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess,
-                               const SpinningFrame& frame, const EquilibriumOptions& options) {
+EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess, const SpinningFrame& frame,
+                                    const EquilibriumOptions& options) {
   const int n = system.coordinates, m = system.constraints.size(), N = n + m;
   const Eigen::Matrix3d O = Skew(frame.omega);
   const Eigen::SparseMatrix<double> MW2 = system.mass * PerTriple(n, O * O);
@@ -97,7 +101,7 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
   // direction): the absolute velocities W q̂ that the air loads see. The other elements are
   // objective (dampers, Kelvin–Voigt: no force for a rigid rotation) and are taken at q̇ = 0,
   // where their tangents are exact (some leave out ∂C/∂q q̇).
-  auto velocity = [&](const Eigen::VectorXd& q) -> Eigen::VectorXd { return W * WithoutOrigin(system, q, frame.origin); };
+  auto velocity = [&](const Eigen::VectorXd& q) -> Eigen::VectorXd { return SpinningVelocity(system, q, frame); };
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   const AirLoads* air = system.air_loads;
   auto residual = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::VectorXd* R) {
@@ -114,8 +118,10 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
     system.constraints.AddJacobianTransposeTimes(q, options.t, lambda, R->head(n));
     system.constraints.Evaluate(q, options.t, R->tail(m));
     for (int i = 0; i < m; ++i) {
-      if (!system.constraints.Active(static_cast<size_t>(i), options.t)) (*R)(n + i) = lambda(i);
-      else (*R)(n + i) -= system.constraints.Compliance(static_cast<size_t>(i)) * lambda(i);
+      if (!system.constraints.Active(static_cast<size_t>(i), options.t))
+        (*R)(n + i) = lambda(i);
+      else
+        (*R)(n + i) -= system.constraints.Compliance(static_cast<size_t>(i)) * lambda(i);
     }
   };
   Eigen::VectorXd R;

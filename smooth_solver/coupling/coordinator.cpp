@@ -92,6 +92,10 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   integrator_->Restart(state);
   // The freed rows' multipliers are 0 there, and a = q̈: their filtered multipliers too; the
   // others' are the state's.
+  StartReactionsFrom(state);
+}
+
+void Coordinator::StartReactionsFrom(const DaeState& state) {
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) =
         system_.InterfaceReaction(static_cast<int>(k), state.lambda);
@@ -106,11 +110,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
   // rows held, stands, and its multipliers are the first reactions the peers hold (without
   // them the blades sank 0.006° in the first steps before the reactions caught up).
   if (settings_.settled_start) {
-    for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-      lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) =
-          system_.InterfaceReaction(static_cast<int>(k), integrator_->state().lambda);
-    }
-    filtered_start_ = lambda_start_;
+    StartReactionsFrom(integrator_->state());
     x_ = accepted_x_ = applied_ = lambda_start_;
   } else {
     std::vector<int> every_point(system_.interface_points.size());

@@ -149,6 +149,8 @@ class Coordinator {
   void ImposeRates(double h);
   // CGα from `state` at t, its accelerations with the coupling rows of `points` left out.
   void RestartWithCouplingRowsFree(DaeState state, double t, const std::vector<int>& points);
+  // The step-start multipliers of the interface rows (and their filtered values) from `state`.
+  void StartReactionsFrom(const DaeState& state);
   // The interface points whose node's contact closed in this step (in contact, not in the last
   // accepted one): impacts.
   std::vector<int> Impacts() const;

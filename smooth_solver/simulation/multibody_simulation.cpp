@@ -77,7 +77,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     // Standalone, nothing would move the imposed points: they would stay where they start.
     checks.Fail("coupling.interface_nodes",
                 "a coupled scene needs its contact processes; smooth_solver alone cannot "
-                "run it: run it with scripts/cosim run, which starts them and sets their endpoints");
+                "run it; scripts/cosim run starts them and sets their endpoints");
   }
   std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
   std::map<std::string, int> elastic_index;

@@ -13,7 +13,6 @@
 // (no force for a rigid rotation) and are taken at q̇ = 0. Rotors' inflow is updated
 // (AcceptStep) at every equilibrium iterate and held in the modes.
 #include <Eigen/Core>
-
 #include <complex>
 #include <string>
 #include <vector>
@@ -28,10 +27,10 @@ struct SpinningFrame {
 };
 
 struct EquilibriumOptions {
-  double t = 0.0;              // time at which loads and drives are taken
-  double tolerance = 1e-10;    // on |Δq|∞ relative to 1 + |q|∞
+  double t = 0.0;            // time at which loads and drives are taken
+  double tolerance = 1e-10;  // on |Δq|∞ relative to 1 + |q|∞
   int max_iterations = 50;
-  double max_step = 0.1;       // longest Newton step in q (|Δq|∞): metres or director components
+  double max_step = 0.1;  // longest Newton step in q (|Δq|∞): metres or director components
 };
 
 struct EquilibriumResult {
@@ -48,14 +47,14 @@ Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::Vec
 // Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t)] = 0 from `q_guess` (full steps: ramp large
 // loads, e.g. through the loads' time functions). The rotors' inflow is updated at the
 // iterates (AcceptStep: the system's data changes).
-EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess,
-                                    const SpinningFrame& frame, const EquilibriumOptions& options);
+EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess, const SpinningFrame& frame,
+                                    const EquilibriumOptions& options);
 
 struct Mode {
   double frequency = 0.0;  // [rad/s], |λ| (the undamped circular frequency of the pair)
   double damping = 0.0;    // ratio −Re λ / |λ|
   std::complex<double> eigenvalue;
-  Eigen::VectorXd shape;   // real part of the position part, in q (max-abs normalised)
+  Eigen::VectorXd shape;  // real part of the position part, in q (max-abs normalised)
 };
 
 // The constrained system's modes about the static state (q, λ) in the spinning frame: the

@@ -4,7 +4,6 @@
 // elastic bodies with issue 5; this is the validated description they will integrate.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
 #include <array>
 #include <string>
 #include <vector>
@@ -56,7 +55,7 @@ struct ForceSpec {
   std::string name;
   int body1 = -1, body2 = -1;  // load: body1; spring: both (−1 = ground)
   Eigen::Vector3d point1 = Eigen::Vector3d::Zero(), point2 = Eigen::Vector3d::Zero();
-  int joint = -1;                // joint spring
+  int joint = -1;  // joint spring
   double stiffness = 0.0, damping = 0.0, rest = 0.0;
   bool has_rest = false;
   std::array<interface::TimeFunction, 3> force, torque;
@@ -75,9 +74,9 @@ struct ForceSpec {
 // (coupling.interface_nodes).
 struct InterfacePointSpec {
   std::string contact_node;
-  int body = -1;                  // rigid body, or −1 for a node of an elastic body:
-  std::string elastic_body;       // its name (resolved with the elastic bodies),
-  std::string elastic_point;      // the node as given (index or face centre),
+  int body = -1;                        // rigid body, or −1 for a node of an elastic body:
+  std::string elastic_body;             // its name (resolved with the elastic bodies),
+  std::string elastic_point;            // the node as given (index or face centre),
   int elastic = -1, elastic_node = -1;  // and once resolved: elastic body index and node
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   double regularization = 0.0;  // c of Φ − cλ = 0 [m/N]

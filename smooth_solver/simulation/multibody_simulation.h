@@ -8,9 +8,9 @@
 
 #include "interface/run/run_driver.h"
 #include "interface/scenario/checks.h"
+#include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
-#include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/simulation/watchdog.h"

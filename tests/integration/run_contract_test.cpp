@@ -1,11 +1,11 @@
 // End-to-end: `cosim_launch` (what `scripts/cosim run` calls) on shipped scenarios and on
 // broken ones. Every run writes summary.json and history.csv; bad input exits 2 before any
 // computation with a message naming the place, the value and what is expected.
-#include <Eigen/Geometry>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -785,8 +785,8 @@ TEST(MovingBase, ARotorOnAStillDeckIsTheRotorOnTheGround) {
               "  moving_bases { name: \"deck\" point: [0, 0, -2] heave { harmonic { amplitude: 0 period: 5 } } }\n");
   std::ofstream(dir / "on_deck.pbtxt") << text;
   const std::string tight = " --set numerics.end_time=0.5 --set numerics.smooth.newton_tolerance=1e-12";
-  const Result ground = Launch(kScenarios + "/small_rotor/droop_rest_continuous.pbtxt --out " +
-                               (dir / "ground").string() + tight);
+  const Result ground =
+      Launch(kScenarios + "/small_rotor/droop_rest_continuous.pbtxt --out " + (dir / "ground").string() + tight);
   ASSERT_EQ(ground.code, 0) << ground.output;
   const Result deck = Launch((dir / "on_deck.pbtxt").string() + " --out " + (dir / "deck").string() + tight);
   ASSERT_EQ(deck.code, 0) << deck.output;
@@ -803,12 +803,13 @@ TEST(MovingBase, ARotorOnAStillDeckIsTheRotorOnTheGround) {
   // Settled, the shaft on the still deck is found as the rotor to spin with (a revolute joint
   // against a moving base, not only against the ground): the same spinning equilibrium.
   const std::string settle = " --set numerics.end_time=0.05 --set numerics.smooth.settle=true";
-  ASSERT_EQ(Launch(kScenarios + "/small_rotor/droop_rest_continuous.pbtxt --out " +
-                   (dir / "ground_settled").string() + settle)
+  ASSERT_EQ(Launch(kScenarios + "/small_rotor/droop_rest_continuous.pbtxt --out " + (dir / "ground_settled").string() +
+                   settle)
                 .code,
             0);
   ASSERT_EQ(Launch((dir / "on_deck.pbtxt").string() + " --out " + (dir / "deck_settled").string() + settle).code, 0);
-  const Table sa = ReadTable(dir / "ground_settled" / "history.csv"), sb = ReadTable(dir / "deck_settled" / "history.csv");
+  const Table sa = ReadTable(dir / "ground_settled" / "history.csv"),
+              sb = ReadTable(dir / "deck_settled" / "history.csv");
   EXPECT_NEAR(sb.Column("blade1_flap")[0], sa.Column("blade1_flap")[0], 1e-9);
   EXPECT_NEAR(sb.Column("blade1_stop_moment")[0], sa.Column("blade1_stop_moment")[0], 1e-6);
   EXPECT_NEAR(sb.Column("blade1_flap")[0], -5.01884, 1e-4);
@@ -988,9 +989,9 @@ TEST(CoupledRun, ThePumaSettledOnItsContactNodesStartsAtRest) {
   // through every coordinate at once: 2.8e5 N of spurious shear in the first beam element and a
   // first step that did not converge.
   const fs::path dir = TempDir("puma_cosim_settled");
-  const Result twin = Launch(kScenarios + "/puma/engage_disengage_continuous.pbtxt --out " +
-                             (dir / "continuous").string() +
-                             " --set numerics.smooth.settle=true --set numerics.end_time=0.002");
+  const Result twin =
+      Launch(kScenarios + "/puma/engage_disengage_continuous.pbtxt --out " + (dir / "continuous").string() +
+             " --set numerics.smooth.settle=true --set numerics.end_time=0.002");
   ASSERT_EQ(twin.code, 0) << twin.output;
   const Result r = Launch(kScenarios + "/puma/engage_disengage.pbtxt --out " + (dir / "cosim").string() +
                           " --set numerics.smooth.settle=true --set numerics.end_time=1");
@@ -1011,7 +1012,8 @@ TEST(CoupledRun, ThePumaSettledOnItsContactNodesStartsAtRest) {
     double sum = 0.0;
     for (size_t i = 1; i < impulse.size(); ++i) sum += impulse[i];
     const double force = sum / static_cast<double>(impulse.size() - 1) / h;
-    EXPECT_NEAR(flap[0], -10.0 - c * force / d * 180.0 / std::numbers::pi, 1e-4) << blade << ": node force " << force << " N";
+    EXPECT_NEAR(flap[0], -10.0 - c * force / d * 180.0 / std::numbers::pi, 1e-4)
+        << blade << ": node force " << force << " N";
     for (size_t i = 0; i < flap.size(); ++i) {
       EXPECT_NEAR(tip[i], tip[0], 1e-3) << blade << " t = " << time[i];
       if (time[i] <= 0.5) {
@@ -1029,8 +1031,8 @@ TEST(CoupledRun, AFirstStepWhosePreSolveFailsEndsWithExitThree) {
   // (spinning_pendulum, its stop on the hub; the launcher reported signal 11, exit 4). Now the
   // step fails as a numerical failure, exit 3, with CGα's reason.
   const fs::path out = TempDir("first_presolve_fails");
-  const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/spinning_pendulum.pbtxt --out " +
-                          out.string() + " --set numerics.smooth.newton_max_iterations=1");
+  const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/spinning_pendulum.pbtxt --out " + out.string() +
+                          " --set numerics.smooth.newton_max_iterations=1");
   ASSERT_EQ(r.code, 3) << r.output;
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(s.status(), "failed");

@@ -84,8 +84,7 @@ TEST(TimeFunction, HarmonicStartsSmoothlyThroughItsRampWithExactDerivativesAndIn
   EXPECT_NEAR(roll.Value(start + 3.0), 0.5 * a * std::sin(w * 3.0 + phase), 1e-15);  // r(T/2) = ½
   for (double t : {1.2, 3.0, 6.9, 7.1, 12.3}) {
     EXPECT_NEAR(roll.Derivative(t), (roll.Value(t + 1e-6) - roll.Value(t - 1e-6)) / 2e-6, 1e-8) << t;
-    EXPECT_NEAR(roll.SecondDerivative(t), (roll.Derivative(t + 1e-6) - roll.Derivative(t - 1e-6)) / 2e-6, 1e-8)
-        << t;
+    EXPECT_NEAR(roll.SecondDerivative(t), (roll.Derivative(t + 1e-6) - roll.Derivative(t - 1e-6)) / 2e-6, 1e-8) << t;
     EXPECT_NEAR((roll.Integral(t + 1e-6) - roll.Integral(t - 1e-6)) / 2e-6, roll.Value(t), 1e-9) << t;
   }
   // The integral against a fine midpoint sum from 0 to 12.3 s (through the ramp's end).
@@ -107,8 +106,7 @@ TEST(TimeFunction, HarmonicStartsSmoothlyThroughItsRampWithExactDerivativesAndIn
     TimeFunction::Build(checks, "model.moving_bases[0].roll", proto);
     FAIL() << "accepted";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("model.moving_bases[0].roll.harmonic.period"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("model.moving_bases[0].roll.harmonic.period"), std::string::npos) << e.what();
   }
   h->set_period(10.0);
   h->clear_amplitude();

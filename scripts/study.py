@@ -1370,6 +1370,8 @@ def study_envelope(runner, scenario_path, out, sets):
     measures = [(k, label) for k, label in ENVELOPE_MEASURES
                 if any(np.isfinite(r["measures"][k]) for r in runs)]
     plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])
+    limits_note = plot_operating_limits(runs, axes, names, spec, os.path.join(out, "operating_limits.png"),
+                                        scenario["name"])
     elapsed = time.time() - started
     cpu = sum(r["seconds"] for r in runs if r["seconds"] == r["seconds"])
     lines = [f"# Envelope: {scenario['name']}", "", scenario.get("description", ""), "",
@@ -1379,7 +1381,8 @@ def study_envelope(runner, scenario_path, out, sets):
               f"one after the other (processes' wall time)." if any(r.get("host") != "kept" for r in runs) else
               f"; every run kept from an earlier study (--reuse): the runs took {cpu:.0f} s one after the other."),
              "",
-             "![envelope](envelope.png)", ""] + ([restart_note, ""] if restart_note else []) + [
+             "![envelope](envelope.png)", ""] + ([restart_note, ""] if restart_note else []) + (
+                ["![operating limits](operating_limits.png)", "", limits_note, ""] if limits_note else []) + [
              "Tip heights are the tip probes' values (lowest and highest over the run and the probes, e.g. the "
              "blades; down/up: the largest excursion from a tip's height at the start" +
              (f", measured from t = {spec['from_time']:g} s on" if spec.get("from_time") else "") + ")" +
@@ -1433,6 +1436,9 @@ def plot_envelope(runs, axes, names, measures, path, title):
             a0 = np.array([r["point"][0] for r in runs])
             a1 = np.array([r["point"][1] for r in runs])
             if polar:
+                if axes[1].get("compass"):
+                    ax.set_theta_zero_location("N")
+                    ax.set_theta_direction(-1)
                 theta, radius = np.radians(a1), a0
                 sc = ax.scatter(theta, radius, c=values, s=140, cmap="viridis", edgecolors="k")
                 ax.set_rlabel_position(90)
@@ -1455,6 +1461,82 @@ def plot_envelope(runs, axes, names, measures, path, title):
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def unsafe_points(runs, threshold):
+    """Per run: True where the clearance is below `threshold` or the run failed (a failed run is
+    not counted safe), False where it completed above it, None without a clearance."""
+    flags = []
+    for r in runs:
+        c = r["measures"]["clearance"]
+        if r["code"] != 0:
+            flags.append(True)
+        elif np.isfinite(c):
+            flags.append(bool(c < threshold))
+        else:
+            flags.append(None)
+    return flags
+
+
+def plot_operating_limits(runs, axes, names, spec, path, title):
+    """The operating-limits diagram: wind speed radial, direction around (clockwise from the top
+    for a `compass` axis), each point's sector coloured by its clearance and hatched red where it
+    is unsafe (clearance below spec.unsafe_clearance, or a failed run). Returns the report's
+    sentence on it, or "" when the study has no such threshold."""
+    threshold = spec.get("unsafe_clearance")
+    if threshold is None or len(axes) != 2 or axes[1].get("unit") != "deg":
+        return ""
+    speeds, directions = sorted(set(axes[0]["values"])), sorted(set(axes[1]["values"]))
+    def edges(values, lo=None):
+        mids = [(a + b) / 2 for a, b in zip(values, values[1:])]
+        first = values[0] - (mids[0] - values[0] if mids else 0.5)
+        last = values[-1] + (values[-1] - mids[-1] if mids else 0.5)
+        return [max(first, lo) if lo is not None else first] + mids + [last]
+    r_edges = edges(speeds, 0.0)
+    step = (directions[1] - directions[0]) if len(directions) > 1 else 360.0
+    flags = unsafe_points(runs, float(threshold))
+    clearances = np.array([r["measures"]["clearance"] for r in runs], dtype=float)
+    finite = clearances[np.isfinite(clearances)]
+    norm = plt.Normalize(finite.min(), finite.max()) if len(finite) else plt.Normalize(0, 1)
+    cmap = plt.get_cmap("viridis")
+    fig = plt.figure(figsize=(6.4, 6.0))
+    ax = fig.add_subplot(projection="polar")
+    if axes[1].get("compass"):
+        ax.set_theta_zero_location("N")
+        ax.set_theta_direction(-1)
+    for r, unsafe, c in zip(runs, flags, clearances):
+        speed, direction = r["point"]
+        i = speeds.index(speed)
+        width = np.radians(step)
+        colour = cmap(norm(c)) if np.isfinite(c) else (0.85, 0.85, 0.85, 1)
+        ax.bar(np.radians(direction), r_edges[i + 1] - r_edges[i], width=width, bottom=r_edges[i], color=colour,
+               edgecolor="white", linewidth=0.5)
+        if unsafe:
+            ax.bar(np.radians(direction), r_edges[i + 1] - r_edges[i], width=width, bottom=r_edges[i], fill=False,
+                   hatch="///", edgecolor="red", linewidth=0.0)
+        if r["code"] != 0:
+            ax.plot(np.radians(direction), speed, "rx", ms=8, mew=2)
+    # The boundary: per direction, the lowest unsafe speed's inner edge.
+    boundary = []
+    for d in directions:
+        at = [(r["point"][0], f) for r, f in zip(runs, flags) if r["point"][1] == d and f]
+        boundary.append(r_edges[speeds.index(min(at)[0])] if at else r_edges[-1])
+    theta = np.radians(directions + [directions[0] + 360])
+    ax.plot(theta, boundary + boundary[:1], "r-", lw=2, drawstyle="steps-mid")
+    ax.set_rlim(0, r_edges[-1])
+    ax.set_rlabel_position(135)
+    sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
+    fig.colorbar(sm, ax=ax, shrink=0.7, label="smallest tip clearance [m]")
+    ax.set_title(f"{title}: operating limits\n{names[0]} [{axes[0].get('unit', '')}] radial, {names[1]} around; "
+                 f"hatched: clearance < {threshold:g} m or failed (x)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    n_unsafe = sum(1 for f in flags if f)
+    failed = sum(1 for r in runs if r["code"] != 0)
+    return (f"Operating limits: {n_unsafe} of {len(runs)} points unsafe (clearance below {threshold:g} m"
+            + (f", or one of the {failed} failed runs" if failed else "") + "); the red line bounds the safe region "
+            "from inside (per direction, the lowest unsafe wind speed's cell).")
 
 
 STUDIES = {"convergence": study_convergence, "work-precision": study_work_precision,

@@ -21,7 +21,7 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/expression.h"
-#include "interface/scenario/station_files.h"
+#include "interface/scenario/csv_tables.h"
 
 namespace cosim::interface {
 
@@ -423,8 +423,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   }
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
-  // Section tables from their CSV files (after the overrides: one may name another file).
-  LoadStationFiles(
+  // Tables from their CSV files (after the overrides: one may name another file).
+  LoadCsvTables(
       &file.proto_, [&file](const std::string& given) { return file.PathBeside(given); },
       [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   // Frames last, so that every override of a frame or of an element written in one counts.

@@ -6,6 +6,34 @@
 
 namespace cosim::interface {
 
+namespace {
+
+// The second derivatives M_i of the natural cubic spline through (t_i, y_i) (M = 0 at both ends):
+// continuity of the slope at every inner knot, (h_{i-1} M_{i-1} + 2 (h_{i-1} + h_i) M_i + h_i M_{i+1})/6
+// = (y_{i+1} − y_i)/h_i − (y_i − y_{i-1})/h_{i-1}, solved by the Thomas algorithm (the system is
+// diagonally dominant).
+std::vector<double> NaturalSpline(const std::vector<double>& t, const std::vector<double>& y) {
+  const size_t n = t.size();
+  std::vector<double> m(n, 0.0);
+  if (n < 3) return m;
+  std::vector<double> diagonal(n, 1.0), upper(n, 0.0), rhs(n, 0.0);
+  for (size_t i = 1; i + 1 < n; ++i) {
+    const double a = t[i] - t[i - 1], b = t[i + 1] - t[i];
+    const double lower = a / 6.0;
+    diagonal[i] = (a + b) / 3.0;
+    upper[i] = b / 6.0;
+    rhs[i] = (y[i + 1] - y[i]) / b - (y[i] - y[i - 1]) / a;
+    // Eliminate the sub-diagonal against row i − 1 (row 0 is M_0 = 0).
+    const double factor = lower / diagonal[i - 1];
+    diagonal[i] -= factor * upper[i - 1];
+    rhs[i] -= factor * rhs[i - 1];
+  }
+  for (size_t i = n - 2; i >= 1; --i) m[i] = (rhs[i] - upper[i] * m[i + 1]) / diagonal[i];
+  return m;
+}
+
+}  // namespace
+
 TimeFunction TimeFunction::Constant(double value) {
   TimeFunction f;
   f.constant_ = value;
@@ -54,6 +82,7 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       }
       f.time_.assign(table.time().begin(), table.time().end());
       f.value_.assign(table.value().begin(), table.value().end());
+      if (table.interpolation() == scenario::TimeFunction::Table::CUBIC) f.curvature_ = NaturalSpline(f.time_, f.value_);
       break;
     }
     case scenario::TimeFunction::kSum: {
@@ -108,13 +137,10 @@ double TimeFunction::Value(double t) const {
       if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
       return 0.5 * (1.0 - std::cos(2.0 * std::numbers::pi * tau / ramp_time_)) * final_value_;
     }
-    case Kind::kTable: {
+    case Kind::kTable:
       if (t <= time_.front()) return value_.front();
       if (t >= time_.back()) return value_.back();
-      const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin());
-      const double s = (t - time_[i - 1]) / (time_[i] - time_[i - 1]);
-      return value_[i - 1] + s * (value_[i] - value_[i - 1]);
-    }
+      return TableDerivative(t, 0);
   }
   return 0.0;
 }
@@ -140,11 +166,9 @@ double TimeFunction::Derivative(double t) const {
       if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
       return std::numbers::pi / ramp_time_ * std::sin(2.0 * std::numbers::pi * tau / ramp_time_) * final_value_;
     }
-    case Kind::kTable: {
+    case Kind::kTable:
       if (t < time_.front() || t >= time_.back() || time_.size() < 2) return 0.0;
-      const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin());
-      return (value_[i] - value_[i - 1]) / (time_[i] - time_[i - 1]);
-    }
+      return TableDerivative(t, 1);
   }
   return 0.0;
 }
@@ -156,6 +180,10 @@ double TimeFunction::SecondDerivative(double t) const {
     return sum;
   }
   if (kind_ == Kind::kHarmonic) return HarmonicDerivative(t, 2);
+  if (kind_ == Kind::kTable) {
+    if (curvature_.empty() || t < time_.front() || t >= time_.back() || time_.size() < 2) return 0.0;
+    return TableDerivative(t, 2);
+  }
   if (kind_ != Kind::kCosineRamp && kind_ != Kind::kCosinePulse) return 0.0;
   const double tau = t - start_time_;
   if (tau <= 0.0 || tau >= ramp_time_) return 0.0;
@@ -206,22 +234,44 @@ double TimeFunction::Integral(double t) const {
       return 0.5 * final_value_ * (tau - std::sin(w * tau) / w);
     }
     case Kind::kTable: {
-      // Trapezoids between the table's times, constant values outside it.
-      double value = 0.0, previous_t = 0.0;
-      auto add = [&](double to) {
-        if (to <= previous_t) return;
-        value += 0.5 * (Value(previous_t) + Value(to)) * (to - previous_t);
-        previous_t = to;
+      // F(t) − F(0) with F(τ) = ∫ from time_[0]: each segment's exact integral, the end values
+      // held outside the table.
+      auto from_first = [&](double at) {
+        if (at <= time_.front()) return value_.front() * (at - time_.front());
+        double value = 0.0;
+        size_t i = 0;
+        for (; i + 1 < time_.size() && time_[i + 1] <= at; ++i) value += SegmentIntegral(i, time_[i + 1]);
+        if (i + 1 < time_.size()) return value + SegmentIntegral(i, at);
+        return value + value_.back() * (at - time_.back());
       };
-      for (double knot : time_) {
-        if (knot >= t) break;
-        add(knot);
-      }
-      add(t);
-      return value;
+      return from_first(t) - from_first(0.0);
     }
   }
   return 0.0;
+}
+
+double TimeFunction::TableDerivative(double t, int order) const {
+  // Within [t_i, t_{i+1}] (h long), b = (t − t_i)/h, a = 1 − b:
+  //   S = a y_i + b y_{i+1} + ((a³ − a) M_i + (b³ − b) M_{i+1}) h²/6     (M = 0: the linear table),
+  //   S' = (y_{i+1} − y_i)/h + ((1 − 3a²) M_i + (3b² − 1) M_{i+1}) h/6,   S'' = a M_i + b M_{i+1}.
+  const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin()) - 1;
+  const double h = time_[i + 1] - time_[i], b = (t - time_[i]) / h, a = 1.0 - b;
+  const double mi = curvature_.empty() ? 0.0 : curvature_[i], mj = curvature_.empty() ? 0.0 : curvature_[i + 1];
+  if (order == 0) return a * value_[i] + b * value_[i + 1] + ((a * a * a - a) * mi + (b * b * b - b) * mj) * h * h / 6.0;
+  if (order == 1) return (value_[i + 1] - value_[i]) / h + ((1.0 - 3.0 * a * a) * mi + (3.0 * b * b - 1.0) * mj) * h / 6.0;
+  return a * mi + b * mj;
+}
+
+double TimeFunction::SegmentIntegral(size_t i, double t) const {
+  // ∫ S dt from t_i to t = h ∫_0^B S db: h [y_i (B − B²/2) + y_{i+1} B²/2] plus, for the spline,
+  // h³/6 [M_i (¼ − ½ − (1 − B)⁴/4 + (1 − B)²/2) + M_{i+1} (B⁴/4 − B²/2)].
+  const double h = time_[i + 1] - time_[i], b = (t - time_[i]) / h, a = 1.0 - b;
+  double value = h * (value_[i] * (b - 0.5 * b * b) + value_[i + 1] * 0.5 * b * b);
+  if (!curvature_.empty()) {
+    value += h * h * h / 6.0 *
+             (curvature_[i] * (-0.25 - 0.25 * a * a * a * a + 0.5 * a * a) + curvature_[i + 1] * (0.25 * b * b * b * b - 0.5 * b * b));
+  }
+  return value;
 }
 
 double TimeFunction::HarmonicDerivative(double t, int order) const {

@@ -1,9 +1,14 @@
 #include "nonsmooth_solver/lcp/lcp_solver.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Dense>
 
 extern "C" {
 #include "LCP_Solvers.h"
@@ -70,6 +75,8 @@ LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eig
   }
   LcpResult result = Attempt(options_.algorithm, M, q, z);
   std::string messages = result.message;
+  double best_error = result.error;
+  best_ = z;
   for (LcpAlgorithm fallback : options_.fallbacks) {
     if (result.solved) break;
     if (fallback == options_.algorithm) continue;
@@ -78,15 +85,117 @@ LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eig
       result.used_fallback = true;
     } else {
       messages += "; fallback " + result.message;
+      if (result.error < best_error) {
+        best_error = result.error;
+        best_ = z;
+      }
     }
+  }
+  if (!result.solved && std::isfinite(best_error)) {
+    z = best_;
+    const double error = PolishActiveSet(M, q, z);
+    const double accepted = std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon());
+    if (error <= accepted) {
+      result.solved = true;
+      result.used_fallback = true;
+      result.error = error;
+      result.message.clear();
+      return result;
+    }
+    messages += "; the closest (error " + interface::FormatNumber(best_error) + ") polished on its active set: " +
+                interface::FormatNumber(error);
+    if (SolveBlockByBlock(M, q, z, &result)) return result;
   }
   if (!result.solved) result.message = messages;
   return result;
 }
 
+bool LcpSolver::SolveBlockByBlock(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                  Eigen::Ref<Eigen::VectorXd> z, LcpResult* result) {
+  const Eigen::Index n = q.size();
+  // Connected components of the graph i ~ j where M_ij or M_ji is non-zero (union–find).
+  std::vector<Eigen::Index> parent(static_cast<size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) parent[static_cast<size_t>(i)] = i;
+  auto root = [&](Eigen::Index i) {
+    while (parent[static_cast<size_t>(i)] != i) i = parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
+    return i;
+  };
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (i != j && (M(i, j) != 0.0 || M(j, i) != 0.0)) parent[static_cast<size_t>(root(i))] = root(j);
+    }
+  }
+  std::vector<std::vector<Eigen::Index>> blocks;
+  std::vector<Eigen::Index> block_of(static_cast<size_t>(n), -1);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Eigen::Index r = root(i);
+    if (block_of[static_cast<size_t>(r)] < 0) {
+      block_of[static_cast<size_t>(r)] = static_cast<Eigen::Index>(blocks.size());
+      blocks.emplace_back();
+    }
+    blocks[static_cast<size_t>(block_of[static_cast<size_t>(r)])].push_back(i);
+  }
+  if (blocks.size() < 2) return false;
+  Eigen::VectorXd solution = Eigen::VectorXd::Zero(n);
+  for (const std::vector<Eigen::Index>& block : blocks) {
+    const Eigen::Index m = static_cast<Eigen::Index>(block.size());
+    Eigen::MatrixXd Mb(m, m);
+    Eigen::VectorXd qb(m), zb(m);
+    for (Eigen::Index a = 0; a < m; ++a) {
+      qb(a) = q(block[static_cast<size_t>(a)]);
+      for (Eigen::Index b = 0; b < m; ++b) Mb(a, b) = M(block[static_cast<size_t>(a)], block[static_cast<size_t>(b)]);
+    }
+    const LcpResult part = Solve(Mb, qb, zb);
+    if (!part.solved) return false;
+    for (Eigen::Index a = 0; a < m; ++a) solution(block[static_cast<size_t>(a)]) = zb(a);
+  }
+  const double error = ComplementarityError(M, q, solution);
+  if (!(error <= std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon()))) return false;
+  z = solution;
+  result->solved = true;
+  result->used_fallback = true;
+  result->error = error;
+  result->message.clear();
+  return true;
+}
+
+double LcpSolver::PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                  Eigen::Ref<Eigen::VectorXd> z) const {
+  const Eigen::Index n = q.size();
+  double error = ComplementarityError(M, q, z);
+  Eigen::VectorXd trial = z;
+  std::vector<std::vector<Eigen::Index>> seen;  // the sets tried: a repeat ends the passes
+  for (int pass = 0; pass < 30; ++pass) {
+    const Eigen::VectorXd w = M * trial + q;
+    std::vector<Eigen::Index> active;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (trial(i) > w(i)) active.push_back(i);
+    }
+    if (std::find(seen.begin(), seen.end(), active) != seen.end()) break;
+    seen.push_back(active);
+    const Eigen::Index m = static_cast<Eigen::Index>(active.size());
+    Eigen::MatrixXd block(m, m);
+    Eigen::VectorXd rhs(m);
+    for (Eigen::Index a = 0; a < m; ++a) {
+      rhs(a) = -q(active[static_cast<size_t>(a)]);
+      for (Eigen::Index b = 0; b < m; ++b) block(a, b) = M(active[static_cast<size_t>(a)], active[static_cast<size_t>(b)]);
+    }
+    const Eigen::VectorXd zb = block.completeOrthogonalDecomposition().solve(rhs);
+    trial.setZero();
+    for (Eigen::Index a = 0; a < m; ++a) trial(active[static_cast<size_t>(a)]) = zb(a);
+    const double trial_error = ComplementarityError(M, q, trial);
+    if (trial_error < error) {  // the primal-dual active-set passes need not descend: keep the best
+      error = trial_error;
+      z = trial;
+    }
+  }
+  return error;
+}
+
 LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eigen::MatrixXd>& M,
                              const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z) {
   LcpResult result;
+  result.error = INFINITY;  // until an attempt is made and checked
   const int n = static_cast<int>(q.size());
   if (algorithm == LcpAlgorithm::kEnumerative && n > kMaxEnumerativeSize) {
     result.message = std::string("ENUMERATIVE refused: n = ") + std::to_string(n) + " > " +

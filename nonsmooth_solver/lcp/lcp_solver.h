@@ -58,9 +58,22 @@ class LcpSolver {
  private:
   LcpResult Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eigen::MatrixXd>& M,
                     const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z);
+  // The last resort after every algorithm failed: from the closest candidate z, the active set
+  // B = {i : z_i > w_i} solved exactly, M_BB z_B = −q_B (least squares where M_BB is singular,
+  // as at a degenerate contact), z_N = 0, the set updated from the new z a few times. Returns
+  // the complementarity error reached (z overwritten only if it improved).
+  // Another last resort: an LCP whose M is block diagonal under some permutation (contacts that
+  // do not interact, e.g. of nodes without springs between them, solved as one LCP) solved block
+  // by block with the whole chain, so that each small block can fall back to ENUMERATIVE.
+  // False if M is one block or a block fails.
+  bool SolveBlockByBlock(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                         Eigen::Ref<Eigen::VectorXd> z, LcpResult* result);
+  double PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
+                         Eigen::Ref<Eigen::VectorXd> z) const;
 
   LcpOptions options_;
-  Eigen::VectorXd w_;  // scratch for Siconos' w output
+  Eigen::VectorXd w_;     // scratch for Siconos' w output
+  Eigen::VectorXd best_;  // the closest failed attempt's z, for PolishActiveSet
 };
 
 // Reads an LCP in Siconos Numerics' test-data format (numerics/src/LCP/test/data/*.dat)

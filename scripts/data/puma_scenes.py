@@ -7,6 +7,9 @@ Usage: puma_scenes.py engage_continuous > scenarios/puma/engage_disengage_contin
        puma_scenes.py gust              > scenarios/puma/gust.pbtxt              (co-simulated)
        puma_scenes.py engage_mbdyn      > scenarios/puma/engage_disengage_mbdyn.pbtxt
          (the continuous engagement modelled as MBDyn's model of the same rotor, docs/reference/mbdyn-puma.md)
+       puma_scenes.py ship_engage_continuous > scenarios/puma/ship_engage_continuous.pbtxt
+       puma_scenes.py ship_engage            > scenarios/puma/ship_engage.pbtxt  (co-simulated)
+         (the engagement on a frigate's moving deck in its airwake, with the operating-limits envelope)
 """
 import math
 import os
@@ -16,6 +19,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = sys.argv[1] if len(sys.argv) > 1 else "engage_continuous"
 GUST = SCENE.startswith("gust")
+SHIP = SCENE.startswith("ship")
 # MBDyn's model of the same rotor (docs/reference/mbdyn-puma.md): the continuous engagement with
 # its Ω100, no lag stops, a rigid pitch bearing, its inflow correction and its airfoil's slope.
 MBDYN = SCENE == "engage_mbdyn"
@@ -59,9 +63,11 @@ node = (E_FLAP + node_x, 0.0, node_z)
 droop_normal = (-node_z, 0.0, node_x)
 up_x, up_z = node_offset(-DROOP)
 antiflap_normal = (up_z, 0.0, -up_x)
+# The ship scenes start the engagement at 5 s, once the deck's motion and the wind have grown in.
+SHIFT = 5 if SCENE.startswith("ship") else 0
 hub_drive = ("constant: 0" if GUST else
-             f"sum {{ terms {{ cosine_ramp {{ final_value: {-OMEGA:g} ramp_time: 20 }} }}\n"
-             f"                                               terms {{ cosine_ramp {{ final_value: {OMEGA:g} ramp_time: 20 start_time: 30 }} }} }}")
+             f"sum {{ terms {{ cosine_ramp {{ final_value: {-OMEGA:g} ramp_time: 20{f' start_time: {SHIFT}' if SHIFT else ''} }} }}\n"
+             f"                                               terms {{ cosine_ramp {{ final_value: {OMEGA:g} ramp_time: 20 start_time: {30 + SHIFT} }} }} }}")
 if COSIM:
     STOPS = f"""      contact_nodes {{ name: "blade{{k}}_stop_node" mass: {NODE_MASS} position: {v(node)}
                       contacts {{ obstacle: "blade{{k}}_droop" restitution: 0.8 }} contacts {{ obstacle: "blade{{k}}_antiflap" restitution: 0.8 }} }}
@@ -79,11 +85,11 @@ else:
                law {{ stiffness: 1e9 exponent: 1.5 restitution: 0.8 effective_restitution: true }} }} }}"""
     STOP_PROBES = """      probes { name: "blade{k}_stop_moment" quantity: CONTACT_FORCE entity: "blade{k}_stops" }"""
     COUPLING = ""
-TWIN = "gust_continuous.pbtxt" if GUST else "engage_disengage_continuous.pbtxt"
+TWIN = "gust_continuous.pbtxt" if GUST else ("ship_engage_continuous.pbtxt" if SHIP else "engage_disengage_continuous.pbtxt")
 # `scripts/cosim study compare` (the paper's Fig. 5 / Fig. 7): this scene against its continuous twin.
 # `scripts/cosim study timing`: MBDyn's continuous-contact model of the same rotor (peers.md: 2 s
 # settling + 50 s at h = 1e-4 s, minimal output, median of three runs on a quiet 2-core machine).
-PEER = "" if GUST else """
+PEER = "" if GUST or SHIP else """
   peer { name: "MBDyn, continuous-contact stops, h = 1e-4 s" wall_time: 787 simulated_time: 52
          source: "docs/reference/peers.md, median of 715, 787, 830 s on a quiet 2-core machine" }"""
 ENVELOPE = """
@@ -107,6 +113,31 @@ ENVELOPE = """
     set: "numerics.end_time=7"
     from_time: 0.9
   }""" if GUST else ""
+# The ship's operating-limits envelope (issue 35): wind speed in knots (radial) × relative wind
+# direction (around, clockwise from the bow as in a ship–helicopter operating-limits diagram).
+KNOT = 0.514444
+SHIP_KNOTS, SHIP_DIRECTION, K_WINDWARD, K_LEEWARD = 30, 30, 0.27, -0.1
+STOP_LOAD_PROBES = ('''    impulse_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse", "blade2_droop_impulse", "blade2_antiflap_impulse",
+                     "blade3_droop_impulse", "blade3_antiflap_impulse", "blade4_droop_impulse", "blade4_antiflap_impulse"]'''
+                    if COSIM else
+                    '''    force_probes: ["blade1_stop_moment", "blade2_stop_moment", "blade3_stop_moment", "blade4_stop_moment"]''')
+SHIP_ENVELOPE = f"""
+  # `scripts/cosim study envelope`: the engagement and disengagement over wind speed (5 to 45 kt)
+  # × relative wind direction (every 30°), the deck moving as below in every run. Measured per
+  # point: each tip's height above the deck plane (probes in the deck's frame), its lowest and
+  # when, the clearance above the tail-boom plane 2 m below the hub (8.4 m in the deck's frame;
+  # negative: a strike), the stops' peak load and impacts. Unsafe where the clearance is below
+  # 0.5 m (shaded).
+  envelope {{
+    axes {{ name: "wind speed" unit: "kt" values: [5, 10, 15, 20, 25, 30, 35, 40, 45]
+           set: "model.air.airwake.speed={{v * {KNOT}}}" }}
+    axes {{ name: "relative wind direction" unit: "deg" values: [0, 30, 60, 90, 120, 150, 180, 210, 240, 270, 300, 330]
+           set: "model.air.airwake.direction={{v}}" compass: true }}
+    tip_probes: ["blade1_tip_deck", "blade2_tip_deck", "blade3_tip_deck", "blade4_tip_deck"]
+    clearance_height: 8.4
+    unsafe_clearance: 0.5
+{STOP_LOAD_PROBES}
+  }}""" if SHIP else ""
 # The engagement's work-precision study (issue 31): each model against its own converged run —
 # the co-simulated one at h = 0.25 ms (a quarter of the scene's step: a finer co-simulated
 # reference costs hours), the continuous one at 0.125 ms — with the measures the issue names:
@@ -132,7 +163,7 @@ PRECISION = '''
   methods { name: "co-simulated, fixed h" sweep_values: [2e-3, 1e-3, 5e-4]
             contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"]
             reference { name: "co-simulated, h = 0.25 ms" set: ["numerics.step=2.5e-4", "output.every=8"]
-                        contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] } }''' if COSIM and not GUST else ""
+                        contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] } }''' if COSIM and not GUST and not SHIP else ""
 # MBDyn's histories beside this variant's and the continuous scene's, with the issue's measures of
 # agreement (issue 33): lift-off and re-contact within 50 ms, coning within 0.05°, lag within 1°;
 # and the variant with each of MBDyn's choices undone in turn, to size each one's share.
@@ -164,11 +195,22 @@ STUDY = f'''# `scripts/cosim study compare` draws blade 1 of both models on the 
 study {{
   probes: ["blade1_flap", "blade1_lag", "blade1_root_shear_z", "blade1_root_flap_moment", "blade1_tip_z"]
   compare {{ name: "co-simulated" contact_probes: ["blade1_droop_impulse", "blade1_antiflap_impulse"] }}
-  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}{ENVELOPE}{PRECISION}
-}}''' if COSIM else (MBDYN_STUDY if MBDYN else "")
+  compare {{ name: "continuous" scenario: "{TWIN}" contact_probes: ["blade1_stop_moment"] }}{PEER}{ENVELOPE}{PRECISION}{SHIP_ENVELOPE}
+}}''' if COSIM else (MBDYN_STUDY if MBDYN else (f"""# `scripts/cosim study envelope`: the operating-limits envelope of this continuous twin.
+study {{{SHIP_ENVELOPE}
+}}""" if SHIP else ""))
 # The coupling's defaults (interface Jacobians, tolerances 1e-9 m and 1e-6, no step accepted
 # unconverged) but for the restart at a new contact (see the file's comments).
 COUPLING_ITERATION = "coupling { iteration { restart_at_impact: false } }"
+DECK = """  moving_bases {
+    name: "deck" point: [0, 0, -10.4]
+    heave { harmonic { amplitude: 1 period: 8 phase: 2.1 ramp_time: 5 } }
+    roll { harmonic { amplitude: 0.0872664626 period: 10 ramp_time: 5 } }
+    pitch { harmonic { amplitude: 0.0523598776 period: 7 phase: 1.3 ramp_time: 5 } }
+  }
+""" if SHIP else ""
+TIP_DECK = """
+      probes { name: "blade{k}_tip_deck" quantity: POSITION entity: "blade{k}.n10" frame: "deck" component: Z }""" if SHIP else ""
 CUFF_MASS = 7.3512 - (NODE_MASS if COSIM else 0.0)
 PITCH_LINK_BODY = "" if MBDYN else f"""      bodies {{ name: "blade{{k}}_pitch_link" mass: 0.5 inertia: [0.00375, 0.00375, 1e-4] position: {v((horn[0], horn[1], horn[2] - 0.15))} }}
 """
@@ -183,10 +225,12 @@ AIRFOIL = "naca0012_mbdyn_slope" if MBDYN else "naca0012"
 # MBDyn's hover correction K_H = 1.1 scales its hover inflow by K_H² (docs/reference/mbdyn-puma.md).
 INFLOW_FACTOR = " induced_velocity_factor: 1.21" if MBDYN else ""
 stops_kind = "co-simulated stops (four contact processes)" if COSIM else "continuous-contact stops"
-title = ("still rotor in a gust (Fig. 7), " if GUST else "engagement and disengagement (Fig. 5), ") + stops_kind
+title = ("still rotor in a gust (Fig. 7), " if GUST else
+         "engagement and disengagement on a frigate's moving deck in its airwake, " if SHIP else
+         "engagement and disengagement (Fig. 5), ") + stops_kind
 if MBDYN:
     title = "engagement and disengagement, continuous-contact stops, modelled as MBDyn's model of the same rotor"
-HEADER = (f"""# SA330 research Puma, the rotor-sailing paper's {title}: four articulated
+HEADER = (f"""# SA330 research Puma, {'' if SHIP else "the rotor-sailing paper's "}{title}: four articulated
 # elastic blades, one written once (`patterns`), {"co-simulated: each blade has a contact node against" if COSIM else "monolithic: the stops are Hunt–Crossley laws on"}
 # {"a droop and an anti-flap plane on the hub, in its own contact process (Moreau–Jean, Lemke)" if COSIM else "the flap hinges"}. Generated by scripts/data/puma_scenes.py {SCENE}; the blade tables by
 # scripts/data/puma_blade_stations.py. Data: docs/reference/puma.md, aero.md.
@@ -252,6 +296,33 @@ MBDYN_HEADER = f"""# SA330 research Puma, engagement and disengagement with cont
 # 5 quadratic beam elements with distributed mass (MBDyn: three-node beams, mass lumped at the
 # nodes), CGα at h = 2 ms (MBDyn: multistep, ρ∞ = 0.6, h = 1e-4 s)."""
 print(MBDYN_HEADER if MBDYN else HEADER)
+if SHIP:
+    print(f"""# The ship (issue 35; every figure below a stated choice, docs/reference/ship.md for the sources):
+# - the rotor on a frigate's flight deck: the hub 4.4 m above the deck (the Puma's rotor-head
+#   height on its wheels, a choice); the deck moved by model.moving_bases "deck" (the shaft's
+#   body1), its rotations about a point 6 m below the deck on the hub's vertical (a roll and
+#   pitch centre near the waterline, a choice): roll 5° amplitude, 10 s period; pitch 3°, 7 s;
+#   heave 1 m, 8 s (the amplitudes at the helicopter-operations roll and pitch limits of
+#   docs/reference/ship.md; the periods and the heave are choices); each a sine ramped in over
+#   the first 5 s (ramp_time), so that the deck is at rest and level when the run starts; the
+#   phases 0, 1.3 and 2.1 rad (a choice: the three do not peak together);
+# - the airwake: a mean wind of {SHIP_KNOTS} kt (model.air.airwake.speed in m/s) from {SHIP_DIRECTION}° (where
+#   the wind comes from, clockwise from the bow: from the starboard bow), its vertical part
+#   LINEAR across the disk from an up-wash of {K_WINDWARD} V at the windward edge (ξ = −R) to {K_LEEWARD} V at the
+#   leeward edge (+R), R = 7.49 m (0.27 = tan 15°, the low end of docs/reference/ship.md's deck-edge
+#   up-flow angles; the leeward down-wash a choice);
+#   the airwake does not follow the deck's oscillation (the ship's mean frame);
+# - the timeline: the scene starts at rest in still air on a level deck, settled
+#   (numerics.smooth.settle: the elastic blades sagged on their droop stops, not released
+#   straight); over the first 5 s the deck's motion and the wind grow in (the airwake's
+#   ramp_time) with the rotor stopped; the engagement's run-up starts at 5 s, its run-down at
+#   35 s (the fixed-hub scene's, 5 s later), and the run ends at 55 s. Not settled in the wind
+#   itself: a stopped blade's lag has no stiffness (a damper and ±15° stops only), and the static
+#   solve finds no equilibrium from the drawn pose (observed: no convergence in 50 Newton
+#   iterations);
+# - clearance: probes blade{{k}}_tip_deck give each tip's height in the deck's frame (origin 6 m
+#   below the deck): the deck plane is at 6 m, the hub at 10.4 m; the envelope's clearance
+#   plane, 2 m below the hub (the tail boom's top, a choice: the data have no fuselage), at 8.4 m.""")
 if GUST:
     print("""# - gust: 1 − cos pulse, 100 m long, its front travelling along +y at 25 m/s (4 s at a point,
 #   puma.md's choice), reaching the disk's edge at t = 1 s; collective 10° (added to the aero
@@ -267,8 +338,8 @@ print(f"""name: "puma_{SCENE}"
 description: "SA330 Puma rotor, {title}"
 model {{
   gravity: [0, 0, -9.81]
-  bodies {{ name: "hub" mass: 50 inertia: [5, 5, 10] position: [0, 0, 0] }}
-  joints {{ name: "shaft" type: REVOLUTE body1: "ground" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
+{DECK}  bodies {{ name: "hub" mass: 50 inertia: [5, 5, 10] position: [0, 0, 0] }}
+  joints {{ name: "shaft" type: REVOLUTE body1: "{'deck' if SHIP else 'ground'}" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
            drive {{ quantity: ANGULAR_SPEED function {{ {hub_drive} }} }} }}
   air {{""")
 if GUST:
@@ -276,6 +347,8 @@ if GUST:
             profile { cosine_pulse { peak: 35 duration: 100 } } }""")
 if MBDYN:
     print("""    airfoils { name: "naca0012_mbdyn_slope" builtin_lift_slope: 6.04 }""")
+if SHIP:
+    print(f"""    airwake {{ speed: {SHIP_KNOTS * KNOT:.6g} direction: {SHIP_DIRECTION} form: LINEAR windward: {K_WINDWARD} leeward: {K_LEEWARD} length: {R} ramp_time: 5 }}""")
 print(f"""    rotors {{ name: "rotor" hub: "hub" axis: [0, 0, 1] radius: 7.49 inflow: UNIFORM{INFLOW_FACTOR} surfaces: ["blade{{blades}}"] }}
   }}
 }}
@@ -312,7 +385,7 @@ patterns {{
       probes {{ name: "blade{{k}}_root_shear_z" quantity: SECTION_FORCE entity: "blade{{k}}" station: 0.5 component: Z }}
       probes {{ name: "blade{{k}}_root_flap_moment" quantity: SECTION_MOMENT entity: "blade{{k}}" station: 0.5 component: Y }}
       probes {{ name: "blade{{k}}_tip_z" quantity: POSITION entity: "blade{{k}}.n10" component: Z }}
-{STOP_PROBES}
+{STOP_PROBES}{TIP_DECK}
     }}
   }}
 }}
@@ -359,9 +432,9 @@ patterns {{
 # multipliers for converged: mended, docs/design.md.) Output every step: rows every 2 ms, as the
 # co-simulated twin's.''')}
 numerics {{
-  end_time: {15 if GUST else 50}
+  end_time: {15 if GUST else 50 + SHIFT}
   step: {'2e-3' if not COSIM and not GUST else '1e-3'}
-  smooth {{ rho_inf: 0.6 jacobian_max_age: {40 if not COSIM and not GUST else 20}{'' if COSIM and GUST else ' constraint_form: INDEX3'}{'' if GUST else ' jacobian_frame: "hub"'} }}
+  smooth {{ {'settle: true ' if SHIP else ''}rho_inf: 0.6 jacobian_max_age: {40 if not COSIM and not GUST else 20}{'' if COSIM and GUST else ' constraint_form: INDEX3'}{'' if GUST else ' jacobian_frame: "hub"'} }}
 }}
 output {{
   every: {1 if not COSIM and not GUST else 2}

@@ -1,6 +1,9 @@
 #include "smooth_solver/aero/aero_model.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <numbers>
 
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/model/multibody_model.h"
@@ -11,6 +14,106 @@ namespace sc = cosim::scenario;
 using interface::Checks;
 using interface::ElementPath;
 using interface::FormatNumber;
+
+namespace {
+
+// An airwake survey's grid: every (x, y) of its distinct x's and y's exactly once, any order.
+void ReadAirwakeGrid(const Checks& checks, const std::string& path, const sc::Airwake& a, Airwake* w) {
+  if (a.grid_size() == 0) checks.Fail(path + ".grid", "is empty; give grid_file or the grid's points");
+  for (const sc::Airwake::GridPoint& p : a.grid()) {
+    w->xs.push_back(p.x());
+    w->ys.push_back(p.y());
+  }
+  for (std::vector<double>* knots : {&w->xs, &w->ys}) {
+    std::sort(knots->begin(), knots->end());
+    knots->erase(std::unique(knots->begin(), knots->end()), knots->end());
+  }
+  const size_t nx = w->xs.size(), ny = w->ys.size();
+  if (static_cast<size_t>(a.grid_size()) != nx * ny) {
+    checks.Fail(path + ".grid", std::to_string(a.grid_size()) + " points over " + std::to_string(nx) + " distinct x and " +
+                                    std::to_string(ny) + " distinct y; a rectangular grid has every (x, y) once (" +
+                                    std::to_string(nx * ny) + " points)");
+  }
+  w->grid.assign(nx * ny, Eigen::Vector3d::Zero());
+  std::vector<bool> seen(nx * ny, false);
+  for (int k = 0; k < a.grid_size(); ++k) {
+    const sc::Airwake::GridPoint& p = a.grid(k);
+    const size_t i = static_cast<size_t>(std::lower_bound(w->xs.begin(), w->xs.end(), p.x()) - w->xs.begin());
+    const size_t j = static_cast<size_t>(std::lower_bound(w->ys.begin(), w->ys.end(), p.y()) - w->ys.begin());
+    if (seen[i * ny + j]) {
+      checks.Fail(ElementPath(path + ".grid", k),
+                  "repeats the point (" + FormatNumber(p.x()) + ", " + FormatNumber(p.y()) + "); each once");
+    }
+    seen[i * ny + j] = true;
+    w->grid[i * ny + j] = Eigen::Vector3d(p.u(), p.v(), p.w());
+  }
+}
+
+// proto Airwake, validated: every form's own fields present, none of another form's.
+Airwake BuildAirwake(const Checks& checks, const sc::Airwake& a) {
+  const std::string path = "model.air.airwake";
+  Airwake w;
+  checks.Require(path + ".speed", a.has_speed(), "the mean wind speed V [m/s] >= 0");
+  w.speed = checks.NonNegative(path + ".speed", a.speed(), "m/s");
+  checks.Require(path + ".form", a.form() != sc::Airwake::FORM_UNSPECIFIED, "UNIFORM, LINEAR, STEP or TABLE");
+  w.origin = checks.Vector3(path + ".origin", a.origin(), Eigen::Vector3d::Zero());
+  w.up = a.up_size() > 0 ? checks.Direction(path + ".up", a.up()) : Eigen::Vector3d::UnitZ();
+  w.bow = a.bow_size() > 0 ? checks.Direction(path + ".bow", a.bow()) : Eigen::Vector3d::UnitX();
+  if (std::abs(w.bow.dot(w.up)) > 1e-9) {
+    checks.Fail(path + ".bow", "must be perpendicular to up (the ship's forward axis is horizontal); bow · up = " +
+                                   FormatNumber(w.bow.dot(w.up)));
+  }
+  w.port = w.up.cross(w.bow);
+  w.ramp_time = checks.NonNegative(path + ".ramp_time", a.ramp_time(), "s");
+  const sc::Airwake::Form form = a.form();
+  // Which fields each form reads; any other given is refused, not ignored.
+  const bool uses_leeward = form == sc::Airwake::LINEAR || form == sc::Airwake::STEP;
+  const std::vector<std::pair<std::string, bool>> unused = {
+      {"direction", form == sc::Airwake::TABLE && a.has_direction()},
+      {"windward", form == sc::Airwake::TABLE && a.has_windward()},
+      {"leeward", !uses_leeward && a.has_leeward()},
+      {"length", form != sc::Airwake::LINEAR && a.has_length()},
+      {"edge", form != sc::Airwake::STEP && a.has_edge()},
+      {"edge_width", form != sc::Airwake::STEP && a.has_edge_width()},
+      {"grid", form != sc::Airwake::TABLE && a.grid_size() > 0}};
+  for (const auto& [field, given] : unused) {
+    if (given) checks.Fail(path + "." + field, "is not read by form " + sc::Airwake::Form_Name(form) + "; remove it");
+  }
+  if (form == sc::Airwake::TABLE) {
+    w.form = Airwake::Form::kTable;
+    ReadAirwakeGrid(checks, path, a, &w);
+    return w;
+  }
+  checks.Require(path + ".direction", a.has_direction(),
+                 "the relative wind direction [deg]: where the wind comes from, clockwise from the bow (0: head wind)");
+  const double psi = a.direction() * std::numbers::pi / 180.0;
+  w.along = -std::cos(psi) * w.bow + std::sin(psi) * w.port;  // V (−cos ψ, sin ψ) in ship axes
+  checks.Require(path + ".windward", a.has_windward(), "the vertical velocity over V on the windward side");
+  w.windward = a.windward();
+  if (uses_leeward) {
+    checks.Require(path + ".leeward", a.has_leeward(), "the vertical velocity over V on the leeward side");
+    w.leeward = a.leeward();
+  }
+  switch (form) {
+    case sc::Airwake::UNIFORM:
+      w.form = Airwake::Form::kUniform;
+      break;
+    case sc::Airwake::LINEAR:
+      w.form = Airwake::Form::kLinear;
+      w.length = checks.Positive(path + ".length", a.has_length(), a.length(), "m");
+      break;
+    case sc::Airwake::STEP:
+      w.form = Airwake::Form::kStep;
+      w.edge = a.edge();
+      w.edge_width = checks.Positive(path + ".edge_width", a.has_edge_width(), a.edge_width(), "m");
+      break;
+    default:
+      checks.Fail(path + ".form", "unknown form " + std::to_string(static_cast<int>(form)));
+  }
+  return w;
+}
+
+}  // namespace
 
 void AddAero(const Checks& checks, const interface::NameTable& body_names, MultibodyModel* model) {
   const sc::Model& m = checks.file().proto().model();
@@ -24,6 +127,7 @@ void AddAero(const Checks& checks, const interface::NameTable& body_names, Multi
   if (a.has_wind_x()) air.wind[0] = interface::TimeFunction::Build(checks, "model.air.wind_x", a.wind_x());
   if (a.has_wind_y()) air.wind[1] = interface::TimeFunction::Build(checks, "model.air.wind_y", a.wind_y());
   if (a.has_wind_z()) air.wind[2] = interface::TimeFunction::Build(checks, "model.air.wind_z", a.wind_z());
+  if (a.has_airwake()) air.airwake = BuildAirwake(checks, a.airwake());
   for (int i = 0; i < a.gusts_size(); ++i) {
     const sc::Gust& g = a.gusts(i);
     const std::string path = ElementPath("model.air.gusts", i);

@@ -52,8 +52,59 @@ double Smoothstep(double x) {
 
 }  // namespace
 
+double Airwake::Ratio(double xi) const {
+  switch (form) {
+    case Form::kUniform:
+      return windward;
+    case Form::kLinear: {
+      // windward at ξ = −L, leeward at +L, held beyond.
+      const double s = std::clamp(0.5 * (xi / length + 1.0), 0.0, 1.0);
+      return windward + s * (leeward - windward);
+    }
+    case Form::kStep: {
+      // A half cosine over the blend: windward before edge − w/2, leeward after edge + w/2.
+      const double s = std::clamp((xi - edge) / edge_width + 0.5, 0.0, 1.0);
+      return windward + 0.5 * (1.0 - std::cos(std::numbers::pi * s)) * (leeward - windward);
+    }
+    case Form::kNone:
+    case Form::kTable:
+      break;
+  }
+  return 0.0;
+}
+
+Vector3d Airwake::Velocity(const Vector3d& x, double t) const {
+  if (form == Form::kNone || (t <= 0.0 && ramp_time > 0.0)) return Vector3d::Zero();
+  const double v =
+      ramp_time > 0.0 && t < ramp_time ? 0.5 * (1.0 - std::cos(std::numbers::pi * t / ramp_time)) * speed : speed;
+  const Vector3d r = x - origin;
+  if (form != Form::kTable) return v * (along + Ratio(along.dot(r)) * up);
+  // Bilinear in the cell holding (x_s, y_s), the point held onto the grid's edges.
+  auto cell = [](const std::vector<double>& knots, double at, size_t* i, double* s) {
+    if (knots.size() == 1 || at <= knots.front()) {
+      *i = 0;
+      *s = 0.0;
+    } else if (at >= knots.back()) {
+      *i = knots.size() - 2;
+      *s = 1.0;
+    } else {
+      *i = static_cast<size_t>(std::upper_bound(knots.begin(), knots.end(), at) - knots.begin()) - 1;
+      *s = (at - knots[*i]) / (knots[*i + 1] - knots[*i]);
+    }
+  };
+  size_t i = 0, j = 0;
+  double sx = 0.0, sy = 0.0;
+  cell(xs, bow.dot(r), &i, &sx);
+  cell(ys, port.dot(r), &j, &sy);
+  const size_t ny = ys.size(), i1 = std::min(i + 1, xs.size() - 1), j1 = std::min(j + 1, ny - 1);
+  const Vector3d ship = (1 - sx) * ((1 - sy) * grid[i * ny + j] + sy * grid[i * ny + j1]) +
+                        sx * ((1 - sy) * grid[i1 * ny + j] + sy * grid[i1 * ny + j1]);
+  return v * (ship.x() * bow + ship.y() * port + ship.z() * up);
+}
+
 Vector3d AirModel::Velocity(const Vector3d& x, double t) const {
   Vector3d u(wind[0].Value(t), wind[1].Value(t), wind[2].Value(t));
+  u += airwake.Velocity(x, t);
   for (const GustFront& g : gusts) {
     const double d = g.front_speed * t - g.front_direction.dot(x - g.origin);
     u += g.profile.Value(d) * g.direction;

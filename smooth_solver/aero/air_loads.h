@@ -35,10 +35,32 @@ struct GustFront {
   interface::TimeFunction profile;  // gust speed against the distance travelled past x
 };
 
+// A ship's airwake (proto Airwake; docs/design.md "Airwake"): the mean wind V d plus the vertical
+// k(ξ) V up, ξ = d · (x − origin) the distance along the wind, or a surveyed grid in ship axes.
+struct Airwake {
+  enum class Form { kNone, kUniform, kLinear, kStep, kTable };
+  Form form = Form::kNone;
+  double speed = 0.0;                                 // V
+  double windward = 0.0, leeward = 0.0;               // k at the windward and leeward sides
+  double length = 1.0, edge = 0.0, edge_width = 1.0;  // LINEAR's L; STEP's edge and blend width
+  double ramp_time = 0.0;                             // the field's ½ (1 − cos) growth from t = 0
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bow = Eigen::Vector3d::UnitX(), port = Eigen::Vector3d::UnitY(), up = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d along = -Eigen::Vector3d::UnitX();  // d, the direction the wind blows towards
+  // kTable: the grid's distinct x and y (increasing) and its [u, v, w]/V at (xs[i], ys[j]) in
+  // grid[i * ys.size() + j], ship axes.
+  std::vector<double> xs, ys;
+  std::vector<Eigen::Vector3d> grid;
+
+  double Ratio(double xi) const;  // k(ξ), the vertical velocity over V
+  Eigen::Vector3d Velocity(const Eigen::Vector3d& x, double t) const;
+};
+
 struct AirModel {
   double density = 1.225, speed_of_sound = 340.0, guard_speed = 0.1;
   std::array<interface::TimeFunction, 3> wind;
   std::vector<GustFront> gusts;
+  Airwake airwake;
   // Velocity of the air at x, t (without induced velocity).
   Eigen::Vector3d Velocity(const Eigen::Vector3d& x, double t) const;
 };

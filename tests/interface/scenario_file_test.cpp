@@ -274,6 +274,43 @@ TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(StationFiles, ATimeFunctionTableTakesTwoNamedColumnsOfACsvRecord) {
+  // A ship-motion record (time, roll in degrees, heave) drives the deck: `file` with the time
+  // and value columns named, the values scaled into radians. The scenario then holds the table
+  // as if written inline. Mistakes name the field and the file's line.
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cosim_columns_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  write("deck.csv", "# trial 7, sea state 5\nt, roll_deg, heave\n0, 0, 0\n0.5, 2.0, 0.1\n1.0, 3.5, 0.15\n");
+  const std::string scene =
+      "model { moving_bases { name: \"deck\" roll { table { file: \"deck.csv\" time_column: \"t\" "
+      "value_column: \"roll_deg\" value_scale: 0.017453292519943295 interpolation: CUBIC } } } }\n";
+  write("main.pbtxt", scene);
+  const ScenarioFile f = ScenarioFile::Load((dir / "main.pbtxt").string(), {});
+  const auto& roll = f.proto().model().moving_bases(0).roll().table();
+  EXPECT_FALSE(roll.has_file());
+  ASSERT_EQ(roll.time_size(), 3);
+  EXPECT_EQ(roll.time(2), 1.0);
+  EXPECT_NEAR(roll.value(1), 2.0 * 0.017453292519943295, 1e-17);
+  auto error_with = [&](const std::string& csv, const std::vector<std::string>& sets = {}) {
+    write("deck.csv", csv);
+    return MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), sets); });
+  };
+  std::string m = error_with("time, roll_deg\n0, 1\n");
+  EXPECT_NE(m.find("model.moving_bases[0].roll.table.time_column: '" + (dir / "deck.csv").string() +
+                   "' line 1: no column 't'; the header has time, roll_deg"),
+            std::string::npos)
+      << m;
+  m = error_with("t, roll_deg\n0, 1\n0.5, one\n");
+  EXPECT_NE(m.find("line 3, column 'roll_deg': 'one' is not a finite number"), std::string::npos) << m;
+  m = error_with("t, roll_deg\n0, 1\n", {"model.moving_bases[0].roll.table.time=[0]"});
+  EXPECT_NE(m.find("model.moving_bases[0].roll.table.file: given with time or value too"), std::string::npos) << m;
+  m = error_with("t, roll_deg\n");
+  EXPECT_NE(m.find("holds no rows"), std::string::npos) << m;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ScenarioFile, ChecksNameFieldValueAndExpectation) {
   const ScenarioFile f = ScenarioFile::Parse(kText, "f.pbtxt", {"model.contact_nodes[0].mass=-1"});
   const Checks checks(f);

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "smooth_solver/simulation/multibody_simulation.h"
 
@@ -96,6 +97,46 @@ TEST(PumaScenes, BladesLiftOffTheirDroopStopsAsTheRotorSpinsUpAndTheLagStopsHold
   EXPECT_GT(largest_lag, 14.0);  // on the lag stop ...
   EXPECT_LT(largest_lag, 15.5);  // ... which holds it (K = 1e8: ~0.1° deep)
   EXPECT_EQ(v[static_cast<size_t>(Column(sim, "blade1_stop_moment"))], 0.0);  // the flap stops free
+}
+
+TEST(PumaScenes, TheShipSceneOnAStillDeckInStillAirIsTheFixedHubEngagement) {
+  // ship_engage_continuous with its deck's three motions at zero amplitude, the airwake's wind at
+  // zero, its run-up moved to t = 0 and no settling: the rotor on the still deck is the fixed-hub engagement
+  // (engage_disengage_continuous) — the first 6 s, through blade 1's lift-off at ~5.2 s, every
+  // probe of the fixed-hub scene within 1e-6 of its largest value (Newton to 1e-12). The deck's
+  // 60 coordinates are driven to exactly zero, so only the solves' round-off differs.
+  const std::vector<std::string> tight = {"numerics.smooth.newton_tolerance=1e-12", "numerics.end_time=6"};
+  std::vector<std::string> still = tight;
+  for (const std::string motion : {"heave", "roll", "pitch"})
+    still.push_back("model.moving_bases[0]." + motion + ".harmonic.amplitude=0");
+  still.push_back("model.air.airwake.speed=0");
+  still.push_back("numerics.smooth.settle=false");  // the fixed-hub scene starts as drawn
+  // The ship scene's run-up starts at 5 s (after its deck and wind grow in): moved back to 0.
+  still.push_back("model.joints[shaft].drive.function.sum.terms[0].cosine_ramp.start_time=0");
+  still.push_back("model.joints[shaft].drive.function.sum.terms[1].cosine_ramp.start_time=30");
+  MultibodySimulation ship(interface::ScenarioFile::Load(kPuma + "ship_engage_continuous.pbtxt", still));
+  MultibodySimulation ground(interface::ScenarioFile::Load(kPuma + "engage_disengage_continuous.pbtxt", tight));
+  std::vector<double> a(ground.ProbeNames().size()), b(ship.ProbeNames().size());
+  const std::vector<std::string> names = ground.ProbeNames();
+  std::vector<double> scale(names.size(), 0.0), worst(names.size(), 0.0);
+  const double h = 2e-3;
+  for (int s = 0; s < 3000; ++s) {
+    ground.Step(s * h, h);
+    ship.Step(s * h, h);
+    ground.Probe(&a);
+    ship.Probe(&b);
+    for (size_t i = 0; i < names.size(); ++i) {
+      const double other = b[static_cast<size_t>(Column(ship, names[i]))];
+      scale[i] = std::max(scale[i], std::abs(a[i]));
+      worst[i] = std::max(worst[i], std::abs(other - a[i]));
+    }
+  }
+  for (size_t i = 0; i < names.size(); ++i) EXPECT_LE(worst[i], 1e-6 * scale[i] + 1e-12) << names[i];
+  const double deg = 180 / std::numbers::pi;
+  std::printf("still deck: blade 1 flap %.4f° on the deck, %.4f° on the ground at 6 s\n",
+              b[static_cast<size_t>(Column(ship, "blade1_flap"))] * deg,
+              a[static_cast<size_t>(Column(ground, "blade1_flap"))] * deg);
+  EXPECT_GT(a[static_cast<size_t>(Column(ground, "blade1_flap"))] * deg, -9.9);  // lifted off: the window covers it
 }
 
 TEST(PumaScenes, AFiveBladeRotorIsOneNumber) {

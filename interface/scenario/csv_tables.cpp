@@ -1,0 +1,223 @@
+#include "interface/scenario/csv_tables.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "interface/scenario/message_tree.h"
+
+namespace cosim::interface {
+
+namespace {
+
+namespace pb = google::protobuf;
+
+std::string Trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t\r\"");
+  if (a == std::string::npos) return "";
+  const size_t b = s.find_last_not_of(" \t\r\"");
+  return s.substr(a, b - a + 1);
+}
+
+std::vector<std::string> Cells(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream in(line);
+  std::string cell;
+  while (std::getline(in, cell, ',')) cells.push_back(Trim(cell));
+  if (!line.empty() && line.back() == ',') cells.push_back("");
+  return cells;
+}
+
+std::string Known(const pb::Descriptor* d) {
+  std::string names;
+  for (int i = 0; i < d->field_count(); ++i) {
+    const pb::FieldDescriptor* f = d->field(i);
+    if (f->is_repeated() || f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    names += (names.empty() ? "" : ", ") + f->name();
+  }
+  return names;
+}
+
+// A number from a CSV cell, or nothing.
+bool ReadNumber(const std::string& cell, double* value) {
+  char* end = nullptr;
+  errno = 0;
+  *value = std::strtod(cell.c_str(), &end);
+  return end != cell.c_str() && *end == '\0' && errno != ERANGE && std::isfinite(*value);
+}
+
+// Reads one file (m's field `file_field`) into `rows` (a repeated message field of `m`), one
+// message per row; `path` is m's field path.
+void Load(pb::Message* m, const pb::FieldDescriptor* file_field, const pb::FieldDescriptor* stations,
+          const std::string& path, const std::function<std::filesystem::path(const std::string&)>& resolve,
+          const std::function<void(const std::string&, const std::string&)>& fail) {
+  const pb::Reflection* r = m->GetReflection();
+  const std::string given = r->GetString(*m, file_field);
+  const std::string place = path + "." + file_field->name();
+  if (r->FieldSize(*m, stations) > 0)
+    fail(place, "given with " + stations->name() + " too; give the table in one of them");
+  const std::filesystem::path file = resolve(given);
+  std::ifstream in(file);
+  if (!in)
+    fail(place, "'" + file.string() + "' cannot be read; expected a CSV file of " + stations->name() +
+                    " (relative paths are from the scenario file's folder)");
+  const pb::Descriptor* station = stations->message_type();
+  std::vector<const pb::FieldDescriptor*> columns;
+  std::string line;
+  int number = 0, rows = 0;
+  auto where = [&](const std::string& column) {
+    return "'" + file.string() + "' line " + std::to_string(number) +
+           (column.empty() ? "" : ", column '" + column + "'");
+  };
+  while (std::getline(in, line)) {
+    ++number;
+    const std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') continue;
+    const std::vector<std::string> cells = Cells(line);
+    if (columns.empty()) {
+      for (const std::string& name : cells) {
+        const pb::FieldDescriptor* f = station->FindFieldByName(name);
+        if (f == nullptr || f->is_repeated() || f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+          fail(place, where("") + ": '" + name + "' is not a field of " + station->name() + "; expected a header of " +
+                          Known(station));
+        }
+        for (const pb::FieldDescriptor* seen : columns) {
+          if (seen == f) fail(place, where("") + ": column '" + name + "' is given twice");
+        }
+        columns.push_back(f);
+      }
+      continue;
+    }
+    if (cells.size() != columns.size()) {
+      fail(place, where("") + ": " + std::to_string(cells.size()) + " cells; the header has " +
+                      std::to_string(columns.size()) + " columns");
+    }
+    pb::Message* s = r->AddMessage(m, stations);
+    const pb::Reflection* sr = s->GetReflection();
+    for (size_t c = 0; c < columns.size(); ++c) {
+      const pb::FieldDescriptor* f = columns[c];
+      if (cells[c].empty()) continue;
+      if (f->cpp_type() == pb::FieldDescriptor::CPPTYPE_STRING) {
+        sr->SetString(s, f, cells[c]);
+        continue;
+      }
+      double v = 0.0;
+      const bool whole =
+          f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE && f->cpp_type() != pb::FieldDescriptor::CPPTYPE_FLOAT;
+      if (!ReadNumber(cells[c], &v) || (whole && v != std::floor(v))) {
+        fail(place, where(f->name()) + ": '" + cells[c] + "' is not " + (whole ? "a whole number" : "a finite number"));
+      }
+      switch (f->cpp_type()) {
+        case pb::FieldDescriptor::CPPTYPE_DOUBLE:
+          sr->SetDouble(s, f, v);
+          break;
+        case pb::FieldDescriptor::CPPTYPE_FLOAT:
+          sr->SetFloat(s, f, static_cast<float>(v));
+          break;
+        case pb::FieldDescriptor::CPPTYPE_INT32:
+          sr->SetInt32(s, f, static_cast<int32_t>(v));
+          break;
+        case pb::FieldDescriptor::CPPTYPE_INT64:
+          sr->SetInt64(s, f, static_cast<int64_t>(v));
+          break;
+        default:
+          fail(place, where(f->name()) + ": this column cannot be read from a CSV cell");
+      }
+    }
+    ++rows;
+  }
+  if (columns.empty() || rows == 0)
+    fail(place, "'" + file.string() + "' holds no " + stations->name() + "; expected a header line and one row each");
+  r->ClearField(m, file_field);
+}
+
+// A TimeFunction table's `file`: its time and value columns into `time` and `value`.
+void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
+                 const std::function<std::filesystem::path(const std::string&)>& resolve,
+                 const std::function<void(const std::string&, const std::string&)>& fail) {
+  const std::string place = path + ".file";
+  if (table->time_size() > 0 || table->value_size() > 0)
+    fail(place, "given with time or value too; give the table in one of them");
+  if (!table->has_value_column())
+    fail(path + ".value_column", "is missing; name the file's column that holds the values");
+  const std::string time_name = table->has_time_column() ? table->time_column() : "time";
+  const std::filesystem::path file = resolve(table->file());
+  std::ifstream in(file);
+  if (!in)
+    fail(place, "'" + file.string() +
+                    "' cannot be read; expected a CSV file with a header line naming its columns (relative "
+                    "paths are from the scenario file's folder)");
+  std::vector<std::string> header;
+  int time_at = -1, value_at = -1, number = 0;
+  std::string line;
+  auto where = [&]() { return "'" + file.string() + "' line " + std::to_string(number); };
+  while (std::getline(in, line)) {
+    ++number;
+    const std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') continue;
+    const std::vector<std::string> cells = Cells(line);
+    if (header.empty()) {
+      header = cells;
+      std::string names;
+      for (size_t c = 0; c < cells.size(); ++c) {
+        names += (c == 0 ? "" : ", ") + cells[c];
+        for (size_t d = 0; d < c; ++d) {
+          if (cells[d] == cells[c]) fail(place, where() + ": column '" + cells[c] + "' is given twice");
+        }
+        if (cells[c] == time_name) time_at = static_cast<int>(c);
+        if (cells[c] == table->value_column()) value_at = static_cast<int>(c);
+      }
+      if (time_at < 0)
+        fail(path + ".time_column", where() + ": no column '" + time_name + "'; the header has " + names);
+      if (value_at < 0)
+        fail(path + ".value_column", where() + ": no column '" + table->value_column() + "'; the header has " + names);
+      continue;
+    }
+    if (cells.size() != header.size()) {
+      fail(place, where() + ": " + std::to_string(cells.size()) + " cells; the header has " +
+                      std::to_string(header.size()) + " columns");
+    }
+    double t = 0.0, v = 0.0;
+    for (auto [at, into] : {std::pair{time_at, &t}, std::pair{value_at, &v}}) {
+      const std::string& cell = cells[static_cast<size_t>(at)];
+      if (!ReadNumber(cell, into)) {
+        fail(place, where() + ", column '" + header[static_cast<size_t>(at)] + "': '" + cell +
+                        "' is not a finite number");
+      }
+    }
+    table->add_time(t);
+    table->add_value(v * table->value_scale());
+  }
+  if (header.empty() || table->time_size() == 0)
+    fail(place, "'" + file.string() + "' holds no rows; expected a header line and one row per time");
+  table->clear_file();
+}
+
+void Walk(pb::Message* m, const std::string& path,
+          const std::function<std::filesystem::path(const std::string&)>& resolve,
+          const std::function<void(const std::string&, const std::string&)>& fail) {
+  const pb::Reflection* r = m->GetReflection();
+  for (auto [file_name, rows_name] : {std::pair{"stations_file", "stations"}, std::pair{"grid_file", "grid"}}) {
+    const pb::FieldDescriptor* file_field = m->GetDescriptor()->FindFieldByName(file_name);
+    const pb::FieldDescriptor* rows = m->GetDescriptor()->FindFieldByName(rows_name);
+    if (file_field != nullptr && rows != nullptr && r->HasField(*m, file_field))
+      Load(m, file_field, rows, path, resolve, fail);
+  }
+  if (m->GetDescriptor() == scenario::TimeFunction::Table::descriptor()) {
+    auto* table = static_cast<scenario::TimeFunction::Table*>(m);
+    if (table->has_file()) LoadColumns(table, path, resolve, fail);
+  }
+  ForEachChild(m, path, [&](pb::Message* child, const std::string& at) { Walk(child, at, resolve, fail); });
+}
+
+}  // namespace
+
+void LoadCsvTables(scenario::Scenario* proto, const std::function<std::filesystem::path(const std::string&)>& resolve,
+                   const std::function<void(const std::string&, const std::string&)>& fail) {
+  Walk(proto, "", resolve, fail);
+}
+
+}  // namespace cosim::interface

@@ -1527,8 +1527,8 @@ def plot_operating_limits(runs, axes, names, spec, path, title):
     ax.set_rlabel_position(135)
     sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
     fig.colorbar(sm, ax=ax, shrink=0.7, label="smallest tip clearance [m]")
-    ax.set_title(f"{title}: operating limits\n{names[0]} [{axes[0].get('unit', '')}] radial, {names[1]} around; "
-                 f"hatched: clearance < {threshold:g} m or failed (x)", fontsize=9)
+    ax.set_title(f"{title}: operating limits\nradial: {names[0]} [{axes[0].get('unit', '')}]; around: {names[1]}\n"
+                 f"hatched: clearance < {threshold:g} m or a failed run (x)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -91,7 +91,8 @@ LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eig
       }
     }
   }
-  if (!result.solved && std::isfinite(best_error)) {
+  // The last resorts, only where fallbacks are wanted at all (fallback [NONE] keeps a failure).
+  if (!result.solved && !options_.fallbacks.empty() && std::isfinite(best_error)) {
     z = best_;
     const double error = PolishActiveSet(M, q, z);
     const double accepted = std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon());

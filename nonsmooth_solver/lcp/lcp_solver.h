@@ -58,7 +58,8 @@ class LcpSolver {
  private:
   LcpResult Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eigen::MatrixXd>& M,
                     const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z);
-  // The last resort after every algorithm failed: from the closest candidate z, the active set
+  // The last resort after every algorithm failed (with fallbacks configured): from the closest
+  // candidate z, the active set
   // B = {i : z_i > w_i} solved exactly, M_BB z_B = −q_B (least squares where M_BB is singular,
   // as at a degenerate contact), z_N = 0, the set updated from the new z a few times. Returns
   // the complementarity error reached (z overwritten only if it improved).

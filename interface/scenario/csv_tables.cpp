@@ -184,8 +184,8 @@ void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
     for (auto [at, into] : {std::pair{time_at, &t}, std::pair{value_at, &v}}) {
       const std::string& cell = cells[static_cast<size_t>(at)];
       if (!ReadNumber(cell, into)) {
-        fail(place, where() + ", column '" + header[static_cast<size_t>(at)] + "': '" + cell +
-                        "' is not a finite number");
+        fail(place,
+             where() + ", column '" + header[static_cast<size_t>(at)] + "': '" + cell + "' is not a finite number");
       }
     }
     table->add_time(t);

@@ -20,8 +20,8 @@
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
-#include "interface/scenario/expression.h"
 #include "interface/scenario/csv_tables.h"
+#include "interface/scenario/expression.h"
 
 namespace cosim::interface {
 

@@ -82,7 +82,8 @@ TimeFunction TimeFunction::Build(const Checks& checks, const std::string& path, 
       }
       f.time_.assign(table.time().begin(), table.time().end());
       f.value_.assign(table.value().begin(), table.value().end());
-      if (table.interpolation() == scenario::TimeFunction::Table::CUBIC) f.curvature_ = NaturalSpline(f.time_, f.value_);
+      if (table.interpolation() == scenario::TimeFunction::Table::CUBIC)
+        f.curvature_ = NaturalSpline(f.time_, f.value_);
       break;
     }
     case scenario::TimeFunction::kSum: {
@@ -257,8 +258,10 @@ double TimeFunction::TableDerivative(double t, int order) const {
   const size_t i = static_cast<size_t>(std::upper_bound(time_.begin(), time_.end(), t) - time_.begin()) - 1;
   const double h = time_[i + 1] - time_[i], b = (t - time_[i]) / h, a = 1.0 - b;
   const double mi = curvature_.empty() ? 0.0 : curvature_[i], mj = curvature_.empty() ? 0.0 : curvature_[i + 1];
-  if (order == 0) return a * value_[i] + b * value_[i + 1] + ((a * a * a - a) * mi + (b * b * b - b) * mj) * h * h / 6.0;
-  if (order == 1) return (value_[i + 1] - value_[i]) / h + ((1.0 - 3.0 * a * a) * mi + (3.0 * b * b - 1.0) * mj) * h / 6.0;
+  if (order == 0)
+    return a * value_[i] + b * value_[i + 1] + ((a * a * a - a) * mi + (b * b * b - b) * mj) * h * h / 6.0;
+  if (order == 1)
+    return (value_[i + 1] - value_[i]) / h + ((1.0 - 3.0 * a * a) * mi + (3.0 * b * b - 1.0) * mj) * h / 6.0;
   return a * mi + b * mj;
 }
 
@@ -269,7 +272,8 @@ double TimeFunction::SegmentIntegral(size_t i, double t) const {
   double value = h * (value_[i] * (b - 0.5 * b * b) + value_[i + 1] * 0.5 * b * b);
   if (!curvature_.empty()) {
     value += h * h * h / 6.0 *
-             (curvature_[i] * (-0.25 - 0.25 * a * a * a * a + 0.5 * a * a) + curvature_[i + 1] * (0.25 * b * b * b * b - 0.5 * b * b));
+             (curvature_[i] * (-0.25 - 0.25 * a * a * a * a + 0.5 * a * a) +
+              curvature_[i + 1] * (0.25 * b * b * b * b - 0.5 * b * b));
   }
   return value;
 }

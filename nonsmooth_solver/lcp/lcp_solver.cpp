@@ -1,14 +1,13 @@
 #include "nonsmooth_solver/lcp/lcp_solver.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <vector>
-
-#include <Eigen/Dense>
 
 extern "C" {
 #include "LCP_Solvers.h"
@@ -19,17 +18,21 @@ extern "C" {
 #include "lcp_cst.h"
 }
 
-#include "nonsmooth_solver/lcp/siconos_options.h"
 #include "interface/scenario/checks.h"
+#include "nonsmooth_solver/lcp/siconos_options.h"
 
 namespace cosim::nonsmooth {
 
 const char* LcpAlgorithmName(LcpAlgorithm algorithm) {
   switch (algorithm) {
-    case LcpAlgorithm::kLemke: return "LEMKE";
-    case LcpAlgorithm::kPgs: return "PGS";
-    case LcpAlgorithm::kEnumerative: return "ENUMERATIVE";
-    case LcpAlgorithm::kNewtonFischerBurmeister: return "NEWTON_FB";
+    case LcpAlgorithm::kLemke:
+      return "LEMKE";
+    case LcpAlgorithm::kPgs:
+      return "PGS";
+    case LcpAlgorithm::kEnumerative:
+      return "ENUMERATIVE";
+    case LcpAlgorithm::kNewtonFischerBurmeister:
+      return "NEWTON_FB";
   }
   return "?";
 }
@@ -38,10 +41,14 @@ namespace {
 
 int SiconosSolverId(LcpAlgorithm algorithm) {
   switch (algorithm) {
-    case LcpAlgorithm::kLemke: return SICONOS_LCP_LEMKE;
-    case LcpAlgorithm::kPgs: return SICONOS_LCP_PGS;
-    case LcpAlgorithm::kEnumerative: return SICONOS_LCP_ENUM;
-    case LcpAlgorithm::kNewtonFischerBurmeister: return SICONOS_LCP_NEWTON_FB_FBLSA;
+    case LcpAlgorithm::kLemke:
+      return SICONOS_LCP_LEMKE;
+    case LcpAlgorithm::kPgs:
+      return SICONOS_LCP_PGS;
+    case LcpAlgorithm::kEnumerative:
+      return SICONOS_LCP_ENUM;
+    case LcpAlgorithm::kNewtonFischerBurmeister:
+      return SICONOS_LCP_NEWTON_FB_FBLSA;
   }
   return SICONOS_LCP_LEMKE;
 }
@@ -103,22 +110,24 @@ LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eig
       result.message.clear();
       return result;
     }
-    messages += "; the closest (error " + interface::FormatNumber(best_error) + ") polished on its active set: " +
-                interface::FormatNumber(error);
+    messages += "; the closest (error " + interface::FormatNumber(best_error) +
+                ") polished on its active set: " + interface::FormatNumber(error);
     if (SolveBlockByBlock(M, q, z, &result)) return result;
   }
   if (!result.solved) result.message = messages;
   return result;
 }
 
-bool LcpSolver::SolveBlockByBlock(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
-                                  Eigen::Ref<Eigen::VectorXd> z, LcpResult* result) {
+bool LcpSolver::SolveBlockByBlock(const Eigen::Ref<const Eigen::MatrixXd>& M,
+                                  const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z,
+                                  LcpResult* result) {
   const Eigen::Index n = q.size();
   // Connected components of the graph i ~ j where M_ij or M_ji is non-zero (union–find).
   std::vector<Eigen::Index> parent(static_cast<size_t>(n));
   for (Eigen::Index i = 0; i < n; ++i) parent[static_cast<size_t>(i)] = i;
   auto root = [&](Eigen::Index i) {
-    while (parent[static_cast<size_t>(i)] != i) i = parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
+    while (parent[static_cast<size_t>(i)] != i)
+      i = parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
     return i;
   };
   for (Eigen::Index j = 0; j < n; ++j) {
@@ -160,8 +169,8 @@ bool LcpSolver::SolveBlockByBlock(const Eigen::Ref<const Eigen::MatrixXd>& M, co
   return true;
 }
 
-double LcpSolver::PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
-                                  Eigen::Ref<Eigen::VectorXd> z) const {
+double LcpSolver::PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M,
+                                  const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z) const {
   const Eigen::Index n = q.size();
   double error = ComplementarityError(M, q, z);
   Eigen::VectorXd trial = z;
@@ -179,7 +188,8 @@ double LcpSolver::PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M, co
     Eigen::VectorXd rhs(m);
     for (Eigen::Index a = 0; a < m; ++a) {
       rhs(a) = -q(active[static_cast<size_t>(a)]);
-      for (Eigen::Index b = 0; b < m; ++b) block(a, b) = M(active[static_cast<size_t>(a)], active[static_cast<size_t>(b)]);
+      for (Eigen::Index b = 0; b < m; ++b)
+        block(a, b) = M(active[static_cast<size_t>(a)], active[static_cast<size_t>(b)]);
     }
     const Eigen::VectorXd zb = block.completeOrthogonalDecomposition().solve(rhs);
     trial.setZero();
@@ -244,10 +254,10 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
   const double accepted = std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon());
   result.solved = result.error <= accepted;
   if (!result.solved) {
-    result.message = std::string(LcpAlgorithmName(algorithm)) + " (n = " + std::to_string(n) +
-                     ", Siconos info " + std::to_string(result.siconos_info) + ", " +
-                     std::to_string(result.iterations) + " iterations): complementarity error " +
-                     interface::FormatNumber(result.error) + " > tolerance " + interface::FormatNumber(options_.tolerance);
+    result.message = std::string(LcpAlgorithmName(algorithm)) + " (n = " + std::to_string(n) + ", Siconos info " +
+                     std::to_string(result.siconos_info) + ", " + std::to_string(result.iterations) +
+                     " iterations): complementarity error " + interface::FormatNumber(result.error) + " > tolerance " +
+                     interface::FormatNumber(options_.tolerance);
   }
   return result;
 }

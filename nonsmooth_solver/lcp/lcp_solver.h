@@ -4,7 +4,6 @@
 // generic macros). Every solution is checked here, independently of what Siconos reports:
 // a lexicographic Lemke run can end on a secondary ray and still report success.
 #include <Eigen/Core>
-
 #include <memory>
 #include <string>
 #include <vector>

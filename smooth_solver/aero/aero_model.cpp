@@ -30,8 +30,9 @@ void ReadAirwakeGrid(const Checks& checks, const std::string& path, const sc::Ai
   }
   const size_t nx = w->xs.size(), ny = w->ys.size();
   if (static_cast<size_t>(a.grid_size()) != nx * ny) {
-    checks.Fail(path + ".grid", std::to_string(a.grid_size()) + " points over " + std::to_string(nx) + " distinct x and " +
-                                    std::to_string(ny) + " distinct y; a rectangular grid has every (x, y) once (" +
+    checks.Fail(path + ".grid", std::to_string(a.grid_size()) + " points over " + std::to_string(nx) +
+                                    " distinct x and " + std::to_string(ny) +
+                                    " distinct y; a rectangular grid has every (x, y) once (" +
                                     std::to_string(nx * ny) + " points)");
   }
   w->grid.assign(nx * ny, Eigen::Vector3d::Zero());

@@ -781,8 +781,7 @@ TEST(MovingBase, ARigidBladeOnARollingDeckFlapsAsTheSmallAngleSolution) {
   // the neglected terms are of order φ0 = 2e-3 relative, CGα's phase error at νΩ h = 0.011 is
   // ~1e-5 a period. Observed: amplitude 4.55e-3 rad, largest difference 1.0e-6 rad (0.023 %).
   const fs::path dir = TempDir("rolling_deck_blade");
-  const Result r =
-      Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/rolling_deck_blade.pbtxt --out " + dir.string());
+  const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/rolling_deck_blade.pbtxt --out " + dir.string());
   ASSERT_EQ(r.code, 0) << r.output;
   const Table run = ReadTable(dir / "history.csv");
   const double m = 10.0, L = 2.0, rg = 1.0, e = 0.3, i1 = 1e-3, omega = 10.0, phi0 = 2e-3, w = std::numbers::pi;
@@ -811,8 +810,9 @@ TEST(MovingBase, ARigidBladeOnARollingDeckFlapsAsTheSmallAngleSolution) {
     worst = std::max(worst, std::abs(flap[i] - beta));
     amplitude = std::max(amplitude, std::abs(beta));
   }
-  std::printf("rolling deck: flap amplitude %.4e rad, largest difference from the small-angle solution %.3e (%.3f %%)\n",
-              amplitude, worst, 100 * worst / amplitude);
+  std::printf(
+      "rolling deck: flap amplitude %.4e rad, largest difference from the small-angle solution %.3e (%.3f %%)\n",
+      amplitude, worst, 100 * worst / amplitude);
   EXPECT_GT(amplitude, 1e-3);
   EXPECT_LT(worst, 1e-2 * amplitude);
 }

@@ -166,10 +166,10 @@ TEST(Study, AnOperatingLimitsEnvelopeRepeatsEveryQuarterTurnAndShadesItsUnsafePo
   // (observed: 0.1491–0.1495 m with the wind along a blade, 0.1509–0.1539 m between two), and
   // the report counts them as runs.csv's clearances and exits do.
   const fs::path out = TempDir("study_operating_limits");
-  ASSERT_EQ(Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/deck_rotor.pbtxt --out " +
-                      out.string(),
-                  out / "log.txt"),
-            0)
+  ASSERT_EQ(
+      Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/deck_rotor.pbtxt --out " + out.string(),
+            out / "log.txt"),
+      0)
       << Slurp(out / "log.txt");
   const Table runs = ReadTable(out / "runs.csv");
   ASSERT_EQ(runs.size(), 24u);

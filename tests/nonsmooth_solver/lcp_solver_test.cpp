@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
-
 #include <filesystem>
 #include <set>
 
@@ -59,8 +58,8 @@ TEST(LcpSolver, EveryAlgorithmSolvesASmallSpdProblem) {
   M << 2, 0.5, 0.5, 1;
   Eigen::VectorXd q(2);
   q << 1, -1;
-  for (auto a : {LcpAlgorithm::kLemke, LcpAlgorithm::kPgs, LcpAlgorithm::kEnumerative,
-                 LcpAlgorithm::kNewtonFischerBurmeister}) {
+  for (auto a :
+       {LcpAlgorithm::kLemke, LcpAlgorithm::kPgs, LcpAlgorithm::kEnumerative, LcpAlgorithm::kNewtonFischerBurmeister}) {
     LcpOptions options;
     options.algorithm = a;
     LcpSolver solver(options);

@@ -556,8 +556,8 @@ TEST(AirLoads, GustFrontTravelsWithItsProfile) {
 
 // The air of a scene that holds only an airwake (`fields` inside model.air.airwake).
 AirModel AirOf(const std::string& fields, const std::vector<std::string>& sets = {}) {
-  return BuildMultibodyModel(interface::ScenarioFile::Parse("model { air { airwake { " + fields + " } } }",
-                                                            "airwake.pbtxt", sets))
+  return BuildMultibodyModel(
+             interface::ScenarioFile::Parse("model { air { airwake { " + fields + " } } }", "airwake.pbtxt", sets))
       .aero.air;
 }
 
@@ -597,8 +597,7 @@ TEST(AirLoads, AirwakeFormsScaleWithTheWindAndFollowTheRelativeDirection) {
   EXPECT_NEAR(air.Velocity(Eigen::Vector3d(0, 1.5 + 1.0 / 3.0, 0), 0.0).z(), (0.2 - 0.4 * 0.25) * V, 1e-12);
   // Mirror symmetry: the winds from ψ and 360° − ψ are each other's mirror images in the ship's
   // centre plane (y ↦ −y), points and velocities alike.
-  const AirModel from_starboard =
-      AirOf("speed: 20 direction: 60 form: LINEAR windward: 0.3 leeward: -0.1 length: 7.5");
+  const AirModel from_starboard = AirOf("speed: 20 direction: 60 form: LINEAR windward: 0.3 leeward: -0.1 length: 7.5");
   const AirModel from_port = AirOf("speed: 20 direction: 300 form: LINEAR windward: 0.3 leeward: -0.1 length: 7.5");
   const Eigen::Vector3d mirror(1, -1, 1);
   for (const Eigen::Vector3d& x : {Eigen::Vector3d(2, 3, 0), Eigen::Vector3d(-5, 1, 1), Eigen::Vector3d(6, -6, 0)}) {
@@ -643,23 +642,19 @@ TEST(AirLoads, AirwakeSurveyIsBilinearOnItsGridInShipAxesAndReadFromCsv) {
   EXPECT_LT((at(-25, -9) - global(-1, 0, 0.1)).norm(), 1e-12);
   // A grid that is not rectangular is refused, naming the points it has.
   std::ofstream(dir / "survey.csv") << "x,y,u,v,w\n0,0,1,0,0\n1,0,1,0,0\n0,1,1,0,0\n";
-  const std::string m = interface::MessageOf([&] {
-    BuildMultibodyModel(interface::ScenarioFile::Load((dir / "wake.pbtxt").string(), {}));
-  });
+  const std::string m = interface::MessageOf(
+      [&] { BuildMultibodyModel(interface::ScenarioFile::Load((dir / "wake.pbtxt").string(), {})); });
   EXPECT_NE(m.find("model.air.airwake.grid: 3 points over 2 distinct x and 2 distinct y"), std::string::npos) << m;
   std::filesystem::remove_all(dir);
 }
 
 TEST(AirLoads, BadAirwakeNamesTheFieldAndWhatIsExpected) {
-  auto error = [](const std::string& fields) {
-    return interface::MessageOf([&] { AirOf(fields); });
-  };
+  auto error = [](const std::string& fields) { return interface::MessageOf([&] { AirOf(fields); }); };
   EXPECT_NE(error("direction: 0 form: UNIFORM windward: 0.2").find("model.air.airwake.speed: missing"),
             std::string::npos);
   EXPECT_NE(error("speed: -3 direction: 0 form: UNIFORM windward: 0.2").find("model.air.airwake.speed"),
             std::string::npos);
-  EXPECT_NE(error("speed: 3 direction: 0 windward: 0.2").find("model.air.airwake.form: missing"),
-            std::string::npos);
+  EXPECT_NE(error("speed: 3 direction: 0 windward: 0.2").find("model.air.airwake.form: missing"), std::string::npos);
   std::string m = error("speed: 3 form: UNIFORM windward: 0.2");
   EXPECT_NE(m.find("model.air.airwake.direction: missing; expected the relative wind direction [deg]"),
             std::string::npos)

@@ -854,6 +854,9 @@ def results(runner, out_root, sets, reuse=False):
             ("work-precision", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
             # The still rotor's blade-sailing envelope (issue 19): gust peak × direction.
             ("envelope", "puma_gust", "scenarios/puma/gust.pbtxt"),
+            # The shipborne engagement's operating-limits envelope (issue 35): wind speed ×
+            # relative wind direction on the moving deck, the continuous twin (108 runs).
+            ("envelope", "puma_ship", "scenarios/puma/ship_engage_continuous.pbtxt"),
             # The co-simulated impact response under step refinement (issue 16, item 7): the gust's
             # first 6 s (lift-off at ~2.4 s, onto the anti-flap stop at ~3.7 s, back on the droop
             # stop at ~5.0 s and ringing there), error from 3.5 s: both impacts.
@@ -911,6 +914,7 @@ def results(runner, out_root, sets, reuse=False):
               "| SHARCS-like hub, hex27 against beam blade (issue 17) | — | flap 0.08° RMS apart, radial root force 33 N RMS of 11.1 kN (below) | compare study |",
               "| Puma gust, co-simulated impact response as h is refined (issue 16) | — | both impacts of the 35 m/s gust: loads converge at order 1.6, at h = 1 ms the root shear within 2.7 kN of ~8 kN peaks, flap within 0.17° (the bouncing after the landing); h ≤ 0.5 ms for peaks within ~10 % (below) | convergence study |",
               "| Puma blade-sailing envelope, gust peak × direction (issue 19) | — | 24 co-simulated runs in 243 s on one worker; four-fold symmetric to the digits shown; at 25 m/s blade lift 0.63 m, smallest clearance to a plane 2 m below the hub at 45°, not at the paper's 90° (below) | envelope study |",
+              "| Puma engagement on a frigate's moving deck in its airwake, operating limits (issue 35) | — | 108 continuous runs in 2899 s on two workers; the lowest tips in the run-down; clearance falls with wind speed everywhere, worst from the starboard beam (90–120°); the tip reaches the tail-boom plane at 40 kt; 7 runs failed numerically at stop landings (below) | envelope study |",
               ""]
     with open(os.path.join(docs, "results.md"), "w") as f:
         f.write("\n".join(header) + "\n" + "".join(sections))

@@ -207,7 +207,9 @@ SHIP_NUMERICS = """# The ship scenes take the default (projected) constraint for
 # fixed-hub scenes' notes below describe: with the deck moving, the index-3 form's reused matrix
 # became singular at stop landings (29 of the continuous envelope's 108 points at 20 kt and
 # above, e.g. 30 kt from 90° at 11.5 s, blade 2 landing on its droop stop while on its lag stop);
-# fresh matrices every iteration (4× slower) or the projected form run them.
+# fresh matrices every iteration (4× slower) or h = 1 ms ran the case tried, and the projected
+# form runs all but 7 of the 108 (those stop at a landing, its position projection not
+# converging: docs/results.md, the ship envelope's reading).
 """ if SHIP else ""
 DECK = """  moving_bases {
     name: "deck" point: [0, 0, -10.4]

@@ -22,7 +22,7 @@ std::string Trim(const std::string& s) {
   return s.substr(a, b - a + 1);
 }
 
-std::vector<std::string> Cells(const std::string& line) {
+std::vector<std::string> SplitCells(const std::string& line) {
   std::vector<std::string> cells;
   std::stringstream in(line);
   std::string cell;
@@ -49,52 +49,76 @@ bool ReadNumber(const std::string& cell, double* value) {
   return end != cell.c_str() && *end == '\0' && errno != ERANGE && std::isfinite(*value);
 }
 
-// Reads one file (m's field `file_field`) into `rows` (a repeated message field of `m`), one
-// message per row; `path` is m's field path.
-void Load(pb::Message* m, const pb::FieldDescriptor* file_field, const pb::FieldDescriptor* stations,
-          const std::string& path, const std::function<std::filesystem::path(const std::string&)>& resolve,
-          const std::function<void(const std::string&, const std::string&)>& fail) {
-  const pb::Reflection* r = m->GetReflection();
-  const std::string given = r->GetString(*m, file_field);
-  const std::string place = path + "." + file_field->name();
-  if (r->FieldSize(*m, stations) > 0)
-    fail(place, "given with " + stations->name() + " too; give the table in one of them");
-  const std::filesystem::path file = resolve(given);
+using Fail = std::function<void(const std::string&, const std::string&)>;
+// Names the file, the line being read and (if not empty) a column, for a message.
+using Where = std::function<std::string(const std::string&)>;
+using Cells = std::vector<std::string>;
+
+// Streams the CSV file `file` named by the field at `place`: blank lines and lines starting with
+// '#' skipped, the first other line the header (`on_header`), every later one a row of as many
+// cells (`on_row`). Returns the number of rows, −1 without a header.
+int ReadCsv(const std::filesystem::path& file, const std::string& place, const std::string& expected, const Fail& fail,
+            const std::function<void(const Cells&, const Where&)>& on_header,
+            const std::function<void(const Cells&, const Where&)>& on_row) {
   std::ifstream in(file);
-  if (!in)
-    fail(place, "'" + file.string() + "' cannot be read; expected a CSV file of " + stations->name() +
+  if (!in) {
+    fail(place, "'" + file.string() + "' cannot be read; expected " + expected +
                     " (relative paths are from the scenario file's folder)");
-  const pb::Descriptor* station = stations->message_type();
-  std::vector<const pb::FieldDescriptor*> columns;
-  std::string line;
-  int number = 0, rows = 0;
-  auto where = [&](const std::string& column) {
+  }
+  int number = 0, rows = -1;
+  size_t columns = 0;
+  const Where where = [&](const std::string& column) {
     return "'" + file.string() + "' line " + std::to_string(number) +
            (column.empty() ? "" : ", column '" + column + "'");
   };
+  std::string line;
   while (std::getline(in, line)) {
     ++number;
     const std::string trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
-    const std::vector<std::string> cells = Cells(line);
-    if (columns.empty()) {
-      for (const std::string& name : cells) {
-        const pb::FieldDescriptor* f = station->FindFieldByName(name);
-        if (f == nullptr || f->is_repeated() || f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-          fail(place, where("") + ": '" + name + "' is not a field of " + station->name() + "; expected a header of " +
-                          Known(station));
-        }
-        for (const pb::FieldDescriptor* seen : columns) {
-          if (seen == f) fail(place, where("") + ": column '" + name + "' is given twice");
-        }
-        columns.push_back(f);
-      }
+    const Cells cells = SplitCells(line);
+    if (rows < 0) {
+      on_header(cells, where);
+      columns = cells.size();
+      rows = 0;
       continue;
     }
-    if (cells.size() != columns.size()) {
+    if (cells.size() != columns) {
       fail(place, where("") + ": " + std::to_string(cells.size()) + " cells; the header has " +
-                      std::to_string(columns.size()) + " columns");
+                      std::to_string(columns) + " columns");
     }
+    on_row(cells, where);
+    ++rows;
+  }
+  return rows;
+}
+
+// Reads one file (m's field `file_field`) into `stations` (a repeated message field of `m`),
+// one message per row, the header naming its fields; `path` is m's field path.
+void Load(pb::Message* m, const pb::FieldDescriptor* file_field, const pb::FieldDescriptor* stations,
+          const std::string& path, const std::function<std::filesystem::path(const std::string&)>& resolve,
+          const Fail& fail) {
+  const pb::Reflection* r = m->GetReflection();
+  const std::string place = path + "." + file_field->name();
+  if (r->FieldSize(*m, stations) > 0)
+    fail(place, "given with " + stations->name() + " too; give the table in one of them");
+  const std::filesystem::path file = resolve(r->GetString(*m, file_field));
+  const pb::Descriptor* station = stations->message_type();
+  std::vector<const pb::FieldDescriptor*> columns;
+  auto header = [&](const Cells& cells, const Where& where) {
+    for (const std::string& name : cells) {
+      const pb::FieldDescriptor* f = station->FindFieldByName(name);
+      if (f == nullptr || f->is_repeated() || f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
+        fail(place, where("") + ": '" + name + "' is not a field of " + station->name() + "; expected a header of " +
+                        Known(station));
+      }
+      for (const pb::FieldDescriptor* seen : columns) {
+        if (seen == f) fail(place, where("") + ": column '" + name + "' is given twice");
+      }
+      columns.push_back(f);
+    }
+  };
+  auto row = [&](const Cells& cells, const Where& where) {
     pb::Message* s = r->AddMessage(m, stations);
     const pb::Reflection* sr = s->GetReflection();
     for (size_t c = 0; c < columns.size(); ++c) {
@@ -127,17 +151,15 @@ void Load(pb::Message* m, const pb::FieldDescriptor* file_field, const pb::Field
           fail(place, where(f->name()) + ": this column cannot be read from a CSV cell");
       }
     }
-    ++rows;
-  }
-  if (columns.empty() || rows == 0)
+  };
+  if (ReadCsv(file, place, "a CSV file of " + stations->name(), fail, header, row) <= 0)
     fail(place, "'" + file.string() + "' holds no " + stations->name() + "; expected a header line and one row each");
   r->ClearField(m, file_field);
 }
 
 // A TimeFunction table's `file`: its time and value columns into `time` and `value`.
 void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
-                 const std::function<std::filesystem::path(const std::string&)>& resolve,
-                 const std::function<void(const std::string&, const std::string&)>& fail) {
+                 const std::function<std::filesystem::path(const std::string&)>& resolve, const Fail& fail) {
   const std::string place = path + ".file";
   if (table->time_size() > 0 || table->value_size() > 0)
     fail(place, "given with time or value too; give the table in one of them");
@@ -145,53 +167,40 @@ void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
     fail(path + ".value_column", "is missing; name the file's column that holds the values");
   const std::string time_name = table->has_time_column() ? table->time_column() : "time";
   const std::filesystem::path file = resolve(table->file());
-  std::ifstream in(file);
-  if (!in)
-    fail(place, "'" + file.string() +
-                    "' cannot be read; expected a CSV file with a header line naming its columns (relative "
-                    "paths are from the scenario file's folder)");
-  std::vector<std::string> header;
-  int time_at = -1, value_at = -1, number = 0;
-  std::string line;
-  auto where = [&]() { return "'" + file.string() + "' line " + std::to_string(number); };
-  while (std::getline(in, line)) {
-    ++number;
-    const std::string trimmed = Trim(line);
-    if (trimmed.empty() || trimmed[0] == '#') continue;
-    const std::vector<std::string> cells = Cells(line);
-    if (header.empty()) {
-      header = cells;
-      std::string names;
-      for (size_t c = 0; c < cells.size(); ++c) {
-        names += (c == 0 ? "" : ", ") + cells[c];
-        for (size_t d = 0; d < c; ++d) {
-          if (cells[d] == cells[c]) fail(place, where() + ": column '" + cells[c] + "' is given twice");
-        }
-        if (cells[c] == time_name) time_at = static_cast<int>(c);
-        if (cells[c] == table->value_column()) value_at = static_cast<int>(c);
+  Cells names;
+  size_t time_at = 0, value_at = 0;
+  auto header = [&](const Cells& cells, const Where& where) {
+    names = cells;
+    std::string listed;
+    bool has_time = false, has_value = false;
+    for (size_t c = 0; c < cells.size(); ++c) {
+      listed += (c == 0 ? "" : ", ") + cells[c];
+      for (size_t d = 0; d < c; ++d) {
+        if (cells[d] == cells[c]) fail(place, where("") + ": column '" + cells[c] + "' is given twice");
       }
-      if (time_at < 0)
-        fail(path + ".time_column", where() + ": no column '" + time_name + "'; the header has " + names);
-      if (value_at < 0)
-        fail(path + ".value_column", where() + ": no column '" + table->value_column() + "'; the header has " + names);
-      continue;
+      if (cells[c] == time_name) {
+        time_at = c;
+        has_time = true;
+      }
+      if (cells[c] == table->value_column()) {
+        value_at = c;
+        has_value = true;
+      }
     }
-    if (cells.size() != header.size()) {
-      fail(place, where() + ": " + std::to_string(cells.size()) + " cells; the header has " +
-                      std::to_string(header.size()) + " columns");
+    if (!has_time) fail(path + ".time_column", where("") + ": no column '" + time_name + "'; the header has " + listed);
+    if (!has_value) {
+      fail(path + ".value_column", where("") + ": no column '" + table->value_column() + "'; the header has " + listed);
     }
+  };
+  auto row = [&](const Cells& cells, const Where& where) {
     double t = 0.0, v = 0.0;
     for (auto [at, into] : {std::pair{time_at, &t}, std::pair{value_at, &v}}) {
-      const std::string& cell = cells[static_cast<size_t>(at)];
-      if (!ReadNumber(cell, into)) {
-        fail(place,
-             where() + ", column '" + header[static_cast<size_t>(at)] + "': '" + cell + "' is not a finite number");
-      }
+      if (!ReadNumber(cells[at], into)) fail(place, where(names[at]) + ": '" + cells[at] + "' is not a finite number");
     }
     table->add_time(t);
     table->add_value(v * table->value_scale());
-  }
-  if (header.empty() || table->time_size() == 0)
+  };
+  if (ReadCsv(file, place, "a CSV file with a header line naming its columns", fail, header, row) <= 0)
     fail(place, "'" + file.string() + "' holds no rows; expected a header line and one row per time");
   table->clear_file();
 }

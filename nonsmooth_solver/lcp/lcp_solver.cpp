@@ -102,8 +102,7 @@ LcpResult LcpSolver::Solve(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eig
   if (!result.solved && !options_.fallbacks.empty() && std::isfinite(best_error)) {
     z = best_;
     const double error = PolishActiveSet(M, q, z);
-    const double accepted = std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon());
-    if (error <= accepted) {
+    if (error <= Accepted()) {
       result.solved = true;
       result.used_fallback = true;
       result.error = error;
@@ -160,7 +159,7 @@ bool LcpSolver::SolveBlockByBlock(const Eigen::Ref<const Eigen::MatrixXd>& M,
     for (Eigen::Index a = 0; a < m; ++a) solution(block[static_cast<size_t>(a)]) = zb(a);
   }
   const double error = ComplementarityError(M, q, solution);
-  if (!(error <= std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon()))) return false;
+  if (!(error <= Accepted())) return false;
   z = solution;
   result->solved = true;
   result->used_fallback = true;
@@ -251,8 +250,7 @@ LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eige
   // Our own check, whatever the driver said.
   result.error = ComplementarityError(M, q, z);
   // The tolerance applies to the complementarity error; a few ulps of slack on top of it.
-  const double accepted = std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon());
-  result.solved = result.error <= accepted;
+  result.solved = result.error <= Accepted();
   if (!result.solved) {
     result.message = std::string(LcpAlgorithmName(algorithm)) + " (n = " + std::to_string(n) + ", Siconos info " +
                      std::to_string(result.siconos_info) + ", " + std::to_string(result.iterations) +

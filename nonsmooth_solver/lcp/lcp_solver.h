@@ -4,6 +4,8 @@
 // generic macros). Every solution is checked here, independently of what Siconos reports:
 // a lexicographic Lemke run can end on a secondary ray and still report success.
 #include <Eigen/Core>
+#include <algorithm>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,6 +72,9 @@ class LcpSolver {
                          Eigen::Ref<Eigen::VectorXd> z, LcpResult* result);
   double PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M, const Eigen::Ref<const Eigen::VectorXd>& q,
                          Eigen::Ref<Eigen::VectorXd> z) const;
+
+  // The complementarity error a solution may have: the tolerance, and a few ulps above it.
+  double Accepted() const { return std::max(options_.tolerance, 64.0 * std::numeric_limits<double>::epsilon()); }
 
   LcpOptions options_;
   Eigen::VectorXd w_;     // scratch for Siconos' w output

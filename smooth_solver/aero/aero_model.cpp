@@ -65,7 +65,13 @@ Airwake BuildAirwake(const Checks& checks, const sc::Airwake& a) {
                                    FormatNumber(w.bow.dot(w.up)));
   }
   w.port = w.up.cross(w.bow);
-  w.ramp_time = checks.NonNegative(path + ".ramp_time", a.ramp_time(), "s");
+  if (checks.NonNegative(path + ".ramp_time", a.ramp_time(), "s") > 0.0) {
+    // ½ (1 − cos(π t / T)) from t = 0: Eq. (37)'s cosine ramp to 1 (zero before it).
+    sc::TimeFunction ramp;
+    ramp.mutable_cosine_ramp()->set_final_value(1.0);
+    ramp.mutable_cosine_ramp()->set_ramp_time(a.ramp_time());
+    w.growth = interface::TimeFunction::Build(checks, path + ".ramp_time", ramp);
+  }
   const sc::Airwake::Form form = a.form();
   // Which fields each form reads; any other given is refused, not ignored.
   const bool uses_leeward = form == sc::Airwake::LINEAR || form == sc::Airwake::STEP;

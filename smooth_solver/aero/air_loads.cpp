@@ -74,9 +74,8 @@ double Airwake::Ratio(double xi) const {
 }
 
 Vector3d Airwake::Velocity(const Vector3d& x, double t) const {
-  if (form == Form::kNone || (t <= 0.0 && ramp_time > 0.0)) return Vector3d::Zero();
-  const double v =
-      ramp_time > 0.0 && t < ramp_time ? 0.5 * (1.0 - std::cos(std::numbers::pi * t / ramp_time)) * speed : speed;
+  if (form == Form::kNone) return Vector3d::Zero();
+  const double v = growth.Value(t) * speed;
   const Vector3d r = x - origin;
   if (form != Form::kTable) return v * (along + Ratio(along.dot(r)) * up);
   // Bilinear in the cell holding (x_s, y_s), the point held onto the grid's edges.

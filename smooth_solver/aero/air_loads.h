@@ -40,10 +40,10 @@ struct GustFront {
 struct Airwake {
   enum class Form { kNone, kUniform, kLinear, kStep, kTable };
   Form form = Form::kNone;
-  double speed = 0.0;                                 // V
-  double windward = 0.0, leeward = 0.0;               // k at the windward and leeward sides
-  double length = 1.0, edge = 0.0, edge_width = 1.0;  // LINEAR's L; STEP's edge and blend width
-  double ramp_time = 0.0;                             // the field's ½ (1 − cos) growth from t = 0
+  double speed = 0.0;                                                       // V
+  double windward = 0.0, leeward = 0.0;                                     // k at the windward and leeward sides
+  double length = 1.0, edge = 0.0, edge_width = 1.0;                        // LINEAR's L; STEP's edge and blend width
+  interface::TimeFunction growth = interface::TimeFunction::Constant(1.0);  // the field's share at t
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Eigen::Vector3d bow = Eigen::Vector3d::UnitX(), port = Eigen::Vector3d::UnitY(), up = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d along = -Eigen::Vector3d::UnitX();  // d, the direction the wind blows towards

@@ -20,6 +20,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 SCENE = sys.argv[1] if len(sys.argv) > 1 else "engage_continuous"
 GUST = SCENE.startswith("gust")
 SHIP = SCENE.startswith("ship")
+# The continuous stops' onset-speed floor on the deck (law.speed_threshold, rad/s): the deck's
+# angular-rate amplitude (roll 5° over 10 s: 0.055 rad/s; pitch 3° over 7 s: 0.047 rad/s).
+SHIP_THRESHOLD = " speed_threshold: 0.05" if SHIP else ""
 # MBDyn's model of the same rotor (docs/reference/mbdyn-puma.md): the continuous engagement with
 # its Ω100, no lag stops, a rigid pitch bearing, its inflow correction and its airfoil's slope.
 MBDYN = SCENE == "engage_mbdyn"
@@ -82,7 +85,7 @@ if COSIM:
 """
 else:
     STOPS = f"""      forces {{ name: "blade{{k}}_stops" joint_stop {{ joint: "blade{{k}}_flap_hinge" lower: {DROOP:.12g} upper: {-DROOP:.12g}
-               law {{ stiffness: 1e9 exponent: 1.5 restitution: 0.8 effective_restitution: true }} }} }}"""
+               law {{ stiffness: 1e9 exponent: 1.5 restitution: 0.8 effective_restitution: true{SHIP_THRESHOLD} }} }} }}"""
     STOP_PROBES = """      probes { name: "blade{k}_stop_moment" quantity: CONTACT_FORCE entity: "blade{k}_stops" }"""
     COUPLING = ""
 TWIN = "gust_continuous.pbtxt" if GUST else ("ship_engage_continuous.pbtxt" if SHIP else "engage_disengage_continuous.pbtxt")
@@ -208,8 +211,16 @@ SHIP_NUMERICS = """# The ship scenes take the default (projected) constraint for
 # became singular at stop landings (29 of the continuous envelope's 108 points at 20 kt and
 # above, e.g. 30 kt from 90° at 11.5 s, blade 2 landing on its droop stop while on its lag stop);
 # fresh matrices every iteration (4× slower) or h = 1 ms ran the case tried, and the projected
-# form runs all but 7 of the 108 (those stop at a landing, its position projection not
-# converging: docs/results.md, the ship envelope's reading).
+# form runs all of them.
+# The continuous stops' laws take speed_threshold 0.05 rad/s, the deck's angular-rate amplitude
+# (roll 0.055, pitch 0.047 rad/s), instead of the default 1e-3: the law's damping is
+# K δⁿ χ δ̇/δ̇⁻ (Eq. (8)) with δ̇⁻ the onset speed, at least the threshold, and a blade that the
+# deck lays onto its stop at a few mrad/s gets a damping ~50 times that of a real landing, which
+# pulls the force to zero (the law's clamp) as soon as the deck lifts the blade at δ̇⁻/χ. That
+# switch, at 10⁶ N m s/rad, sent Newton to a spurious root (observed: 35 kt from 90°, blade 3 on
+# its droop and lag stops thrown 2° up in one 2 ms step at 13.28 s, the next step's projection
+# diverging), and stopped 7 of the 108 envelope points at h = 2 ms with the default. Slower
+# landings get the dissipation of one at 0.05 rad/s (a tip speed of 0.37 m/s).
 """ if SHIP else ""
 DECK = """  moving_bases {
     name: "deck" point: [0, 0, -10.4]
@@ -228,7 +239,7 @@ PITCH_LINK_JOINTS = "" if MBDYN else f"""      joints {{ name: "blade{{k}}_horn"
 """
 PITCH_LOCK = " locked: true" if MBDYN else ""
 LAG_STOPS = "" if MBDYN else f"""      forces {{ name: "blade{{k}}_lag_stops" joint_stop {{ joint: "blade{{k}}_lag_hinge" lower: {-LAG_STOP:.12g} upper: {LAG_STOP:.12g}
-               law {{ stiffness: 1e8 exponent: 1.5 restitution: 0.5 effective_restitution: true }} }} }}
+               law {{ stiffness: 1e8 exponent: 1.5 restitution: 0.5 effective_restitution: true{SHIP_THRESHOLD} }} }} }}
 """
 AIRFOIL = "naca0012_mbdyn_slope" if MBDYN else "naca0012"
 # MBDyn's hover correction K_H = 1.1 scales its hover inflow by K_H² (docs/reference/mbdyn-puma.md).

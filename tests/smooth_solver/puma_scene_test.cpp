@@ -113,6 +113,9 @@ TEST(PumaScenes, TheShipSceneOnAStillDeckInStillAirIsTheFixedHubEngagement) {
   still.push_back("numerics.smooth.settle=false");  // the fixed-hub scene starts as drawn
   // and takes the index-3 form (the ship scene the projected one: its deck moves).
   still.push_back("numerics.smooth.constraint_form=INDEX3");
+  // The fixed-hub scene's onset-speed floor on its stop laws (the ship scene's is the deck's rate).
+  for (const std::string stops : {"blade{k}_stops", "blade{k}_lag_stops"})
+    still.push_back("patterns[0].each.model.forces[" + stops + "].joint_stop.law.speed_threshold=1e-3");
   // The ship scene's run-up starts at 5 s (after its deck and wind grow in): moved back to 0.
   still.push_back("model.joints[shaft].drive.function.sum.terms[0].cosine_ramp.start_time=0");
   still.push_back("model.joints[shaft].drive.function.sum.terms[1].cosine_ramp.start_time=30");
@@ -139,6 +142,46 @@ TEST(PumaScenes, TheShipSceneOnAStillDeckInStillAirIsTheFixedHubEngagement) {
               b[static_cast<size_t>(Column(ship, "blade1_flap"))] * deg,
               a[static_cast<size_t>(Column(ground, "blade1_flap"))] * deg);
   EXPECT_GT(a[static_cast<size_t>(Column(ground, "blade1_flap"))] * deg, -9.9);  // lifted off: the window covers it
+}
+
+TEST(PumaScenes, ABladeTheDeckLaysOntoItsStopsStaysOnThemInsteadOfBeingThrownOff) {
+  // The replay of an envelope point that stopped (ship_engage_continuous, 35 kt from 90°, the
+  // scene's h = 2 ms): the deck laid blade 3 onto its droop stop while it sat on its lag stop, at
+  // a few mrad/s. With the laws' default onset-speed floor (1e-3 rad/s) the Flores damping of
+  // that contact was ~50 times a real landing's, its force dropped to zero (the law's clamp) as
+  // soon as the deck lifted the blade at δ̇⁻/χ, and Newton found a spurious root: blade 3 thrown
+  // from −10.05° to −7.96° in one step at 13.28 s, and the next step's position projection
+  // diverged (|Φ| = inf at 13.286 s). The scene's floor, the deck's angular-rate amplitude
+  // (0.05 rad/s), gives such contacts the damping of a landing at that speed: the run passes the
+  // landing and no blade moves more than 0.5° in a step (the whole first 20 s of the run: 0.12°
+  // at most, blade 4 leaving its stop at 13.0 s).
+  MultibodySimulation sim(interface::ScenarioFile::Load(
+      kPuma + "ship_engage_continuous.pbtxt",
+      {"model.air.airwake.speed=18.00554", "model.air.airwake.direction=90", "numerics.end_time=13.4"}));
+  std::vector<double> v(sim.ProbeNames().size());
+  const double deg = 180 / std::numbers::pi, h = 2e-3;
+  std::vector<double> flap(4);
+  sim.Probe(&v);
+  for (size_t k = 0; k < 4; ++k)
+    flap[k] = v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k + 1) + "_flap"))];
+  double largest = 0.0, when = 0.0, deepest = 0.0;
+  for (int s = 0; s < 6700; ++s) {
+    sim.Step(s * h, h);
+    sim.Probe(&v);
+    for (size_t k = 0; k < 4; ++k) {
+      const double now = v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k + 1) + "_flap"))];
+      if (std::abs(now - flap[k]) * deg > largest) largest = std::abs(now - flap[k]) * deg, when = (s + 1) * h;
+      if (s * h > 13.0) deepest = std::min(deepest, now * deg + 10.0);
+      flap[k] = now;
+    }
+  }
+  std::printf(
+      "ship, 35 kt from 90°: largest flap change in a step %.4f° (at %.3f s); deepest into a droop stop "
+      "after 13 s %.4f°\n",
+      largest, when, deepest);
+  EXPECT_LT(largest, 0.5);
+  EXPECT_GT(deepest, -0.2);  // (1.37° deep at 13.284 s before the fix)
+  EXPECT_LT(deepest, 0.0);   // the window does hold a blade on its droop stop
 }
 
 TEST(PumaScenes, AFiveBladeRotorIsOneNumber) {

@@ -46,9 +46,9 @@ std::string WedgeScenario(int nodes) {
     model += " obstacles { name: \"r" + std::to_string(i) + "\" point: [" + x +
              ", 0, 0] normal: [-0.5, 0, 0.8660254037844386] }\n";
     model += " contact_nodes { name: \"n" + std::to_string(i) + "\" mass: 1 position: [" +
-             std::to_string(3.0 * i + 0.05) + ", 0, " + std::to_string(0.2 + 0.01 * i) +
-             "] contacts { obstacle: \"l" + std::to_string(i) + "\" restitution: 0.5 } contacts { obstacle: \"r" +
-             std::to_string(i) + "\" restitution: 0.5 } }\n";
+             std::to_string(3.0 * i + 0.05) + ", 0, " + std::to_string(0.2 + 0.01 * i) + "] contacts { obstacle: \"l" +
+             std::to_string(i) + "\" restitution: 0.5 } contacts { obstacle: \"r" + std::to_string(i) +
+             "\" restitution: 0.5 } }\n";
   }
   return model + "}\nnumerics { end_time: 2 step: 0.001 }\n";
 }
@@ -123,8 +123,9 @@ int main(int argc, char** argv) {
   for (int nodes : {1, 8, 64}) {
     const int repeats = nodes > 8 ? 5 : 21;
     const double us = MicrosecondsPerStep(Build(WedgeScenario(nodes)), 0.001, 2000, repeats, nullptr);
-    const double one = MicrosecondsPerStep(
-        Build(WedgeScenario(nodes), {"numerics.nonsmooth.split_independent_lcps=false"}), 0.001, 2000, repeats, nullptr);
+    const double one =
+        MicrosecondsPerStep(Build(WedgeScenario(nodes), {"numerics.nonsmooth.split_independent_lcps=false"}), 0.001,
+                            2000, repeats, nullptr);
     std::printf("%6d %14.3f %14.3f %22.3f\n", nodes, us, us / nodes, one);
   }
   return 0;

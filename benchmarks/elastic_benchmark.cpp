@@ -12,11 +12,11 @@
 //     difference from full Newton at the tip and root; then the whole spin-up (0.5 s at
 //     h = 1 ms, where the blades flap 8 mm and the centrifugal stiffening grows), full Newton
 //     against co-rotated reuse: the first 0.1 s alone flatter the reuse.
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-
-#include <omp.h>
 
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/elastic/elastic_force.h"
@@ -123,19 +123,24 @@ int main() {
   for (int b = 0; b < 4; ++b) {
     hub += std::string(R"(
       elastic_bodies {
-        name: "blade)") + std::to_string(b) + R"("
+        name: "blade)") +
+           std::to_string(b) + R"("
         material { density: 2700 young: 7e10 poisson: 0.33 }
-        beam { length: 1.0 chord: 0.1 thickness: 0.01 elements_along: 10 root: )" + roots[b] + " axis: " + axes[b] + R"( }
+        beam { length: 1.0 chord: 0.1 thickness: 0.01 elements_along: 10 root: )" +
+           roots[b] + " axis: " + axes[b] + R"( }
         clamps { body: "hub" face: "root" }
         retardation_time: 1e-4
       })";
   }
-  hub += "\n    }\n    numerics { end_time: 0.1 step: 0.002 }\n"
-         "    output {\n"
-         "      probes { name: \"tip_z\" quantity: DISPLACEMENT entity: \"blade0\" point: \"tip_centre\" component: Z frame: \"hub\" }\n"
-         "      probes { name: \"tip_y\" quantity: DISPLACEMENT entity: \"blade0\" point: \"tip_centre\" component: Y frame: \"hub\" }\n"
-         "      probes { name: \"root_y\" quantity: REACTION_FORCE entity: \"blade0\" component: Y frame: \"hub\" }\n"
-         "    }\n";
+  hub +=
+      "\n    }\n    numerics { end_time: 0.1 step: 0.002 }\n"
+      "    output {\n"
+      "      probes { name: \"tip_z\" quantity: DISPLACEMENT entity: \"blade0\" point: \"tip_centre\" component: Z "
+      "frame: \"hub\" }\n"
+      "      probes { name: \"tip_y\" quantity: DISPLACEMENT entity: \"blade0\" point: \"tip_centre\" component: Y "
+      "frame: \"hub\" }\n"
+      "      probes { name: \"root_y\" quantity: REACTION_FORCE entity: \"blade0\" component: Y frame: \"hub\" }\n"
+      "    }\n";
   const int steps = 50;
   double hex_step = 0.0;
   std::vector<double> full_newton(3);
@@ -161,9 +166,10 @@ int main() {
       sim.Probe(&full_newton);
       std::printf("\nfour-blade hub (4 × 10 elements, %d coordinates, %d constraints), h = 2 ms:\n", sys.coordinates,
                   sys.constraints.size());
-      std::printf("  CGα: %.2f ms per step, %.2f Newton iterations per step; one elastic force+tangent %.2f ms "
-                  "(%.0f %% of the step)\n",
-                  1e3 * per_step, iterations, 1e3 * elastic, 100.0 * elastic * iterations / per_step);
+      std::printf(
+          "  CGα: %.2f ms per step, %.2f Newton iterations per step; one elastic force+tangent %.2f ms "
+          "(%.0f %% of the step)\n",
+          1e3 * per_step, iterations, 1e3 * elastic, 100.0 * elastic * iterations / per_step);
     } else {
       std::printf("  IDA (tolerances 1e-6): %.2f ms per output step (%ld internal steps in all)\n", 1e3 * per_step,
                   sim.ida_internal_steps());
@@ -175,7 +181,7 @@ int main() {
   std::printf("  %-44s %10s %8s %9s %14s %14s\n", "Newton matrices", "ms/step", "speed-up", "factor/step",
               "tip_z diff [m]", "root_y diff [N]");
   const std::vector<std::string> co_rotated = {"numerics.smooth.jacobian_max_age=1000",
-                                                "numerics.smooth.jacobian_frame=hub"};
+                                               "numerics.smooth.jacobian_frame=hub"};
   const int cores = omp_get_max_threads();
   struct Lever {
     const char* name;
@@ -216,9 +222,9 @@ int main() {
       full = v;
       full_step = per_step;
     }
-    std::printf("  %-44s %10.2f %7.1fx %9.2f %14.2e %14.2e\n", reuse ? "reused, co-rotated with the hub" : "full Newton",
-                1e3 * per_step, full_step / per_step, static_cast<double>(cg.factorizations()) / n, v[0] - full[0],
-                v[2] - full[2]);
+    std::printf("  %-44s %10.2f %7.1fx %9.2f %14.2e %14.2e\n",
+                reuse ? "reused, co-rotated with the hub" : "full Newton", 1e3 * per_step, full_step / per_step,
+                static_cast<double>(cg.factorizations()) / n, v[0] - full[0], v[2] - full[2]);
   }
   // Issue 14: the research Puma's articulated rotor with beam blades (scenarios/puma/
   // rotor_no_air.pbtxt: lag and flap hinges, beams clamped at the pitch bearing, lag dampers,
@@ -235,8 +241,8 @@ int main() {
         sets.push_back(beam + "nodes_per_element=" + std::to_string(nodes));
       }
       sets.push_back("output.probes=[]");
-      const auto file =
-          cosim::interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_no_air.pbtxt", sets);
+      const auto file = cosim::interface::ScenarioFile::Load(
+          std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_no_air.pbtxt", sets);
       MultibodySimulation sim(file);
       const int n = 200;
       const double h = 1e-4;
@@ -255,7 +261,8 @@ int main() {
   // elements per blade; runs alternated, the median of five of each (the machine is noisy).
   std::printf("\nPuma rotor with and without air (10 × 3-node elements per blade, h = 1e-4 s, 200 steps):\n");
   auto time_rotor = [&](const char* scenario, double* iterations) {
-    const auto file = cosim::interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + scenario, {"output.probes=[]"});
+    const auto file =
+        cosim::interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + scenario, {"output.probes=[]"});
     MultibodySimulation sim(file);
     const int n = 200;
     const double h = 1e-4;
@@ -275,9 +282,10 @@ int main() {
   std::sort(with_air.begin(), with_air.end());
   std::sort(without_air.begin(), without_air.end());
   const double wet = with_air[2], dry = without_air[2];
-  std::printf("  without air %.0f us per step (%.2f Newton/step), with air %.0f us per step (%.2f Newton/step): "
-              "+%.1f %% (goal: at most +20 %%)\n",
-              1e6 * dry, it_dry, 1e6 * wet, it_air, 100.0 * (wet / dry - 1.0));
+  std::printf(
+      "  without air %.0f us per step (%.2f Newton/step), with air %.0f us per step (%.2f Newton/step): "
+      "+%.1f %% (goal: at most +20 %%)\n",
+      1e6 * dry, it_dry, 1e6 * wet, it_air, 100.0 * (wet / dry - 1.0));
   {
     const auto file = cosim::interface::ScenarioFile::Load(
         std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/rotor_air.pbtxt", {"output.probes=[]"});
@@ -302,9 +310,10 @@ int main() {
     t0 = std::chrono::steady_clock::now();
     for (int k = 0; k < reps / 10; ++k) air.AcceptStep(q, qdot, 1e-4 * (k + 2), sim.mutable_data());
     const double accept = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / (reps / 10);
-    std::printf("  air loads: %zu sections; force %.1f us, force + tangent %.1f us, inflow update %.1f us per call "
-                "(checksum %.3g)\n",
-                air.section_count(), 1e6 * force, 1e6 * tangent, 1e6 * accept, f.sum() + sink.sum);
+    std::printf(
+        "  air loads: %zu sections; force %.1f us, force + tangent %.1f us, inflow update %.1f us per call "
+        "(checksum %.3g)\n",
+        air.section_count(), 1e6 * force, 1e6 * tangent, 1e6 * accept, f.sum() + sink.sum);
   }
   return 0;
 }

@@ -24,7 +24,9 @@ double EffectiveRestitution(double e, double exponent) {
   // m = K = δ̇⁻ = 1: δ̈ = −δⁿ (1 + χ δ̇), from δ = 0, δ̇ = 1, until δ returns to 0. The contact
   // lasts a time of order 1 (3.2 for n = 3/2, undamped): h = 2e-3 resolves it.
   const double chi = 8.0 * (1.0 - e) / (5.0 * e);
-  auto accel = [&](double d, double v) { return d > 0.0 ? -std::pow(d, exponent) * std::max(0.0, 1.0 + chi * v) : 0.0; };
+  auto accel = [&](double d, double v) {
+    return d > 0.0 ? -std::pow(d, exponent) * std::max(0.0, 1.0 + chi * v) : 0.0;
+  };
   double d = 0.0, v = 1.0;
   const double h = 2e-3;
   for (int i = 0; i < 1000000; ++i) {

@@ -13,9 +13,9 @@
 namespace cosim::interface {
 
 struct HuntCrossleyLaw {
-  double stiffness = 0.0;      // K [N/m^n or N m/rad^n]
-  double exponent = 1.5;       // n
-  double restitution = 1.0;    // e in (0, 1]
+  double stiffness = 0.0;    // K [N/m^n or N m/rad^n]
+  double exponent = 1.5;     // n
+  double restitution = 1.0;  // e in (0, 1]
   double speed_threshold = 1e-3;
 };
 

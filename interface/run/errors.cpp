@@ -13,17 +13,20 @@ ExitCode PeerOutcome(int exit_code) {
 
 void ThrowAs(ExitCode code, const std::string& what) {
   switch (code) {
-    case ExitCode::kBadInput: throw InputError(what);
-    case ExitCode::kNumericalFailure: throw NumericalError(what);
-    case ExitCode::kPeerFailure: throw PeerError(what);
-    case ExitCode::kOk: break;
+    case ExitCode::kBadInput:
+      throw InputError(what);
+    case ExitCode::kNumericalFailure:
+      throw NumericalError(what);
+    case ExitCode::kPeerFailure:
+      throw PeerError(what);
+    case ExitCode::kOk:
+      break;
   }
   throw Error(code, what);
 }
 
 void AbortInvariant(const char* expr, const char* file, int line, const std::string& message) {
-  std::fprintf(stderr, "internal error: %s:%d: invariant '%s' broken: %s\n", file, line, expr,
-               message.c_str());
+  std::fprintf(stderr, "internal error: %s:%d: invariant '%s' broken: %s\n", file, line, expr, message.c_str());
   std::abort();
 }
 

@@ -54,7 +54,7 @@ ExitCode PeerOutcome(int exit_code);
 }  // namespace cosim
 
 // Always-on check of an invariant of the code itself (not of user input).
-#define COSIM_ASSERT(expr, message)                                    \
-  do {                                                                 \
+#define COSIM_ASSERT(expr, message)                                           \
+  do {                                                                        \
     if (!(expr)) ::cosim::AbortInvariant(#expr, __FILE__, __LINE__, message); \
   } while (false)

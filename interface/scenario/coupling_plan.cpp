@@ -26,8 +26,9 @@ void CheckEndpoint(const Checks& checks, const std::string& path, const std::str
     const std::string host = colon == std::string::npos ? "" : address.substr(0, colon);
     const std::string port = colon == std::string::npos ? "" : address.substr(colon + 1);
     if (host.empty() || host == "*") {
-      checks.Fail(path, "'" + endpoint + "' names no host; both sides use the endpoint, so give the contact "
-                                         "process's host (e.g. tcp://127.0.0.1:5555)");
+      checks.Fail(path, "'" + endpoint +
+                            "' names no host; both sides use the endpoint, so give the contact "
+                            "process's host (e.g. tcp://127.0.0.1:5555)");
     }
     int number = 0;
     const auto [end, error] = std::from_chars(port.data(), port.data() + port.size(), number);
@@ -37,8 +38,10 @@ void CheckEndpoint(const Checks& checks, const std::string& path, const std::str
     return;
   }
   if (endpoint.rfind("inproc://", 0) == 0) {
-    checks.Fail(path, "'" + endpoint + "': inproc:// joins threads of one process; a contact process is another "
-                                       "process" + expected);
+    checks.Fail(path, "'" + endpoint +
+                          "': inproc:// joins threads of one process; a contact process is another "
+                          "process" +
+                          expected);
   }
   checks.Fail(path, "'" + endpoint + "' is not a ZeroMQ endpoint this project uses" + expected);
 }
@@ -66,8 +69,9 @@ std::vector<ContactProcessPlan> ReadCouplingPlan(const ScenarioFile& file) {
   const scenario::Coupling& coupling = file.proto().coupling();
   const scenario::Model& model = file.proto().model();
   if (coupling.processes_size() == 0) {
-    checks.Fail("coupling.processes", "a coupled run needs at least one contact process (name, and optionally "
-                                      "program, endpoint and contact_nodes)");
+    checks.Fail("coupling.processes",
+                "a coupled run needs at least one contact process (name, and optionally "
+                "program, endpoint and contact_nodes)");
   }
   std::set<std::string> model_nodes;
   for (const auto& n : model.contact_nodes()) model_nodes.insert(n.name());
@@ -86,7 +90,8 @@ std::vector<ContactProcessPlan> ReadCouplingPlan(const ScenarioFile& file) {
       known = known || program == p.program();
       programs += (programs.empty() ? "" : ", ") + program;
     }
-    if (!known) checks.Fail(path + ".program", "unknown contact program '" + p.program() + "'; expected one of " + programs);
+    if (!known)
+      checks.Fail(path + ".program", "unknown contact program '" + p.program() + "'; expected one of " + programs);
     process.program = p.program();
     process.endpoint = p.endpoint();
     if (p.has_endpoint()) CheckEndpoint(checks, path + ".endpoint", p.endpoint());
@@ -112,8 +117,9 @@ std::vector<ContactProcessPlan> ReadCouplingPlan(const ScenarioFile& file) {
     const std::string& node = model.contact_nodes(i).name();
     if (owner.count(node) == 0) {
       checks.Fail(ElementPath("model.contact_nodes", i),
-                  "contact node '" + node + "' is in no contact process; with several processes each lists its nodes "
-                  "in coupling.processes[].contact_nodes");
+                  "contact node '" + node +
+                      "' is in no contact process; with several processes each lists its nodes "
+                      "in coupling.processes[].contact_nodes");
     }
   }
   return plan;

@@ -21,7 +21,7 @@ struct ContactProcessPlan {
   std::string program;   // executable name in the build's bin folder
   std::string endpoint;  // empty until the launcher sets one
   std::vector<std::string> nodes;
-  int index = 0;         // in coupling.processes
+  int index = 0;  // in coupling.processes
 };
 
 // A contact process's endpoint: tcp://HOST:PORT with a port in 1..65535, or ipc://PATH with a

@@ -13,8 +13,8 @@ extern "C" {
 #include "SolverOptions.h"
 }
 
-#include "nonsmooth_solver/lcp/siconos_options.h"
 #include "interface/scenario/checks.h"
+#include "nonsmooth_solver/lcp/siconos_options.h"
 
 namespace cosim::nonsmooth {
 
@@ -24,7 +24,7 @@ namespace {
 Eigen::Vector3d ProjectOnCone(const Eigen::Vector3d& x, double mu) {
   const double n = x(0);
   const double t = x.tail<2>().norm();
-  if (t <= mu * n) return x;                       // inside
+  if (t <= mu * n) return x;                         // inside
   if (mu * t <= -n) return Eigen::Vector3d::Zero();  // inside the polar cone
   const double a = (n + mu * t) / (1.0 + mu * mu);
   Eigen::Vector3d p;

@@ -4,7 +4,6 @@
 // r ⟂ û (De Saxcé), solved by Siconos Numerics' fc3d driver (NSGS). Each contact's block is
 // (normal, tangent 1, tangent 2). As for LCPs, the answer is checked here independently.
 #include <Eigen/Core>
-
 #include <string>
 
 namespace cosim::nonsmooth {

@@ -1,7 +1,6 @@
 #include "nonsmooth_solver/model/contact_model.h"
 
 #include <Eigen/Geometry>
-
 #include <map>
 #include <set>
 
@@ -100,10 +99,14 @@ namespace {
 
 LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpSettings::Solver solver) {
   switch (solver) {
-    case sc::LcpSettings::LEMKE: return LcpAlgorithm::kLemke;
-    case sc::LcpSettings::PGS: return LcpAlgorithm::kPgs;
-    case sc::LcpSettings::ENUMERATIVE: return LcpAlgorithm::kEnumerative;
-    case sc::LcpSettings::NEWTON_FB: return LcpAlgorithm::kNewtonFischerBurmeister;
+    case sc::LcpSettings::LEMKE:
+      return LcpAlgorithm::kLemke;
+    case sc::LcpSettings::PGS:
+      return LcpAlgorithm::kPgs;
+    case sc::LcpSettings::ENUMERATIVE:
+      return LcpAlgorithm::kEnumerative;
+    case sc::LcpSettings::NEWTON_FB:
+      return LcpAlgorithm::kNewtonFischerBurmeister;
     default:
       checks.Fail(path, "expected one of LEMKE, PGS, ENUMERATIVE, NEWTON_FB" +
                             std::string(path.find("fallback") != std::string::npos ? " (or NONE alone)" : ""));
@@ -129,8 +132,7 @@ void BuildObstacles(const Checks& checks, const sc::Model& model, bool served, C
       obstacle.velocity = checks.Vector3(path + ".prescribed.velocity", m.velocity(), Eigen::Vector3d::Zero());
       if (m.has_rotation_angle()) {
         obstacle.rotation_axis = checks.Direction(path + ".prescribed.rotation_axis", m.rotation_axis());
-        obstacle.rotation_angle =
-            TimeFunction::Build(checks, path + ".prescribed.rotation_angle", m.rotation_angle());
+        obstacle.rotation_angle = TimeFunction::Build(checks, path + ".prescribed.rotation_angle", m.rotation_angle());
       }
     } else if (o.has_attached_to_body() && o.attached_to_body() != "ground") {
       if (!served) {
@@ -162,8 +164,8 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
         checks.Vector3(path + ".force", n.force(), Eigen::Vector3d::Zero()) + node.mass * out->gravity;
     if (n.force_function_size() != 0) {
       if (n.force_function_size() != 3) {
-        checks.Fail(path + ".force_function", "expected 3 functions (x, y, z), got " +
-                                                  std::to_string(n.force_function_size()));
+        checks.Fail(path + ".force_function",
+                    "expected 3 functions (x, y, z), got " + std::to_string(n.force_function_size()));
       }
       for (int c = 0; c < 3; ++c) {
         node.force_function[static_cast<size_t>(c)] =
@@ -187,8 +189,8 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
       checks.Require(cpath + ".obstacle", c.has_obstacle(), "the name of an obstacle");
       contact.obstacle = obstacle_names.Find(cpath + ".obstacle", c.obstacle());
       if (!seen.insert(contact.obstacle).second) {
-        checks.Fail(cpath + ".obstacle", "node '" + node.name + "' already has a contact with obstacle '" +
-                                             c.obstacle() + "'");
+        checks.Fail(cpath + ".obstacle",
+                    "node '" + node.name + "' already has a contact with obstacle '" + c.obstacle() + "'");
       }
       contact.restitution = checks.InRange(cpath + ".restitution", c.has_restitution(), c.restitution(), 0.0, 1.0);
       contact.friction = checks.NonNegative(cpath + ".friction", c.friction(), "Coulomb coefficient");
@@ -199,8 +201,8 @@ void BuildNodes(const Checks& checks, const sc::Model& model, const NameTable& o
   }
 }
 
-void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names,
-                 const ContactModel& model, const std::set<std::string>& elsewhere, bool coupled, ContactModel* out) {
+void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable& node_names, const ContactModel& model,
+                 const std::set<std::string>& elsewhere, bool coupled, ContactModel* out) {
   std::map<std::string, int> contact_index;
   for (size_t c = 0; c < model.contacts.size(); ++c) contact_index[model.contacts[c].name] = static_cast<int>(c);
   NameTable probe_names(checks, "probe");
@@ -216,8 +218,9 @@ void BuildProbes(const Checks& checks, const sc::Output& output, const NameTable
     // a contact-only run, never dropped.
     const bool own_entity = node_names.Contains(p.entity()) || contact_index.count(p.entity()) != 0;
     if (coupled && !own_entity && p.quantity() != sc::Probe::POSITION && p.quantity() != sc::Probe::VELOCITY &&
-        p.quantity() != sc::Probe::GAP && p.quantity() != sc::Probe::IMPULSE && p.quantity() != sc::Probe::KINETIC_ENERGY &&
-        p.quantity() != sc::Probe::POTENTIAL_ENERGY && p.quantity() != sc::Probe::TOTAL_ENERGY) {
+        p.quantity() != sc::Probe::GAP && p.quantity() != sc::Probe::IMPULSE &&
+        p.quantity() != sc::Probe::KINETIC_ENERGY && p.quantity() != sc::Probe::POTENTIAL_ENERGY &&
+        p.quantity() != sc::Probe::TOTAL_ENERGY) {
       continue;
     }
     Probe probe;
@@ -289,8 +292,8 @@ void BuildSprings(const Checks& checks, const sc::Model& model, const NameTable&
     checks.Require(path + ".stiffness", s.has_stiffness(), "a stiffness in N/m");
     spring.stiffness = checks.NonNegative(path + ".stiffness", s.stiffness(), "N/m");
     spring.damping = checks.NonNegative(path + ".damping", s.damping(), "N s/m");
-    const Eigen::Vector3d initial = out->nodes[static_cast<size_t>(spring.node1)].position -
-                                    out->nodes[static_cast<size_t>(spring.node2)].position;
+    const Eigen::Vector3d initial =
+        out->nodes[static_cast<size_t>(spring.node1)].position - out->nodes[static_cast<size_t>(spring.node2)].position;
     spring.rest_offset = checks.Vector3(path + ".rest_offset", s.rest_offset(), initial);
     out->springs.push_back(spring);
   }
@@ -337,14 +340,19 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::s
   model.max_penetration = checks.Positive("numerics.nonsmooth.max_penetration", true, ns.max_penetration(), "m");
   model.split_independent_lcps = ns.split_independent_lcps();
   switch (ns.friction_model()) {
-    case sc::NonsmoothSettings::POLYHEDRAL_LCP: model.friction_model = FrictionModel::kPolyhedralLcp; break;
-    case sc::NonsmoothSettings::SICONOS_FC3D: model.friction_model = FrictionModel::kSiconosFc3d; break;
-    default: checks.Fail("numerics.nonsmooth.friction_model", "expected POLYHEDRAL_LCP or SICONOS_FC3D");
+    case sc::NonsmoothSettings::POLYHEDRAL_LCP:
+      model.friction_model = FrictionModel::kPolyhedralLcp;
+      break;
+    case sc::NonsmoothSettings::SICONOS_FC3D:
+      model.friction_model = FrictionModel::kSiconosFc3d;
+      break;
+    default:
+      checks.Fail("numerics.nonsmooth.friction_model", "expected POLYHEDRAL_LCP or SICONOS_FC3D");
   }
   if (ns.friction_facets() < 3 || ns.friction_facets() > 64) {
-    checks.Fail("numerics.nonsmooth.friction_facets",
-                "must be in [3, 64] (directions of the polyhedral friction cone), got " +
-                    std::to_string(ns.friction_facets()));
+    checks.Fail(
+        "numerics.nonsmooth.friction_facets",
+        "must be in [3, 64] (directions of the polyhedral friction cone), got " + std::to_string(ns.friction_facets()));
   }
   model.friction_facets = ns.friction_facets();
   const sc::LcpSettings& lcp = ns.lcp();

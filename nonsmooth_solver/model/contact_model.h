@@ -4,16 +4,15 @@
 // lives in its workspace (see integrator/moreau_jean.h), the frames of obstacles driven by the
 // coordinator of a coupled run in ContactData, which the integrator's checkpoints hold.
 #include <Eigen/Core>
-
 #include <array>
 #include <memory>
 #include <set>
 #include <string>
 #include <vector>
 
-#include "nonsmooth_solver/lcp/lcp_solver.h"
 #include "interface/scenario/scenario_file.h"
 #include "interface/scenario/time_function.h"
+#include "nonsmooth_solver/lcp/lcp_solver.h"
 
 namespace cosim::nonsmooth {
 
@@ -21,11 +20,11 @@ using interface::TimeFunction;
 
 struct ContactNode {
   std::string name;
-  double mass = 1.0;                                  // [kg]
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // initial [m]
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  // initial [m/s]
+  double mass = 1.0;                                         // [kg]
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();        // initial [m]
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();        // initial [m/s]
   Eigen::Vector3d constant_force = Eigen::Vector3d::Zero();  // [N], gravity included
-  std::array<TimeFunction, 3> force_function;                 // [N], time-prescribed
+  std::array<TimeFunction, 3> force_function;                // [N], time-prescribed
   bool has_time_force = false;
   // Linear spring-damper to an anchor point (zero rest length).
   Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
@@ -45,7 +44,7 @@ struct BodyFrame {
 };
 struct DrivenFrame {
   double t0 = 0.0, t1 = 0.0;
-  BodyFrame start, end;    // at t0 (last accepted) and t1 (the step's end, this iteration)
+  BodyFrame start, end;  // at t0 (last accepted) and t1 (the step's end, this iteration)
   // The plane's point, normal and tangent in the body frame (fixed at the Hello).
   Eigen::Vector3d point_body = Eigen::Vector3d::Zero(), normal_body = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d tangent_body = Eigen::Vector3d::UnitX();
@@ -66,9 +65,9 @@ struct ContactData {
 // run's ContactData; the integrator reads them through the same functions).
 struct Obstacle {
   std::string name;
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();   // p(0)
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // n(0), unit
-  Eigen::Vector3d tangent = Eigen::Vector3d::UnitX(); // t(0), unit, ⟂ n(0): friction facets start here
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();     // p(0)
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();   // n(0), unit
+  Eigen::Vector3d tangent = Eigen::Vector3d::UnitX();  // t(0), unit, ⟂ n(0): friction facets start here
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitZ();  // unit
   TimeFunction rotation_angle;                               // [rad]
@@ -123,8 +122,8 @@ enum class ProbeKind { kPosition, kVelocity, kGap, kImpulse, kKineticEnergy, kPo
 struct Probe {
   std::string name;
   ProbeKind kind = ProbeKind::kPosition;
-  int index = -1;      // node or contact; -1 = the whole process
-  int component = 0;   // 0, 1, 2 = x, y, z; 3 = norm
+  int index = -1;     // node or contact; -1 = the whole process
+  int component = 0;  // 0, 1, 2 = x, y, z; 3 = norm
 };
 
 struct ContactModel {
@@ -146,7 +145,7 @@ struct ContactModel {
   // Solve the contacts of each NodeGroup in an LCP of its own (the same solution as one LCP).
   bool split_independent_lcps = true;
   FrictionModel friction_model = FrictionModel::kPolyhedralLcp;
-  int driven_frames = 0;  // obstacles attached to smooth bodies (ContactData::frames' size)
+  int driven_frames = 0;    // obstacles attached to smooth bodies (ContactData::frames' size)
   int friction_facets = 8;  // tangent directions of the polyhedral cone, >= 3
   LcpOptions lcp;
 };

@@ -24,7 +24,6 @@
 // J_ab ḋ_a·ḋ_b) ds with J_ab = ∫ ρ η_a η_b dA.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
-
 #include <array>
 #include <string>
 #include <vector>
@@ -40,17 +39,17 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 // Section properties at one point of the span. Section axes: 2 chordwise (d2), 3 flapwise (d3);
 // offsets are measured from the reference line along them.
 struct BeamSection {
-  double ea = 0.0;                   // axial stiffness [N]
-  double ga2 = 0.0, ga3 = 0.0;       // shear stiffness along d2, d3 [N]
-  double gj = 0.0;                   // torsional stiffness [N m²]
-  double ei2 = 0.0;                  // bending about d2: flapwise [N m²]
-  double ei3 = 0.0;                  // bending about d3: chordwise (lag) [N m²]
+  double ea = 0.0;                        // axial stiffness [N]
+  double ga2 = 0.0, ga3 = 0.0;            // shear stiffness along d2, d3 [N]
+  double gj = 0.0;                        // torsional stiffness [N m²]
+  double ei2 = 0.0;                       // bending about d2: flapwise [N m²]
+  double ei3 = 0.0;                       // bending about d3: chordwise (lag) [N m²]
   double tension2 = 0.0, tension3 = 0.0;  // tension-centre (elastic-axis) offset [m]
-  double mass = 0.0;                 // per length [kg/m]
-  double cg2 = 0.0, cg3 = 0.0;       // centre-of-mass offset [m]
-  double inertia2 = 0.0;             // ∫ρ(η3 − c3)² dA about the c.g.'s chordwise axis [kg m]
-  double inertia3 = 0.0;             // ∫ρ(η2 − c2)² dA about the c.g.'s flapwise axis [kg m]
-  double twist = 0.0;                // [rad] about d1, nose up positive
+  double mass = 0.0;                      // per length [kg/m]
+  double cg2 = 0.0, cg3 = 0.0;            // centre-of-mass offset [m]
+  double inertia2 = 0.0;                  // ∫ρ(η3 − c3)² dA about the c.g.'s chordwise axis [kg m]
+  double inertia3 = 0.0;                  // ∫ρ(η2 − c2)² dA about the c.g.'s flapwise axis [kg m]
+  double twist = 0.0;                     // [rad] about d1, nose up positive
 };
 
 // The 6×6 section stiffness over ε = [Γ1, Γ2, Γ3, κ1, κ2, κ3]: the axial strain at the tension
@@ -80,10 +79,10 @@ class BeamTable {
 // One element: its nodes (bodies), reference length and, per Gauss point, section stiffness
 // and reference strains.
 struct BeamElement {
-  std::array<int, 3> node{-1, -1, -1};  // body index of each node
-  double s0 = 0.0, length = 0.0;        // span coordinate of its first node, reference length
-  std::array<Matrix6d, 2> stiffness;    // C at each Gauss point
-  std::array<Vector6d, 2> reference;    // Γ⁰, κ⁰ at each Gauss point (set by BeamForce)
+  std::array<int, 3> node{-1, -1, -1};                       // body index of each node
+  double s0 = 0.0, length = 0.0;                             // span coordinate of its first node, reference length
+  std::array<Matrix6d, 2> stiffness;                         // C at each Gauss point
+  std::array<Vector6d, 2> reference;                         // Γ⁰, κ⁰ at each Gauss point (set by BeamForce)
   Eigen::Matrix<double, 3 * kCoordinatesPerBody, 1> q_ref =  // reference coordinates, 12 per node
       Eigen::Matrix<double, 3 * kCoordinatesPerBody, 1>::Zero();
 };

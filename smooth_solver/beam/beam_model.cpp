@@ -29,9 +29,8 @@ BeamSection ReadStation(const Checks& checks, const std::string& path, const sc:
   const double torsion = checks.NonNegative(path + ".inertia_torsion", st.inertia_torsion(), "kg m");
   s.inertia2 = checks.NonNegative(path + ".inertia_flap", st.inertia_flap(), "kg m");
   if (s.inertia2 > torsion) {
-    checks.Fail(path + ".inertia_flap", FormatNumber(s.inertia2) +
-                                            " kg m is more than inertia_torsion (" + FormatNumber(torsion) +
-                                            " kg m), of which it is the flapwise part");
+    checks.Fail(path + ".inertia_flap", FormatNumber(s.inertia2) + " kg m is more than inertia_torsion (" +
+                                            FormatNumber(torsion) + " kg m), of which it is the flapwise part");
   }
   s.inertia3 = torsion - s.inertia2;
   s.twist = st.twist();
@@ -63,8 +62,8 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
                                       FormatNumber(s.back()) + " m; stations must not decrease");
       }
       if (s.size() >= 2 && st.s() == s.back() && s[s.size() - 2] == st.s()) {
-        checks.Fail(spath + ".s", "a third station at s = " + FormatNumber(st.s()) +
-                                      " m; a step is two stations at the same s");
+        checks.Fail(spath + ".s",
+                    "a third station at s = " + FormatNumber(st.s()) + " m; a step is two stations at the same s");
       }
       s.push_back(st.s());
       sections.push_back(ReadStation(checks, spath, st));
@@ -76,9 +75,9 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
                                             FormatNumber(s.front()) + ", " + FormatNumber(s.back()) + "] m");
     }
     if (!(beam.span_end > beam.span_start) || beam.span_end > s.back()) {
-      checks.Fail(path + ".span_end", FormatNumber(beam.span_end) + " m: expected in (span_start = " +
-                                          FormatNumber(beam.span_start) + ", last station = " + FormatNumber(s.back()) +
-                                          "] m");
+      checks.Fail(path + ".span_end", FormatNumber(beam.span_end) +
+                                          " m: expected in (span_start = " + FormatNumber(beam.span_start) +
+                                          ", last station = " + FormatNumber(s.back()) + "] m");
     }
     beam.table = BeamTable(s, sections);
 
@@ -88,8 +87,8 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
       checks.Fail(path + ".elements", "expected 1 to 10000 elements, got " + std::to_string(b.elements()));
     }
     if (b.nodes_per_element() != 2 && b.nodes_per_element() != 3) {
-      checks.Fail(path + ".nodes_per_element", "expected 2 (linear) or 3 (quadratic), got " +
-                                                   std::to_string(b.nodes_per_element()));
+      checks.Fail(path + ".nodes_per_element",
+                  "expected 2 (linear) or 3 (quadratic), got " + std::to_string(b.nodes_per_element()));
     }
     beam.nodes_per_element = b.nodes_per_element();
     beam.retardation = checks.NonNegative(path + ".retardation_time", b.retardation_time(), "s");
@@ -101,7 +100,8 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
     beam.d2_0 = d2_0;
     beam.d3_0 = d3_0;
     const Eigen::Vector3d v0 = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
-    const Eigen::Vector3d w0 = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
+    const Eigen::Vector3d w0 =
+        checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
 
     const int n = beam.nodes_per_element, ne = b.elements(), nodes = ne * (n - 1) + 1;
     const double length = beam.span_end - beam.span_start, le = length / ne;

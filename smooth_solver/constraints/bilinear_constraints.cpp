@@ -67,13 +67,9 @@ double ConstraintSet::Weight(const DriveWeight& w, double t, int derivative) con
   const double s = std::sin(th), c = std::cos(th);
   switch (w.kind) {
     case DriveWeight::Kind::kSin:
-      return w.scale * (derivative == 0   ? s
-                        : derivative == 1 ? c * th_dot
-                                          : -s * th_dot * th_dot + c * th_ddot);
+      return w.scale * (derivative == 0 ? s : derivative == 1 ? c * th_dot : -s * th_dot * th_dot + c * th_ddot);
     case DriveWeight::Kind::kCos:
-      return w.scale * (derivative == 0   ? c
-                        : derivative == 1 ? -s * th_dot
-                                          : -c * th_dot * th_dot - s * th_ddot);
+      return w.scale * (derivative == 0 ? c : derivative == 1 ? -s * th_dot : -c * th_dot * th_dot - s * th_ddot);
     case DriveWeight::Kind::kValue:
       return w.scale * (derivative == 0 ? th : derivative == 1 ? th_dot : th_ddot);
     case DriveWeight::Kind::kOne:
@@ -144,7 +140,8 @@ void ConstraintSet::AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::Vect
     if (!Active(i, t)) continue;
     const double l = lambda(static_cast<Eigen::Index>(i));
     for (const auto& term : constraints[i].terms) {
-      ForEachJacobianEntry(term, l * Weight(term.weight, t, 0), q, [&](int column, double value) { out(column) += value; });
+      ForEachJacobianEntry(term, l * Weight(term.weight, t, 0), q,
+                           [&](int column, double value) { out(column) += value; });
     }
   }
 }
@@ -196,7 +193,8 @@ void ConstraintSet::AddReleasedDiagonal(double t, SparseSink* sink, int offset) 
 
 void ConstraintSet::AddComplianceDiagonal(SparseSink* sink, int offset, double scale) const {
   for (size_t i = 0; i < compliance.size(); ++i) {
-    if (compliance[i] != 0.0) sink->Add(offset + static_cast<int>(i), offset + static_cast<int>(i), -scale * compliance[i]);
+    if (compliance[i] != 0.0)
+      sink->Add(offset + static_cast<int>(i), offset + static_cast<int>(i), -scale * compliance[i]);
   }
 }
 

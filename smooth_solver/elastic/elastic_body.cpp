@@ -1,7 +1,6 @@
 #include "smooth_solver/elastic/elastic_body.h"
 
 #include <Eigen/SparseCholesky>
-
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -46,7 +45,8 @@ ElasticMesh BeamMesh(double length, double chord, double thickness, int along, i
         std::array<int, 27> element{};
         for (int k = 0; k < 3; ++k) {
           for (int j = 0; j < 3; ++j) {
-            for (int i = 0; i < 3; ++i) element[static_cast<size_t>(i + 3 * j + 9 * k)] = id(2 * ei + i, 2 * ej + j, 2 * ek + k);
+            for (int i = 0; i < 3; ++i)
+              element[static_cast<size_t>(i + 3 * j + 9 * k)] = id(2 * ei + i, 2 * ej + j, 2 * ek + k);
           }
         }
         mesh.elements.push_back(element);
@@ -91,11 +91,11 @@ Hex27::NodeMatrix Gather(const ElasticBody::Positions& x, const ElementNodes& no
 
 void ScatterForce(const ElementNodes& nodes, const Hex27::ElementVector& fe, double scale,
                   Eigen::Ref<Eigen::VectorXd> f) {
-  for (int a = 0; a < Hex27::kNodes; ++a) f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += scale * fe.segment<3>(3 * a);
+  for (int a = 0; a < Hex27::kNodes; ++a)
+    f.segment<3>(3 * nodes[static_cast<size_t>(a)]) += scale * fe.segment<3>(3 * a);
 }
 
-void ScatterMatrix(const ElementNodes& nodes, const Hex27::ElementMatrix& Ke, double scale, SparseSink* K,
-                   int offset) {
+void ScatterMatrix(const ElementNodes& nodes, const Hex27::ElementMatrix& Ke, double scale, SparseSink* K, int offset) {
   std::array<int, 3 * Hex27::kNodes> index;  // Ke is node-major: 3a + i
   for (int a = 0; a < Hex27::kNodes; ++a) {
     for (int i = 0; i < 3; ++i) index[static_cast<size_t>(3 * a + i)] = offset + 3 * nodes[static_cast<size_t>(a)] + i;
@@ -120,9 +120,8 @@ struct ElementWork {
 
 }  // namespace
 
-void ElasticBody::AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights,
-                                   double f_scale, Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K,
-                                   int offset) const {
+void ElasticBody::AssembleMidpoint(const Positions& x_prev, const Positions& x, MidpointWeights weights, double f_scale,
+                                   Eigen::Ref<Eigen::VectorXd> f, double k_scale, SparseSink* K, int offset) const {
   const bool force = f_scale != 0.0;
   ElementWork& work = ElementWork::Get(elements_.size(), K != nullptr);
   // Each element's force and tangent on whichever core is free (they only read the body and
@@ -183,7 +182,8 @@ double ElasticBody::StrainEnergy(const Eigen::Ref<const Eigen::Matrix3Xd>& x) co
 
 std::vector<double> ElasticBody::VonMisesStress(const Eigen::Ref<const Eigen::Matrix3Xd>& x) const {
   std::vector<double> stress(elements_.size());
-  for (size_t e = 0; e < elements_.size(); ++e) stress[e] = elements_[e].VonMisesStress(material_, Gather(x, mesh_.elements[e]));
+  for (size_t e = 0; e < elements_.size(); ++e)
+    stress[e] = elements_[e].VonMisesStress(material_, Gather(x, mesh_.elements[e]));
   return stress;
 }
 

@@ -5,7 +5,6 @@
 // verification against static results [CGα paper, Section 5.1, Tables 1-2].
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
-
 #include <array>
 #include <string>
 #include <vector>
@@ -16,10 +15,10 @@
 namespace cosim::smooth {
 
 struct ElasticMesh {
-  Eigen::Matrix3Xd nodes;                    // reference positions [m]
+  Eigen::Matrix3Xd nodes;                     // reference positions [m]
   std::vector<std::array<int, 27>> elements;  // node indices, Hex27 numbering
-  std::vector<int> root_face, tip_face;      // beam meshes: nodes at x = 0 and x = length
-  int root_centre = -1, tip_centre = -1;     // beam meshes: nodes at the centres of the end faces
+  std::vector<int> root_face, tip_face;       // beam meshes: nodes at x = 0 and x = length
+  int root_centre = -1, tip_centre = -1;      // beam meshes: nodes at the centres of the end faces
 };
 
 // A straight beam along +x from the origin: length × chord (y) × thickness (z), centred on

@@ -18,7 +18,7 @@ void ElasticForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, do
 void ElasticForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd&, double, double stiffness_scale, double,
                               SparseSink* sink) const {
   if (stiffness_scale == 0.0) return;  // no damping in the material law
-  Eigen::VectorXd unused(0);  // f_scale = 0: the force is not assembled
+  Eigen::VectorXd unused(0);           // f_scale = 0: the force is not assembled
   body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, 0.0, unused, stiffness_scale, sink, offset_);
 }
 

@@ -7,7 +7,6 @@
 #include <utility>
 
 #include "interface/scenario/time_function.h"
-
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/forces/force_elements.h"
 
@@ -69,10 +68,11 @@ class ElasticDamping : public ForceElement {
 // potential and the TOTAL_ENERGY probe does not count its work.
 class NodalForce : public ForceElement {
  public:
-  NodalForce(int index, const Eigen::Vector3d& reference, const Eigen::Vector3d& force,
-             interface::TimeFunction factor, bool time_varying)
+  NodalForce(int index, const Eigen::Vector3d& reference, const Eigen::Vector3d& force, interface::TimeFunction factor,
+             bool time_varying)
       : index_(index), reference_(reference), force_(force), factor_(std::move(factor)), time_varying_(time_varying) {}
-  void AddForce(const Eigen::VectorXd&, const Eigen::VectorXd&, double t, Eigen::Ref<Eigen::VectorXd> f) const override {
+  void AddForce(const Eigen::VectorXd&, const Eigen::VectorXd&, double t,
+                Eigen::Ref<Eigen::VectorXd> f) const override {
     f.segment<3>(index_) += factor_.Value(t) * force_;
   }
   void AddTangent(const Eigen::VectorXd&, const Eigen::VectorXd&, double, double, double, SparseSink*) const override {}

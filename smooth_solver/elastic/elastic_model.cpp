@@ -1,7 +1,6 @@
 #include "smooth_solver/elastic/elastic_model.h"
 
 #include <Eigen/Geometry>
-
 #include <cmath>
 
 #include "interface/run/errors.h"
@@ -73,13 +72,14 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
       const double length = checks.Positive(mesh_path + ".length", b.has_length(), b.length(), "m");
       const double chord = checks.Positive(mesh_path + ".chord", b.has_chord(), b.chord(), "m");
       const double thickness = checks.Positive(mesh_path + ".thickness", b.has_thickness(), b.thickness(), "m");
-      const int along = PositiveCount(checks, mesh_path + ".elements_along", b.has_elements_along(),
-                                      b.elements_along(), "the number of elements along the beam");
+      const int along = PositiveCount(checks, mesh_path + ".elements_along", b.has_elements_along(), b.elements_along(),
+                                      "the number of elements along the beam");
       const int across = PositiveCount(checks, mesh_path + ".elements_across", true, b.elements_across(), "");
       // Counted in double: along × across² overflows an int long before memory runs out.
       const double elements = static_cast<double>(along) * across * across;
       if (elements > kMaxElements) {
-        checks.Fail(mesh_path, "elements_along × elements_across² = " + interface::FormatNumber(elements) +
+        checks.Fail(mesh_path,
+                    "elements_along × elements_across² = " + interface::FormatNumber(elements) +
                         " hex27 elements; at most " + interface::FormatNumber(kMaxElements) +
                         " per body (each needs ~60 kB for its tangent: the mesh would not fit this kind of machine)");
       }
@@ -92,17 +92,17 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
       const auto& g = e.general();
       mesh_path = path + ".general";
       if (g.node_coordinates_size() == 0 || g.node_coordinates_size() % 3 != 0) {
-        checks.Fail(mesh_path + ".node_coordinates", "expected 3 coordinates per node, got " +
-                                                         std::to_string(g.node_coordinates_size()) + " numbers");
+        checks.Fail(mesh_path + ".node_coordinates",
+                    "expected 3 coordinates per node, got " + std::to_string(g.node_coordinates_size()) + " numbers");
       }
       if (g.element_nodes_size() == 0 || g.element_nodes_size() % 27 != 0) {
-        checks.Fail(mesh_path + ".element_nodes", "expected 27 node indices per element, got " +
-                                                      std::to_string(g.element_nodes_size()) + " numbers");
+        checks.Fail(mesh_path + ".element_nodes",
+                    "expected 27 node indices per element, got " + std::to_string(g.element_nodes_size()) + " numbers");
       }
       if (g.element_nodes_size() / 27 > kMaxElements) {
         checks.Fail(mesh_path + ".element_nodes", std::to_string(g.element_nodes_size() / 27) +
-                                                      " hex27 elements; at most " + interface::FormatNumber(kMaxElements) +
-                                                      " per body");
+                                                      " hex27 elements; at most " +
+                                                      interface::FormatNumber(kMaxElements) + " per body");
       }
       const int nodes = g.node_coordinates_size() / 3;
       mesh.nodes = Eigen::Map<const Eigen::Matrix3Xd>(g.node_coordinates().data(), 3, nodes);
@@ -124,9 +124,10 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
     const int bad = spec.body.Initialize(std::move(mesh), material);
     const ElasticMesh& built = spec.body.mesh();
     if (bad >= 0) {
-      checks.Fail(mesh_path, "element " + std::to_string(bad) +
-                                 " is inverted or degenerate (its Jacobian determinant is not positive); check the node "
-                                 "order (node = i + 3 j + 9 k over the reference grid) and coordinates");
+      checks.Fail(mesh_path,
+                  "element " + std::to_string(bad) +
+                      " is inverted or degenerate (its Jacobian determinant is not positive); check the node "
+                      "order (node = i + 3 j + 9 k over the reference grid) and coordinates");
     }
 
     for (int c = 0; c < e.clamps_size(); ++c) {
@@ -143,7 +144,8 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
         clamp.rigid_body = found;
       }
       if (cl.has_face()) {
-        if (built.root_face.empty()) checks.Fail(cpath + ".face", "faces exist on beam meshes only; give nodes { ... }");
+        if (built.root_face.empty())
+          checks.Fail(cpath + ".face", "faces exist on beam meshes only; give nodes { ... }");
         if (cl.face() != "root" && cl.face() != "tip") {
           checks.Fail(cpath + ".face", "expected \"root\" or \"tip\", got '" + cl.face() + "'");
         }
@@ -152,7 +154,8 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
         for (int k = 0; k < cl.nodes().index_size(); ++k) {
           const int node = cl.nodes().index(k);
           if (node < 0 || node >= spec.body.node_count()) {
-            checks.Fail(ElementPath(cpath + ".nodes.index", k), "node " + std::to_string(node) + " is outside the body (" +
+            checks.Fail(ElementPath(cpath + ".nodes.index", k), "node " + std::to_string(node) +
+                                                                    " is outside the body (" +
                                                                     std::to_string(spec.body.node_count()) + " nodes)");
           }
           clamp.nodes.push_back(node);

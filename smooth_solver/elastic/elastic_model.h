@@ -15,7 +15,7 @@ namespace cosim::smooth {
 struct ElasticBodySpec {
   std::string name;
   ElasticBody body;
-  double strain_damping = 0.0;  // ξ of the GEMM midpoint force, >= 0
+  double strain_damping = 0.0;    // ξ of the GEMM midpoint force, >= 0
   double retardation_time = 0.0;  // β of the Kelvin–Voigt structural damping [s], >= 0
   struct Clamp {
     int rigid_body = -1;  // −1: ground

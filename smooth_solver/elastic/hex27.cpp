@@ -1,7 +1,6 @@
 #include "smooth_solver/elastic/hex27.h"
 
 #include <Eigen/LU>
-
 #include <cmath>
 
 namespace cosim::smooth {
@@ -152,8 +151,8 @@ void Hex27::MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, co
     if (!same) {
       const Eigen::Matrix3d H0 = u0.lazyProduct(G.transpose());
       const Eigen::Matrix3d E0 = 0.5 * (H0 + H0.transpose() + H0.transpose() * H0);
-      Hm = (1.0 - mw.alpha_f) * H1 + mw.alpha_f * H0;                       // Eq. (15)
-      Em = (1.0 - mw.alpha_f + mw.xi) * E1 + (mw.alpha_f - mw.xi) * E0;     // Eqs. (16)-(17)
+      Hm = (1.0 - mw.alpha_f) * H1 + mw.alpha_f * H0;                    // Eq. (15)
+      Em = (1.0 - mw.alpha_f + mw.xi) * E1 + (mw.alpha_f - mw.xi) * E0;  // Eqs. (16)-(17)
     }
     const Eigen::Matrix3d F1 = Eigen::Matrix3d::Identity() + H1;
     const Eigen::Matrix3d Fm = Eigen::Matrix3d::Identity() + Hm;
@@ -166,7 +165,8 @@ void Hex27::MidpointForce(const ElasticMaterial& m, const NodeMatrix& x_prev, co
       GramOf(G, Columns(Eigen::Matrix3d((w * c_geometric) * S).lazyProduct(G)), &GSG);
       GramOf(G, G, &GtG);
       const double wc = w * c_material;
-      AddMaterialBlocks(Fm.lazyProduct(G), F1.lazyProduct(G), wc * m.lambda(), wc * m.mu(), GtG, Fm * F1.transpose(), &GSG, &Kc);
+      AddMaterialBlocks(Fm.lazyProduct(G), F1.lazyProduct(G), wc * m.lambda(), wc * m.mu(), GtG, Fm * F1.transpose(),
+                        &GSG, &Kc);
     }
   }
   if (K != nullptr) NodeMajor(Kc, K);
@@ -196,8 +196,8 @@ void Hex27::ViscousForce(const ElasticMaterial& m, double retardation, const Nod
     GramOf(G, G, &GtG);
     const Eigen::Matrix3d B = k_scale * Fdot + c_scale * F;
     if (k_scale != 0.0) GramOf(G, Columns(Eigen::Matrix3d((k_scale * w) * S).lazyProduct(G)), &GSG);
-    AddMaterialBlocks(F.lazyProduct(G), B.lazyProduct(G), w * retardation * m.lambda(), w * retardation * m.mu(), GtG, F * B.transpose(),
-                      k_scale != 0.0 ? &GSG : nullptr, &Kc);
+    AddMaterialBlocks(F.lazyProduct(G), B.lazyProduct(G), w * retardation * m.lambda(), w * retardation * m.mu(), GtG,
+                      F * B.transpose(), k_scale != 0.0 ? &GSG : nullptr, &Kc);
   }
   if (KC != nullptr) NodeMajor(Kc, KC);
 }

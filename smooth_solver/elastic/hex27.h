@@ -25,7 +25,6 @@
 // energy's increment is the midpoint force's work, which is what conserves energy.
 // With αf = ξ = 0 the midpoint force is the end-point force above.
 #include <Eigen/Core>
-
 #include <array>
 
 namespace cosim::smooth {
@@ -48,8 +47,8 @@ class Hex27 {
  public:
   static constexpr int kNodes = 27;
   static constexpr int kGauss = 27;
-  using NodeMatrix = Eigen::Matrix<double, 3, kNodes>;             // one column per node
-  using ElementVector = Eigen::Matrix<double, 3 * kNodes, 1>;      // node-major: 3a + i
+  using NodeMatrix = Eigen::Matrix<double, 3, kNodes>;         // one column per node
+  using ElementVector = Eigen::Matrix<double, 3 * kNodes, 1>;  // node-major: 3a + i
   using ElementMatrix = Eigen::Matrix<double, 3 * kNodes, 3 * kNodes>;
 
   // Precomputes the reference gradients and volume weights from the reference node

@@ -102,7 +102,8 @@ int CgAlphaIndex2::Step(double t, double h) {
   }
   nu_.setZero();
   auto update_kinematics = [&] {
-    a_next_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) / (1.0 - coef_.alpha_m);
+    a_next_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) /
+              (1.0 - coef_.alpha_m);
     next_.qdot = state_.qdot + h * ((1.0 - coef_.gamma) * a_ + coef_.gamma * a_next_);
     q_newmark_ = state_.q + h * state_.qdot + h * h * ((0.5 - coef_.beta) * a_ + coef_.beta * a_next_);
   };

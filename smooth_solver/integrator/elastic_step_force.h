@@ -31,14 +31,14 @@ class ElasticStepForce {
            SparseSink* sink);
   // The step q_prev → q is accepted: f̃_n = f̃_{n+1}(q), evaluated at the accepted q.
   void Accept(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q);
-  const Eigen::VectorXd& current() const { return current_; }  // f̃_n
+  const Eigen::VectorXd& current() const { return current_; }   // f̃_n
   void set_current(const Eigen::VectorXd& f) { current_ = f; }  // a checkpoint's f̃_n
 
  private:
   void Evaluate(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double k_scale, SparseSink* sink);
 
   const MultibodySystem& system_;
-  double alpha_;  // αf with GEMM, 0 without
+  double alpha_;                    // αf with GEMM, 0 without
   Eigen::VectorXd current_, next_;  // f̃_n, f̃_{n+1}
 };
 

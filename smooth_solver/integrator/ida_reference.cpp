@@ -1,7 +1,5 @@
 #include "smooth_solver/integrator/ida_reference.h"
 
-#include "smooth_solver/integrator/cgalpha.h"
-
 #include <ida/ida.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
@@ -12,9 +10,10 @@
 #include <limits>
 
 #include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
+#include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/linear_algebra/sun_sparse.h"
-#include "interface/scenario/checks.h"
 
 namespace cosim::smooth {
 

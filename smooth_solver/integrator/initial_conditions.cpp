@@ -1,16 +1,14 @@
 #include "smooth_solver/integrator/initial_conditions.h"
 
-#include <algorithm>
-#include <limits>
-#include <optional>
-
 #include <kinsol/kinsol.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sunlinsol/sunlinsol_klu.h>
 #include <sunmatrix/sunmatrix_sparse.h>
 
+#include <algorithm>
 #include <limits>
+#include <optional>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -95,7 +93,6 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
   return 0;
 }
 
-
 // min ½|q̇ − q̇_ref|²_W s.t. Φ_q q̇ = −Φ_t and, with `holds`, H_q q̇ = H_q q̇_ref (held joint
 // speeds kept): the KKT system [W Gᵀ; G −C], C the rows' compliance (regularised rows are met
 // in the least-squares sense), W = I or, with `mass_metric`, the mass matrix: then the change is
@@ -178,7 +175,8 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   N_VConst(1.0, scale);
   KINInit(kin, Residual, y);
   KINSetUserData(kin, &problem);
-  KINSetErrHandlerFn(kin, [](int, const char*, const char*, char*, void*) {}, nullptr);  // reported below
+  KINSetErrHandlerFn(
+      kin, [](int, const char*, const char*, char*, void*) {}, nullptr);  // reported below
   KINSetLinearSolver(kin, LS, J);
   KINSetJacFn(kin, Jacobian);
   KINSetFuncNormTol(kin, 1e-13);
@@ -199,15 +197,17 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   N_VDestroy(scale);
   SUNContext_Free(&ctx);
   if (flag == KIN_LSETUP_FAIL || flag == KIN_LSOLVE_FAIL) {
-    throw InputError("model: the constraint equations are redundant: the loop-closure matrix is singular at the "
-                     "given poses (KINSOL flag " + std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
-                     "), e.g. a planar loop of revolute joints in 3D; make one joint less constraining (spherical, "
-                     "universal) or regularise the coupling rows that close a loop");
+    throw InputError(
+        "model: the constraint equations are redundant: the loop-closure matrix is singular at the "
+        "given poses (KINSOL flag " +
+        std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
+        "), e.g. a planar loop of revolute joints in 3D; make one joint less constraining (spherical, "
+        "universal) or regularise the coupling rows that close a loop");
   }
   if (flag < 0 || !(fnorm < 1e-8)) {
     throw InputError("model: the kinematic loops cannot be closed from the given poses (KINSOL flag " +
-                     std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
-                     " after " + std::to_string(iterations) +
+                     std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) + " after " +
+                     std::to_string(iterations) +
                      " iterations); check the joints' body-frame points and the bodies' initial poses");
   }
   if (report != nullptr) {

@@ -3,7 +3,6 @@
 // then re-filled in place for each Newton iteration: no insertion, no reallocation, and the
 // sparse LU's symbolic analysis (analyzePattern) is done once and reused.
 #include <Eigen/SparseCore>
-
 #include <algorithm>
 #include <array>
 #include <string>
@@ -51,8 +50,9 @@ class MatrixSink : public SparseSink {
       const int* begin = inner + m_->outerIndexPtr()[column + c];
       const int* end = inner + m_->outerIndexPtr()[column + c + 1];
       const int* it = std::lower_bound(begin, end, row);
-      COSIM_ASSERT(end - it >= 3 && it[0] == row && it[2] == row + 2,
-                   "3x3 block at (" + std::to_string(row) + ", " + std::to_string(column + c) + ") outside the fixed pattern");
+      COSIM_ASSERT(
+          end - it >= 3 && it[0] == row && it[2] == row + 2,
+          "3x3 block at (" + std::to_string(row) + ", " + std::to_string(column + c) + ") outside the fixed pattern");
       double* v = m_->valuePtr() + (it - inner);
       v[0] += block(0, c);
       v[1] += block(1, c);

@@ -2,8 +2,9 @@
 // A compressed-sparse-column Eigen matrix copied into a SUNDIALS sparse matrix of the same
 // pattern (KLU solves it): the Jacobians of KINSOL and IDA are assembled in Eigen with a fixed
 // pattern (fixed_pattern_matrix.h) and handed over by this copy.
-#include <Eigen/SparseCore>
 #include <sunmatrix/sunmatrix_sparse.h>
+
+#include <Eigen/SparseCore>
 
 namespace cosim::smooth {
 

@@ -10,8 +10,9 @@ ElasticStaticSimulation::ElasticStaticSimulation(const interface::ScenarioFile& 
   const Checks checks(file);
   const sc::Model& model = file.proto().model();
   if (model.bodies_size() > 0 || model.joints_size() > 0 || model.forces_size() > 0) {
-    checks.Fail("numerics.smooth.analysis", "STATIC analysis handles elastic bodies clamped to ground only; this "
-                                            "scene has rigid bodies, joints or force elements (use DYNAMIC)");
+    checks.Fail("numerics.smooth.analysis",
+                "STATIC analysis handles elastic bodies clamped to ground only; this "
+                "scene has rigid bodies, joints or force elements (use DYNAMIC)");
   }
   if (model.elastic_bodies_size() == 0) checks.Fail("model.elastic_bodies", "a STATIC analysis needs an elastic body");
   bodies_ = BuildElasticBodies(checks, model, {});
@@ -24,9 +25,10 @@ ElasticStaticSimulation::ElasticStaticSimulation(const interface::ScenarioFile& 
     }
     for (size_t l = 0; l < bodies_[b].loads.size(); ++l) {
       if (bodies_[b].loads[l].time_varying) {
-        checks.Fail(ElementPath(ElementPath("model.elastic_bodies", static_cast<int>(b)) + ".loads", static_cast<int>(l)) +
-                        ".factor",
-                    "a time factor applies to DYNAMIC analyses; a STATIC analysis ramps the loads itself");
+        checks.Fail(
+            ElementPath(ElementPath("model.elastic_bodies", static_cast<int>(b)) + ".loads", static_cast<int>(l)) +
+                ".factor",
+            "a time factor applies to DYNAMIC analyses; a STATIC analysis ramps the loads itself");
       }
     }
     fixed_.push_back(fixed);
@@ -68,8 +70,10 @@ ElasticStaticSimulation::ElasticStaticSimulation(const interface::ScenarioFile& 
       spec.kind = p.quantity() == sc::Probe::REACTION_FORCE ? ProbeSpec::Kind::kForce : ProbeSpec::Kind::kMoment;
       spec.component = interface::ProbeComponent(checks, path, p, true);
     } else {
-      checks.Fail(path + ".quantity", "a STATIC analysis records DISPLACEMENT, STRAIN_ENERGY, REACTION_FORCE or "
-                                      "REACTION_MOMENT, got " + sc::Probe::Quantity_Name(p.quantity()));
+      checks.Fail(path + ".quantity",
+                  "a STATIC analysis records DISPLACEMENT, STRAIN_ENERGY, REACTION_FORCE or "
+                  "REACTION_MOMENT, got " +
+                      sc::Probe::Quantity_Name(p.quantity()));
     }
     probes_.push_back(spec);
   }
@@ -108,7 +112,9 @@ void ElasticStaticSimulation::Probe(std::vector<double>* values) const {
       case ProbeSpec::Kind::kDisplacement:
         (*values)[i] = interface::PickComponent(x.col(p.node) - b.body.mesh().nodes.col(p.node), p.component);
         break;
-      case ProbeSpec::Kind::kEnergy: (*values)[i] = b.body.StrainEnergy(x); break;
+      case ProbeSpec::Kind::kEnergy:
+        (*values)[i] = b.body.StrainEnergy(x);
+        break;
       case ProbeSpec::Kind::kForce:
       case ProbeSpec::Kind::kMoment: {
         Eigen::Vector3d force, moment;

@@ -29,7 +29,7 @@ class ElasticStaticSimulation : public interface::Simulation {
   // Resultant force and moment the clamps exert on body b (about the clamped nodes' centroid).
   void Reaction(int b, Eigen::Vector3d* force, Eigen::Vector3d* moment) const;
   std::vector<ElasticBodySpec> bodies_;
-  std::vector<std::vector<int>> fixed_;     // clamped nodes per body
+  std::vector<std::vector<int>> fixed_;      // clamped nodes per body
   std::vector<Eigen::Matrix3Xd> positions_;  // current equilibrium per body
   std::vector<ProbeSpec> probes_;
   scenario::Numerics numerics_;

@@ -50,11 +50,14 @@ void Watchdog::Energy(const DaeState& state, double* kinetic, double* potential)
 void Watchdog::Check(const DaeState& state, double t, long step) {
   // Built only for a message (the check itself allocates nothing).
   auto when = [&] { return "at t = " + FormatNumber(t) + " s (step " + std::to_string(step) + ")"; };
-  const std::pair<const Eigen::VectorXd*, const char*> parts[4] = {
-      {&state.q, "positions"}, {&state.qdot, "velocities"}, {&state.qddot, "accelerations"}, {&state.lambda, "multipliers"}};
+  const std::pair<const Eigen::VectorXd*, const char*> parts[4] = {{&state.q, "positions"},
+                                                                   {&state.qdot, "velocities"},
+                                                                   {&state.qddot, "accelerations"},
+                                                                   {&state.lambda, "multipliers"}};
   for (const auto& [v, what] : parts) {
     if (!v->allFinite()) {
-      throw NumericalError("watchdog: non-finite " + std::string(what) + " " + when() + "; the integration has broken down");
+      throw NumericalError("watchdog: non-finite " + std::string(what) + " " + when() +
+                           "; the integration has broken down");
     }
   }
   if (settings_.rigidity_rate > 0.0) {
@@ -64,10 +67,13 @@ void Watchdog::Check(const DaeState& state, double t, long step) {
       max_rigidity_rate_ = std::max(max_rigidity_rate_, rate);
       if (rate > settings_.rigidity_rate) {
         throw NumericalError(
-            "watchdog: body '" + bodies_[b] + "' is no longer moving rigidly " + when() + ": the non-rigid part of its axis "
-            "velocities, |sym(AᵀȦ)| = " + FormatNumber(rate * (omega + 1.0)) + " 1/s, is " + FormatNumber(rate) +
-            " of its angular speed " + FormatNumber(omega) + " rad/s + 1 rad/s (numerics.smooth.watchdog.rigidity_rate = " +
-            FormatNumber(settings_.rigidity_rate) + "); the integrator has lost the velocity-level rigidity constraints "
+            "watchdog: body '" + bodies_[b] + "' is no longer moving rigidly " + when() +
+            ": the non-rigid part of its axis "
+            "velocities, |sym(AᵀȦ)| = " +
+            FormatNumber(rate * (omega + 1.0)) + " 1/s, is " + FormatNumber(rate) + " of its angular speed " +
+            FormatNumber(omega) +
+            " rad/s + 1 rad/s (numerics.smooth.watchdog.rigidity_rate = " + FormatNumber(settings_.rigidity_rate) +
+            "); the integrator has lost the velocity-level rigidity constraints "
             "(with constraint_form INDEX3: use INDEX2_PROJECTED, or reduce the step)");
       }
     }

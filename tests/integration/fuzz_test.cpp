@@ -83,11 +83,22 @@ struct Mutation {
 };
 
 Mutation Mutate(const std::string& original, std::mt19937_64& rng) {
-  static const std::vector<std::string> numbers = {"0",   "-1",        "1e308",       "-1e308",     "1e-308",
-                                                   "nan", "inf",       "-inf",        "2147483647", "-2147483648",
-                                                   "99999999999999999999", "0.5", "3", "46341"};
-  static const std::vector<std::string> strings = {"\"\"", "\"..\"", "\".\"", "\"a b\"", "\"../../escaped\"",
-                                                   "\"" + std::string(300, 'n') + "\"", "\"ground\""};
+  static const std::vector<std::string> numbers = {"0",
+                                                   "-1",
+                                                   "1e308",
+                                                   "-1e308",
+                                                   "1e-308",
+                                                   "nan",
+                                                   "inf",
+                                                   "-inf",
+                                                   "2147483647",
+                                                   "-2147483648",
+                                                   "99999999999999999999",
+                                                   "0.5",
+                                                   "3",
+                                                   "46341"};
+  static const std::vector<std::string> strings = {
+      "\"\"", "\"..\"", "\".\"", "\"a b\"", "\"../../escaped\"", "\"" + std::string(300, 'n') + "\"", "\"ground\""};
   auto pick = [&](size_t n) { return std::uniform_int_distribution<size_t>(0, n - 1)(rng); };
   std::string text = original;
   const int kind = static_cast<int>(pick(6));
@@ -161,7 +172,7 @@ Mutation Mutate(const std::string& original, std::mt19937_64& rng) {
 }
 
 struct Outcome {
-  int code = -1;       // exit code, or -signal, or 999 for a hang
+  int code = -1;  // exit code, or -signal, or 999 for a hang
   std::string output;
 };
 
@@ -208,8 +219,8 @@ TEST_P(Fuzz, EveryMutationEndsByTheRunContract) {
     std::ofstream(scenario) << m.text;
     const fs::path out = dir / ("out_" + std::to_string(k));
     const Outcome o = RunCase(scenario, out, dir / ("log_" + std::to_string(k) + ".txt"));
-    const std::string label = "case " + std::to_string(k) + " (seed " + std::to_string(seed) + "): " +
-                              source.filename().string() + ", " + m.what;
+    const std::string label = "case " + std::to_string(k) + " (seed " + std::to_string(seed) +
+                              "): " + source.filename().string() + ", " + m.what;
     const bool contract = o.code == 0 || o.code == 2 || o.code == 3 || o.code == 4;
     EXPECT_TRUE(contract) << label << ": exit " << o.code << (o.code == 999 ? " (hang)" : "") << "\n" << o.output;
     if (contract) ++codes[o.code == 0 ? 0 : o.code];

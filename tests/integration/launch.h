@@ -50,7 +50,8 @@ inline fs::path TempDir(const std::string& name) {
 
 inline Result Launch(const std::string& arguments) {
   const fs::path log = TempDir("log_" + std::to_string(std::hash<std::string>{}(arguments))) / "out.txt";
-  const std::string command = std::string(COSIM_BIN_DIR) + "/cosim_launch " + arguments + " > " + log.string() + " 2>&1";
+  const std::string command =
+      std::string(COSIM_BIN_DIR) + "/cosim_launch " + arguments + " > " + log.string() + " 2>&1";
   const int status = std::system(command.c_str());
   return Result{WIFEXITED(status) ? WEXITSTATUS(status) : -1, Slurp(log)};
 }

@@ -5,14 +5,14 @@
 #include "interface/coupling/channel.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <functional>
 #include <string>
 #include <thread>
-#include <unistd.h>
 #include <zmq.hpp>
-#include <cstdlib>
 
 #include "interface/run/errors.h"
 
@@ -77,8 +77,9 @@ TEST(Channel, SilentPeerEndsTheWaitWithExitCodeFourNamingIt) {
   silent.bind("inproc://silent");
   Channel smooth(&context, {"inproc://silent", false, "smooth", "contact", 0.3, 0.05});
   const auto t0 = std::chrono::steady_clock::now();
-  ExpectCode(ExitCode::kPeerFailure, [&] { smooth.Receive(Envelope::kKinematics, 7, 0); },
-             "no message from 'contact' (inproc://silent) for 0.3 s while waiting for Kinematics of step 7");
+  ExpectCode(
+      ExitCode::kPeerFailure, [&] { smooth.Receive(Envelope::kKinematics, 7, 0); },
+      "no message from 'contact' (inproc://silent) for 0.3 s while waiting for Kinematics of step 7");
   const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_GT(waited, 0.29);
   EXPECT_LT(waited, 0.6);
@@ -104,25 +105,29 @@ TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
   // Bytes that are not an Envelope (an invalid wire type).
   const std::string junk = "\xff\xff\xff\xff garbage";
   p.contact.socket().send(zmq::buffer(junk), zmq::send_flags::none);
-  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
-             "a malformed message (12 bytes) from 'contact' while waiting for Welcome");
+  ExpectCode(
+      ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
+      "a malformed message (12 bytes) from 'contact' while waiting for Welcome");
   // A peer of another protocol version.
   Envelope old_version;
   old_version.set_protocol_version(7);
   old_version.mutable_welcome();
   p.contact.socket().send(zmq::buffer(old_version.SerializeAsString()), zmq::send_flags::none);
-  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
-             "'contact' speaks protocol version 7, this program speaks version " +
-                 std::to_string(cosim::coupling::PROTOCOL_VERSION_CURRENT));
+  ExpectCode(
+      ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kWelcome, -1, 0); },
+      "'contact' speaks protocol version 7, this program speaks version " +
+          std::to_string(cosim::coupling::PROTOCOL_VERSION_CURRENT));
   // The right message for the wrong iteration, then the wrong message.
   p.contact.Outgoing(3, 1).mutable_kinematics();
   p.contact.Send();
-  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
-             "got Kinematics of step 3, iteration 1, expected Kinematics of step 3, iteration 2");
+  ExpectCode(
+      ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+      "got Kinematics of step 3, iteration 1, expected Kinematics of step 3, iteration 2");
   p.contact.Outgoing(3, 2).mutable_step_end();
   p.contact.Send();
-  ExpectCode(ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
-             "got StepEnd of step 3, iteration 2, expected Kinematics");
+  ExpectCode(
+      ExitCode::kBadInput, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+      "got StepEnd of step 3, iteration 2, expected Kinematics");
   // A peer that reports its own failure.
   auto* stop = p.contact.Outgoing(3, 2).mutable_shutdown();
   stop->set_exit_code(3);
@@ -130,8 +135,9 @@ TEST(Channel, MalformedWrongVersionAndOutOfOrderMessagesAreRefused) {
   p.contact.Send();
   // A peer that reports its own numerical failure: this side ends with the same code (3), not
   // as a peer failure (4), and passes its reason on.
-  ExpectCode(ExitCode::kNumericalFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
-             "'contact' stopped (exit code 3) while this side waited for Kinematics of step 3, iteration 2: LCP failed");
+  ExpectCode(
+      ExitCode::kNumericalFailure, [&] { p.smooth.Receive(Envelope::kKinematics, 3, 2); },
+      "'contact' stopped (exit code 3) while this side waited for Kinematics of step 3, iteration 2: LCP failed");
 }
 
 TEST(Channel, ASendToAGonePeerGivesUpWithinTheTimeout) {
@@ -141,8 +147,9 @@ TEST(Channel, ASendToAGonePeerGivesUpWithinTheTimeout) {
   Channel contact(&context, {"inproc://nobody", true, "contact", "smooth", 0.3, 0.05});
   contact.Outgoing(1, 0).mutable_kinematics();
   const auto t0 = std::chrono::steady_clock::now();
-  ExpectCode(ExitCode::kPeerFailure, [&] { contact.Send(); },
-             "could not send Kinematics to 'smooth' (inproc://nobody) for 0.3 s: the peer is gone");
+  ExpectCode(
+      ExitCode::kPeerFailure, [&] { contact.Send(); },
+      "could not send Kinematics to 'smooth' (inproc://nobody) for 0.3 s: the peer is gone");
   const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_GT(waited, 0.25);
   EXPECT_LT(waited, 1.0);
@@ -181,32 +188,42 @@ TEST(Channel, CurveAuthenticatesThePeersOfARun) {
   contact.Outgoing(-1, 0).mutable_welcome();
   contact.Send();
   EXPECT_NO_THROW(smooth.Receive(Envelope::kWelcome, -1, -1));
-  ExpectCode(ExitCode::kPeerFailure, [&] { intruder.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
+  ExpectCode(
+      ExitCode::kPeerFailure, [&] { intruder.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
   // A coordinator without keys cannot talk to a secured contact process either.
   zmq::context_t plain_context;
   Channel plain(&plain_context, {endpoint, false, "plain", "contact", 0.5, 0.05});
   plain.Outgoing(-1, 0).mutable_hello();
   plain.Send();
-  ExpectCode(ExitCode::kPeerFailure, [&] { plain.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
+  ExpectCode(
+      ExitCode::kPeerFailure, [&] { plain.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
 }
 
 TEST(Channel, MissingOrMalformedKeysAreBadInput) {
   zmq::context_t context;
   CurveKeys partial;
   partial.client_public = RunKeys().client_public;  // a server needs its secret key too
-  ExpectCode(ExitCode::kBadInput, [&] { Channel c(&context, {"inproc://keys", true, "contact", "smooth", 1.0, 0.5, partial}); },
-             "COSIM_CURVE_SERVER_SECRET is not set");
+  ExpectCode(
+      ExitCode::kBadInput,
+      [&] {
+        Channel c(&context, {"inproc://keys", true, "contact", "smooth", 1.0, 0.5, partial});
+      },
+      "COSIM_CURVE_SERVER_SECRET is not set");
   setenv(kCurveClientSecret, "not a key", 1);
-  ExpectCode(ExitCode::kBadInput, [] { CurveKeysFromEnvironment(); }, "COSIM_CURVE_CLIENT_SECRET is not a CURVE key");
+  ExpectCode(
+      ExitCode::kBadInput, [] { CurveKeysFromEnvironment(); }, "COSIM_CURVE_CLIENT_SECRET is not a CURVE key");
   unsetenv(kCurveClientSecret);
 }
 
 TEST(Channel, AnEndpointInUseIsReportedNamingIt) {
   zmq::context_t context;
   Channel first(&context, {"inproc://taken", true, "contact", "smooth", 1.0, 1.0});
-  ExpectCode(ExitCode::kPeerFailure,
-             [&] { Channel second(&context, {"inproc://taken", true, "contact2", "smooth", 1.0, 1.0}); },
-             "cannot bind endpoint 'inproc://taken' for peer 'smooth'");
+  ExpectCode(
+      ExitCode::kPeerFailure,
+      [&] {
+        Channel second(&context, {"inproc://taken", true, "contact2", "smooth", 1.0, 1.0});
+      },
+      "cannot bind endpoint 'inproc://taken' for peer 'smooth'");
 }
 
 }  // namespace

@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
-
 #include <cmath>
 #include <cstdio>
 #include <functional>

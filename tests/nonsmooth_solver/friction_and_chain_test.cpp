@@ -24,7 +24,8 @@ std::string SlidingNode(double direction) {
       obstacles { name: "floor" point: [0, 0, 0] normal: [0, 0, 1] }
       contact_nodes {
         name: "block" mass: 2 position: [0, 0, 0]
-        velocity: [)" + interface::FormatNumber(2.0 * std::cos(direction)) + ", " +
+        velocity: [)" +
+         interface::FormatNumber(2.0 * std::cos(direction)) + ", " +
          interface::FormatNumber(2.0 * std::sin(direction)) +
          R"(, 0]
         contacts { obstacle: "floor" restitution: 0 friction: 0.3 }
@@ -62,7 +63,7 @@ TEST(Friction, SiconosFc3dDeceleratesAtMuGInAnyDirection) {
   // along its own direction. fc3d's NSGS meets the 1e-12 tolerance on this one-contact
   // problem, so the speed follows v0 − μ g t to about that.
   ExpectDecelerationMuG(Parse(SlidingNode(M_PI / 6), {"numerics.nonsmooth.friction_model=SICONOS_FC3D",
-                                                       "numerics.nonsmooth.lcp.tolerance=1e-12"}),
+                                                      "numerics.nonsmooth.lcp.tolerance=1e-12"}),
                         M_PI / 6, 1e-9);
 }
 
@@ -74,8 +75,9 @@ TEST(Friction, BlockOnASteepSlopeSlidesAndOnAGentleSlopeSticks) {
     const std::string text = R"(
       model {
         gravity: [0, 0, -9.81]
-        obstacles { name: "slope" point: [0, 0, 0] normal: [)" + interface::FormatNumber(-std::sin(a)) + ", 0, " +
-                             interface::FormatNumber(std::cos(a)) + R"(] }
+        obstacles { name: "slope" point: [0, 0, 0] normal: [)" +
+                             interface::FormatNumber(-std::sin(a)) + ", 0, " + interface::FormatNumber(std::cos(a)) +
+                             R"(] }
         contact_nodes { name: "block" mass: 1 position: [0, 0, 0] contacts { obstacle: "slope" restitution: 0 friction: 0.3 } }
       }
       numerics { end_time: 1 step: 0.001 })";
@@ -98,8 +100,9 @@ std::string Chain(double restitution) {
   )";
   for (int i = 0; i < 3; ++i) {
     text += "contact_nodes { name: \"m" + std::to_string(i) + "\" mass: 1 position: [0, 0, " +
-            std::to_string(0.1 + 0.1 * i) + "] velocity: [0, 0, -1] contacts { obstacle: \"floor\" restitution: " +
-            std::to_string(restitution) + " } }\n";
+            std::to_string(0.1 + 0.1 * i) +
+            "] velocity: [0, 0, -1] contacts { obstacle: \"floor\" restitution: " + std::to_string(restitution) +
+            " } }\n";
   }
   text += R"(
       node_springs { name: "s01" node1: "m0" node2: "m1" stiffness: 1000 }

@@ -19,8 +19,10 @@ ContactModel BallModel(double height, double e, const std::vector<std::string>& 
       gravity: [0, 0, -9.81]
       obstacles { name: "ground" point: [0, 0, 0] normal: [0, 0, 1] }
       contact_nodes {
-        name: "ball" mass: 1 position: [0, 0, )" + std::to_string(height) + R"(]
-        contacts { obstacle: "ground" restitution: )" + std::to_string(e) + R"( }
+        name: "ball" mass: 1 position: [0, 0, )" +
+                           std::to_string(height) + R"(]
+        contacts { obstacle: "ground" restitution: )" +
+                           std::to_string(e) + R"( }
       }
     }
     numerics { end_time: 1 step: 0.005 }
@@ -147,8 +149,10 @@ TEST(MoreauJean, NodeInAWedgeIsHeldByTwoContacts) {
   const std::string text = R"(
     model {
       gravity: [0, 0, -9.81]
-      obstacles { name: "left" point: [0, 0, 0] normal: [)" + std::to_string(s) + ", 0, " + std::to_string(c) + R"(] }
-      obstacles { name: "right" point: [0, 0, 0] normal: [)" + std::to_string(-s) + ", 0, " + std::to_string(c) + R"(] }
+      obstacles { name: "left" point: [0, 0, 0] normal: [)" +
+                           std::to_string(s) + ", 0, " + std::to_string(c) + R"(] }
+      obstacles { name: "right" point: [0, 0, 0] normal: [)" +
+                           std::to_string(-s) + ", 0, " + std::to_string(c) + R"(] }
       contact_nodes {
         name: "n" mass: 2 position: [0, 0, 0]
         contacts { obstacle: "left" restitution: 0 }
@@ -199,11 +203,14 @@ TEST(MoreauJean, FirstImpactTimeConvergesToFirstOrder) {
 ContactModel OscillatorModel(double amplitude, double stop, double e) {
   const std::string text = R"(
     model {
-      obstacles { name: "stop" point: [0, 0, )" + std::to_string(-stop) + R"(] normal: [0, 0, 1] }
+      obstacles { name: "stop" point: [0, 0, )" +
+                           std::to_string(-stop) + R"(] normal: [0, 0, 1] }
       contact_nodes {
-        name: "m" mass: 1 position: [0, 0, )" + std::to_string(amplitude) + R"(]
+        name: "m" mass: 1 position: [0, 0, )" +
+                           std::to_string(amplitude) + R"(]
         anchor { point: [0, 0, 0] stiffness: 100 }
-        contacts { obstacle: "stop" restitution: )" + std::to_string(e) + R"( }
+        contacts { obstacle: "stop" restitution: )" +
+                           std::to_string(e) + R"( }
       }
     }
     numerics { end_time: 1 step: 0.001 }
@@ -260,7 +267,8 @@ TEST(MoreauJean, ElasticOscillatorKeepsItsEnergyAndThePeriodOfTheStoppedMotion) 
       ++tops;
       if (tops == 10) tenth_top = static_cast<double>(k + 1) * h;
     }
-    ASSERT_NEAR(mj.KineticEnergy(-1) + mj.PotentialEnergy(-1), energy0, 0.01 * energy0) << "t = " << static_cast<double>(k + 1) * h;
+    ASSERT_NEAR(mj.KineticEnergy(-1) + mj.PotentialEnergy(-1), energy0, 0.01 * energy0)
+        << "t = " << static_cast<double>(k + 1) * h;
   }
   ASSERT_EQ(tops, 10);
   std::printf("elastic oscillator: tenth top at %.5f s (exact %.5f)\n", tenth_top, 20.0 * tc);

@@ -25,7 +25,8 @@ const char* kBall = R"(
 
 // The first rebound's peak height [m].
 double Rebound(double stiffness) {
-  PenaltySimulation sim(interface::ScenarioFile::Parse(kBall, "ball", {"numerics.penalty.stiffness=" + std::to_string(stiffness)}));
+  PenaltySimulation sim(
+      interface::ScenarioFile::Parse(kBall, "ball", {"numerics.penalty.stiffness=" + std::to_string(stiffness)}));
   double peak = 0.0;
   bool bounced = false;
   for (int k = 0; k < 10000; ++k) {

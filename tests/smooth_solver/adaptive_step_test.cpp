@@ -44,8 +44,10 @@ Outputs Drive(MultibodySimulation* sim, double start, double end, double h, int 
   }
   run::RunSummary summary;
   sim->FillSummary(&summary);
-  r.accepted = summary.counters().count("adaptive_accepted_steps") ? summary.counters().at("adaptive_accepted_steps") : static_cast<double>(n);
-  r.rejected = summary.counters().count("adaptive_rejected_steps") ? summary.counters().at("adaptive_rejected_steps") : 0;
+  r.accepted = summary.counters().count("adaptive_accepted_steps") ? summary.counters().at("adaptive_accepted_steps")
+                                                                   : static_cast<double>(n);
+  r.rejected =
+      summary.counters().count("adaptive_rejected_steps") ? summary.counters().at("adaptive_rejected_steps") : 0;
   return r;
 }
 
@@ -63,9 +65,10 @@ TEST(AdaptiveStep, AnOscillatorsErrorFollowsTheToleranceOnTheOutputGrid) {
          std::string("numerics.adaptive.absolute=") + tolerance, "numerics.adaptive.max_step=0.1"}));
     const Outputs r = Drive(&sim, 0.0, 2.0, 0.01, 0);
     double error = 0.0;
-    for (size_t k = 0; k < r.time.size(); ++k) error = std::max(error, std::abs(r.value[k] - 0.1 * std::cos(10.0 * r.time[k])));
-    std::printf("oscillator, tolerance %s: %.0f steps (%.0f rejected), max error %.3e m on the 0.01 s grid\n", tolerance,
-                r.accepted, r.rejected, error);
+    for (size_t k = 0; k < r.time.size(); ++k)
+      error = std::max(error, std::abs(r.value[k] - 0.1 * std::cos(10.0 * r.time[k])));
+    std::printf("oscillator, tolerance %s: %.0f steps (%.0f rejected), max error %.3e m on the 0.01 s grid\n",
+                tolerance, r.accepted, r.rejected, error);
     errors.push_back(error);
     steps.push_back(r.accepted);
   }
@@ -74,7 +77,8 @@ TEST(AdaptiveStep, AnOscillatorsErrorFollowsTheToleranceOnTheOutputGrid) {
   MultibodySimulation fixed(interface::ScenarioFile::Parse(kOscillator, "oscillator.pbtxt", {}));
   const Outputs f = Drive(&fixed, 0.0, 2.0, 0.01, 0);
   double fixed_error = 0.0;
-  for (size_t k = 0; k < f.time.size(); ++k) fixed_error = std::max(fixed_error, std::abs(f.value[k] - 0.1 * std::cos(10.0 * f.time[k])));
+  for (size_t k = 0; k < f.time.size(); ++k)
+    fixed_error = std::max(fixed_error, std::abs(f.value[k] - 0.1 * std::cos(10.0 * f.time[k])));
   std::printf("oscillator, fixed steps of 0.01 s: 200 steps, max error %.3e m\n", fixed_error);
   EXPECT_GT(errors[0] / errors[1], 10.0);
   EXPECT_LT(errors[0] / errors[1], 50.0);
@@ -106,9 +110,10 @@ TEST(AdaptiveStep, APendulumAgainstAStopMatchesFineFixedStepsWithATwentiethOfThe
     ASSERT_NEAR(f.time[j], a.time[k], 1e-12);
     if (a.time[k] > 0.6) difference = std::max(difference, std::abs(f.value[j] - a.value[k]));
   }
-  std::printf("pendulum against a stop: adaptive %.0f steps (%.0f rejected) against 60000 fixed; hinge angle after "
-              "the impact within %.2e rad\n",
-              a.accepted, a.rejected, difference);
+  std::printf(
+      "pendulum against a stop: adaptive %.0f steps (%.0f rejected) against 60000 fixed; hinge angle after "
+      "the impact within %.2e rad\n",
+      a.accepted, a.rejected, difference);
   EXPECT_LT(a.accepted, 60000.0 / 20.0);
   EXPECT_LT(difference, 1.5e-3);  // the two runs' own errors, 3.3e-4 and 5.3e-4, with margin
 }
@@ -150,15 +155,16 @@ TEST(AdaptiveStep, ARejectedStepLeavesNoTraceInTheContactMemory) {
   // saves: a step that is tried, its state accepted into the memory and then rolled back (as the
   // adaptive loop and a coupling iteration do) restores the memory with the state. Before the
   // model/data split the memory lived in the contact element, where a rollback could not reach.
-  MultibodySimulation sim(interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) +
-                                                            "/scenarios/pendulum_stop_continuous.pbtxt", {}));
+  MultibodySimulation sim(
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop_continuous.pbtxt", {}));
   CgAlpha& cg = *sim.cgalpha();
   for (int k = 0; k < 100; ++k) sim.Step(k * 1e-3, 1e-3);  // swinging down: approaching the stop
   const double before = sim.system().data().impact_speed.at(0);
   CgAlpha::Checkpoint checkpoint;
   cg.SaveTo(&checkpoint);
   cg.Step(0.1, 0.05);  // a long step, then its end state "accepted" into the memory
-  for (const auto& element : sim.system().forces) element->AcceptStep(cg.state().q, cg.state().qdot, 0.15, sim.mutable_data());
+  for (const auto& element : sim.system().forces)
+    element->AcceptStep(cg.state().q, cg.state().qdot, 0.15, sim.mutable_data());
   const double tried = sim.system().data().impact_speed.at(0);
   EXPECT_GT(std::abs(tried - before), 0.1) << "the tried step should have changed the approach speed";
   cg.Restore(checkpoint);

@@ -37,7 +37,7 @@ TEST(Allocation, CgAlphaStepsOfRigidAndElasticBodiesDoNotAllocate) {
   // The flexible pendulum (rigid link, hinge, beam with clamps, GEMM force, structural damping)
   // and the four-bar (rigid closed loop).
   const long pendulum = AllocationsInFiveSteps("/tests/data/flexible_pendulum.pbtxt",
-                                           {"model.elastic_bodies[0].retardation_time=1e-4"}, 1e-3);
+                                               {"model.elastic_bodies[0].retardation_time=1e-4"}, 1e-3);
   const long four_bar = AllocationsInFiveSteps("/scenarios/four_bar.pbtxt", {}, 1e-3);
   std::printf("heap allocations in five CGα steps: flexible pendulum %ld, four-bar %ld\n", pendulum, four_bar);
   EXPECT_EQ(pendulum, 0);
@@ -71,8 +71,10 @@ TEST(Allocation, RotorStopForceElementsDoNotAllocate) {
   const long contact = AllocationsInFiveSteps("/tests/data/tied_drop_continuous.pbtxt",
                                               {"model.bodies[0].position=[0, 0, -0.001]"}, 1e-3);
   const long pendulum_stop = AllocationsInFiveSteps("/scenarios/pendulum_stop_continuous.pbtxt", {}, 1e-3);
-  std::printf("heap allocations in five CGα steps: joint stop + spring %ld, continuous contact %ld, "
-              "pendulum_stop_continuous %ld\n", joint, contact, pendulum_stop);
+  std::printf(
+      "heap allocations in five CGα steps: joint stop + spring %ld, continuous contact %ld, "
+      "pendulum_stop_continuous %ld\n",
+      joint, contact, pendulum_stop);
   EXPECT_EQ(joint, 0);
   EXPECT_EQ(contact, 0);
   EXPECT_EQ(pendulum_stop, 0);

@@ -52,9 +52,9 @@ TEST(HuntCrossleyLaw, EffectiveRestitutionAndItsInverse) {
 }
 
 struct Drop {
-  double peak = 0.0;          // highest z after the first impact [m]
-  double impact_time = 0.0;   // first step with penetration [s]
-  double penetration = 0.0;   // deepest [m]
+  double peak = 0.0;         // highest z after the first impact [m]
+  double impact_time = 0.0;  // first step with penetration [s]
+  double penetration = 0.0;  // deepest [m]
 };
 
 // The tied drop as one 1.1 kg body with a continuous contact at its centre.
@@ -66,7 +66,8 @@ Drop RunDrop(double stiffness, double h) {
       bodies { name: "body" mass: 1.1 inertia: [0.01, 0.01, 0.01] position: [0, 0, 0.5] }
       obstacles { name: "floor" point: [0, 0, 0] normal: [0, 0, 1] }
       forces { name: "floor_contact" continuous_contact { body: "body" point: [0, 0, 0] obstacle: "floor"
-               law { stiffness: )" + std::to_string(stiffness) + R"( exponent: 1.5 restitution: 0.8 } } }
+               law { stiffness: )" +
+                           std::to_string(stiffness) + R"( exponent: 1.5 restitution: 0.8 } } }
     }
     numerics { end_time: 0.7 step: 0.001 smooth { rho_inf: 0.9 newton_tolerance: 1e-10 } }
     output { probes { name: "z" quantity: POSITION entity: "body" component: Z } })";
@@ -164,7 +165,8 @@ TEST(ContinuousContact, InitialCoordinateShiftsProbesAndStopsButNotTheMotion) {
         bodies { name: "arm" mass: 1 inertia: [0.001, 0.08, 0.08] position: [0.5, 0, 0] }
         joints { name: "hinge" type: REVOLUTE body1: "ground" body2: "arm" point: [0, 0, 0] axis: [0, 1, 0] )" +
                              joint_extra + R"( }
-        forces { name: "stop" joint_stop { joint: "hinge" upper: )" + std::to_string(upper) + R"(
+        forces { name: "stop" joint_stop { joint: "hinge" upper: )" +
+                             std::to_string(upper) + R"(
                  law { stiffness: 1e7 exponent: 1.5 restitution: 0.6 } } }
       }
       numerics { end_time: 1 step: 1e-4 }

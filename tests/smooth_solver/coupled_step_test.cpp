@@ -43,8 +43,8 @@ const char* kBall = R"(
   numerics { end_time: 0.6 step: 0.001 nonsmooth { lcp { solver: LEMKE } } })";
 
 struct CoupledRun {
-  std::vector<double> z;          // the body's centre, every step
-  std::vector<int> iterations;    // coupling iterations per step
+  std::vector<double> z;        // the body's centre, every step
+  std::vector<int> iterations;  // coupling iterations per step
 };
 
 // `jacobians`: interface Jacobians (the default); false: the relaxation `method`.

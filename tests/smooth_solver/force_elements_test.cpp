@@ -35,7 +35,8 @@ void ExpectTangentsMatch(const ForceElement& e, const Eigen::VectorXd& q, const 
     e.AddForce(qp, qdot, t, fp);
     e.AddForce(qm, qdot, t, fm);
     const Eigen::VectorXd fd_k = -(fp - fm) / (2 * eps);
-    EXPECT_LT((fd_k - K.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + K.m.lpNorm<Eigen::Infinity>())) << "K column " << k;
+    EXPECT_LT((fd_k - K.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + K.m.lpNorm<Eigen::Infinity>()))
+        << "K column " << k;
     fp.setZero();
     fm.setZero();
     Eigen::VectorXd vp = qdot, vm = qdot;
@@ -44,7 +45,8 @@ void ExpectTangentsMatch(const ForceElement& e, const Eigen::VectorXd& q, const 
     e.AddForce(q, vp, t, fp);
     e.AddForce(q, vm, t, fm);
     const Eigen::VectorXd fd_c = -(fp - fm) / (2 * eps);
-    EXPECT_LT((fd_c - C.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + C.m.lpNorm<Eigen::Infinity>())) << "C column " << k;
+    EXPECT_LT((fd_c - C.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + C.m.lpNorm<Eigen::Infinity>()))
+        << "C column " << k;
   }
 }
 
@@ -99,7 +101,8 @@ double Period(const std::string& text, int probe, double h, double end) {
     }
     previous = v;
   }
-  return crossings.size() >= 2 ? (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1) : -1.0;
+  return crossings.size() >= 2 ? (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1)
+                               : -1.0;
 }
 
 TEST(ForceElements, SpringMassOscillatesWithTwoPiSqrtMOverK) {

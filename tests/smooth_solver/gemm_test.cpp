@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "interface/scenario/scenario_file.h"
-#include "smooth_solver/elastic/hex27.h"
 #include "smooth_solver/elastic/elastic_model.h"
+#include "smooth_solver/elastic/hex27.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 #include "smooth_solver/model/multibody_model.h"
@@ -104,7 +104,7 @@ TEST(Gemm, MidpointTangentMatchesFiniteDifferences) {
 // nonlinear) plus a through-thickness stretch rate ∂v_z/∂z = stretch_rate (x/L), which sits in
 // stiff modes (ωh ~ 200 at h = 2e-4 s), no gravity. Newton to 1e-10.
 struct FreeVibration {
-  double energy_drift = 0.0;  // relative change of the total energy after the run
+  double energy_drift = 0.0;    // relative change of the total energy after the run
   std::vector<double> stretch;  // through-thickness stretch rate at the tip [m/s], last 20 steps
   int iterations = 0;
 };
@@ -119,13 +119,15 @@ FreeVibration RunFreeVibration(double rho_inf, bool gemm, double xi, double stre
         material { density: 2700 young: 7e10 poisson: 0.33 }
         beam { length: 0.5 chord: 0.05 thickness: 0.01 elements_along: 4 }
         clamps { body: "ground" face: "root" }
-        strain_damping: )" + std::to_string(xi) + R"(
+        strain_damping: )" +
+                           std::to_string(xi) + R"(
       }
     }
     numerics { end_time: 1 step: 0.001 })";
   const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "free_vibration.pbtxt", {});
   const MultibodyModel model = BuildMultibodyModel(file);
-  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+  std::vector<ElasticBodySpec> elastic =
+      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   DaeState s;
   s.q = sys.q0;
@@ -167,7 +169,8 @@ FreeVibration RunFreeVibration(double rho_inf, bool gemm, double xi, double stre
 // the last 20 steps.
 double StiffMotionLeft(const FreeVibration& with, const FreeVibration& without, double initial) {
   double worst = 0.0;
-  for (size_t k = 0; k < with.stretch.size(); ++k) worst = std::max(worst, std::abs(with.stretch[k] - without.stretch[k]));
+  for (size_t k = 0; k < with.stretch.size(); ++k)
+    worst = std::max(worst, std::abs(with.stretch[k] - without.stretch[k]));
   return worst / initial;
 }
 
@@ -200,9 +203,10 @@ TEST(Gemm, NumericalDissipationRemovesHighModes) {
   const FreeVibration strain_damped = RunFreeVibration(1.0, true, 0.1, 0.0, 150);
   const double left_damped = StiffMotionLeft(damped, damped_reference, 0.02);
   const double left_undamped = StiffMotionLeft(undamped, undamped_reference, 0.02);
-  std::printf("free vibration: stiff motion left rho_inf 0.6: %.1e, rho_inf 1: %.2f; energy change rho_inf 0.6: "
-              "%.2e, xi 0.1: %.2e\n",
-              left_damped, left_undamped, damped_reference.energy_drift, strain_damped.energy_drift);
+  std::printf(
+      "free vibration: stiff motion left rho_inf 0.6: %.1e, rho_inf 1: %.2f; energy change rho_inf 0.6: "
+      "%.2e, xi 0.1: %.2e\n",
+      left_damped, left_undamped, damped_reference.energy_drift, strain_damped.energy_drift);
   EXPECT_LT(left_damped, 1e-2);
   EXPECT_GT(left_undamped, 0.3);
   EXPECT_LT(damped_reference.energy_drift, 0.0);
@@ -264,7 +268,8 @@ TEST(StructuralDamping, FirstBendingModeDecaysAtTheKelvinVoigtRatio) {
         material { density: 2700 young: 7e10 poisson: 0.33 }
         beam { length: 0.5 chord: 0.05 thickness: 0.01 elements_along: 4 }
         clamps { body: "ground" face: "root" }
-        retardation_time: )" + std::to_string(beta) + R"(
+        retardation_time: )" +
+                           std::to_string(beta) + R"(
         loads {
           face_centre: "tip" force: [0, 0, 10]
           factor { table { time: [0, 0.005, 0.015, 0.02] value: [0, 1, 1, 0] } }
@@ -283,7 +288,8 @@ TEST(StructuralDamping, FirstBendingModeDecaysAtTheKelvinVoigtRatio) {
   std::vector<double> crossings, peaks;
   for (size_t k = 1; k < z.size(); ++k) {
     if (static_cast<double>(k) * h < 0.03) continue;  // past the first period: the higher modes are gone
-    if ((z[k - 1] < 0.0) != (z[k] < 0.0)) crossings.push_back(h * (static_cast<double>(k - 1) + z[k - 1] / (z[k - 1] - z[k])));
+    if ((z[k - 1] < 0.0) != (z[k] < 0.0))
+      crossings.push_back(h * (static_cast<double>(k - 1) + z[k - 1] / (z[k - 1] - z[k])));
     if (k + 1 < z.size() && z[k] > z[k - 1] && z[k] >= z[k + 1] && z[k] > 0.0) {
       // Parabola through the three samples around the maximum.
       const double a = 0.5 * (z[k - 1] + z[k + 1]) - z[k], b = 0.5 * (z[k + 1] - z[k - 1]);
@@ -312,7 +318,8 @@ TEST(CgAlphaCheckpoint, ARestoredStepIsRepeatedBitForBit) {
   const interface::ScenarioFile file =
       interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/tests/data/flexible_pendulum.pbtxt", {});
   const MultibodyModel model = BuildMultibodyModel(file);
-  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+  std::vector<ElasticBodySpec> elastic =
+      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   InitialConditionReport report;
   const DaeState initial = ConsistentInitialState(sys, 0.0, &report);

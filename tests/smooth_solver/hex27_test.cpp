@@ -74,7 +74,8 @@ TEST(Hex27, TangentMatchesFiniteDifferences) {
   Hex27 e;
   ASSERT_TRUE(e.Initialize(Reference()));
   Hex27::NodeMatrix x = Reference();
-  for (int a = 0; a < 27; ++a) x.col(a) += 0.02 * Eigen::Vector3d(std::sin(a), std::cos(2.0 * a), std::sin(3.0 * a + 1));
+  for (int a = 0; a < 27; ++a)
+    x.col(a) += 0.02 * Eigen::Vector3d(std::sin(a), std::cos(2.0 * a), std::sin(3.0 * a + 1));
   Hex27::ElementVector f;
   Hex27::ElementMatrix K;
   e.InternalForce(kSteelLike, x, &f, &K);
@@ -141,9 +142,9 @@ TEST(Cantilever, ForeshorteningComesFromTheNonlinearStrainOnly) {
   ElasticBody body;
   ASSERT_EQ(body.Initialize(BeamMesh(1.0, 0.2, 0.1, 5, 1, 1, {}), ElasticMaterial{1770, 1792e9, 0.3}), -1);
   auto tip = [&](double load) {
-    return Eigen::Vector3d(SolveStatic(body, body.mesh().root_face, {{body.mesh().tip_centre, Eigen::Vector3d(0, load, 0)}},
-                                       1e-8, 20)
-                               .displacement.col(body.mesh().tip_centre));
+    return Eigen::Vector3d(
+        SolveStatic(body, body.mesh().root_face, {{body.mesh().tip_centre, Eigen::Vector3d(0, load, 0)}}, 1e-8, 20)
+            .displacement.col(body.mesh().tip_centre));
   };
   const Eigen::Vector3d a = tip(1e4), b = tip(2e4);
   EXPECT_NEAR(b.y() / a.y(), 2.0, 2e-4);
@@ -165,9 +166,12 @@ TEST(ElasticModel, InvertedGeneralMeshIsBadInputNamingTheElement) {
   }
   nodes.resize(nodes.size() - 2);
   order.resize(order.size() - 2);
-  const std::string text = "model { elastic_bodies { name: \"b\" material { density: 1 young: 1e9 poisson: 0.3 } "
-                           "general { node_coordinates: [" + nodes + "] element_nodes: [" + order + "] } } }\n"
-                           "numerics { end_time: 1 step: 1 }";
+  const std::string text =
+      "model { elastic_bodies { name: \"b\" material { density: 1 young: 1e9 poisson: 0.3 } "
+      "general { node_coordinates: [" +
+      nodes + "] element_nodes: [" + order +
+      "] } } }\n"
+      "numerics { end_time: 1 step: 1 }";
   const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "mesh.pbtxt", {});
   try {
     BuildElasticBodies(interface::Checks(file), file.proto().model(), {});
@@ -198,11 +202,12 @@ TEST(FlexiblePendulum, ClampReactionIsTheBeamsMomentumBalance) {
   // weight. It holds because the element's internal forces sum to zero and the step's equations
   // are solved to the Newton tolerance; it checks the probe's rows and sign and the element's
   // self-equilibrium (observed 1.3e-13 N on forces of ~10 N; asserted 1e-10 N).
-  auto sim_file = interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/tests/data/flexible_pendulum.pbtxt",
-                                                {"output.probes=[{name: \"Fz\" quantity: REACTION_FORCE entity: \"beam\" "
-                                                 "component: Z}, {name: \"Fx\" quantity: REACTION_FORCE entity: \"beam\" "
-                                                 "component: X}]",
-                                                 "numerics.smooth.newton_tolerance=1e-10"});
+  auto sim_file =
+      interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/tests/data/flexible_pendulum.pbtxt",
+                                    {"output.probes=[{name: \"Fz\" quantity: REACTION_FORCE entity: \"beam\" "
+                                     "component: Z}, {name: \"Fx\" quantity: REACTION_FORCE entity: \"beam\" "
+                                     "component: X}]",
+                                     "numerics.smooth.newton_tolerance=1e-10"});
   MultibodySimulation sim(sim_file);
   const MultibodySystem& sys = sim.system();
   const int o = sys.elastic_offset[0], dofs = 3 * sys.elastic[0]->body.node_count();
@@ -297,8 +302,9 @@ TEST(FlexiblePendulum, SecondOrderInTimeForTipPositionAndRootReactions) {
   // ~1e8 1/s), into 5e-6 s steps and a 2.6e-3 N error on λ (IDA's λ = dΛ/dt is not error
   // controlled) — the reference is only as good as IDA's step history.
   std::vector<std::string> ida_settings = settings;
-  ida_settings.insert(ida_settings.end(), {"numerics.smooth.integrator=IDA", "numerics.smooth.ida_relative_tolerance=1e-10",
-                                           "numerics.smooth.ida_absolute_tolerance=1e-10"});
+  ida_settings.insert(ida_settings.end(),
+                      {"numerics.smooth.integrator=IDA", "numerics.smooth.ida_relative_tolerance=1e-10",
+                       "numerics.smooth.ida_absolute_tolerance=1e-10"});
   MultibodySimulation ida(interface::ScenarioFile::Load(path, ida_settings));
   for (int k = 0; k < 200; ++k) ida.Step(k * 1e-3, (k + 1) * 1e-3 - k * 1e-3);
   std::vector<double> reference(4);
@@ -333,12 +339,14 @@ std::string SpinningHub(double speed) {
       bodies { name: "hub" mass: 20 inertia: [0.3, 0.3, 0.5] position: [0, 0, 0] }
       joints {
         name: "shaft" type: REVOLUTE body1: "ground" body2: "hub" point: [0, 0, 0] axis: [0, 0, 1]
-        drive { quantity: ANGULAR_SPEED function { cosine_ramp { final_value: )" + std::to_string(speed) + R"( ramp_time: 0.1 } } }
+        drive { quantity: ANGULAR_SPEED function { cosine_ramp { final_value: )" +
+                    std::to_string(speed) + R"( ramp_time: 0.1 } } }
       })";
   for (int b = 0; b < 2; ++b) {
     hub += std::string(R"(
       elastic_bodies {
-        name: "blade)") + std::to_string(b) + R"("
+        name: "blade)") +
+           std::to_string(b) + R"("
         material { density: 2700 young: 7e10 poisson: 0.33 }
         beam { length: 0.5 chord: 0.05 thickness: 0.02 elements_along: 5 root: )" +
            (b == 0 ? "[0.1, 0, 0] axis: [1, 0, 0]" : "[-0.1, 0, 0] axis: [-1, 0, 0]") + R"( }
@@ -385,10 +393,11 @@ TEST(CoRotatedReuse, ASpinningElasticHubReusesItsMatrixAcrossAzimuthsForTheSameA
   const HubRun full = RunHub({});
   const HubRun plain = RunHub({"numerics.smooth.jacobian_max_age=1000"});
   const HubRun turned = RunHub({"numerics.smooth.jacobian_max_age=1000", "numerics.smooth.jacobian_frame=hub"});
-  std::printf("spinning hub, 80 steps: factorisations full %lld, reused %lld, co-rotated %lld; tip_z %.9e / %.9e / "
-              "%.9e m, root_x %.6f / %.6f / %.6f N\n",
-              full.factorizations, plain.factorizations, turned.factorizations, full.probes[0], plain.probes[0],
-              turned.probes[0], full.probes[1], plain.probes[1], turned.probes[1]);
+  std::printf(
+      "spinning hub, 80 steps: factorisations full %lld, reused %lld, co-rotated %lld; tip_z %.9e / %.9e / "
+      "%.9e m, root_x %.6f / %.6f / %.6f N\n",
+      full.factorizations, plain.factorizations, turned.factorizations, full.probes[0], plain.probes[0],
+      turned.probes[0], full.probes[1], plain.probes[1], turned.probes[1]);
   EXPECT_LT(turned.factorizations * 10, full.factorizations);
   EXPECT_LT(turned.factorizations * 3, plain.factorizations);
   EXPECT_NEAR(turned.probes[0], full.probes[0], 1e-7);
@@ -396,8 +405,9 @@ TEST(CoRotatedReuse, ASpinningElasticHubReusesItsMatrixAcrossAzimuthsForTheSameA
 }
 
 TEST(CoRotatedReuse, AFrameThatIsNoBodyOrWithoutReuseIsRefusedWithItsPlace) {
-  for (const auto& sets : {std::vector<std::string>{"numerics.smooth.jacobian_max_age=5", "numerics.smooth.jacobian_frame=rotor"},
-                           std::vector<std::string>{"numerics.smooth.jacobian_frame=hub"}}) {
+  for (const auto& sets :
+       {std::vector<std::string>{"numerics.smooth.jacobian_max_age=5", "numerics.smooth.jacobian_frame=rotor"},
+        std::vector<std::string>{"numerics.smooth.jacobian_frame=hub"}}) {
     try {
       MultibodySimulation sim(interface::ScenarioFile::Parse(SpinningHub(20.0), "spinning_hub.pbtxt", sets));
       ADD_FAILURE() << "accepted " << sets.back();

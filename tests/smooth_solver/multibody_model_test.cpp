@@ -40,9 +40,10 @@ TEST(MultibodyModel, RejectsInconsistentScenes) {
   EXPECT_NE(ErrorOf({"model.bodies[0].inertia=[1, 1, -1]"}).find("positive definite"), std::string::npos);
   EXPECT_NE(ErrorOf({"model.bodies[0].mass=0"}).find("must be positive (kg), got 0"), std::string::npos);
   // A prismatic joint's coordinate is a length: an angle drive mixes units.
-  EXPECT_NE(ErrorOf({"model.joints[0].type=PRISMATIC", "model.joints[0].drive={quantity: ANGLE function {constant: 1}}"})
-                .find("a prismatic joint's coordinate is a length"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf({"model.joints[0].type=PRISMATIC", "model.joints[0].drive={quantity: ANGLE function {constant: 1}}"})
+          .find("a prismatic joint's coordinate is a length"),
+      std::string::npos);
 }
 
 }  // namespace

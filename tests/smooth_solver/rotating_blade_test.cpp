@@ -20,9 +20,9 @@ namespace {
 const double kDensity = 2700, kYoung = 7e10, kRoot = 0.1, kLength = 1.0, kChord = 0.1, kThickness = 0.01;
 
 struct SpinRun {
-  double radial_stretch = 0.0;   // mean tip-centre radius − (root + length), 0.55 .. 0.6 s [m]
-  double flap_frequency = 0.0;   // from the tip's zero crossings after the pulse [rad/s]
-  double root_force = 0.0;       // |clamp force| at 0.6 s [N]
+  double radial_stretch = 0.0;  // mean tip-centre radius − (root + length), 0.55 .. 0.6 s [m]
+  double flap_frequency = 0.0;  // from the tip's zero crossings after the pulse [rad/s]
+  double root_force = 0.0;      // |clamp force| at 0.6 s [N]
   double violation = 0.0;
 };
 
@@ -105,8 +105,8 @@ TEST(SpinningBlade, RadialStretchAndCentrifugalStiffening) {
   const double omega = 50.0;
   const SpinRun still = RunSpinningBlade(0.0), spinning = RunSpinningBlade(omega);
   const double R = kRoot + kLength;
-  const double stretch = kDensity * omega * omega / (2.0 * kYoung) *
-                         (R * R * kLength - (R * R * R - kRoot * kRoot * kRoot) / 3.0);
+  const double stretch =
+      kDensity * omega * omega / (2.0 * kYoung) * (R * R * kLength - (R * R * R - kRoot * kRoot * kRoot) / 3.0);
   const double mass = kDensity * kChord * kThickness * kLength;
   const double centrifugal = mass * omega * omega * (kRoot + 0.5 * kLength);
   // EI scale that reproduces the measured non-rotating frequency, then K at Ω.
@@ -115,12 +115,14 @@ TEST(SpinningBlade, RadialStretchAndCentrifugalStiffening) {
   const double beam_spinning = RitzFlapFrequency(omega, scale);
   const double k_beam = (beam_spinning * beam_spinning - still.flap_frequency * still.flap_frequency) / (omega * omega);
   const double k_measured =
-      (spinning.flap_frequency * spinning.flap_frequency - still.flap_frequency * still.flap_frequency) / (omega * omega);
+      (spinning.flap_frequency * spinning.flap_frequency - still.flap_frequency * still.flap_frequency) /
+      (omega * omega);
   std::printf("spinning blade: radial stretch %.4e m (bar theory %.4e), root force %.1f N (m Ω² r_cg %.1f)\n",
               spinning.radial_stretch, stretch, spinning.root_force, centrifugal);
-  std::printf("flap frequency: still %.3f rad/s (beam %.3f), at %.0f rad/s %.3f rad/s; Southwell K %.4f (beam model "
-              "%.4f)\n",
-              still.flap_frequency, beam_still, omega, spinning.flap_frequency, k_measured, k_beam);
+  std::printf(
+      "flap frequency: still %.3f rad/s (beam %.3f), at %.0f rad/s %.3f rad/s; Southwell K %.4f (beam model "
+      "%.4f)\n",
+      still.flap_frequency, beam_still, omega, spinning.flap_frequency, k_measured, k_beam);
   EXPECT_NEAR(spinning.radial_stretch, stretch, 0.02 * stretch);
   EXPECT_NEAR(spinning.root_force, centrifugal, 0.005 * centrifugal);
   EXPECT_NEAR(k_measured, k_beam, 0.04 * k_beam);
@@ -145,15 +147,15 @@ TEST(DynamicCantilever, HeavilyDampedRunSettlesOnTheStaticSolution) {
   // dynamic equations is the static one.
   MultibodySimulation sim(interface::ScenarioFile::Load(
       std::string(COSIM_SOURCE_DIR) + "/scenarios/cantilever_static.pbtxt",
-      {"numerics.smooth.analysis=DYNAMIC", "numerics.smooth.rho_inf=0", "numerics.step=0.001",
-       "numerics.end_time=0.06", "numerics.smooth.newton_tolerance=1e-12"}));
+      {"numerics.smooth.analysis=DYNAMIC", "numerics.smooth.rho_inf=0", "numerics.step=0.001", "numerics.end_time=0.06",
+       "numerics.smooth.newton_tolerance=1e-12"}));
   std::vector<double> v(5);
   for (int k = 0; k < 60; ++k) sim.Step(k * 0.001, 0.001);
   sim.Probe(&v);
   ElasticBody body;
   body.Initialize(BeamMesh(1.0, 0.2, 0.1, 10, 1, 1, {}), ElasticMaterial{1770, 1.792e12, 0.3});
-  const StaticResult s = SolveStatic(body, body.mesh().root_face, {{body.mesh().tip_centre, Eigen::Vector3d(0, 1e4, 0)}},
-                                     1e-12, 20);
+  const StaticResult s =
+      SolveStatic(body, body.mesh().root_face, {{body.mesh().tip_centre, Eigen::Vector3d(0, 1e4, 0)}}, 1e-12, 20);
   const double static_uy = s.displacement(1, body.mesh().tip_centre);
   std::printf("dynamic cantilever after 60 steps: tip uy %.8e m (static solve %.8e), root force %.4f N\n", v[0],
               static_uy, v[3]);

@@ -87,7 +87,8 @@ TEST(SharcsHub, BeamBladeSpinsUpIsReleasedAndLagsAtItsCentrifugalFrequency) {
       EXPECT_NEAR(p("hub_speed") / omega, 1.0, 1e-4);
       const double L = 0.66485, r_root = 0.23515, m_per_l = 1770 * 0.07 * 0.0084;
       const double cf = m_per_l * L * omega * omega * (r_root + 0.5 * L);
-      std::printf("SHARCS beam at τ: root radial force %.1f N (blade centrifugal force %.1f N)\n", p("root_force_x"), cf);
+      std::printf("SHARCS beam at τ: root radial force %.1f N (blade centrifugal force %.1f N)\n", p("root_force_x"),
+                  cf);
       EXPECT_NEAR(-p("root_force_x") / cf, 1.0, 0.01);
     }
   }
@@ -96,8 +97,10 @@ TEST(SharcsHub, BeamBladeSpinsUpIsReleasedAndLagsAtItsCentrifugalFrequency) {
   const double e = 0.0516, a = 0.23515 - e, b = 0.9 - e;
   const double nu = std::sqrt(e * (b * b - a * a) / 2 / ((b * b * b - a * a * a) / 3));
   const double expected = 2 * std::numbers::pi / (nu * omega);
-  std::printf("SHARCS beam: lag up through 1.2° at %.4f and %.4f s: period %.4f s (uniform blade on its hinge: ν = %.3f/rev, "
-              "%.4f s)\n", crossings[0], crossings[1], period, nu, expected);
+  std::printf(
+      "SHARCS beam: lag up through 1.2° at %.4f and %.4f s: period %.4f s (uniform blade on its hinge: ν = %.3f/rev, "
+      "%.4f s)\n",
+      crossings[0], crossings[1], period, nu, expected);
   EXPECT_NEAR(period / expected, 1.0, 0.08);
   // The loop stays closed (the projected form projects the positions onto the constraints).
   EXPECT_LT(sim.max_constraint_violation(), 1e-8);
@@ -129,9 +132,10 @@ TEST(SharcsHub, Hex27AndBeamBladesCarryTheSameLoadsThroughTheStartUp) {
     return r;
   };
   const Reading hex = read("hub.pbtxt"), beam = read("hub_beam.pbtxt");
-  std::printf("SHARCS hex27 / beam: at 0.05 s in-plane root force %.1f / %.1f N, tip in-plane %.5f / %.5f m; "
-              "at τ radial root force %.1f / %.1f N\n",
-              hex.fy_mid, beam.fy_mid, hex.tip_y_mid, beam.tip_y_mid, hex.fx_end, beam.fx_end);
+  std::printf(
+      "SHARCS hex27 / beam: at 0.05 s in-plane root force %.1f / %.1f N, tip in-plane %.5f / %.5f m; "
+      "at τ radial root force %.1f / %.1f N\n",
+      hex.fy_mid, beam.fy_mid, hex.tip_y_mid, beam.tip_y_mid, hex.fx_end, beam.fx_end);
   EXPECT_NEAR(hex.fy_mid / beam.fy_mid, 1.0, 0.02);
   EXPECT_NEAR(hex.tip_y_mid / beam.tip_y_mid, 1.0, 0.05);
   EXPECT_NEAR(hex.fx_end / beam.fx_end, 1.0, 0.01);

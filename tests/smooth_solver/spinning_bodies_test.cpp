@@ -144,17 +144,19 @@ TEST(FlatBody, ThinDiscTopStartsWithTheAccelerationOfEulersEquations) {
     return "[" + interface::FormatNumber(v.x()) + ", " + interface::FormatNumber(v.y()) + ", " +
            interface::FormatNumber(v.z()) + "]";
   };
-  const std::string text = "model { gravity: [0, 0, " + interface::FormatNumber(-g) + "] bodies { name: \"disc\" mass: " +
-                           interface::FormatNumber(m) + " inertia: " +
-                           vec(Eigen::Vector3d(m * r * r / 4, m * r * r / 4, m * r * r / 2)) + " position: " + vec(com) +
-                           " rotation: [" + interface::FormatNumber(tilt) + ", 0, 0] velocity: " + vec(velocity) +
-                           " angular_velocity: " + vec(omega) +
-                           " } joints { name: \"pivot\" type: SPHERICAL body1: \"ground\" body2: \"disc\" point: [0, 0, 0] } }"
-                           " numerics { end_time: 0.01 step: 0.001 }";
+  const std::string text =
+      "model { gravity: [0, 0, " + interface::FormatNumber(-g) +
+      "] bodies { name: \"disc\" mass: " + interface::FormatNumber(m) +
+      " inertia: " + vec(Eigen::Vector3d(m * r * r / 4, m * r * r / 4, m * r * r / 2)) + " position: " + vec(com) +
+      " rotation: [" + interface::FormatNumber(tilt) + ", 0, 0] velocity: " + vec(velocity) +
+      " angular_velocity: " + vec(omega) +
+      " } joints { name: \"pivot\" type: SPHERICAL body1: \"ground\" body2: \"disc\" point: [0, 0, 0] } }"
+      " numerics { end_time: 0.01 step: 0.001 }";
   MultibodySimulation sim(interface::ScenarioFile::Parse(text, "disc", {}));
   const DaeState& s = sim.integrator().state();
   // Euler's equations in the global frame at t = 0.
-  const Eigen::Matrix3d I = R * Eigen::Vector3d(m * r * r / 4, m * r * r / 4, m * r * r / 2).asDiagonal() * R.transpose();
+  const Eigen::Matrix3d I =
+      R * Eigen::Vector3d(m * r * r / 4, m * r * r / 4, m * r * r / 2).asDiagonal() * R.transpose();
   const Eigen::Matrix3d Ip = I + m * (com.squaredNorm() * Eigen::Matrix3d::Identity() - com * com.transpose());
   const Eigen::Vector3d torque = com.cross(Eigen::Vector3d(0, 0, -m * g));
   const Eigen::Vector3d omega_dot = Ip.ldlt().solve(torque - omega.cross(Ip * omega));
@@ -188,9 +190,9 @@ TEST(FreeShaftRotor, RunsAtFiveMillisecondsAndAgreesWithIda) {
   // second order (observed flap errors 2.7e-4 / 6.8e-5 rad at h = 4e-3 / 2e-3) and the energy
   // of this conservative scene changes by less than 1e-3 relative over the 10 s.
   auto sim = Load(kHard + "free_shaft_rotor.pbtxt", {});
-  auto ida = Load(kHard + "free_shaft_rotor.pbtxt", {"numerics.smooth.integrator=IDA",
-                                                    "numerics.smooth.ida_relative_tolerance=1e-10",
-                                                    "numerics.smooth.ida_absolute_tolerance=1e-10"});
+  auto ida = Load(kHard + "free_shaft_rotor.pbtxt",
+                  {"numerics.smooth.integrator=IDA", "numerics.smooth.ida_relative_tolerance=1e-10",
+                   "numerics.smooth.ida_absolute_tolerance=1e-10"});
   const double e0 = Energy(*sim);
   const double h = 0.005;
   std::vector<double> v(4), w(4);
@@ -206,8 +208,8 @@ TEST(FreeShaftRotor, RunsAtFiveMillisecondsAndAgreesWithIda) {
       speed = std::max(speed, std::abs(v[2] - w[2]));
     }
   }
-  std::printf("free-shaft rotor h = 5e-3: flap error %.2e rad, hub speed error %.2e rad/s over 2 s; energy %.2e\n", flap,
-              speed, energy);
+  std::printf("free-shaft rotor h = 5e-3: flap error %.2e rad, hub speed error %.2e rad/s over 2 s; energy %.2e\n",
+              flap, speed, energy);
   EXPECT_LT(flap, 2e-3);
   EXPECT_LT(speed, 2e-3);
   EXPECT_LT(energy, 1e-3);
@@ -234,11 +236,8 @@ TEST(ConstraintForms, TheIndexThreeFormIsKeptAndStillSecondOrderOnTheFourBar) {
 // The watchdog on constructed states.
 
 struct WatchdogFixture {
-  WatchdogFixture()
-      : sim(Load(kHard + "spinning_body.pbtxt", {})), state(sim->integrator().state()) {}
-  Watchdog Make(WatchdogSettings settings = {}) const {
-    return Watchdog(sim->system(), settings, {"body"}, state);
-  }
+  WatchdogFixture() : sim(Load(kHard + "spinning_body.pbtxt", {})), state(sim->integrator().state()) {}
+  Watchdog Make(WatchdogSettings settings = {}) const { return Watchdog(sim->system(), settings, {"body"}, state); }
   std::unique_ptr<MultibodySimulation> sim;
   DaeState state;
 };

@@ -16,8 +16,9 @@ try:
     import numpy as np
     import siconos.kernel as sk
 except ImportError as e:  # pragma: no cover
-    print(f"siconos_kernel_ball: python3-siconos is not installed ({e}); apt-get install python3-siconos",
-          file=sys.stderr)
+    print(
+        f"siconos_kernel_ball: python3-siconos is not installed ({e}); apt-get install python3-siconos", file=sys.stderr
+    )
     sys.exit(3)
 
 

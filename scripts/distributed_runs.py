@@ -55,9 +55,14 @@ def run_on_worker(job, bundle):
     launch = os.path.join(bin_dir, "cosim_launch")
     host = socket.gethostname()
     if not os.access(launch, os.X_OK):
-        return {"code": 4, "seconds": 0.0, "host": host, "outputs": None,
-                "stderr": f"worker {host}: no cosim_launch at {launch} (build the project there, or set "
-                          f"COSIM_BIN_DIR in the worker's environment)"}
+        return {
+            "code": 4,
+            "seconds": 0.0,
+            "host": host,
+            "outputs": None,
+            "stderr": f"worker {host}: no cosim_launch at {launch} (build the project there, or set "
+            f"COSIM_BIN_DIR in the worker's environment)",
+        }
     with tempfile.TemporaryDirectory(prefix="cosim-run-") as tmp:
         unpack(bundle, os.path.join(tmp, "scene"))
         sets = list(job["sets"])
@@ -97,8 +102,9 @@ class Cluster:
             except (OSError, TimeoutError) as e:
                 raise ConnectionError(f"no Dask scheduler at {scheduler}: {e}") from e
         else:
-            self.cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
-                                        dashboard_address=None, silence_logs=40)
+            self.cluster = LocalCluster(
+                n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+            )
             self.client = Client(self.cluster)
         self.address = self.client.scheduler.address
         self._bundles = {}
@@ -111,9 +117,11 @@ class Cluster:
         if folder not in self._bundles:
             size = sum(os.path.getsize(os.path.join(d, f)) for d, _, fs in os.walk(folder) for f in fs)
             if size > MAX_BUNDLE_BYTES:
-                raise ValueError(f"{folder}: the scenario folder holds {size / 2**20:.0f} MiB; a study ships it "
-                                 f"to every worker, at most {MAX_BUNDLE_BYTES / 2**20:.0f} MiB (move the scenario "
-                                 f"into a folder of its own)")
+                raise ValueError(
+                    f"{folder}: the scenario folder holds {size / 2**20:.0f} MiB; a study ships it "
+                    f"to every worker, at most {MAX_BUNDLE_BYTES / 2**20:.0f} MiB (move the scenario "
+                    f"into a folder of its own)"
+                )
             self._bundles[folder] = self.client.scatter(pack(folder), broadcast=False, hash=False)
         return self._bundles[folder]
 
@@ -139,8 +147,11 @@ def file_sets(sets):
         shipped = [path]
         if os.path.basename(path) == "final_state.pb":
             folder = os.path.dirname(path)
-            shipped += sorted(os.path.join(folder, d, "final_state.pb") for d in os.listdir(folder)
-                              if os.path.isfile(os.path.join(folder, d, "final_state.pb")))
+            shipped += sorted(
+                os.path.join(folder, d, "final_state.pb")
+                for d in os.listdir(folder)
+                if os.path.isfile(os.path.join(folder, d, "final_state.pb"))
+            )
         for name in shipped:
             with open(name, "rb") as f:
                 files[name] = f.read()

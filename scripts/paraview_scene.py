@@ -39,11 +39,16 @@ def kinds(source, low, high):
 
 def main(argv):
     args = arguments(argv)
-    pvd = next((os.path.join(args.out, n) for n in ("scene.pvd", "visual.pvd")
-                if os.path.isfile(os.path.join(args.out, n))), None)
+    pvd = next(
+        (os.path.join(args.out, n) for n in ("scene.pvd", "visual.pvd") if os.path.isfile(os.path.join(args.out, n))),
+        None,
+    )
     if pvd is None:
-        print(f"paraview_scene.py: error: {args.out} has no scene.pvd or visual.pvd; run with "
-              f"--set output.visual.every=N first", file=sys.stderr)
+        print(
+            f"paraview_scene.py: error: {args.out} has no scene.pvd or visual.pvd; run with "
+            f"--set output.visual.every=N first",
+            file=sys.stderr,
+        )
         return 2
     reader = pv.PVDReader(FileName=os.path.abspath(pvd))
     times = [float(t) for t in reader.TimestepValues] or [0.0]

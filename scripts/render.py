@@ -28,8 +28,16 @@ import numpy as np  # noqa: E402
 from matplotlib import animation  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noqa: E402
 
-KIND = {"body_axis": 0, "body_shape": 1, "beam_axis": 2, "beam_section": 3, "solid": 4, "tie": 5, "node": 6,
-        "obstacle": 7}
+KIND = {
+    "body_axis": 0,
+    "body_shape": 1,
+    "beam_axis": 2,
+    "beam_section": 3,
+    "solid": 4,
+    "tie": 5,
+    "node": 6,
+    "obstacle": 7,
+}
 VIEWS = {"iso": (25, -60), "top": (90, -90), "side": (0, -90), "front": (0, 0)}
 HEX_EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
 
@@ -135,12 +143,24 @@ def draw(ax, frame, limits, view, time, stress_max, title):
     ax.tick_params(labelsize=6)
     if frame.quads["obstacle"]:
         colours = ["red" if c else "grey" for c in frame.quad_contact]
-        ax.add_collection3d(Poly3DCollection(frame.quads["obstacle"], facecolors=colours, alpha=0.25, edgecolors="none"))
+        ax.add_collection3d(
+            Poly3DCollection(frame.quads["obstacle"], facecolors=colours, alpha=0.25, edgecolors="none")
+        )
     if frame.quads["beam_section"]:
-        ax.add_collection3d(Poly3DCollection(frame.quads["beam_section"], facecolors="lightsteelblue", alpha=0.8,
-                                             edgecolors="steelblue", linewidths=0.3))
-    styles = {"body_shape": dict(colors="0.45", linewidths=1.2), "beam_axis": dict(colors="navy", linewidths=1.0),
-              "tie": dict(colors="darkorange", linewidths=1.0, linestyles="dashed")}
+        ax.add_collection3d(
+            Poly3DCollection(
+                frame.quads["beam_section"],
+                facecolors="lightsteelblue",
+                alpha=0.8,
+                edgecolors="steelblue",
+                linewidths=0.3,
+            )
+        )
+    styles = {
+        "body_shape": dict(colors="0.45", linewidths=1.2),
+        "beam_axis": dict(colors="navy", linewidths=1.0),
+        "tie": dict(colors="darkorange", linewidths=1.0, linestyles="dashed"),
+    }
     for kind, style in styles.items():
         if frame.lines[kind]:
             ax.add_collection3d(Line3DCollection(frame.lines[kind], **style))
@@ -148,18 +168,26 @@ def draw(ax, frame, limits, view, time, stress_max, title):
         ax.add_collection3d(Line3DCollection(frame.lines["body_axis"], colors=frame.axis_colour, linewidths=0.8))
     if frame.solid_edges:
         cmap = plt.get_cmap("viridis")
-        ax.add_collection3d(Line3DCollection(frame.solid_edges, colors=cmap(np.array(frame.solid_stress) / stress_max),
-                                             linewidths=0.6))
+        ax.add_collection3d(
+            Line3DCollection(frame.solid_edges, colors=cmap(np.array(frame.solid_stress) / stress_max), linewidths=0.6)
+        )
     if frame.nodes:
         nodes = np.array(frame.nodes)
-        ax.scatter(nodes[:, 0], nodes[:, 1], nodes[:, 2], s=12,
-                   c=["red" if c else "black" for c in frame.node_contact], depthshade=False)
+        ax.scatter(
+            nodes[:, 0],
+            nodes[:, 1],
+            nodes[:, 2],
+            s=12,
+            c=["red" if c else "black" for c in frame.node_contact],
+            depthshade=False,
+        )
     ax.set_title(f"{title}   t = {time:.3f} s" + (f"\n(drawn stretched: {stretched})" if stretched else ""), fontsize=9)
 
 
 def main():
-    parser = argparse.ArgumentParser(prog="scripts/cosim render", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="scripts/cosim render", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("run", help="a run's output folder with visual output")
     parser.add_argument("--time", type=float, help="the snapshot's time [s] (default: the last frame)")
     parser.add_argument("--frames", type=int, default=60, help="frames of the animation, at most (default 60)")
@@ -192,16 +220,21 @@ def main():
     draw(ax, shot, limits, args.view, shot_time, stress_max, title)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "snapshot.png"), dpi=120)
+
     # Animation.
     def update(i):
         draw(ax, frames[i], limits, args.view, times[i], stress_max, title)
         return []
+
     movie = animation.FuncAnimation(fig, update, frames=len(frames), blit=False)
     movie.save(os.path.join(out, "animation.gif"), writer=animation.PillowWriter(fps=args.fps), dpi=80)
     plt.close(fig)
     box = ", ".join(f"{a} [{lo:.6g}, {hi:.6g}]" for a, lo, hi in zip("xyz", limits[0], limits[1]))
-    print(f"cosim render: {os.path.join(out, 'snapshot.png')} (t = {shot_time:g} s), "
-          f"{os.path.join(out, 'animation.gif')} ({len(frames)} frames of {len(series)}); box {box} m", file=sys.stderr)
+    print(
+        f"cosim render: {os.path.join(out, 'snapshot.png')} (t = {shot_time:g} s), "
+        f"{os.path.join(out, 'animation.gif')} ({len(frames)} frames of {len(series)}); box {box} m",
+        file=sys.stderr,
+    )
 
 
 if __name__ == "__main__":

@@ -27,9 +27,20 @@ class ParaViewScene(unittest.TestCase):
     def setUpClass(cls):
         shutil.rmtree(WORK, ignore_errors=True)
         cls.out = os.path.join(WORK, "rotor")
-        subprocess.run([os.path.join(BIN, "cosim_launch"), os.path.join(SOURCE, "scenarios/small_rotor/anti_flap_impact.pbtxt"),
-                        "--out", cls.out, "--set", "numerics.end_time=0.3", "--set", "output.visual.every=50"],
-                       check=True, capture_output=True)
+        subprocess.run(
+            [
+                os.path.join(BIN, "cosim_launch"),
+                os.path.join(SOURCE, "scenarios/small_rotor/anti_flap_impact.pbtxt"),
+                "--out",
+                cls.out,
+                "--set",
+                "numerics.end_time=0.3",
+                "--set",
+                "output.visual.every=50",
+            ],
+            check=True,
+            capture_output=True,
+        )
 
     def test_snapshot_and_state(self):
         p = subprocess.run(XVFB + [self.out, "--time", "0.2", "--size", "640", "400"], capture_output=True, text=True)
@@ -39,11 +50,12 @@ class ParaViewScene(unittest.TestCase):
         self.assertEqual(image.shape[:2], (400, 640))
         r, g, b = image[..., 0], image[..., 1], image[..., 2]
         self.assertGreater(int(((b - r) > 0.2).sum()), 500)  # the blades (kind colours)
-        self.assertGreater(int(((r - g) > 0.15).sum()), 50)   # planes and nodes in contact
+        self.assertGreater(int(((r - g) > 0.15).sum()), 50)  # planes and nodes in contact
         with open(os.path.join(self.out, "paraview", "scene.pvsm")) as f:
             state = f.read()
-        self.assertTrue(state.startswith("<GenericParaViewApplication>") and "<ServerManagerState" in state,
-                        state[:200])
+        self.assertTrue(
+            state.startswith("<GenericParaViewApplication>") and "<ServerManagerState" in state, state[:200]
+        )
         self.assertTrue(os.path.abspath(os.path.join(self.out, "scene.pvd")) in state, "the state names no scene.pvd")
 
     def test_no_visual_output_is_refused(self):

@@ -21,7 +21,16 @@ import meshio
 import numpy as np
 
 BIN, SOURCE, WORK = sys.argv[1:4]
-KIND = {"body_axis": 0, "body_shape": 1, "beam_axis": 2, "beam_section": 3, "solid": 4, "tie": 5, "node": 6, "obstacle": 7}
+KIND = {
+    "body_axis": 0,
+    "body_shape": 1,
+    "beam_axis": 2,
+    "beam_section": 3,
+    "solid": 4,
+    "tie": 5,
+    "node": 6,
+    "obstacle": 7,
+}
 # VTK_TRIQUADRATIC_HEXAHEDRON: nodes 8-19 on the edges, 20-25 on the faces x-, x+, y-, y+, z-, z+.
 EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
 FACES = [(0, 3, 4, 7), (1, 2, 5, 6), (0, 1, 4, 5), (2, 3, 6, 7), (0, 1, 2, 3), (4, 5, 6, 7)]
@@ -85,12 +94,18 @@ class Visual(unittest.TestCase):
             cm = meshio.read(os.path.join(out, "contacts", file_c))
             nodes = cells_of(cm, "node")
             self.assertEqual(len(nodes), 1)
-            self.assertAlmostEqual(cm.points[nodes[0][1][0]][2], hc["node_z"][np.argmin(abs(hc["time"] - t))], delta=1e-12)
+            self.assertAlmostEqual(
+                cm.points[nodes[0][1][0]][2], hc["node_z"][np.argmin(abs(hc["time"] - t))], delta=1e-12
+            )
             # The tie ends where the contact process put the node (the imposed coordinates).
             self.assertAlmostEqual(mesh.points[tie[0][1][1]][2], cm.points[nodes[0][1][0]][2], delta=1e-9)
             self.assertEqual(len(cells_of(cm, "obstacle")), 1)
-            contact_flags = [v for b, k in zip(cm.cell_data["in_contact"], cm.cell_data["kind"]) for v, kk in zip(b, k)
-                             if kk == KIND["node"]]
+            contact_flags = [
+                v
+                for b, k in zip(cm.cell_data["in_contact"], cm.cell_data["kind"])
+                for v, kk in zip(b, k)
+                if kk == KIND["node"]
+            ]
             row_c = np.argmin(abs(hc["time"] - t))
             # In contact exactly when the step's impulse is non-zero or the gap closed.
             self.assertEqual(contact_flags[0], int(hc["impulse"][row_c] != 0.0 or hc["gap"][row_c] <= 0.0), t)
@@ -103,8 +118,9 @@ class Visual(unittest.TestCase):
         # The co-simulated Puma: four contact processes, each with one blade's pad against that
         # blade's droop and anti-flap planes. Each draws those two planes and no other blade's
         # (issue 34: each drew all eight, six of them as 0.2 m squares at the hub).
-        out = run("puma_planes", "scenarios/puma/engage_disengage.pbtxt", "output.visual.every=2",
-                  "numerics.end_time=0.004")
+        out = run(
+            "puma_planes", "scenarios/puma/engage_disengage.pbtxt", "output.visual.every=2", "numerics.end_time=0.004"
+        )
         for k in range(1, 5):
             folder = os.path.join(out, f"stops{k}")
             frames = series(os.path.join(folder, "visual.pvd"))
@@ -143,9 +159,15 @@ class Visual(unittest.TestCase):
                 np.testing.assert_allclose(X, reference, atol=1e-9)
             row = np.argmin(abs(h["time"] - t))
             tip = np.array([h["tip_x"][row], h["tip_y"][row], h["tip_z"][row]])
-            self.assertLess(np.min(np.linalg.norm(d - tip, axis=1)), 1e-12, f"t = {t}: no node with the tip's displacement")
-            stress = [s for b, k in zip(mesh.cell_data["von_mises"], mesh.cell_data["kind"]) for s, kk in zip(b, k)
-                      if kk == KIND["solid"]]
+            self.assertLess(
+                np.min(np.linalg.norm(d - tip, axis=1)), 1e-12, f"t = {t}: no node with the tip's displacement"
+            )
+            stress = [
+                s
+                for b, k in zip(mesh.cell_data["von_mises"], mesh.cell_data["kind"])
+                for s, kk in zip(b, k)
+                if kk == KIND["solid"]
+            ]
             if t > 0:
                 self.assertGreater(max(stress), 0.0)  # spinning up: stressed
             else:
@@ -154,15 +176,22 @@ class Visual(unittest.TestCase):
     def test_continuous_contact_point_and_plane_in_contact_while_the_gap_is_closed(self):
         # pendulum_stop_continuous: the tip body against the stop plane x = 0 (Hunt–Crossley):
         # the first impact near t = 0.51 s lasts a few steps; drawn every step around it.
-        out = run("pendulum_continuous", "scenarios/pendulum_stop_continuous.pbtxt", "numerics.end_time=0.53",
-                  "output.visual.every=10", "output.every=10")
+        out = run(
+            "pendulum_continuous",
+            "scenarios/pendulum_stop_continuous.pbtxt",
+            "numerics.end_time=0.53",
+            "output.visual.every=10",
+            "output.every=10",
+        )
         h = history(out)
         closed = 0
         for t, file, _ in series(os.path.join(out, "visual.pvd")):
             mesh = meshio.read(os.path.join(out, file))
-            (_, point), = cells_of(mesh, "node")
-            (_, plane), = cells_of(mesh, "obstacle")
-            flags = {k: v for b, kinds in zip(mesh.cell_data["in_contact"], mesh.cell_data["kind"]) for v, k in zip(b, kinds)}
+            ((_, point),) = cells_of(mesh, "node")
+            ((_, plane),) = cells_of(mesh, "obstacle")
+            flags = {
+                k: v for b, kinds in zip(mesh.cell_data["in_contact"], mesh.cell_data["kind"]) for v, k in zip(b, kinds)
+            }
             tip_x = h["tip_x"][np.argmin(abs(h["time"] - t))]
             self.assertAlmostEqual(mesh.points[point[0]][0], tip_x, delta=1e-12)
             self.assertEqual(flags[KIND["node"]], int(tip_x <= 0.0), t)
@@ -204,13 +233,17 @@ class Visual(unittest.TestCase):
         # both (issue 34: from the animation's frames only, so the snapshot's ball near the
         # floor fell outside a box around 1 m).
         out = run("render_ball", "scenarios/bouncing_ball.pbtxt", "numerics.end_time=0.5", "output.visual.every=10")
-        p = subprocess.run(["/usr/bin/python3", os.path.join(SOURCE, "scripts", "render.py"), out, "--frames", "1",
-                            "--time", "0.45"], capture_output=True, text=True)
+        p = subprocess.run(
+            ["/usr/bin/python3", os.path.join(SOURCE, "scripts", "render.py"), out, "--frames", "1", "--time", "0.45"],
+            capture_output=True,
+            text=True,
+        )
         self.assertEqual(p.returncode, 0, p.stderr)
         z = p.stderr.split("z [")[1].split("]")[0].split(",")
         self.assertLess(float(z[0]), 0.007, p.stderr)
         self.assertGreater(float(z[1]), 1.0, p.stderr)
         self.assertTrue(os.path.isfile(os.path.join(out, "render", "snapshot.png")))
+
 
 if __name__ == "__main__":
     unittest.main(argv=sys.argv[:1], verbosity=2)

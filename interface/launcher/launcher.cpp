@@ -311,6 +311,7 @@ void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts
   std::filesystem::rename(tmp, out);
 }
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli) {
   // Everything the launcher waits for arrives as a signal, taken synchronously (sigtimedwait):
   // children ending (SIGCHLD) and requests to stop (SIGTERM, SIGINT, SIGHUP).

@@ -145,6 +145,7 @@ void InstallTerminationHandler() {
 
 bool TerminationRequested() { return g_termination != 0; }
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory) {
   const auto wall_start = std::chrono::steady_clock::now();
   InstallTerminationHandler();

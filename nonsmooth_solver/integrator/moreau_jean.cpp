@@ -227,6 +227,7 @@ void MoreauJean::FreeSensitivity(int group, double h) {
   }
 }
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 void MoreauJean::ContactSensitivity(const std::vector<int>& groups, int size, double t1, double h) {
   // On the piece of the LCP's solution (see the header), for a constant force on the nodes (the
   // uncoupled M̂): dv = V0 + Y_u dz, V0 = h M̂⁻¹, Y_u = M̂⁻¹ G, over the groups' dofs together.

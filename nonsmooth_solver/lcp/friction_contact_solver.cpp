@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 
 extern "C" {
 #include "FrictionContactProblem.h"
@@ -45,7 +46,7 @@ double FrictionContactError(const Eigen::Ref<const Eigen::MatrixXd>& W, const Ei
     uhat(0) += mu(c) * uhat.tail<2>().norm();
     error = std::max(error, (rc - ProjectOnCone(rc - uhat, mu(c))).lpNorm<Eigen::Infinity>());
   }
-  if (!std::isfinite(error)) return INFINITY;
+  if (!std::isfinite(error)) return std::numeric_limits<double>::infinity();
   return error / (1.0 + q.lpNorm<Eigen::Infinity>());
 }
 

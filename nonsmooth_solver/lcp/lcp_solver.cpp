@@ -64,7 +64,7 @@ double ComplementarityError(const Eigen::Ref<const Eigen::MatrixXd>& M, const Ei
     const double zi = z(i);
     error = std::max({error, -zi, -wi, std::abs(std::min(zi, wi))});
   }
-  if (!std::isfinite(error)) return INFINITY;
+  if (!std::isfinite(error)) return std::numeric_limits<double>::infinity();
   return error / (1.0 + q.lpNorm<Eigen::Infinity>());
 }
 
@@ -205,7 +205,7 @@ double LcpSolver::PolishActiveSet(const Eigen::Ref<const Eigen::MatrixXd>& M,
 LcpResult LcpSolver::Attempt(LcpAlgorithm algorithm, const Eigen::Ref<const Eigen::MatrixXd>& M,
                              const Eigen::Ref<const Eigen::VectorXd>& q, Eigen::Ref<Eigen::VectorXd> z) {
   LcpResult result;
-  result.error = INFINITY;  // until an attempt is made and checked
+  result.error = std::numeric_limits<double>::infinity();  // until an attempt is made and checked
   const int n = static_cast<int>(q.size());
   if (algorithm == LcpAlgorithm::kEnumerative && n > kMaxEnumerativeSize) {
     result.message = std::string("ENUMERATIVE refused: n = ") + std::to_string(n) + " > " +

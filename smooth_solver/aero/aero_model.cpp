@@ -122,6 +122,7 @@ Airwake BuildAirwake(const Checks& checks, const sc::Airwake& a) {
 
 }  // namespace
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 void AddAero(const Checks& checks, const interface::NameTable& body_names, MultibodyModel* model) {
   const sc::Model& m = checks.file().proto().model();
   if (!m.has_air()) return;

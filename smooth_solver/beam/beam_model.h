@@ -13,7 +13,6 @@
 namespace cosim::smooth {
 
 struct MultibodyModel;
-struct Joint;
 
 struct BeamModel {
   std::string name;

@@ -592,6 +592,7 @@ bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingI
   return converged;
 }
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 Coordinator::Attempt Coordinator::Try(double t, double h) {
   Attempt result;
   iterate_solved_ = false;

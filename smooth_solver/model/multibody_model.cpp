@@ -157,6 +157,7 @@ void AddMovingBaseJoints(const Checks& checks, const std::vector<int>& first, Na
 
 }  // namespace
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 MultibodyModel BuildMultibodyModel(const interface::ScenarioFile& file) {
   const Checks checks(file);
   const sc::Model& m = file.proto().model();

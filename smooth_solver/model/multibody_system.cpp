@@ -150,6 +150,7 @@ Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::Vec
   return m.body2 >= 0 ? moment : Eigen::Vector3d(-moment);
 }
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<ElasticBodySpec>* elastic) {
   MultibodySystem sys;
   const int nb = static_cast<int>(model.bodies.size());

@@ -65,6 +65,7 @@ Eigen::Vector3d InFrame(int frame, const Eigen::VectorXd& q, const Eigen::Vector
 
 }  // namespace
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bool coupled)
     : model_(BuildMultibodyModel(file)) {
   const Checks checks(file);

@@ -28,6 +28,7 @@ const std::array<int, 27>& VtkHex27Order() {
   return order;
 }
 
+// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const Eigen::VectorXd& q,
                const VisualSettings& settings, VisualFrame* frame) {
   // Rigid bodies (not the beams' nodes, drawn with their beams).

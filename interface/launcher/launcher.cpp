@@ -179,7 +179,7 @@ std::pair<double, long> LastHistoryRow(const std::string& path) {
 }
 
 // The exit code a process wrote into its own summary, if it wrote one after `started` (it was
-// killed while tearing down after its last word: its summary stands, issue 32 item 8), or -1.
+// killed while tearing down after its last word: its summary stands), or -1.
 // (RunOutput removes an earlier run's summary when it starts; the time tells one left by a run
 // before that point from this run's.)
 int OwnSummaryCode(const ProcessPlan& p, std::filesystem::file_time_type started) {

@@ -229,7 +229,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
   }
   const std::vector<std::string> probe_names = simulation->ProbeNames();
   // A probe that is no longer finite ends the run as a numerical failure (exit 3) before its row
-  // is written: "ok" with inf in a history is no result (issue 32: an initial joint coordinate of
+  // is written: "ok" with inf in a history is no result (observed: an initial joint coordinate of
   // 1e308 ran to the end that way).
   auto probe = [&]() {
     simulation->Probe(&values);

@@ -150,7 +150,7 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
   const auto status = google::protobuf::util::MessageToJsonString(summary, &json, options);
   COSIM_ASSERT(status.ok(), "RunSummary to JSON: " + status.ToString());
   // Into a folder made if it is not there (the launcher's summary of a process killed before it
-  // made its own, issue 32 item 4), written whole or not at all (a temporary file renamed over
+  // made its own), written whole or not at all (a temporary file renamed over
   // it): a process killed while it writes leaves no half summary taken for its outcome.
   std::error_code absent;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), absent);

@@ -337,8 +337,8 @@ Eigen::MatrixXd BeamElementMass(int n, double s0, double length, const BeamTable
       // d1 and d3 or d1 and d2: 2 f m on d1 gives them J33 + 2 f m and J22 + 2 f m, as the old
       // floor of f m on each director did. A rotation about d1 (torsion) moves d2 and d3 only:
       // the data's polar moment J22 + J33, raised to 2 f m only where the data give less (the
-      // Puma's root, 0.28–0.604 m, has none); the old floor added 2 f m everywhere, +23 % of the
-      // Puma's torsional inertia (issue 33).
+      // Puma's root, 0.28–0.604 m, has none); a floor of 2 f m everywhere added +23 % to the
+      // Puma's torsional inertia.
       local(1, 1) += 2.0 * rotary_floor * sec.mass;
       const double deficit = std::max(0.0, 2.0 * rotary_floor * sec.mass - J.trace());
       local(2, 2) += 0.5 * deficit;

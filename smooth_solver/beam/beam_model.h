@@ -27,7 +27,7 @@ struct BeamModel {
   // Floor on the rotary inertia of bending, 2 f m per length with f = kRotaryFloor · ℓ² and
   // ℓ = max(L_e, L/10) (BeamElementMass puts it on d1, which has no inertia of its own: a section
   // has no thickness along the span); torsion keeps the data's polar moment, floored at 2 f m
-  // only where the data give less (issue 33: the old floor, f m on every director, added 2 f m to
+  // only where the data give less (an earlier floor, f m on every director, added 2 f m to
   // torsion everywhere, +23 % on the Puma). It keeps each node's rotation inertial where the data
   // give no rotary inertia: a radius of gyration √(2f) = 7.7 % of ℓ, 5.5 cm on the Puma's blade
   // of 10 elements. Without it the section rotations against GA vibrate at ωh ~ 1e3 at h = 1e-4 s,

@@ -9,7 +9,7 @@
 // force is the one the peers held (Linearise, BeginStep, SolveStep, JacobianConverged; a
 // Newton iteration on the interface, one exchange a step while no contact set changes).
 //
-// Without (a relaxation, issue 6):
+// Without (a relaxation):
 //
 //   StepBegin → every peer: predicted reactions x_0 (extrapolated from the accepted steps) and
 //               obstacle frames (the bodies' frames advanced by their velocities) → k_0

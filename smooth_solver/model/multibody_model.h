@@ -1,7 +1,7 @@
 #pragma once
 // The smooth solver's model: rigid bodies, joints and force elements, built and validated
-// from a scenario. Immutable once built. The integrators (CGα, IDA) arrive with issue 4 and
-// elastic bodies with issue 5; this is the validated description they will integrate.
+// from a scenario. Immutable once built: the validated description the integrators (CGα, IDA)
+// integrate, the elastic bodies beside it.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>

@@ -82,7 +82,7 @@ ModalSimulation::Classified ModalSimulation::Classify(const Eigen::VectorXd& q, 
   // about the radial direction through it (torsion: θ = ½ Σ_i d_i × δd_i, BodyAngularRate of the
   // shape, the small rotation of an orthonormal triad, whose radial part turns each d_i by
   // θ_r r̂ × d_i). Shares of the kinetic energy δqᵀ M δq of the four parts: a twist moves no node
-  // point, so shares of the point motion alone called the Puma blade's torsion mode "flap" (issue 33).
+  // point, so shares of the point motion alone called the Puma blade's torsion mode "flap".
   const int n = system_->coordinates;
   std::array<Eigen::VectorXd, 4> part;
   for (Eigen::VectorXd& v : part) v = Eigen::VectorXd::Zero(n);

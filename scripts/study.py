@@ -1990,28 +1990,14 @@ def plot_operating_limits(runs, axes, names, spec, path, title):
     for r, unsafe, c in zip(runs, flags, clearances):
         speed, direction = r["point"]
         i = speeds.index(speed)
-        width = np.radians(step)
-        colour = cmap(norm(c)) if np.isfinite(c) else (0.85, 0.85, 0.85, 1)
-        ax.bar(
-            np.radians(direction),
-            r_edges[i + 1] - r_edges[i],
-            width=width,
-            bottom=r_edges[i],
-            color=colour,
-            edgecolor="white",
-            linewidth=0.5,
+        # The point's cell: its direction's sector between its speed's ring edges.
+        cell = dict(
+            x=np.radians(direction), height=r_edges[i + 1] - r_edges[i], width=np.radians(step), bottom=r_edges[i]
         )
+        colour = cmap(norm(c)) if np.isfinite(c) else (0.85, 0.85, 0.85, 1)
+        ax.bar(**cell, color=colour, edgecolor="white", linewidth=0.5)
         if unsafe:
-            ax.bar(
-                np.radians(direction),
-                r_edges[i + 1] - r_edges[i],
-                width=width,
-                bottom=r_edges[i],
-                fill=False,
-                hatch="///",
-                edgecolor="red",
-                linewidth=0.0,
-            )
+            ax.bar(**cell, fill=False, hatch="///", edgecolor="red", linewidth=0.0)
         if r["code"] != 0:
             ax.plot(np.radians(direction), speed, "rx", ms=8, mew=2)
     # The boundary: per direction, the lowest unsafe speed's inner edge.

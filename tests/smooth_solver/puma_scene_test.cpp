@@ -160,16 +160,19 @@ TEST(PumaScenes, ABladeTheDeckLaysOntoItsStopsStaysOnThemInsteadOfBeingThrownOff
       {"model.air.airwake.speed=18.00554", "model.air.airwake.direction=90", "numerics.end_time=13.4"}));
   std::vector<double> v(sim.ProbeNames().size());
   const double deg = 180 / std::numbers::pi, h = 2e-3;
+  std::vector<size_t> column(4);  // each blade's flap probe
   std::vector<double> flap(4);
   sim.Probe(&v);
-  for (size_t k = 0; k < 4; ++k)
-    flap[k] = v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k + 1) + "_flap"))];
+  for (size_t k = 0; k < 4; ++k) {
+    column[k] = static_cast<size_t>(Column(sim, "blade" + std::to_string(k + 1) + "_flap"));
+    flap[k] = v[column[k]];
+  }
   double largest = 0.0, when = 0.0, deepest = 0.0;
   for (int s = 0; s < 6700; ++s) {
     sim.Step(s * h, h);
     sim.Probe(&v);
     for (size_t k = 0; k < 4; ++k) {
-      const double now = v[static_cast<size_t>(Column(sim, "blade" + std::to_string(k + 1) + "_flap"))];
+      const double now = v[column[k]];
       if (std::abs(now - flap[k]) * deg > largest) largest = std::abs(now - flap[k]) * deg, when = (s + 1) * h;
       if (s * h > 13.0) deepest = std::min(deepest, now * deg + 10.0);
       flap[k] = now;

@@ -176,12 +176,20 @@ void Channel::PumpHeartbeats() {
   const auto period = std::chrono::duration<double>(std::max(1e-3, 0.5 * options_.heartbeat));
   std::unique_lock<std::mutex> stop_lock(stop_mutex_);
   while (!stop_.wait_for(stop_lock, period, [this] { return stopping_; })) {
-    std::lock_guard<std::mutex> lock(socket_mutex_);
-    try {
-      HeartbeatIfDue();
-    } catch (const zmq::error_t&) {
-      // The context is ending: nothing to keep alive.
+    // Not holding stop_mutex_ while waiting for the socket: the caller's thread holds the socket
+    // through its receive slices, and the CURVE server's ZAP handler takes stop_mutex_ between
+    // polls — held here, it starved the handler and the connection's handshake stalled for
+    // hundreds of milliseconds (with heartbeat 0.1 s no Hello got through in 1 s).
+    stop_lock.unlock();
+    {
+      std::lock_guard<std::mutex> lock(socket_mutex_);
+      try {
+        HeartbeatIfDue();
+      } catch (const zmq::error_t&) {
+        // The context is ending: nothing to keep alive.
+      }
     }
+    stop_lock.lock();
   }
 }
 

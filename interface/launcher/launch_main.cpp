@@ -11,9 +11,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 
 #include "interface/launcher/launcher.h"
 #include "interface/run/run_driver.h"
+#include "interface/scenario/coupling_plan.h"
 
 int main(int argc, char** argv) {
   using namespace cosim;
@@ -47,7 +49,10 @@ int main(int argc, char** argv) {
     const auto plan = interface::PlanProcesses(file, cli, arguments, sockets.path());
     if (plan.size() > 1) std::cerr << "cosim: coupling sockets in " << sockets.path() << " (removed at the end)\n";
     const std::string bin_dir = std::filesystem::canonical("/proc/self/exe").parent_path().string();
-    return interface::RunProcesses(bin_dir, plan, cli);
+    // A process of a coupled run stopped for twice coupling.timeout is hung (launcher.h).
+    const double stopped_limit =
+        plan.size() > 1 ? 2.0 * interface::ReadChannelTiming(file).timeout : std::numeric_limits<double>::infinity();
+    return interface::RunProcesses(bin_dir, plan, cli, stopped_limit);
   } catch (const Error& e) {
     std::cerr << "cosim run: error: " << e.what() << "\n";
     interface::WriteFailureSummary("cosim run", cli, e.code(), e.what());

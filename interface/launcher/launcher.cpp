@@ -162,6 +162,9 @@ struct Child {
   bool terminated = false;  // SIGTERM sent
   Clock::time_point terminated_at;
   bool killed = false;                      // SIGKILL sent
+  bool stopped = false;                     // stopped by a signal (SIGSTOP, SIGTSTP), not continued since
+  int stopped_by = 0;                       // that signal
+  Clock::time_point stopped_at;             // when the launcher saw it stop
   std::filesystem::file_time_type started;  // just before it was started (file clock)
 };
 
@@ -311,21 +314,12 @@ void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts
   std::filesystem::rename(tmp, out);
 }
 
-// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
-int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli) {
-  // Everything the launcher waits for arrives as a signal, taken synchronously (sigtimedwait):
-  // children ending (SIGCHLD) and requests to stop (SIGTERM, SIGINT, SIGHUP).
-  sigset_t watched, previous;
-  sigemptyset(&watched);
-  for (int s : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&watched, s);
-  sigprocmask(SIG_BLOCK, &watched, &previous);
-  // The children start with SIGTERM, SIGINT and SIGHUP blocked (the mask survives exec) until
-  // their run driver has installed its handler, so that stopping one that has only just
-  // started still lets it write its outputs.
-  sigset_t child_mask;
-  sigemptyset(&child_mask);
-  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&child_mask, s);
+namespace {
 
+// Starts every process of the plan, in order, with `child_mask` as its signal mask (it survives
+// exec); the children die with the launcher.
+std::vector<Child> StartChildren(const std::string& bin_dir, const std::vector<ProcessPlan>& plan,
+                                 const sigset_t& child_mask) {
   const pid_t launcher = getpid();
   std::vector<Child> children(plan.size());
   for (size_t i = 0; i < plan.size(); ++i) {
@@ -359,94 +353,198 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
     }
     children[i].pid = pid;
   }
+  return children;
+}
 
-  const size_t last = children.size() - 1;  // the coordinator of a coupled run, or the only process
-  auto terminate = [&](Child& c) {
+// The supervision of a run's processes until all have ended (see RunProcesses).
+class Supervisor {
+ public:
+  Supervisor(const std::vector<ProcessPlan>& plan, std::vector<Child>* children, double stopped_limit)
+      : plan_(plan), children_(*children), last_(plan.size() - 1), stopped_limit_(stopped_limit) {}
+
+  // Runs until every child has ended; the signals in `watched` must be blocked.
+  void Run(const sigset_t& watched) {
+    while (!AllEnded()) {
+      siginfo_t info;
+      const timespec slice{0, 50'000'000};
+      const int got = sigtimedwait(&watched, &info, &slice);
+      if (got == SIGTERM || got == SIGINT || got == SIGHUP) {
+        if (!stop_requested_) std::cerr << "cosim: " << strsignal(got) << ": stopping the run's processes\n";
+        stop_requested_ = true;
+      }
+      Reap();
+      if (stop_requested_) {
+        for (Child& c : children_) Terminate(c);
+      }
+      StopFollowers();
+      StopHungProcesses();
+    }
+  }
+  int contact_failure() const { return contact_failure_; }
+  size_t failed_contact() const { return failed_contact_; }
+
+ private:
+  bool AllEnded() const {
+    return std::all_of(children_.begin(), children_.end(), [](const Child& c) { return c.ended; });
+  }
+  void Terminate(Child& c) {
     if (c.ended || c.terminated) return;
     kill(c.pid, SIGTERM);
     c.terminated = true;
     c.terminated_at = Clock::now();
-  };
-  int contact_failure = 0;  // the code of the contact process that failed first
-  size_t failed_contact = 0;
-  bool stop_requested = false;
-  Clock::time_point contact_failed_at, coordinator_ended_at;
-  auto all_ended = [&] {
-    for (const Child& c : children) {
-      if (!c.ended) return false;
-    }
-    return true;
-  };
-  while (!all_ended()) {
-    siginfo_t info;
-    const timespec slice{0, 50'000'000};
-    const int got = sigtimedwait(&watched, &info, &slice);
-    if (got == SIGTERM || got == SIGINT || got == SIGHUP) {
-      if (!stop_requested) std::cerr << "cosim: " << strsignal(got) << ": stopping the run's processes\n";
-      stop_requested = true;
-    }
-    // Reap whoever ended.
+  }
+  // Whoever ended, stopped or continued since the last look.
+  void Reap() {
     while (true) {
       int status = 0;
-      const pid_t pid = waitpid(-1, &status, WNOHANG);
+      const pid_t pid = waitpid(-1, &status, WNOHANG | WUNTRACED | WCONTINUED);
       if (pid <= 0) break;
-      for (size_t i = 0; i < children.size(); ++i) {
-        Child& c = children[i];
-        if (c.pid != pid) continue;
-        c.ended = true;
-        if (WIFEXITED(status)) {
-          c.code = WEXITSTATUS(status);
-        } else if (const int own = OwnSummaryCode(plan[i], c.started); own >= 0) {
-          c.code = own;  // its last word was said: the signal only cut its teardown short
-          std::cerr << "cosim: " << plan[i].program << " was killed by signal " << WTERMSIG(status)
-                    << " after it wrote its summary (exit " << own << "); that summary stands\n";
+      for (size_t i = 0; i < children_.size(); ++i) {
+        if (children_[i].pid != pid) continue;
+        if (WIFSTOPPED(status) || WIFCONTINUED(status)) {
+          children_[i].stopped = WIFSTOPPED(status);
+          children_[i].stopped_by = children_[i].stopped ? WSTOPSIG(status) : 0;
+          children_[i].stopped_at = Clock::now();
         } else {
-          c.signal = WIFSIGNALED(status) ? WTERMSIG(status) : SIGKILL;
-          c.code = static_cast<int>(ExitCode::kPeerFailure);  // a process of the run vanished
-          std::cerr << "cosim: " << plan[i].program << " was killed by signal " << c.signal << "\n";
-        }
-        if (i == last) coordinator_ended_at = Clock::now();
-        if (i != last && c.code != 0 && contact_failure == 0 && !children[last].ended) {
-          contact_failure = c.code;
-          failed_contact = i;
-          contact_failed_at = Clock::now();
+          Ended(i, status);
         }
       }
     }
-    if (stop_requested) {
-      for (Child& c : children) terminate(c);
+  }
+  void Ended(size_t i, int status) {
+    Child& c = children_[i];
+    c.ended = true;
+    c.stopped = false;
+    if (WIFEXITED(status)) {
+      c.code = WEXITSTATUS(status);
+    } else if (const int own = OwnSummaryCode(plan_[i], c.started); own >= 0) {
+      c.code = own;  // its last word was said: the signal only cut its teardown short
+      std::cerr << "cosim: " << plan_[i].program << " was killed by signal " << WTERMSIG(status)
+                << " after it wrote its summary (exit " << own << "); that summary stands\n";
+    } else {
+      c.signal = WIFSIGNALED(status) ? WTERMSIG(status) : SIGKILL;
+      c.code = static_cast<int>(ExitCode::kPeerFailure);  // a process of the run vanished
+      std::cerr << "cosim: " << plan_[i].program << " was killed by signal " << c.signal << "\n";
     }
+    if (i == last_) coordinator_ended_at_ = Clock::now();
+    if (i != last_ && c.code != 0 && contact_failure_ == 0 && !children_[last_].ended) {
+      contact_failure_ = c.code;
+      failed_contact_ = i;
+      contact_failed_at_ = Clock::now();
+    }
+  }
+  // The processes that follow another's end.
+  void StopFollowers() {
     // A contact process failed while the coordinator runs: the coordinator may be ending too
     // (it told the contact process to stop); give it half a second, then stop it.
-    if (contact_failure != 0 && !children[last].ended && SecondsSince(contact_failed_at) > 0.5 &&
-        !children[last].terminated) {
-      std::cerr << "cosim: " << plan[failed_contact].program << " failed (exit " << contact_failure << "); stopping "
-                << plan[last].program << "\n";
-      terminate(children[last]);
+    Child& coordinator = children_[last_];
+    if (contact_failure_ != 0 && !coordinator.ended && SecondsSince(contact_failed_at_) > 0.5 &&
+        !coordinator.terminated) {
+      std::cerr << "cosim: " << plan_[failed_contact_].program << " failed (exit " << contact_failure_ << "); stopping "
+                << plan_[last_].program << "\n";
+      Terminate(coordinator);
     }
     // Contact processes end on the coordinator's Shutdown; one still running 2 s after the
     // coordinator ended (it failed before it could connect) is stopped.
-    if (children[last].ended && SecondsSince(coordinator_ended_at) > 2.0) {
-      for (size_t i = 0; i < last; ++i) {
-        if (!children[i].ended && !children[i].terminated) {
-          std::cerr << "cosim: " << plan[i].program << " still running after the coordinator ended; terminating it\n";
-          terminate(children[i]);
+    if (coordinator.ended && SecondsSince(coordinator_ended_at_) > 2.0) {
+      for (size_t i = 0; i < last_; ++i) {
+        if (!children_[i].ended && !children_[i].terminated) {
+          std::cerr << "cosim: " << plan_[i].program << " still running after the coordinator ended; terminating it\n";
+          Terminate(children_[i]);
         }
       }
     }
-    // A process that ignores SIGTERM (stopped, hung in a system call) is killed.
-    for (size_t i = 0; i < children.size(); ++i) {
-      Child& c = children[i];
+  }
+  // A process stopped by a signal for longer than the limit is hung (a peer that has never heard
+  // from it waits for ever: a contact process for its Hello); one that ignores SIGTERM (stopped,
+  // hung in a system call) is killed.
+  void StopHungProcesses() {
+    for (size_t i = 0; i < children_.size(); ++i) {
+      Child& c = children_[i];
+      if (!c.ended && c.stopped && !c.terminated && SecondsSince(c.stopped_at) > stopped_limit_) {
+        std::cerr << "cosim: " << plan_[i].program << " has been stopped (signal " << c.stopped_by << ") for "
+                  << FormatNumber(stopped_limit_) << " s, twice coupling.timeout: treating it as hung; stopping it\n";
+        Terminate(c);
+      }
       if (c.ended || !c.terminated || c.killed || SecondsSince(c.terminated_at) < kGraceSeconds) continue;
-      std::cerr << "cosim: " << plan[i].program << " did not end " << kGraceSeconds
+      std::cerr << "cosim: " << plan_[i].program << " did not end " << kGraceSeconds
                 << " s after SIGTERM (stopped or hung); killing it\n";
       kill(c.pid, SIGKILL);
       c.killed = true;
     }
   }
+
+  const std::vector<ProcessPlan>& plan_;
+  std::vector<Child>& children_;
+  const size_t last_;  // the coordinator of a coupled run, or the only process
+  const double stopped_limit_;
+  bool stop_requested_ = false;
+  int contact_failure_ = 0;  // the code of the contact process that failed first
+  size_t failed_contact_ = 0;
+  Clock::time_point contact_failed_at_, coordinator_ended_at_;
+};
+
+// A coupled run's visual output: scene.pvd, every process's series as a part of one scene
+// (ParaView opens all of it at once), with whatever frames each wrote, failed run or not.
+// (The error_code forms: an output path the processes refused, e.g. longer than PATH_MAX,
+// must not turn their exit code 2 into the launcher's own failure.)
+void WriteRunScene(const std::vector<ProcessPlan>& plan) {
+  const ProcessPlan& coordinator = plan.back();
+  std::error_code unreadable;
+  if (plan.size() < 2 || !std::filesystem::exists(coordinator.out + "/visual.pvd", unreadable)) return;
+  std::vector<std::pair<std::string, std::string>> series;
+  for (const ProcessPlan& p : plan) {
+    const std::string pvd = p.out + "/visual.pvd";
+    if (!std::filesystem::exists(pvd, unreadable)) continue;
+    const std::string prefix = p.out == coordinator.out ? "" : std::filesystem::path(p.out).filename().string() + "/";
+    series.emplace_back(prefix, pvd);
+  }
+  std::rotate(series.begin(), series.end() - 1, series.end());  // the smooth side first (part 0)
+  try {
+    WriteScenePvd(coordinator.out + "/scene.pvd", series);
+  } catch (const Error& e) {
+    std::cerr << "cosim: " << e.what() << "\n";
+  }
+}
+
+// A coupled run's histories side by side (history_joined.csv): the coordinator's probes, then
+// each contact process's, failed run or not.
+void JoinRunHistories(const std::vector<ProcessPlan>& plan) {
+  if (plan.size() < 2) return;
+  const ProcessPlan& coordinator = plan.back();
+  std::vector<std::pair<std::string, std::string>> parts{{coordinator.name, coordinator.out + "/history.csv"}};
+  for (size_t i = 0; i + 1 < plan.size(); ++i) parts.emplace_back(plan[i].name, plan[i].out + "/history.csv");
+  try {
+    JoinHistories(parts, coordinator.out + "/history_joined.csv");
+  } catch (const std::exception& e) {
+    std::cerr << "cosim: the joined history was not written: " << e.what() << "\n";
+  }
+}
+
+}  // namespace
+
+int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli,
+                 double stopped_limit) {
+  // Everything the launcher waits for arrives as a signal, taken synchronously (sigtimedwait):
+  // children ending, stopping or continuing (SIGCHLD) and requests to stop (SIGTERM, SIGINT,
+  // SIGHUP).
+  sigset_t watched, previous;
+  sigemptyset(&watched);
+  for (int s : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&watched, s);
+  sigprocmask(SIG_BLOCK, &watched, &previous);
+  // The children start with SIGTERM, SIGINT and SIGHUP blocked (the mask survives exec) until
+  // their run driver has installed its handler, so that stopping one that has only just
+  // started still lets it write its outputs.
+  sigset_t child_mask;
+  sigemptyset(&child_mask);
+  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&child_mask, s);
+  std::vector<Child> children = StartChildren(bin_dir, plan, child_mask);
+  Supervisor supervisor(plan, &children, stopped_limit);
+  supervisor.Run(watched);
   sigprocmask(SIG_SETMASK, &previous, nullptr);
 
   // Summaries the processes could not write, and the run's when a contact process failed first.
+  const size_t last = plan.size() - 1;
   for (size_t i = 0; i < children.size(); ++i) {
     if (children[i].signal == 0) continue;
     const std::string why =
@@ -454,40 +552,10 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
                            : "";
     WriteKilledSummary(plan[i], cli, children[i].signal, why);
   }
-  if (contact_failure != 0) PassContactFailureOn(plan[failed_contact], contact_failure, plan[last]);
-
-  // A coupled run's visual output: scene.pvd, every process's series as a part of one scene
-  // (ParaView opens all of it at once), with whatever frames each wrote, failed run or not.
-  // (The error_code forms: an output path the processes refused, e.g. longer than PATH_MAX,
-  // must not turn their exit code 2 into the launcher's own failure.)
-  std::error_code unreadable;
-  if (plan.size() > 1 && std::filesystem::exists(plan[last].out + "/visual.pvd", unreadable)) {
-    std::vector<std::pair<std::string, std::string>> series;
-    for (const ProcessPlan& p : plan) {
-      const std::string pvd = p.out + "/visual.pvd";
-      if (!std::filesystem::exists(pvd, unreadable)) continue;
-      const std::string prefix = p.out == plan[last].out ? "" : std::filesystem::path(p.out).filename().string() + "/";
-      series.emplace_back(prefix, pvd);
-    }
-    std::rotate(series.begin(), series.end() - 1, series.end());  // the smooth side first (part 0)
-    try {
-      WriteScenePvd(plan[last].out + "/scene.pvd", series);
-    } catch (const Error& e) {
-      std::cerr << "cosim: " << e.what() << "\n";
-    }
-  }
-
-  // A coupled run's histories side by side (history_joined.csv): the coordinator's probes, then
-  // each contact process's, failed run or not.
-  if (plan.size() > 1) {
-    std::vector<std::pair<std::string, std::string>> parts{{plan[last].name, plan[last].out + "/history.csv"}};
-    for (size_t i = 0; i < last; ++i) parts.emplace_back(plan[i].name, plan[i].out + "/history.csv");
-    try {
-      JoinHistories(parts, plan[last].out + "/history_joined.csv");
-    } catch (const std::exception& e) {
-      std::cerr << "cosim: the joined history was not written: " << e.what() << "\n";
-    }
-  }
+  const int contact_failure = supervisor.contact_failure();
+  if (contact_failure != 0) PassContactFailureOn(plan[supervisor.failed_contact()], contact_failure, plan[last]);
+  WriteRunScene(plan);
+  JoinRunHistories(plan);
 
   if (contact_failure != 0) return contact_failure;
   if (children[last].code != 0) return children[last].code;

@@ -5,6 +5,7 @@
 // where another process's failure is the run's (a contact process that refused its part).
 #include <sys/types.h>
 
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -65,13 +66,20 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLi
 //   or hung) is killed (SIGKILL): the launcher always returns;
 // - SIGTERM, SIGINT and SIGHUP to the launcher are passed on to the children (SIGTERM), with
 //   the same escalation; the children die with the launcher if it is killed (PR_SET_PDEATHSIG);
+// - a process stopped by a signal (SIGSTOP, or SIGTSTP sent to it alone) for longer than
+//   `stopped_limit` seconds is treated as hung and stopped the same way: a peer that never heard
+//   from it would wait for it for ever (a contact process waits for the Hello without timeout);
+//   a coupled run passes twice coupling.timeout, by which a peer that did hear from it has given
+//   up. A whole run suspended from the terminal (^Z) stops the launcher as well and is resumed
+//   with it;
 // - a process killed by a signal gets a summary.json written for it (status failed, exit 4,
 //   the signal, the time its history reached); a contact process that failed first makes the
 //   run's (the coordinator's) summary say its exit code and reason.
 // Returns the first failing contact process's code if it failed first, else the coordinator's
 // (or the only process's) if it failed, else the first non-zero one (a signal counts as 4),
 // or 0.
-int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli);
+int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& plan, const CommandLine& cli,
+                 double stopped_limit = std::numeric_limits<double>::infinity());
 
 constexpr double kGraceSeconds = 3.0;
 

@@ -112,6 +112,18 @@ Background StartLongTiedDrop(const fs::path& out, const std::vector<std::string>
   return Start("cosim_launch", arguments, out.string() + ".txt");
 }
 
+// Waits until `out`/history.csv has a row after its header; false after `seconds`.
+bool WaitForHistoryRows(const fs::path& out, double seconds) {
+  const auto t0 = Clock::now();
+  while (SecondsSince(t0) < seconds) {
+    const std::string history = Slurp(out / "history.csv");
+    const size_t header_end = history.find('\n');
+    if (header_end != std::string::npos && history.find('\n', header_end + 1) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
 // The pid of the run's coordinator (smooth_solver) or contact process (nonsmooth_solver) once it runs.
 pid_t WaitForProgram(const std::string& program, const fs::path& out) {
   return WaitForProcess("/" + program + " " + kTiedDrop + " --out " + out.string());
@@ -265,7 +277,9 @@ TEST(Hardening, StoppedCoordinatorDoesNotHangTheRun) {
   Background run = StartLongTiedDrop(out, {"coupling.timeout=1"});
   const pid_t coordinator = WaitForProgram("smooth_solver", out);
   ASSERT_NE(coordinator, -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // past its first flush of rows
+  // Stopped mid-run: once its first rows reached the disk (a fixed sleep of 1.5 s stopped it,
+  // on a loaded machine, before its handshake was over).
+  ASSERT_TRUE(WaitForHistoryRows(out, 30.0)) << Slurp(out.string() + ".txt");
   const auto t0 = Clock::now();
   kill(coordinator, SIGSTOP);
   EXPECT_EQ(run.Wait(20.0), 4);
@@ -274,6 +288,30 @@ TEST(Hardening, StoppedCoordinatorDoesNotHangTheRun) {
   EXPECT_EQ(s.exit_code(), 4);
   EXPECT_NE(s.reason().find("smooth_solver was killed by signal 9"), std::string::npos) << s.reason();
   EXPECT_GT(s.simulated_time(), 0.0);  // its rows reached the disk before it was stopped
+}
+
+TEST(Hardening, ACoordinatorStoppedBeforeItsContactProcessHeardFromItDoesNotHangTheRun) {
+  // CI, stop 46: on a loaded machine the coordinator of the test above gave up on its Welcome
+  // after coupling.timeout (1 s: the contact process had not started yet) and was stopped
+  // (SIGSTOP) while its socket lingered. The contact process, which had never heard from it,
+  // waited for the Hello for ever and the launcher for the coordinator: the run hung. Replayed
+  // here by stopping the coordinator as soon as it runs. Now the launcher treats a process of
+  // the run stopped for twice coupling.timeout as hung: SIGTERM, SIGKILL 3 s later, the
+  // contact process stopped 2 s after that.
+  const fs::path out = TempDir("coordinator_stopped_early");
+  Background run = StartLongTiedDrop(out, {"coupling.timeout=1"});
+  const pid_t coordinator = WaitForProgram("smooth_solver", out);
+  ASSERT_NE(coordinator, -1);
+  const auto t0 = Clock::now();
+  kill(coordinator, SIGSTOP);
+  EXPECT_EQ(run.Wait(20.0), 4) << Slurp(out.string() + ".txt");
+  // 2 s stopped + 3 s of grace + 2 s for the contact process to follow + its SIGTERM.
+  EXPECT_LT(SecondsSince(t0), 10.0);
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.exit_code(), 4);
+  EXPECT_NE(s.reason().find("smooth_solver was killed by signal 9"), std::string::npos) << s.reason();
+  EXPECT_NE(Slurp(out.string() + ".txt").find("smooth_solver has been stopped (signal 19)"), std::string::npos)
+      << Slurp(out.string() + ".txt");
 }
 
 TEST(Hardening, SignalsToTheLauncherReachItsChildren) {

@@ -199,6 +199,40 @@ TEST(Channel, CurveAuthenticatesThePeersOfARun) {
       ExitCode::kPeerFailure, [&] { plain.Receive(Envelope::kWelcome, -1, -1); }, "no message from 'contact'");
 }
 
+TEST(Channel, ACurveHandshakeGoesThroughWhileTheContactProcessAlreadyWaits) {
+  // CI, stop 46: with coupling.timeout 1 s (heartbeat 0.1 s) no Hello reached a secured contact
+  // process that was already waiting for it when the coordinator connected: its heartbeat
+  // thread held the lock the ZAP handler takes between polls while it waited for the socket,
+  // which the waiting thread holds through its receive slices, so the handler starved and the
+  // handshake stalled past the timeout. Replayed: the contact side waits first, the coordinator
+  // connects 0.3 s later; three times, each within the 1 s timeout.
+  const CurveKeys keys = RunKeys();
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const std::string endpoint =
+        "ipc:///tmp/cosim_curve_wait_" + std::to_string(getpid()) + "_" + std::to_string(attempt);
+    zmq::context_t server_context, client_context;
+    Channel contact(&server_context, {endpoint, true, "contact", "smooth", 1.0, 0.1, keys});
+    std::string failure;
+    std::thread waiting([&] {
+      try {
+        contact.Receive(Envelope::kHello, -1, -1);
+        contact.Outgoing(-1, 0).mutable_welcome();
+        contact.Send();
+      } catch (const Error& e) {
+        failure = e.what();
+      }
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    Channel smooth(&client_context, {endpoint, false, "smooth", "contact", 1.0, 0.1, keys});
+    smooth.Outgoing(-1, 0).mutable_hello();
+    smooth.Send();
+    waiting.join();  // the Hello arrived and was answered, or the wait timed out
+    EXPECT_EQ(failure, "") << "attempt " << attempt;
+    if (!failure.empty()) break;  // (the contact side's heartbeats would keep this side waiting)
+    EXPECT_NO_THROW(smooth.Receive(Envelope::kWelcome, -1, -1)) << "attempt " << attempt;
+  }
+}
+
 TEST(Channel, MissingOrMalformedKeysAreBadInput) {
   zmq::context_t context;
   CurveKeys partial;

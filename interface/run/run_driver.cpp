@@ -13,6 +13,8 @@
 
 namespace cosim::interface {
 
+namespace sc = cosim::scenario;
+
 std::string Usage(const std::string& program) {
   return "usage: " + program +
          " SCENARIO.pbtxt [--out DIR] [--set FIELD.PATH=VALUE]...\n"
@@ -145,7 +147,188 @@ void InstallTerminationHandler() {
 
 bool TerminationRequested() { return g_termination != 0; }
 
-// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
+namespace {
+
+// What a run is made of before its first step.
+struct RunSetup {
+  std::unique_ptr<ScenarioFile> file;
+  std::unique_ptr<Simulation> simulation;
+  std::unique_ptr<RunOutput> output;
+  TimeSpan span;
+};
+
+// Everything before the first step: load, validate, build. Bad input ends here with exit
+// code 2; whatever stops the run here (bad input, an endpoint that cannot be bound: exit 4, a
+// model too large for memory) ends it with its exit code and, given --out, a summary saying
+// why. Returns 0 or that code.
+int SetUp(const std::string& program, const CommandLine& cli, const SimulationFactory& factory, RunSetup* run) {
+  auto fail_before_start = [&](ExitCode code, const std::string& what) {
+    run->output.reset();  // (its lock released: the failure summary goes into the same folder)
+    std::cerr << program << ": error: " << what << "\n";
+    WriteFailureSummary(program, cli, code, what);
+    return static_cast<int>(code);
+  };
+  try {
+    run->file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets));
+    run->span = ValidateTimeSpan(*run->file);
+    run->simulation = factory(*run->file, cli);
+    run->output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(*run->file) : cli.out,
+                                              run->simulation->ProbeNames());
+    run->simulation->BeginOutput(run->output->folder());
+  } catch (const Error& e) {
+    return fail_before_start(e.code(), e.what());
+  } catch (const std::bad_alloc&) {
+    return fail_before_start(ExitCode::kBadInput,
+                             "the model does not fit in memory (out of memory while building "
+                             "it); reduce its size");
+  } catch (const std::exception& e) {
+    return fail_before_start(ExitCode::kNumericalFailure,
+                             std::string("unexpected error while building the model: ") + e.what());
+  }
+  return 0;
+}
+
+// The refusal of an output setting once the run's folder exists: said on stderr (with the
+// scenario's place) and in the summary, exit code 2.
+int RefuseOutputSetting(const std::string& program, const RunSetup& run, const std::string& path,
+                        const std::string& message, const std::string& reason) {
+  std::cerr << program << ": error: " << run.file->Where(path) << ": " << path << ": " << message << "\n";
+  return static_cast<int>(run.output->Finish(ExitCode::kBadInput, reason));
+}
+
+// The history's row: every probe's value times its Probe.scale (1 for columns that are not
+// scenario probes, e.g. a MODES table). A value that is no longer finite ends the run as a
+// numerical failure (exit 3) before its row is written: "ok" with inf in a history is no
+// result (observed: an initial joint coordinate of 1e308 ran to the end that way).
+class ProbeRow {
+ public:
+  ProbeRow(const Simulation& simulation, size_t columns)
+      : simulation_(simulation), names_(simulation.ProbeNames()), values_(columns), scale_(columns, 1.0) {}
+  // output.probes[i].scale of the columns it names; the index of a zero scale, or -1.
+  int ReadScales(const ScenarioFile& file) {
+    const auto& probes = file.proto().output().probes();
+    for (int i = 0; i < probes.size(); ++i) {
+      if (probes[i].scale() == 0.0) return i;
+      for (size_t c = 0; c < names_.size() && c < scale_.size(); ++c) {
+        if (names_[c] == probes[i].name()) scale_[c] = probes[i].scale();
+      }
+    }
+    return -1;
+  }
+  const std::vector<double>& Read() {
+    simulation_.Probe(&values_);
+    for (size_t c = 0; c < values_.size(); ++c) {
+      values_[c] *= scale_[c];
+      if (!std::isfinite(values_[c])) {
+        throw NumericalError("probe '" + (c < names_.size() ? names_[c] : std::to_string(c)) + "' is " +
+                             FormatNumber(values_[c]) +
+                             ": the solution is no longer finite (an input too large, or the step too long)");
+      }
+    }
+    return values_;
+  }
+
+ private:
+  const Simulation& simulation_;
+  const std::vector<std::string> names_;
+  std::vector<double> values_, scale_;
+};
+
+// How the steps went.
+struct StepsOutcome {
+  long long accepted = 0;
+  std::chrono::steady_clock::duration step_time{};
+  ExitCode code = ExitCode::kOk;
+  std::string reason;
+};
+
+// The steps, with a row every `every` steps and at the last, and a visual frame every
+// `visual_every` (0: none) and at the last; a failure ends them with its code and reason.
+StepsOutcome Steps(const RunSetup& run, int every, int visual_every, ProbeRow* row) {
+  const TimeSpan& span = run.span;
+  std::unique_ptr<VisualSeries> visual;
+  auto draw = [&](double time) {
+    VisualFrame frame;
+    run.simulation->Visual(&frame);
+    visual->Write(frame, time);
+  };
+  StepsOutcome out;
+  try {
+    run.output->WriteRow(span.start, row->Read());
+    if (visual_every > 0) {
+      visual = std::make_unique<VisualSeries>(run.output->folder());
+      draw(span.start);
+    }
+    for (long long k = 0; k < span.steps; ++k) {
+      if (TerminationRequested())
+        throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
+      const double t = span.TimeAt(k);
+      const double h = span.TimeAt(k + 1) - t;
+      const auto t0 = std::chrono::steady_clock::now();
+      run.simulation->Step(t, h);
+      out.step_time += std::chrono::steady_clock::now() - t0;
+      ++out.accepted;
+      if (out.accepted % every == 0 || out.accepted == span.steps) {
+        run.output->WriteRow(span.TimeAt(out.accepted), row->Read());
+      }
+      if (visual && (out.accepted % visual_every == 0 || out.accepted == span.steps)) draw(span.TimeAt(out.accepted));
+    }
+  } catch (const Error& e) {
+    out.code = e.code();
+    out.reason = "step " + std::to_string(out.accepted + 1) + " from t = " + FormatNumber(span.TimeAt(out.accepted)) +
+                 " s: " + e.what();
+  } catch (const std::exception& e) {
+    out.code = ExitCode::kNumericalFailure;
+    out.reason = "step " + std::to_string(out.accepted + 1) + " from t = " + FormatNumber(span.TimeAt(out.accepted)) +
+                 " s: unexpected error: " + e.what();
+  }
+  return out;
+}
+
+// After the steps: the simulation's own ending and outputs, the summary's statistics and the
+// last log line; the run's exit code.
+int Finish(const std::string& program, const RunSetup& run, StepsOutcome outcome,
+           std::chrono::steady_clock::time_point wall_start) {
+  Simulation& simulation = *run.simulation;
+  RunOutput& output = *run.output;
+  try {
+    simulation.Finish(outcome.code, outcome.reason);
+  } catch (const std::exception& e) {
+    output.Log(program + ": note: " + e.what());
+  }
+  try {
+    simulation.EndOutput();
+  } catch (const Error& e) {
+    output.Log(program + ": error: " + e.what());
+    if (outcome.code == ExitCode::kOk) {
+      outcome.code = e.code();
+      outcome.reason = e.what();
+    }
+  }
+  run::RunSummary& summary = output.summary();
+  const double reached = run.span.TimeAt(outcome.accepted);
+  summary.set_steps(static_cast<int>(outcome.accepted));
+  summary.set_simulated_time(reached);
+  summary.set_step_wall_time(Seconds(outcome.step_time));
+  simulation.FillSummary(&summary);
+  // Iteration statistics a solver does not report were not performed: write them as zeros
+  // so every summary has the same fields.
+  for (run::IterationStats* stats :
+       {summary.mutable_newton_iterations(), summary.mutable_coupling_iterations(), summary.mutable_lcp_iterations()}) {
+    if (!stats->has_total()) IterationCounter().Fill(stats);
+  }
+  summary.set_wall_time(Seconds(std::chrono::steady_clock::now() - wall_start));
+  if (outcome.code != ExitCode::kOk) {
+    output.Log(program + ": error: " + outcome.reason);
+  } else {
+    output.Log(program + ": done, " + std::to_string(outcome.accepted) + " steps to t = " + FormatNumber(reached) +
+               " s in " + FormatNumber(summary.wall_time()) + " s");
+  }
+  return static_cast<int>(output.Finish(outcome.code, outcome.reason));
+}
+
+}  // namespace
+
 int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory) {
   const auto wall_start = std::chrono::steady_clock::now();
   InstallTerminationHandler();
@@ -161,167 +344,37 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     std::cerr << program << ": error: " << e.what() << "\n" << Usage(program);
     return static_cast<int>(ExitCode::kBadInput);
   }
+  RunSetup run;
+  if (const int code = SetUp(program, cli, factory, &run); code != 0) return code;
 
-  // Everything before the first step: load, validate, build. Bad input ends here with
-  // exit code 2, and if an output folder can be made, with a summary that says why.
-  std::unique_ptr<ScenarioFile> file;
-  std::unique_ptr<Simulation> simulation;
-  std::unique_ptr<RunOutput> output;
-  TimeSpan span;
-  // Whatever stops the run here (bad input, an endpoint that cannot be bound: exit 4, a model
-  // too large for memory) ends it with its exit code and, given --out, a summary saying why.
-  auto fail_before_start = [&](ExitCode code, const std::string& what) {
-    output.reset();  // (its lock released: the failure summary goes into the same folder)
-    std::cerr << program << ": error: " << what << "\n";
-    WriteFailureSummary(program, cli, code, what);
-    return static_cast<int>(code);
-  };
-  try {
-    file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets));
-    span = ValidateTimeSpan(*file);
-    simulation = factory(*file, cli);
-    output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(*file) : cli.out, simulation->ProbeNames());
-    simulation->BeginOutput(output->folder());
-  } catch (const Error& e) {
-    return fail_before_start(e.code(), e.what());
-  } catch (const std::bad_alloc&) {
-    return fail_before_start(ExitCode::kBadInput,
-                             "the model does not fit in memory (out of memory while building "
-                             "it); reduce its size");
-  } catch (const std::exception& e) {
-    return fail_before_start(ExitCode::kNumericalFailure,
-                             std::string("unexpected error while building the model: ") + e.what());
-  }
-
-  run::RunSummary& summary = output->summary();
+  run::RunSummary& summary = run.output->summary();
   summary.set_program(program);
-  summary.set_scenario(ScenarioName(*file));
+  summary.set_scenario(ScenarioName(*run.file));
   summary.set_scenario_file(cli.scenario);
   for (const auto& s : cli.sets) summary.add_overrides(s);
-  for (const auto& w : file->warnings()) summary.add_warnings(w);
-  summary.set_start_time(span.start);
+  for (const auto& w : run.file->warnings()) summary.add_warnings(w);
+  summary.set_start_time(run.span.start);
 
-  const int every = file->proto().output().has_every() ? file->proto().output().every() : 1;
+  const sc::Output& output = run.file->proto().output();
+  const int every = output.has_every() ? output.every() : 1;
   if (every < 1) {
-    std::cerr << program << ": error: " << file->Where("output.every") << ": output.every: must be >= 1, got " << every
-              << "\n";
-    return static_cast<int>(output->Finish(ExitCode::kBadInput, "output.every must be >= 1"));
+    return RefuseOutputSetting(program, run, "output.every", "must be >= 1, got " + std::to_string(every),
+                               "output.every must be >= 1");
   }
-
-  output->Log(program + ": scenario '" + summary.scenario() + "', " + std::to_string(span.steps) + " steps of " +
-              FormatNumber(span.step) + " s, output in " + output->folder());
-  std::vector<double> values(static_cast<size_t>(output->probe_count()));
-  // Each column's Probe.scale (1 for columns that are not scenario probes, e.g. a MODES table).
-  std::vector<double> scale(values.size(), 1.0);
-  {
-    const std::vector<std::string> names = simulation->ProbeNames();
-    const auto& probes = file->proto().output().probes();
-    for (int i = 0; i < probes.size(); ++i) {
-      if (probes[i].scale() == 0.0) {
-        const std::string path = "output.probes[" + std::to_string(i) + "].scale";
-        std::cerr << program << ": error: " << file->Where(path) << ": " << path << ": must be non-zero\n";
-        return static_cast<int>(output->Finish(ExitCode::kBadInput, path + " must be non-zero"));
-      }
-      for (size_t c = 0; c < names.size() && c < scale.size(); ++c) {
-        if (names[c] == probes[i].name()) scale[c] = probes[i].scale();
-      }
-    }
+  run.output->Log(program + ": scenario '" + summary.scenario() + "', " + std::to_string(run.span.steps) +
+                  " steps of " + FormatNumber(run.span.step) + " s, output in " + run.output->folder());
+  ProbeRow row(*run.simulation, static_cast<size_t>(run.output->probe_count()));
+  if (const int zero = row.ReadScales(*run.file); zero >= 0) {
+    const std::string path = "output.probes[" + std::to_string(zero) + "].scale";
+    return RefuseOutputSetting(program, run, path, "must be non-zero", path + " must be non-zero");
   }
-  const std::vector<std::string> probe_names = simulation->ProbeNames();
-  // A probe that is no longer finite ends the run as a numerical failure (exit 3) before its row
-  // is written: "ok" with inf in a history is no result (observed: an initial joint coordinate of
-  // 1e308 ran to the end that way).
-  auto probe = [&]() {
-    simulation->Probe(&values);
-    for (size_t c = 0; c < values.size(); ++c) {
-      values[c] *= scale[c];
-      if (!std::isfinite(values[c])) {
-        throw NumericalError("probe '" + (c < probe_names.size() ? probe_names[c] : std::to_string(c)) + "' is " +
-                             FormatNumber(values[c]) +
-                             ": the solution is no longer finite (an input too large, or the step too long)");
-      }
-    }
-  };
-  // output.visual: a frame every `visual_every` steps and at the last (interface/visual).
-  const int visual_every = file->proto().output().visual().every();
+  const int visual_every = output.visual().every();
   if (visual_every < 0) {
-    std::cerr << program << ": error: " << file->Where("output.visual.every")
-              << ": output.visual.every: must be >= 0 (0: no visual output), got " << visual_every << "\n";
-    return static_cast<int>(output->Finish(ExitCode::kBadInput, "output.visual.every must be >= 0"));
+    return RefuseOutputSetting(program, run, "output.visual.every",
+                               "must be >= 0 (0: no visual output), got " + std::to_string(visual_every),
+                               "output.visual.every must be >= 0");
   }
-  std::unique_ptr<VisualSeries> visual;
-  auto draw = [&](double time) {
-    VisualFrame frame;
-    simulation->Visual(&frame);
-    visual->Write(frame, time);
-  };
-  long long accepted = 0;
-  std::chrono::steady_clock::duration step_time{};
-  ExitCode code = ExitCode::kOk;
-  std::string reason;
-  try {
-    probe();
-    output->WriteRow(span.start, values);
-    if (visual_every > 0) {
-      visual = std::make_unique<VisualSeries>(output->folder());
-      draw(span.start);
-    }
-    for (long long k = 0; k < span.steps; ++k) {
-      if (TerminationRequested())
-        throw PeerError("terminated by a signal (the launcher stops a run whose other process failed)");
-      const double t = span.TimeAt(k);
-      const double h = span.TimeAt(k + 1) - t;
-      const auto t0 = std::chrono::steady_clock::now();
-      simulation->Step(t, h);
-      step_time += std::chrono::steady_clock::now() - t0;
-      ++accepted;
-      if (accepted % every == 0 || accepted == span.steps) {
-        probe();
-        output->WriteRow(span.TimeAt(accepted), values);
-      }
-      if (visual && (accepted % visual_every == 0 || accepted == span.steps)) draw(span.TimeAt(accepted));
-    }
-  } catch (const Error& e) {
-    code = e.code();
-    reason =
-        "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) + " s: " + e.what();
-  } catch (const std::exception& e) {
-    code = ExitCode::kNumericalFailure;
-    reason = "step " + std::to_string(accepted + 1) + " from t = " + FormatNumber(span.TimeAt(accepted)) +
-             " s: unexpected error: " + e.what();
-  }
-  try {
-    simulation->Finish(code, reason);
-  } catch (const std::exception& e) {
-    output->Log(program + ": note: " + e.what());
-  }
-  try {
-    simulation->EndOutput();
-  } catch (const Error& e) {
-    output->Log(program + ": error: " + e.what());
-    if (code == ExitCode::kOk) {
-      code = e.code();
-      reason = e.what();
-    }
-  }
-  summary.set_steps(static_cast<int>(accepted));
-  summary.set_simulated_time(span.TimeAt(accepted));
-  summary.set_step_wall_time(Seconds(step_time));
-  simulation->FillSummary(&summary);
-  // Iteration statistics a solver does not report were not performed: write them as zeros
-  // so every summary has the same fields.
-  for (run::IterationStats* stats :
-       {summary.mutable_newton_iterations(), summary.mutable_coupling_iterations(), summary.mutable_lcp_iterations()}) {
-    if (!stats->has_total()) IterationCounter().Fill(stats);
-  }
-  summary.set_wall_time(Seconds(std::chrono::steady_clock::now() - wall_start));
-  if (code != ExitCode::kOk) {
-    output->Log(program + ": error: " + reason);
-  } else {
-    output->Log(program + ": done, " + std::to_string(accepted) + " steps to t = " +
-                FormatNumber(span.TimeAt(accepted)) + " s in " + FormatNumber(summary.wall_time()) + " s");
-  }
-  return static_cast<int>(output->Finish(code, reason));
+  return Finish(program, run, Steps(run, every, visual_every, &row), wall_start);
 }
 
 }  // namespace cosim::interface

@@ -227,121 +227,135 @@ void MoreauJean::FreeSensitivity(int group, double h) {
   }
 }
 
-// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
+// On the piece of the LCP's solution where `z` is (see the header): the impulse rows' basis,
+// with A_u the LCP matrix with the uncoupled Delassus block Gᵀ M̂⁻¹ G and ∂b/∂f = Gᵀ V0.
+Eigen::MatrixXd MoreauJean::LcpPieceSensitivity(const SensitivityBlocks& b, int size) const {
+  const auto z = z_.head(size);
+  std::vector<int> basis;
+  Eigen::MatrixXd dv;
+  for (int i = 0; i < size; ++i) {
+    if (z(i) > 0.0) basis.push_back(i);
+  }
+  const int nb = static_cast<int>(basis.size());
+  // A_u: the LCP matrix with the uncoupled Delassus block Gᵀ M̂⁻¹ G; ∂b/∂f = Gᵀ b.V0 (impulse rows).
+  Eigen::MatrixXd Abb(nb, nb), dbb = Eigen::MatrixXd::Zero(nb, b.dofs);
+  const Eigen::MatrixXd Wu = b.G.transpose() * b.Yu;
+  for (int r = 0; r < nb; ++r) {
+    const int i = basis[Idx(r)];
+    for (int c = 0; c < nb; ++c) {
+      const int j = basis[Idx(c)];
+      Abb(r, c) = (i < b.columns && j < b.columns) ? Wu(i, j) : A_(i, j);
+    }
+    if (i < b.columns) dbb.row(r) = b.G.col(i).transpose() * b.V0;
+  }
+  dv = b.V0;
+  if (nb > 0) {
+    const Eigen::MatrixXd dz = -Abb.fullPivLu().solve(dbb);
+    for (int r = 0; r < nb; ++r) {
+      if (basis[Idx(r)] < b.columns) dv += b.Yu.col(basis[Idx(r)]) * dz.row(r);
+    }
+  }
+  return dv;
+}
+
+// The same with Coulomb friction (Siconos fc3d): per contact with a normal impulse, sticking fixes
+// its three directions; sliding fixes its normal velocity.
+Eigen::MatrixXd MoreauJean::Fc3dPieceSensitivity(const std::vector<int>& groups, const SensitivityBlocks& b, int size,
+                                                 double t1, double h) const {
+  const auto z = z_.head(size);
+  Eigen::MatrixXd dv;
+  // Per contact with a normal impulse: sticking fixes its three directions; sliding fixes its
+  // normal velocity (De Saxcé's modified velocity u_n + μ|u_t| is then μ|u_t|), its impulse r_n (n − μ s) along the
+  // sliding direction s = u_t/|u_t| = −r_t/(μ r_n), which turns with the tangential velocity: δ(r_n μ s) = μ
+  // r_n/|u_t| (P_t − s sᵀ) δv (P_t = I − n nᵀ), a positive semi-definite term added to M̂.
+  Eigen::MatrixXd Mhat = Eigen::MatrixXd::Zero(b.dofs, b.dofs);
+  std::vector<Eigen::Index> node_row(model_.nodes.size(), -1);
+  {
+    int d = 0;
+    for (int g : groups) {
+      Mhat.block(d, d, work_[Idx(g)].dofs, work_[Idx(g)].dofs) = work_[Idx(g)].m_hat_matrix;
+      const std::vector<int>& nodes = model_.groups[Idx(g)].nodes;
+      for (size_t k = 0; k < nodes.size(); ++k) node_row[Idx(nodes[k])] = d + 3 * static_cast<Eigen::Index>(k);
+      d += work_[Idx(g)].dofs;
+    }
+  }
+  std::vector<Eigen::VectorXd> fixed, along;
+  int contact = 0;
+  for (int i = 0; i + 2 < b.columns; i += 3, ++contact) {  // (fc3d: three columns a contact, no other rows)
+    const double rn = z(i);
+    if (!(rn > 0.0)) continue;
+    const Eigen::Vector2d rt(z(i + 1), z(i + 2));
+    const double mu = mu_(contact);
+    if (rt.norm() < mu * rn * (1.0 - 1e-9)) {
+      for (int j = 0; j < 3; ++j) {
+        fixed.push_back(b.G.col(i + j));
+        along.push_back(b.G.col(i + j));
+      }
+      continue;
+    }
+    along.push_back(b.G.col(i) + (rt(0) / rn) * b.G.col(i + 1) + (rt(1) / rn) * b.G.col(i + 2));
+    // The contact's node and the tangential speed of its end velocity against the plane.
+    const ActiveContact* a = nullptr;
+    for (const ActiveContact& c : active_) {
+      if (work_[Idx(c.group)].column_offset + c.normal_column == i) a = &c;
+    }
+    COSIM_ASSERT(a != nullptr, "fc3d sensitivity: a column without its contact");
+    const Contact& ct = model_.contacts[Idx(a->contact)];
+    const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
+    const GroupWork& w = work_[Idx(a->group)];
+    const Eigen::Index o = 3 * model_.node_slot[Idx(ct.node)];
+    const Eigen::Vector3d x1 = q_.segment<3>(3 * ct.node) + h * v_.segment<3>(3 * ct.node);
+    const Eigen::Vector3d n = ob.NormalAt(t1, data_);
+    const Eigen::Vector3d u = w.v_free.segment<3>(o) - ob.VelocityAt(t1, x1, data_);  // (v_free holds v_{k+1})
+    const Eigen::Vector3d ut = u - n.dot(u) * n;
+    fixed.push_back(b.G.col(i));
+    if (!(ut.norm() > 0.0)) continue;
+    const Eigen::Vector3d sliding = ut.normalized();
+    const Eigen::Matrix3d Pt = Eigen::Matrix3d::Identity() - n * n.transpose();
+    Mhat.block<3, 3>(node_row[Idx(ct.node)], node_row[Idx(ct.node)]) +=
+        (mu * rn / ut.norm()) * (Pt - sliding * sliding.transpose());
+  }
+  const Eigen::MatrixXd Minv = Mhat.inverse();
+  dv = h * Minv;
+  const int nb = static_cast<int>(fixed.size());
+  if (nb > 0) {
+    Eigen::MatrixXd C(nb, b.dofs), D(b.dofs, nb);
+    for (int k = 0; k < nb; ++k) {
+      C.row(k) = fixed[Idx(k)].transpose();
+      D.col(k) = along[Idx(k)];
+    }
+    const Eigen::MatrixXd YD = Minv * D;
+    dv -= YD * (C * YD).fullPivLu().solve(C * dv);
+  }
+  return dv;
+}
+
 void MoreauJean::ContactSensitivity(const std::vector<int>& groups, int size, double t1, double h) {
   // On the piece of the LCP's solution (see the header), for a constant force on the nodes (the
   // uncoupled M̂): dv = V0 + Y_u dz, V0 = h M̂⁻¹, Y_u = M̂⁻¹ G, over the groups' dofs together.
-  const bool fc3d = model_.friction_model == FrictionModel::kSiconosFc3d;
-  int dofs = 0, columns = 0;
+  SensitivityBlocks b;
   for (int g : groups) {
     FreeSensitivity(g, h);  // (makes m_hat_inverse)
-    dofs += work_[Idx(g)].dofs;
+    b.dofs += work_[Idx(g)].dofs;
   }
-  Eigen::MatrixXd V0 = Eigen::MatrixXd::Zero(dofs, dofs), Yu = Eigen::MatrixXd::Zero(dofs, size);
-  Eigen::MatrixXd Gall = Eigen::MatrixXd::Zero(dofs, size);
+  b.V0 = Eigen::MatrixXd::Zero(b.dofs, b.dofs);
+  b.Yu = Eigen::MatrixXd::Zero(b.dofs, size);
+  b.G = Eigen::MatrixXd::Zero(b.dofs, size);
   {
     int d = 0;
     for (int g : groups) {
       const GroupWork& w = work_[Idx(g)];
-      V0.block(d, d, w.dofs, w.dofs) = h * w.m_hat_inverse;
-      Gall.block(d, w.column_offset, w.dofs, w.columns) = w.G.leftCols(w.columns);
-      Yu.block(d, w.column_offset, w.dofs, w.columns) = w.m_hat_inverse * w.G.leftCols(w.columns);
-      columns += w.columns;
+      b.V0.block(d, d, w.dofs, w.dofs) = h * w.m_hat_inverse;
+      b.G.block(d, w.column_offset, w.dofs, w.columns) = w.G.leftCols(w.columns);
+      b.Yu.block(d, w.column_offset, w.dofs, w.columns) = w.m_hat_inverse * w.G.leftCols(w.columns);
+      b.columns += w.columns;
       d += w.dofs;
     }
   }
-  const auto z = z_.head(size);
   // Constraint rows C (C dv = 0 on the piece) and impulse directions D (dv = V0 + Y_u D dz).
-  std::vector<int> basis;
-  Eigen::MatrixXd dv;
-  if (!fc3d) {
-    for (int i = 0; i < size; ++i) {
-      if (z(i) > 0.0) basis.push_back(i);
-    }
-    const int nb = static_cast<int>(basis.size());
-    // A_u: the LCP matrix with the uncoupled Delassus block Gᵀ M̂⁻¹ G; ∂b/∂f = Gᵀ V0 (impulse rows).
-    Eigen::MatrixXd Abb(nb, nb), dbb = Eigen::MatrixXd::Zero(nb, dofs);
-    const Eigen::MatrixXd Wu = Gall.transpose() * Yu;
-    for (int r = 0; r < nb; ++r) {
-      const int i = basis[Idx(r)];
-      for (int c = 0; c < nb; ++c) {
-        const int j = basis[Idx(c)];
-        Abb(r, c) = (i < columns && j < columns) ? Wu(i, j) : A_(i, j);
-      }
-      if (i < columns) dbb.row(r) = Gall.col(i).transpose() * V0;
-    }
-    dv = V0;
-    if (nb > 0) {
-      const Eigen::MatrixXd dz = -Abb.fullPivLu().solve(dbb);
-      for (int r = 0; r < nb; ++r) {
-        if (basis[Idx(r)] < columns) dv += Yu.col(basis[Idx(r)]) * dz.row(r);
-      }
-    }
-  } else {
-    // Per contact with a normal impulse: sticking fixes its three directions; sliding fixes its
-    // normal velocity (De Saxcé's modified velocity u_n + μ|u_t| is then μ|u_t|), its impulse r_n (n − μ s) along the
-    // sliding direction s = u_t/|u_t| = −r_t/(μ r_n), which turns with the tangential velocity: δ(r_n μ s) = μ
-    // r_n/|u_t| (P_t − s sᵀ) δv (P_t = I − n nᵀ), a positive semi-definite term added to M̂.
-    Eigen::MatrixXd Mhat = Eigen::MatrixXd::Zero(dofs, dofs);
-    std::vector<Eigen::Index> node_row(model_.nodes.size(), -1);
-    {
-      int d = 0;
-      for (int g : groups) {
-        Mhat.block(d, d, work_[Idx(g)].dofs, work_[Idx(g)].dofs) = work_[Idx(g)].m_hat_matrix;
-        const std::vector<int>& nodes = model_.groups[Idx(g)].nodes;
-        for (size_t k = 0; k < nodes.size(); ++k) node_row[Idx(nodes[k])] = d + 3 * static_cast<Eigen::Index>(k);
-        d += work_[Idx(g)].dofs;
-      }
-    }
-    std::vector<Eigen::VectorXd> fixed, along;
-    int contact = 0;
-    for (int i = 0; i + 2 < columns; i += 3, ++contact) {  // (fc3d: three columns a contact, no other rows)
-      const double rn = z(i);
-      if (!(rn > 0.0)) continue;
-      const Eigen::Vector2d rt(z(i + 1), z(i + 2));
-      const double mu = mu_(contact);
-      if (rt.norm() < mu * rn * (1.0 - 1e-9)) {
-        for (int j = 0; j < 3; ++j) {
-          fixed.push_back(Gall.col(i + j));
-          along.push_back(Gall.col(i + j));
-        }
-        continue;
-      }
-      along.push_back(Gall.col(i) + (rt(0) / rn) * Gall.col(i + 1) + (rt(1) / rn) * Gall.col(i + 2));
-      // The contact's node and the tangential speed of its end velocity against the plane.
-      const ActiveContact* a = nullptr;
-      for (const ActiveContact& c : active_) {
-        if (work_[Idx(c.group)].column_offset + c.normal_column == i) a = &c;
-      }
-      COSIM_ASSERT(a != nullptr, "fc3d sensitivity: a column without its contact");
-      const Contact& ct = model_.contacts[Idx(a->contact)];
-      const Obstacle& ob = model_.obstacles[Idx(ct.obstacle)];
-      const GroupWork& w = work_[Idx(a->group)];
-      const Eigen::Index o = 3 * model_.node_slot[Idx(ct.node)];
-      const Eigen::Vector3d x1 = q_.segment<3>(3 * ct.node) + h * v_.segment<3>(3 * ct.node);
-      const Eigen::Vector3d n = ob.NormalAt(t1, data_);
-      const Eigen::Vector3d u = w.v_free.segment<3>(o) - ob.VelocityAt(t1, x1, data_);  // (v_free holds v_{k+1})
-      const Eigen::Vector3d ut = u - n.dot(u) * n;
-      fixed.push_back(Gall.col(i));
-      if (!(ut.norm() > 0.0)) continue;
-      const Eigen::Vector3d sliding = ut.normalized();
-      const Eigen::Matrix3d Pt = Eigen::Matrix3d::Identity() - n * n.transpose();
-      Mhat.block<3, 3>(node_row[Idx(ct.node)], node_row[Idx(ct.node)]) +=
-          (mu * rn / ut.norm()) * (Pt - sliding * sliding.transpose());
-    }
-    const Eigen::MatrixXd Minv = Mhat.inverse();
-    dv = h * Minv;
-    const int nb = static_cast<int>(fixed.size());
-    if (nb > 0) {
-      Eigen::MatrixXd C(nb, dofs), D(dofs, nb);
-      for (int k = 0; k < nb; ++k) {
-        C.row(k) = fixed[Idx(k)].transpose();
-        D.col(k) = along[Idx(k)];
-      }
-      const Eigen::MatrixXd YD = Minv * D;
-      dv -= YD * (C * YD).fullPivLu().solve(C * dv);
-    }
-  }
+  const Eigen::MatrixXd dv = model_.friction_model == FrictionModel::kSiconosFc3d
+                                 ? Fc3dPieceSensitivity(groups, b, size, t1, h)
+                                 : LcpPieceSensitivity(b, size);
   int d = 0;
   for (int g : groups) {
     const std::vector<int>& nodes = model_.groups[Idx(g)].nodes;

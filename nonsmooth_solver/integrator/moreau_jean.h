@@ -169,6 +169,14 @@ class MoreauJean {
   // problem of `groups` was solved (A_, z_ hold it).
   void FreeSensitivity(int group, double h);
   void ContactSensitivity(const std::vector<int>& groups, int size, double t1, double h);
+  // ContactSensitivity's blocks over the groups' dofs together: V0 = h M̂⁻¹, Y_u = M̂⁻¹ G, G.
+  struct SensitivityBlocks {
+    Eigen::MatrixXd V0, Yu, G;
+    int dofs = 0, columns = 0;
+  };
+  Eigen::MatrixXd LcpPieceSensitivity(const SensitivityBlocks& b, int size) const;
+  Eigen::MatrixXd Fc3dPieceSensitivity(const std::vector<int>& groups, const SensitivityBlocks& b, int size, double t1,
+                                       double h) const;
   // Builds G (and Y = M̂⁻¹ G) for the group's active contacts.
   void BuildColumns(int group, double t1);
   // Assembles and solves the contact problem of `groups`, then updates their v_free.

@@ -592,38 +592,69 @@ bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingI
   return converged;
 }
 
-// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
-Coordinator::Attempt Coordinator::Try(double t, double h) {
-  Attempt result;
+// The step's start saved, and the predictor: the reactions extrapolated linearly from the last
+// two accepted steps (constant after a start or an impact), scaled to this step's length. With a
+// stiff tie the first residual is the prediction error times the tie's gain, so this is worth an
+// iteration per step.
+void Coordinator::BeginTry(double h) {
   iterate_solved_ = false;
   log_.clear();  // this step's records (the capacity stays: no allocation once warm)
   integrator_->SaveTo(&start_);
   for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = data_->imposed[static_cast<size_t>(v)].rate;
   relaxation_.BeginStep();
-  // Predictor: the reactions extrapolated linearly from the last two accepted steps (constant
-  // after a start or an impact), scaled to this step's length. With a stiff tie the first
-  // residual is the prediction error times the tie's gain, so this is worth an iteration per step.
   const double ratio = accepted_h_ > 0.0 ? h / accepted_h_ : 1.0;
   x_ = accepted_steps_ >= 2 ? Eigen::VectorXd(accepted_x_ + ratio * (accepted_x_ - previous_accepted_x_)) : accepted_x_;
   newton_ = 0;
-  // This side failed in iteration `at` (every peer waits for its next message): the integrator back
-  // at the step's start; the caller rejects the step (adaptive) or ends the run.
-  auto failed = [&](int at, std::string why) {
-    integrator_->Restore(start_);
-    result.failure = std::move(why);
-    result.iterations = at + 1;
-    last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
-    return result;
-  };
-  // The step's coupling iterations ended with `last` (converged or not): what the caller needs.
-  auto finished = [&](int last) {
-    last_iteration_ = last;
-    result.iterations = last + 1;
-    result.impact = !Impacts().empty();
-    result.contact = in_contact_;
-    result.time_to_contact = time_to_contact_;
-    return result;
-  };
+}
+
+// This side failed in iteration `at` (every peer waits for its next message): the integrator back
+// at the step's start; the caller rejects the step (adaptive) or ends the run.
+Coordinator::Attempt Coordinator::Failed(int at, std::string why, Attempt result) {
+  integrator_->Restore(start_);
+  result.failure = std::move(why);
+  result.iterations = at + 1;
+  last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
+  return result;
+}
+
+// The step's coupling iterations ended with `last` (converged or not): what the caller needs.
+Coordinator::Attempt Coordinator::Finished(int last, Attempt result) {
+  last_iteration_ = last;
+  result.iterations = last + 1;
+  result.impact = !Impacts().empty();
+  result.contact = in_contact_;
+  result.time_to_contact = time_to_contact_;
+  return result;
+}
+
+// The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps) sent the
+// peers reactions whose kinematics this side cannot solve (observed: the Puma gust's lift-off at
+// 2.975 s: reactions that moved the node 32 m, Newton diverging to |q| ~ 1e158). Back-track from
+// the last iteration that solved: first the plain relaxed update from it with the secants
+// forgotten (the method's first-iteration ω), then halving towards it; ask the peers again.
+// `backtracks`: this step's so far, this one included.
+void Coordinator::Backtrack(int iteration, int backtracks) {
+  ++backtracks_;
+  CouplingIterationRecord record;
+  record.step = step_;
+  record.iteration = iteration;
+  record.reaction_residual = std::numeric_limits<double>::infinity();  // no answer: the solve failed
+  record.displacement_change = (position_ - previous_position_).lpNorm<Eigen::Infinity>();
+  if (backtracks == 1) {
+    relaxation_.Forget();
+    relaxation_.Next(solved_x_, previous_x_tilde_, &x_);  // previous_x_tilde_: the solved iteration's answer
+    record.relaxation_factor = relaxation_.last_factor();
+  } else {
+    x_ = solved_x_ + 0.5 * (x_ - solved_x_);
+    record.relaxation_factor = 0.5;
+  }
+  log_.push_back(record);
+  Exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
+}
+
+Coordinator::Attempt Coordinator::Try(double t, double h) {
+  Attempt result;
+  BeginTry(h);
   if (jacobians_) Linearise(t, h);
   // The moving obstacles' frames: the pre-solve's at the step's end; without one (no interface
   // Jacobians, or a pre-solve CGα could not take: iterate_ then holds an earlier step's solve, or
@@ -647,7 +678,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       ++linearisation_accepted_;
       log_.push_back(record);
       result.converged = true;
-      return finished(0);
+      return Finished(0, result);
     }
   }
   for (;; ++iteration) {
@@ -662,48 +693,31 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (!SolveStep(t, h, warm ? &iterate_ : nullptr, &why)) {
       if (jacobians_) {
         // The smooth step could not take the contact processes' answers: say which.
-        return failed(iteration, "coupling iteration " + std::to_string(iteration) +
-                                     " of the step to t = " + interface::FormatNumber(t + h) +
-                                     " s: the smooth step with the contact processes' "
-                                     "answers failed (" +
-                                     CouplingState() + "): " + why);
+        return Failed(iteration,
+                      "coupling iteration " + std::to_string(iteration) +
+                          " of the step to t = " + interface::FormatNumber(t + h) +
+                          " s: the smooth step with the contact processes' "
+                          "answers failed (" +
+                          CouplingState() + "): " + why,
+                      result);
       }
-      // The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps)
-      // sent the peers reactions whose kinematics this side cannot solve (observed: the Puma
-      // gust's lift-off at 2.975 s: reactions that moved the node 32 m, Newton diverging to
-      // |q| ~ 1e158). Back-track from the last iteration that solved: first the plain relaxed
-      // update from it with the secants forgotten (the method's first-iteration ω), then halving
-      // towards it; ask the peers again — up to kMaxBacktracks times a step, within max_iterations.
+      // The relaxation's update could not be solved: back-track (Backtrack), up to
+      // kMaxBacktracks times a step, within max_iterations.
       if (jacobians_ || iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
-        return failed(iteration, std::move(why));
+        return Failed(iteration, std::move(why), result);
       }
-      ++backtracks;
-      ++backtracks_;
-      CouplingIterationRecord record;
-      record.step = step_;
-      record.iteration = iteration;
-      record.reaction_residual = std::numeric_limits<double>::infinity();  // no answer: the solve failed
-      record.displacement_change = (position_ - previous_position_).lpNorm<Eigen::Infinity>();
-      if (backtracks == 1) {
-        relaxation_.Forget();
-        relaxation_.Next(solved_x_, previous_x_tilde_, &x_);  // previous_x_tilde_: the solved iteration's answer
-        record.relaxation_factor = relaxation_.last_factor();
-      } else {
-        x_ = solved_x_ + 0.5 * (x_ - solved_x_);
-        record.relaxation_factor = 0.5;
-      }
-      log_.push_back(record);
-      Exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
+      Backtrack(iteration, ++backtracks);
       continue;
     }
     solved_x_ = x_;
     if (!x_tilde_.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
-      return failed(iteration,
+      return Failed(iteration,
                     "coupling: the smooth model's reactions on the interface nodes are not finite after "
                     "coupling iteration " +
-                        std::to_string(iteration) + " of the step to t = " + interface::FormatNumber(t + h) + " s");
+                        std::to_string(iteration) + " of the step to t = " + interface::FormatNumber(t + h) + " s",
+                    result);
     }
     CouplingIterationRecord record;
     record.step = step_;
@@ -733,7 +747,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     previous_position_ = position_;
     Exchange(iteration + 1, integrator_->state());
   }
-  return finished(iteration);
+  return Finished(iteration, result);
 }
 
 void Coordinator::Accept(double t, double h) {

@@ -211,6 +211,11 @@ class Coordinator {
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
   bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
+  // Try's pieces.
+  void BeginTry(double h);
+  Attempt Failed(int at, std::string why, Attempt result);
+  Attempt Finished(int last, Attempt result);
+  void Backtrack(int iteration, int backtracks);
   long long step_ = 0;
   long long last_accepted_ = -1;
   int n_ = 0;                                                                // interface values: 3 per point

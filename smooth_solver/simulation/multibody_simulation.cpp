@@ -65,7 +65,6 @@ Eigen::Vector3d InFrame(int frame, const Eigen::VectorXd& q, const Eigen::Vector
 
 }  // namespace
 
-// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
 MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bool coupled)
     : model_(BuildMultibodyModel(file)) {
   const Checks checks(file);
@@ -80,6 +79,14 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
                 "a coupled scene needs its contact processes; smooth_solver alone cannot "
                 "run it; scripts/cosim run starts them and sets their endpoints");
   }
+  std::vector<ElasticBodySpec> elastic = ElasticBodies(checks, file);
+  const StepSettings settings = ReadStepSettings(checks, file, coupled);
+  probes_ = ReadSmoothProbes(checks, file, coupled, model_, elastic);
+  Start(checks, file, coupled, settings, &elastic);
+}
+
+std::vector<ElasticBodySpec> MultibodySimulation::ElasticBodies(const Checks& checks,
+                                                                const interface::ScenarioFile& file) {
   std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
   std::map<std::string, int> elastic_index;
   for (size_t e = 0; e < elastic.size(); ++e) elastic_index[elastic[e].name] = static_cast<int>(e);
@@ -94,6 +101,13 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   if (model_.bodies.empty() && elastic.empty()) {
     checks.Fail("model.bodies", "the smooth solver needs at least one rigid or elastic body");
   }
+  return elastic;
+}
+
+MultibodySimulation::StepSettings MultibodySimulation::ReadStepSettings(const Checks& checks,
+                                                                        const interface::ScenarioFile& file,
+                                                                        bool coupled) {
+  StepSettings out;
   scenario_name_ = interface::ScenarioName(file);
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
@@ -104,34 +118,33 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     checks.Fail("numerics.smooth.integrator", "expected CGALPHA, CGALPHA_INDEX2 or IDA");
   }
   ida_ = s.integrator() == sc::SmoothSettings::IDA;
-  IdaSettings ida;
-  ida.relative_tolerance =
+  out.ida.relative_tolerance =
       checks.Positive("numerics.smooth.ida_relative_tolerance", true, s.ida_relative_tolerance(), "dimensionless");
-  ida.absolute_tolerance =
+  out.ida.absolute_tolerance =
       checks.Positive("numerics.smooth.ida_absolute_tolerance", true, s.ida_absolute_tolerance(), "m or m/s");
-  CgAlphaSettings settings;
-  settings.rho_inf = checks.InRange("numerics.smooth.rho_inf", true, s.rho_inf(), 0.0, 1.0);
-  settings.tolerance = checks.Positive("numerics.smooth.newton_tolerance", true, s.newton_tolerance(), "dimensionless");
+  out.cgalpha.rho_inf = checks.InRange("numerics.smooth.rho_inf", true, s.rho_inf(), 0.0, 1.0);
+  out.cgalpha.tolerance =
+      checks.Positive("numerics.smooth.newton_tolerance", true, s.newton_tolerance(), "dimensionless");
   if (s.newton_max_iterations() < 1) {
     checks.Fail("numerics.smooth.newton_max_iterations",
                 "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
   }
-  settings.max_iterations = s.newton_max_iterations();
+  out.cgalpha.max_iterations = s.newton_max_iterations();
   if (s.jacobian_max_age() < 0) {
     checks.Fail(
         "numerics.smooth.jacobian_max_age",
         "must be >= 0 steps (0 = a fresh Newton matrix every iteration), got " + std::to_string(s.jacobian_max_age()));
   }
-  settings.jacobian_max_age = s.jacobian_max_age();
+  out.cgalpha.jacobian_max_age = s.jacobian_max_age();
   if (s.elastic_force() != sc::SmoothSettings::GEMM && s.elastic_force() != sc::SmoothSettings::END_POINT) {
     checks.Fail("numerics.smooth.elastic_force", "expected GEMM or END_POINT");
   }
-  settings.gemm = s.elastic_force() == sc::SmoothSettings::GEMM;
+  out.cgalpha.gemm = s.elastic_force() == sc::SmoothSettings::GEMM;
   if (s.constraint_form() != sc::SmoothSettings::INDEX3 &&
       s.constraint_form() != sc::SmoothSettings::INDEX2_PROJECTED) {
     checks.Fail("numerics.smooth.constraint_form", "expected INDEX3 or INDEX2_PROJECTED");
   }
-  settings.form =
+  out.cgalpha.form =
       s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
   if (s.analysis() == sc::SmoothSettings::STATIC) {
     // A STATIC analysis of a scene with beams or rigid bodies: the equilibrium at each output
@@ -148,329 +161,66 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     }
     static_ = true;
   }
-  const sc::AdaptiveStep& adaptive = numerics_.adaptive();
-  if (adaptive.enabled()) {
-    if (s.integrator() != sc::SmoothSettings::CGALPHA) {
-      checks.Fail("numerics.adaptive",
-                  "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
-                  "own); set enabled: false");
-    }
-    adaptive_.on = true;
-    adaptive_.land = coupled;
-    adaptive_.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
-    adaptive_.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
-    adaptive_.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
-    adaptive_.max_step = adaptive.has_max_step()
-                             ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
-                             : 100.0 * numerics_.step();
-    adaptive_.contact_step = adaptive.has_contact_step()
-                                 ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
-                                 : 0.1 * numerics_.step();
-    // (Read by the contact processes of a coupled run; checked here too, so that no scene carries a bad one.)
-    checks.NonNegative("numerics.adaptive.resting_speed", adaptive.resting_speed(), "m/s");
-    if (adaptive_.max_step < adaptive_.min_step) {
-      checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(adaptive_.min_step) +
-                                                    " s, got " + interface::FormatNumber(adaptive_.max_step) + " s");
-    }
-  }
+  if (numerics_.adaptive().enabled()) ReadAdaptive(checks, coupled);
   const sc::Watchdog& w = s.watchdog();
-  WatchdogSettings watchdog;
-  watchdog.rigidity_rate =
+  out.watchdog.rigidity_rate =
       checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
-  watchdog.energy_growth =
+  out.watchdog.energy_growth =
       checks.NonNegative("numerics.smooth.watchdog.energy_growth", w.energy_growth(), "dimensionless; 0 = off");
   if (w.energy_window() < 1) {
     checks.Fail("numerics.smooth.watchdog.energy_window",
                 "must be >= 1 step, got " + std::to_string(w.energy_window()));
   }
-  watchdog.energy_window = w.energy_window();
+  out.watchdog.energy_window = w.energy_window();
   if (w.energy_check() != sc::Watchdog::AUTO && w.energy_check() != sc::Watchdog::ON &&
       w.energy_check() != sc::Watchdog::OFF) {
     checks.Fail("numerics.smooth.watchdog.energy_check", "expected AUTO, ON or OFF");
   }
-
-  // Probes.
-  std::map<std::string, int> body_index, joint_index;
-  for (size_t b = 0; b < model_.bodies.size(); ++b) body_index[model_.bodies[b].name] = static_cast<int>(b);
+  out.energy_check = w.energy_check();
   if (s.has_jacobian_frame() && !s.jacobian_frame().empty()) {  // ("": none, e.g. a --set that turns it off)
-    auto it = body_index.find(s.jacobian_frame());
-    if (it == body_index.end()) {
+    const auto it = std::find_if(model_.bodies.begin(), model_.bodies.end(),
+                                 [&](const RigidBody& b) { return b.name == s.jacobian_frame(); });
+    if (it == model_.bodies.end()) {
       checks.Fail("numerics.smooth.jacobian_frame", "no rigid body named '" + s.jacobian_frame() + "'");
     } else if (s.jacobian_max_age() == 0) {
       checks.Fail("numerics.smooth.jacobian_frame",
                   "set, but numerics.smooth.jacobian_max_age is 0 (no matrix is reused)");
     } else {
-      settings.frame_body = it->second;
+      out.cgalpha.frame_body = static_cast<int>(it - model_.bodies.begin());
     }
   }
-  for (size_t j = 0; j < model_.joints.size(); ++j) joint_index[model_.joints[j].name] = static_cast<int>(j);
-  std::map<std::string, int> beam_index;
-  for (size_t b = 0; b < model_.beams.size(); ++b) beam_index[model_.beams[b].name] = static_cast<int>(b);
-  std::map<std::string, int> surface_index, rotor_index;
-  for (size_t k = 0; k < model_.aero.surfaces.size(); ++k)
-    surface_index[model_.aero.surfaces[k].name] = static_cast<int>(k);
-  for (size_t k = 0; k < model_.aero.rotors.size(); ++k) rotor_index[model_.aero.rotors[k].name] = static_cast<int>(k);
-  interface::NameTable probe_names(checks, "probe");
-  const sc::Output& output = file.proto().output();
-  // In a coupled run, probes of contact nodes and contacts are the contact process's.
-  std::set<std::string> contact_entities;
-  if (coupled) {
-    for (const auto& node : file.proto().model().contact_nodes()) {
-      contact_entities.insert(node.name());
-      for (const auto& c : node.contacts()) contact_entities.insert(node.name() + "/" + c.obstacle());
-    }
-  }
-  for (int i = 0; i < output.probes_size(); ++i) {
-    const sc::Probe& p = output.probes(i);
-    const std::string path = ElementPath("output.probes", i);
-    if (contact_entities.count(p.entity()) != 0) continue;
-    if (p.name() == "time") checks.Fail(path + ".name", "'time' is the first column already; choose another name");
-    ProbeSpec spec;
-    spec.name = probe_names.Declare(path + ".name", p.has_name(), p.name());
-    auto find = [&](const std::map<std::string, int>& table, const char* kind) {
-      auto it = table.find(p.entity());
-      if (it == table.end()) {
-        std::string known;
-        for (const auto& [name, index] : table) known += (known.empty() ? "" : ", ") + name;
-        checks.Fail(path + ".entity", std::string("no ") + kind + " named '" + p.entity() + "'" +
-                                          (known.empty() ? "" : "; known: " + known));
-      }
-      return it->second;
-    };
-    switch (p.quantity()) {
-      case sc::Probe::POSITION:
-        spec.kind = Kind::kPosition;
-        break;
-      case sc::Probe::VELOCITY:
-        spec.kind = Kind::kVelocity;
-        break;
-      case sc::Probe::ACCELERATION:
-        spec.kind = Kind::kAcceleration;
-        break;
-      case sc::Probe::ANGULAR_VELOCITY:
-        spec.kind = Kind::kAngularVelocity;
-        break;
-      case sc::Probe::JOINT_COORDINATE:
-        spec.kind = Kind::kJointCoordinate;
-        break;
-      case sc::Probe::JOINT_SPEED:
-        spec.kind = Kind::kJointSpeed;
-        break;
-      case sc::Probe::REACTION_FORCE:
-        spec.kind = Kind::kReactionForce;
-        break;
-      case sc::Probe::REACTION_MOMENT:
-        spec.kind = Kind::kReactionMoment;
-        break;
-      case sc::Probe::KINETIC_ENERGY:
-        spec.kind = Kind::kKinetic;
-        break;
-      case sc::Probe::POTENTIAL_ENERGY:
-        spec.kind = Kind::kPotential;
-        break;
-      case sc::Probe::TOTAL_ENERGY:
-        spec.kind = Kind::kTotal;
-        break;
-      case sc::Probe::CONSTRAINT_VIOLATION:
-        spec.kind = Kind::kViolation;
-        break;
-      case sc::Probe::DISPLACEMENT:
-        spec.kind = Kind::kDisplacement;
-        break;
-      case sc::Probe::STRAIN_ENERGY:
-        spec.kind = Kind::kStrainEnergy;
-        break;
-      case sc::Probe::ROTATION:
-        spec.kind = Kind::kRotation;
-        break;
-      case sc::Probe::SECTION_FORCE:
-        spec.kind = Kind::kSectionForce;
-        break;
-      case sc::Probe::SECTION_MOMENT:
-        spec.kind = Kind::kSectionMoment;
-        break;
-      case sc::Probe::AERO_ANGLE_OF_ATTACK:
-        spec.kind = Kind::kAeroAlpha;
-        break;
-      case sc::Probe::AERO_FORCE:
-        spec.kind = Kind::kAeroForce;
-        break;
-      case sc::Probe::AERO_MOMENT:
-        spec.kind = Kind::kAeroMoment;
-        break;
-      case sc::Probe::AERO_MACH:
-        spec.kind = Kind::kAeroMach;
-        break;
-      case sc::Probe::ROTOR_THRUST:
-        spec.kind = Kind::kRotorThrust;
-        break;
-      case sc::Probe::ROTOR_TORQUE:
-        spec.kind = Kind::kRotorTorque;
-        break;
-      case sc::Probe::INFLOW_RATIO:
-        spec.kind = Kind::kInflowRatio;
-        break;
-      case sc::Probe::INDUCED_VELOCITY:
-        spec.kind = Kind::kInducedVelocity;
-        break;
-      case sc::Probe::CONTACT_FORCE:
-        spec.kind = Kind::kContactForce;
-        break;
-      default:
-        checks.Fail(path + ".quantity",
-                    "the smooth solver records POSITION, VELOCITY, ACCELERATION, "
-                    "ANGULAR_VELOCITY, JOINT_COORDINATE, JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, "
-                    "KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY, CONSTRAINT_VIOLATION, DISPLACEMENT, "
-                    "STRAIN_ENERGY, ROTATION, SECTION_FORCE, SECTION_MOMENT, AERO_ANGLE_OF_ATTACK, "
-                    "AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, INFLOW_RATIO, "
-                    "INDUCED_VELOCITY or CONTACT_FORCE, got " +
-                        sc::Probe::Quantity_Name(p.quantity()));
-    }
-    if (p.has_frame()) {
-      const bool vector = p.quantity() == sc::Probe::POSITION || p.quantity() == sc::Probe::VELOCITY ||
-                          p.quantity() == sc::Probe::ACCELERATION || p.quantity() == sc::Probe::ANGULAR_VELOCITY ||
-                          p.quantity() == sc::Probe::DISPLACEMENT || p.quantity() == sc::Probe::ROTATION ||
-                          p.quantity() == sc::Probe::REACTION_FORCE || p.quantity() == sc::Probe::REACTION_MOMENT;
-      if (!vector) {
-        checks.Fail(path + ".frame",
-                    "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, DISPLACEMENT, "
-                    "ROTATION, REACTION_FORCE and REACTION_MOMENT can be expressed in a body's frame");
-      }
-      if (p.frame() != "ground") {
-        auto it = body_index.find(p.frame());
-        if (it == body_index.end()) checks.Fail(path + ".frame", "no body named '" + p.frame() + "'");
-        spec.frame = it->second;
-      }
-    }
-    const bool aero_section = spec.kind == Kind::kAeroAlpha || spec.kind == Kind::kAeroForce ||
-                              spec.kind == Kind::kAeroMoment || spec.kind == Kind::kAeroMach;
-    if (p.has_station() && spec.kind != Kind::kSectionForce && spec.kind != Kind::kSectionMoment && !aero_section) {
-      checks.Fail(path + ".station", "only SECTION_FORCE, SECTION_MOMENT and AERO_* probes take a station");
-    }
-    // DISPLACEMENT of a body (a beam node, a rigid body): from its initial position.
-    if (spec.kind == Kind::kDisplacement && elastic_index.count(p.entity()) == 0 && body_index.count(p.entity()) != 0) {
-      spec.kind = Kind::kBodyDisplacement;
-    }
-    if (spec.kind == Kind::kStrainEnergy && beam_index.count(p.entity()) != 0) spec.kind = Kind::kBeamStrainEnergy;
-    switch (spec.kind) {
-      case Kind::kPosition:
-      case Kind::kVelocity:
-      case Kind::kAcceleration:
-      case Kind::kAngularVelocity:
-      case Kind::kBodyDisplacement:
-      case Kind::kRotation:
-        spec.index = find(body_index, "body");
-        spec.component = interface::ProbeComponent(checks, path, p, true);
-        break;
-      case Kind::kBeamStrainEnergy:
-        spec.index = beam_index.at(p.entity());
-        spec.component = interface::ProbeComponent(checks, path, p, false);
-        break;
-      case Kind::kSectionForce:
-      case Kind::kSectionMoment: {
-        spec.index = find(beam_index, "beam");
-        const BeamModel& beam = model_.beams[static_cast<size_t>(spec.index)];
-        checks.Require(path + ".station", p.has_station(), "the section's span coordinate in m");
-        if (p.station() < beam.span_start || p.station() > beam.span_end) {
-          checks.Fail(path + ".station", interface::FormatNumber(p.station()) + " m is outside beam '" + beam.name +
-                                             "' (span " + interface::FormatNumber(beam.span_start) + " to " +
-                                             interface::FormatNumber(beam.span_end) + " m)");
-        }
-        spec.station = p.station();
-        spec.component = interface::ProbeComponent(checks, path, p, true);
-        break;
-      }
-      case Kind::kAeroAlpha:
-      case Kind::kAeroForce:
-      case Kind::kAeroMoment:
-      case Kind::kAeroMach: {
-        spec.index = find(surface_index, "aero surface");
-        const auto& st = model_.aero.surfaces[static_cast<size_t>(spec.index)].stations;
-        checks.Require(path + ".station", p.has_station(), "the section's span coordinate in m");
-        if (p.station() < st.front().s || p.station() > st.back().s) {
-          checks.Fail(path + ".station", interface::FormatNumber(p.station()) + " m is outside the loaded span of '" +
-                                             p.entity() + "' (" + interface::FormatNumber(st.front().s) + " to " +
-                                             interface::FormatNumber(st.back().s) + " m)");
-        }
-        spec.station = p.station();
-        spec.component = interface::ProbeComponent(checks, path, p, spec.kind == Kind::kAeroForce);
-        break;
-      }
-      case Kind::kRotorThrust:
-      case Kind::kRotorTorque:
-      case Kind::kInflowRatio:
-      case Kind::kInducedVelocity:
-        spec.index = find(rotor_index, "rotor");
-        spec.component = interface::ProbeComponent(checks, path, p, false);
-        break;
-      case Kind::kContactForce: {
-        std::map<std::string, int> contact_index;
-        for (size_t f = 0; f < model_.forces.size(); ++f) {
-          const auto kind = model_.forces[f].kind;
-          if (kind == ForceSpec::Kind::kContact || kind == ForceSpec::Kind::kJointStop)
-            contact_index[model_.forces[f].name] = static_cast<int>(f);
-        }
-        spec.index = find(contact_index, "continuous contact or joint stop");
-        spec.component = interface::ProbeComponent(checks, path, p, false);
-        break;
-      }
-      case Kind::kJointCoordinate:
-      case Kind::kJointSpeed: {
-        spec.index = find(joint_index, "joint");
-        const JointType type = model_.joints[static_cast<size_t>(spec.index)].type;
-        if (type != JointType::kRevolute && type != JointType::kPrismatic) {
-          checks.Fail(path + ".entity",
-                      "joint '" + p.entity() + "' has no single coordinate (revolute or prismatic only)");
-        }
-        spec.component = interface::ProbeComponent(checks, path, p, false);
-        break;
-      }
-      case Kind::kReactionForce:
-        if (elastic_index.count(p.entity()) != 0) {
-          spec.kind = Kind::kClampForce;
-          spec.index = elastic_index[p.entity()];
-          spec.component = interface::ProbeComponent(checks, path, p, true);
-          break;
-        }
-        spec.index = find(joint_index, "joint");
-        spec.component = interface::ProbeComponent(checks, path, p, true);
-        break;
-      case Kind::kReactionMoment:
-        if (elastic_index.count(p.entity()) != 0) {
-          spec.kind = Kind::kClampMoment;
-          spec.index = elastic_index[p.entity()];
-          spec.component = interface::ProbeComponent(checks, path, p, true);
-          break;
-        }
-        spec.index = find(joint_index, "joint");
-        spec.component = interface::ProbeComponent(checks, path, p, true);
-        break;
-      case Kind::kDisplacement:
-        spec.index = find(elastic_index, "elastic body");
-        checks.Require(path + ".point", p.has_point(), "a node index, \"tip_centre\" or \"root_centre\"");
-        spec.node = elastic[static_cast<size_t>(spec.index)].FindPoint(checks, path + ".point", p.point());
-        spec.component = interface::ProbeComponent(checks, path, p, true);
-        break;
-      case Kind::kStrainEnergy:
-        spec.index = find(elastic_index, "elastic body");
-        spec.component = interface::ProbeComponent(checks, path, p, false);
-        break;
-      case Kind::kClampForce:
-      case Kind::kClampMoment:
-        break;  // set from REACTION_FORCE / REACTION_MOMENT above
-      case Kind::kKinetic:
-      case Kind::kPotential:
-      case Kind::kTotal:
-      case Kind::kViolation:
-        if (!p.entity().empty())
-          checks.Fail(path + ".entity", "this quantity is for the whole system; leave entity out");
-        spec.component = interface::ProbeComponent(checks, path, p, false);
-        break;
-    }
-    probes_.push_back(spec);
-  }
+  return out;
+}
 
-  auto system = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_, &elastic));
+void MultibodySimulation::ReadAdaptive(const Checks& checks, bool coupled) {
+  const sc::AdaptiveStep& adaptive = numerics_.adaptive();
+  if (numerics_.smooth().integrator() != sc::SmoothSettings::CGALPHA) {
+    checks.Fail("numerics.adaptive",
+                "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
+                "own); set enabled: false");
+  }
+  adaptive_.on = true;
+  adaptive_.land = coupled;
+  adaptive_.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
+  adaptive_.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
+  adaptive_.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
+  adaptive_.max_step = adaptive.has_max_step()
+                           ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
+                           : 100.0 * numerics_.step();
+  adaptive_.contact_step = adaptive.has_contact_step()
+                               ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
+                               : 0.1 * numerics_.step();
+  // (Read by the contact processes of a coupled run; checked here too, so that no scene carries a bad one.)
+  checks.NonNegative("numerics.adaptive.resting_speed", adaptive.resting_speed(), "m/s");
+  if (adaptive_.max_step < adaptive_.min_step) {
+    checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(adaptive_.min_step) +
+                                                  " s, got " + interface::FormatNumber(adaptive_.max_step) + " s");
+  }
+}
+
+void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioFile& file, bool coupled,
+                                const StepSettings& settings, std::vector<ElasticBodySpec>* elastic) {
+  auto system = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_, elastic));
   time_ = numerics_.start_time();
   // A restart (numerics.initial_state) does not close the loops again: the first run's
   // consistent initial configuration, saved with the state, is the probes' reference and fixes
@@ -495,9 +245,45 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   reference_time_ = restart ? restart->reference_time() : time_;
   system_ = std::move(system);
   if (!restart) system_->AcceptStep(initial.q, initial.qdot, time_);
+  SetProbeReferences(initial.q);
+  if (restart) {
+    initial.q = Eigen::Map<const Eigen::VectorXd>(restart->q().data(), restart->q_size());
+    initial.qdot = Eigen::Map<const Eigen::VectorXd>(restart->qdot().data(), restart->qdot_size());
+    system_->AcceptStep(initial.q, initial.qdot, time_);
+    ConsistentAccelerations(*system_, time_, &initial);
+  }
+  if (ida_) {
+    integrator_ = std::make_unique<IdaReference>(*system_, settings.ida, initial, time_);
+  } else if (numerics_.smooth().integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
+    integrator_ = std::make_unique<CgAlphaIndex2>(*system_, settings.cgalpha, initial);
+  } else {
+    auto cg = std::make_unique<CgAlpha>(*system_, settings.cgalpha, initial);
+    cg->AttachData(system_->mutable_data());  // checkpoints (rejected steps, coupling iterations) restore it
+    integrator_ = std::move(cg);
+  }
+  WatchdogSettings watchdog = settings.watchdog;
+  watchdog.energy = settings.energy_check == sc::Watchdog::ON ||
+                    (settings.energy_check == sc::Watchdog::AUTO && PassiveSystem(*system_));
+  std::vector<std::string> body_names;
+  for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
+  watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
+  // Angles continue past ±π (whole turns counted), from each joint's initial coordinate.
+  angle_offset_.assign(model_.joints.size(), 0.0);
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    angle_offset_[j] = restart ? restart->angle_offsets(static_cast<int>(j)) : model_.joints[j].initial_coordinate;
+  }
+  last_angle_.assign(model_.joints.size(), 0.0);
+  for (size_t j = 0; j < model_.joints.size(); ++j) {
+    if (system_->joints[j].rotational) last_angle_[j] = system_->JointCoordinate(static_cast<int>(j), initial.q);
+  }
+  max_violation_ = integrator_->ConstraintViolation(time_);
+  probe_time_ = time_;
+}
+
+// The initial positions and orientations that displacement and rotation probes measure from.
+void MultibodySimulation::SetProbeReferences(const Eigen::VectorXd& q) {
   for (ProbeSpec& p : probes_) {
     if (p.kind != Kind::kBodyDisplacement && p.kind != Kind::kRotation && p.kind != Kind::kDisplacement) continue;
-    const Eigen::VectorXd& q = initial.q;
     // The point: a body's origin, or an elastic body's node.
     const int o = p.kind == Kind::kDisplacement ? system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node
                                                 : kCoordinatesPerBody * p.index;
@@ -514,37 +300,6 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
     p.initial_position = F.transpose() * (Eigen::Vector3d(q.segment<3>(o)) - xF);
     if (p.kind != Kind::kDisplacement) p.initial_orientation = F.transpose() * B;
   }
-  if (restart) {
-    initial.q = Eigen::Map<const Eigen::VectorXd>(restart->q().data(), restart->q_size());
-    initial.qdot = Eigen::Map<const Eigen::VectorXd>(restart->qdot().data(), restart->qdot_size());
-    system_->AcceptStep(initial.q, initial.qdot, time_);
-    ConsistentAccelerations(*system_, time_, &initial);
-  }
-  if (ida_) {
-    integrator_ = std::make_unique<IdaReference>(*system_, ida, initial, time_);
-  } else if (s.integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
-    integrator_ = std::make_unique<CgAlphaIndex2>(*system_, settings, initial);
-  } else {
-    auto cg = std::make_unique<CgAlpha>(*system_, settings, initial);
-    cg->AttachData(system_->mutable_data());  // checkpoints (rejected steps, coupling iterations) restore it
-    integrator_ = std::move(cg);
-  }
-  watchdog.energy =
-      w.energy_check() == sc::Watchdog::ON || (w.energy_check() == sc::Watchdog::AUTO && PassiveSystem(*system_));
-  std::vector<std::string> body_names;
-  for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
-  watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
-  // Angles continue past ±π (whole turns counted), from each joint's initial coordinate.
-  angle_offset_.assign(model_.joints.size(), 0.0);
-  for (size_t j = 0; j < model_.joints.size(); ++j) {
-    angle_offset_[j] = restart ? restart->angle_offsets(static_cast<int>(j)) : model_.joints[j].initial_coordinate;
-  }
-  last_angle_.assign(model_.joints.size(), 0.0);
-  for (size_t j = 0; j < model_.joints.size(); ++j) {
-    if (system_->joints[j].rotational) last_angle_[j] = system_->JointCoordinate(static_cast<int>(j), initial.q);
-  }
-  max_violation_ = integrator_->ConstraintViolation(time_);
-  probe_time_ = time_;
 }
 
 std::vector<std::string> MultibodySimulation::ProbeNames() const {

@@ -12,6 +12,7 @@
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
+#include "smooth_solver/simulation/smooth_probes.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/simulation/watchdog.h"
 
@@ -64,51 +65,25 @@ class MultibodySimulation : public interface::Simulation {
   double max_constraint_violation() const { return max_violation_; }  // over the accepted steps
 
  private:
-  enum class Kind {
-    kPosition,
-    kVelocity,
-    kAcceleration,
-    kAngularVelocity,
-    kJointCoordinate,
-    kJointSpeed,
-    kReactionForce,
-    kReactionMoment,
-    kKinetic,
-    kPotential,
-    kTotal,
-    kViolation,
-    kDisplacement,
-    kStrainEnergy,
-    kClampForce,
-    kClampMoment,
-    kBodyDisplacement,
-    kRotation,
-    kBeamStrainEnergy,
-    kSectionForce,
-    kSectionMoment,
-    kAeroAlpha,
-    kAeroForce,
-    kAeroMoment,
-    kAeroMach,
-    kRotorThrust,
-    kRotorTorque,
-    kInflowRatio,
-    kInducedVelocity,
-    kContactForce
+  using Kind = SmoothProbe::Kind;
+  using ProbeSpec = SmoothProbe;
+  // What the integrators and the watchdog take from numerics.smooth.
+  struct StepSettings {
+    IdaSettings ida;
+    CgAlphaSettings cgalpha;
+    WatchdogSettings watchdog;  // but `energy`, which depends on the system
+    scenario::Watchdog::EnergyCheck energy_check = scenario::Watchdog::AUTO;
   };
-  struct ProbeSpec {
-    std::string name;
-    Kind kind = Kind::kPosition;
-    int index = -1;
-    int component = 0;     // 0-2 x, y, z; 3 norm
-    int node = 0;          // elastic-body probes
-    int frame = -1;        // body whose frame vectors are expressed in (−1: global)
-    double station = 0.0;  // section probes: span coordinate
-    // Initial position (relative to the frame, in its axes) and orientation (relative to the
-    // frame) of the body: displacement and rotation are measured from them.
-    Eigen::Vector3d initial_position = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d initial_orientation = Eigen::Matrix3d::Identity();
-  };
+  // The construction's stages, in order: the elastic bodies (and the interface nodes on them),
+  // the numerics (numerics_ and the step settings; numerics.adaptive into adaptive_), then the
+  // system, its consistent initial state, the probes' references, the integrator and the
+  // watchdog. Each throws InputError naming the field it refuses.
+  std::vector<ElasticBodySpec> ElasticBodies(const interface::Checks& checks, const interface::ScenarioFile& file);
+  StepSettings ReadStepSettings(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled);
+  void ReadAdaptive(const interface::Checks& checks, bool coupled);
+  void Start(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled,
+             const StepSettings& settings, std::vector<ElasticBodySpec>* elastic);
+  void SetProbeReferences(const Eigen::VectorXd& q);
   // numerics.smooth.analysis STATIC: the equilibrium at t1 in place of a time step.
   void StaticStep(double t1);
   // numerics.smooth.settle: `initial` (closed) moved to the static equilibrium at start_time,

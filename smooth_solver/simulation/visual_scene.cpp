@@ -28,10 +28,52 @@ const std::array<int, 27>& VtkHex27Order() {
   return order;
 }
 
-// NOLINTNEXTLINE(readability-function-size): over 120 lines; to be split along its seams
-void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const Eigen::VectorXd& q,
-               const VisualSettings& settings, VisualFrame* frame) {
-  // Rigid bodies (not the beams' nodes, drawn with their beams).
+namespace {
+
+// A rigid body: its origin and axes, lines to the points attached to it, and the box around them
+// (its shape: each side at least a tenth of its size, 0.1 of the axis length for a body with no
+// such points).
+void DrawRigidBody(const MultibodyModel& model, const Eigen::VectorXd& q, size_t b,
+                   const std::vector<Eigen::Vector3d>& attached, const VisualSettings& settings, VisualFrame* frame) {
+  const int base = kCoordinatesPerBody * static_cast<int>(b);
+  const Eigen::Vector3d x = q.segment<3>(base);
+  const Eigen::Matrix3d axes = BodyAxes(q, static_cast<int>(b));
+  double size = 0.0;
+  for (const auto& s : attached) size = std::max(size, s.norm());
+  const double length = settings.axis_length > 0.0 ? settings.axis_length : size > 0.0 ? 0.25 * size : 0.1;
+  const int origin = frame->AddPoint(x);
+  for (int k = 0; k < 3; ++k) {
+    frame->AddCell(VisualFrame::kLine, {origin, frame->AddPoint(x + length * axes.col(k))},
+                   VisualFrame::Kind::kBodyAxis, static_cast<int>(b));
+  }
+  for (const auto& s : attached) {
+    if (s.norm() == 0.0) continue;
+    frame->AddCell(VisualFrame::kLine, {origin, frame->AddPoint(x + axes * s)}, VisualFrame::Kind::kBodyShape,
+                   static_cast<int>(b));
+  }
+  // Its shape: the box in its own axes around its origin and those points, each side at least
+  // a tenth of its size (0.1 of the axis length for a body with no such points).
+  Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
+  for (const auto& s : attached) {
+    lo = lo.cwiseMin(s);
+    hi = hi.cwiseMax(s);
+  }
+  const double thinnest = 0.05 * (size > 0.0 ? size : length);
+  const Eigen::Vector3d mid = 0.5 * (lo + hi), half = (0.5 * (hi - lo)).cwiseMax(thinnest);
+  std::vector<int> box;
+  for (const auto& c :
+       {Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, -1, -1), Eigen::Vector3d(1, 1, -1), Eigen::Vector3d(-1, 1, -1),
+        Eigen::Vector3d(-1, -1, 1), Eigen::Vector3d(1, -1, 1), Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(-1, 1, 1)}) {
+    box.push_back(frame->AddPoint(x + axes * (mid + half.cwiseProduct(c))));  // VTK_HEXAHEDRON's corner order
+  }
+  frame->AddCell(VisualFrame::kHexahedron, box, VisualFrame::Kind::kBodyShape, static_cast<int>(b));
+  frame->Name(VisualFrame::Kind::kBodyAxis, static_cast<int>(b), model.bodies[b].name);
+}
+
+// Rigid bodies (not the beams' nodes, drawn with their beams), with the points that joints and
+// ties attach to them.
+void DrawRigidBodies(const MultibodyModel& model, const Eigen::VectorXd& q, const VisualSettings& settings,
+                     VisualFrame* frame) {
   std::set<int> beam_nodes;
   for (const auto& beam : model.beams) beam_nodes.insert(beam.node_bodies.begin(), beam.node_bodies.end());
   std::vector<std::vector<Eigen::Vector3d>> attached(model.bodies.size());  // body-frame points
@@ -51,41 +93,11 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
   }
   for (const InterfacePointSpec& p : model.interface_points) attach(p.body, p.point);
   for (size_t b = 0; b < model.bodies.size(); ++b) {
-    if (beam_nodes.count(static_cast<int>(b)) != 0) continue;
-    const int base = kCoordinatesPerBody * static_cast<int>(b);
-    const Eigen::Vector3d x = q.segment<3>(base);
-    const Eigen::Matrix3d axes = BodyAxes(q, static_cast<int>(b));
-    double size = 0.0;
-    for (const auto& s : attached[b]) size = std::max(size, s.norm());
-    const double length = settings.axis_length > 0.0 ? settings.axis_length : size > 0.0 ? 0.25 * size : 0.1;
-    const int origin = frame->AddPoint(x);
-    for (int k = 0; k < 3; ++k) {
-      frame->AddCell(VisualFrame::kLine, {origin, frame->AddPoint(x + length * axes.col(k))},
-                     VisualFrame::Kind::kBodyAxis, static_cast<int>(b));
-    }
-    for (const auto& s : attached[b]) {
-      if (s.norm() == 0.0) continue;
-      frame->AddCell(VisualFrame::kLine, {origin, frame->AddPoint(x + axes * s)}, VisualFrame::Kind::kBodyShape,
-                     static_cast<int>(b));
-    }
-    // Its shape: the box in its own axes around its origin and those points, each side at least
-    // a tenth of its size (0.1 of the axis length for a body with no such points).
-    Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
-    for (const auto& s : attached[b]) {
-      lo = lo.cwiseMin(s);
-      hi = hi.cwiseMax(s);
-    }
-    const double thinnest = 0.05 * (size > 0.0 ? size : length);
-    const Eigen::Vector3d mid = 0.5 * (lo + hi), half = (0.5 * (hi - lo)).cwiseMax(thinnest);
-    std::vector<int> box;
-    for (const auto& c : {Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, -1, -1), Eigen::Vector3d(1, 1, -1),
-                          Eigen::Vector3d(-1, 1, -1), Eigen::Vector3d(-1, -1, 1), Eigen::Vector3d(1, -1, 1),
-                          Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(-1, 1, 1)}) {
-      box.push_back(frame->AddPoint(x + axes * (mid + half.cwiseProduct(c))));  // VTK_HEXAHEDRON's corner order
-    }
-    frame->AddCell(VisualFrame::kHexahedron, box, VisualFrame::Kind::kBodyShape, static_cast<int>(b));
-    frame->Name(VisualFrame::Kind::kBodyAxis, static_cast<int>(b), model.bodies[b].name);
+    if (beam_nodes.count(static_cast<int>(b)) == 0) DrawRigidBody(model, q, b, attached[b], settings, frame);
   }
+}
+
+void DrawBeams(const MultibodyModel& model, const Eigen::VectorXd& q, VisualFrame* frame) {
   // Beams: lines between the nodes; each node's section frame as a line along its chordwise
   // director d2 (a fourteenth of the span: about a rotor blade's chord) and a quarter as long
   // along its flapwise d3; quads between neighbouring chord lines (the blade as a ribbon).
@@ -115,7 +127,9 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     }
     frame->Name(VisualFrame::Kind::kBeamAxis, static_cast<int>(m), beam.name);
   }
-  // Hex27 bodies.
+}
+
+void DrawHex27Bodies(const MultibodySystem& system, const Eigen::VectorXd& q, VisualFrame* frame) {
   for (size_t e = 0; e < system.elastic.size(); ++e) {
     const ElasticBody& body = system.elastic[e]->body;
     const int offset = system.elastic_offset[e], nodes = body.node_count();
@@ -134,6 +148,9 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     }
     frame->Name(VisualFrame::Kind::kSolid, static_cast<int>(e), system.elastic[e]->name);
   }
+}
+
+void DrawContacts(const MultibodyModel& model, const Eigen::VectorXd& q, VisualFrame* frame) {
   // Continuous contacts (monolithic scenes): the body point as a vertex, its plane as a square
   // around the point's projection (side 4 × their in-plane distance, at least 0.2 m); both in
   // contact while the gap is closed. (Joint stops are angles: nothing to draw.)
@@ -152,6 +169,9 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
     frame->Name(VisualFrame::Kind::kObstacle, contact, f.name);
     ++contact;
   }
+}
+
+void DrawTies(const MultibodySystem& system, const Eigen::VectorXd& q, VisualFrame* frame) {
   // Ties: the body point and the node the peer imposes (3 imposed coordinates per point).
   const auto& imposed = system.data().imposed;
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
@@ -164,4 +184,14 @@ void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const
   }
 }
 
+}  // namespace
+
+void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const Eigen::VectorXd& q,
+               const VisualSettings& settings, VisualFrame* frame) {
+  DrawRigidBodies(model, q, settings, frame);
+  DrawBeams(model, q, frame);
+  DrawHex27Bodies(system, q, frame);
+  DrawContacts(model, q, frame);
+  DrawTies(system, q, frame);
+}
 }  // namespace cosim::smooth

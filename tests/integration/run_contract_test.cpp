@@ -227,6 +227,41 @@ INSTANTIATE_TEST_SUITE_P(
                  "body2: \"hub\"",
                  "",
                  {"broken.pbtxt:11:5", "model.joints[0].body2", "no body named 'hub'; known: arm"}},
+        // The smooth solver's probe rules come from one table (smooth_probes.cpp): the refusals
+        // list what the table allows, so a quantity added there is named here.
+        BadInput{"smooth_probe_quantity",
+                 kPendulum,
+                 "",
+                 "",
+                 "--set 'output.probes=[{ name: \"g\" quantity: GAP entity: \"arm\" }]'",
+                 {"output.probes[0].quantity",
+                  "the smooth solver records POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, JOINT_COORDINATE, "
+                  "JOINT_SPEED, REACTION_FORCE, REACTION_MOMENT, KINETIC_ENERGY, POTENTIAL_ENERGY, TOTAL_ENERGY, "
+                  "CONSTRAINT_VIOLATION, DISPLACEMENT, STRAIN_ENERGY, ROTATION, SECTION_FORCE, SECTION_MOMENT, "
+                  "AERO_ANGLE_OF_ATTACK, AERO_FORCE, AERO_MOMENT, AERO_MACH, ROTOR_THRUST, ROTOR_TORQUE, "
+                  "INFLOW_RATIO, INDUCED_VELOCITY or CONTACT_FORCE, got GAP"}},
+        BadInput{"smooth_probe_frame",
+                 kPendulum,
+                 "",
+                 "",
+                 "--set 'output.probes=[{ name: \"e\" quantity: KINETIC_ENERGY frame: \"arm\" }]'",
+                 {"output.probes[0].frame",
+                  "only POSITION, VELOCITY, ACCELERATION, ANGULAR_VELOCITY, REACTION_FORCE, REACTION_MOMENT, "
+                  "DISPLACEMENT and ROTATION can be expressed in a body's frame"}},
+        BadInput{"smooth_probe_station",
+                 kPendulum,
+                 "",
+                 "",
+                 "--set 'output.probes=[{ name: \"x\" quantity: POSITION entity: \"arm\" station: 1 }]'",
+                 {"output.probes[0].station",
+                  "only SECTION_FORCE, SECTION_MOMENT, AERO_ANGLE_OF_ATTACK, AERO_FORCE, AERO_MOMENT and AERO_MACH "
+                  "probes take a station"}},
+        BadInput{"joint_type",
+                 kPendulum,
+                 "",
+                 "",
+                 "--set model.joints[0].type=TYPE_UNSPECIFIED",
+                 {"model.joints[0].type", "expected REVOLUTE, PRISMATIC, SPHERICAL, UNIVERSAL or FIXED"}},
         BadInput{"drive_units",
                  kPendulum,
                  "axis: [0, 1, 0]",

@@ -455,12 +455,12 @@ double Coordinator::FrameDrift(const DaeState& state) const {
 
 bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::string* failure) {
   if (guess != nullptr && !iterate_solved_) guess = nullptr;  // (the step's predictor instead)
-  try {
-    newton_ += integrator_->Step(t, h, guess);
-  } catch (const NumericalError& e) {
-    *failure = e.what();
+  const StepStatus status = integrator_->TryStep(t, h, guess);
+  if (!status.ok()) {
+    *failure = status.Describe(integrator_->settings());
     return false;
   }
+  newton_ += status.iterations;
   iterate_ = integrator_->state();  // equal sizes: no allocation once warm
   iterate_solved_ = true;
   ReactionsFromSolve();

@@ -279,7 +279,7 @@ double CgAlpha::ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> ou
   return out.size() > 0 ? out.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
-bool CgAlpha::ProjectPositions(double t1) {
+bool CgAlpha::ProjectPositions(double t1, StepStatus* status) {
   // Chord iteration on Φ(q) = 0 (velocity rows only; the position rows hold already) with the
   // last Newton factorisation: its constraint rows are Φ_q + O(h) (Φ_q q̇)_q, so each solve
   // cuts the violation by a factor O(Ωh); the violation left by one step is O(h³). Leaves
@@ -301,9 +301,9 @@ bool CgAlpha::ProjectPositions(double t1) {
     // the Newton tolerance after 10 solves.
     if (k >= 10 && violation <= settings_.tolerance) return true;
     if (k == 30 || !std::isfinite(violation)) {
-      failure_ = "CGα: the position projection did not converge at t = " + interface::FormatNumber(t1) +
-                 " s (|Φ| = " + interface::FormatNumber(violation) + " after " + std::to_string(k) +
-                 " solves); reduce the step";
+      status->outcome = StepStatus::Outcome::kProjectionFailed;
+      status->violation = violation;
+      status->solves = k;
       return false;
     }
     previous = violation;
@@ -314,15 +314,52 @@ bool CgAlpha::ProjectPositions(double t1) {
   }
 }
 
+std::string StepStatus::Describe(const CgAlphaSettings& settings) const {
+  const std::string at = "at t = " + interface::FormatNumber(time) + " s";
+  switch (outcome) {
+    case Outcome::kConverged:
+      return "CGα: converged " + at + " in " + std::to_string(iterations) + " iterations";
+    case Outcome::kNotConverged:
+    case Outcome::kNonFiniteCorrection:
+      return "CGα: Newton did not converge in " + std::to_string(settings.max_iterations) + " iterations " + at +
+             " (tolerance " + interface::FormatNumber(settings.tolerance) +
+             "); reduce the step or raise numerics.smooth.newton_max_iterations";
+    case Outcome::kDiverged:
+      return "CGα: Newton diverged " + at + " (iteration " + std::to_string(failed_iteration) +
+             ": the iteration matrix is no longer finite)";
+    case Outcome::kProjectionFailed:
+      return "CGα: the position projection did not converge " + at + " (|Φ| = " + interface::FormatNumber(violation) +
+             " after " + std::to_string(solves) + " solves); reduce the step";
+    case Outcome::kNonFiniteSolution:
+      return "CGα: Newton reached non-finite multipliers or rates " + at;
+    case Outcome::kSingularMatrix:
+      return "CGα: the iteration matrix is singular at t = " + std::to_string(time) +
+             " s (redundant constraints or a singular configuration)";
+  }
+  return "CGα: unknown outcome";
+}
+
 int CgAlpha::Step(double t, double h, const DaeState* guess) {
+  const StepStatus status = TryStep(t, h, guess);
+  if (!status.ok()) throw NumericalError(status.Describe(settings_));
+  return status.iterations;
+}
+
+StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess) {
   const int m = system_.constraints.size();
   const double t1 = t + h;
+  StepStatus status;
+  status.time = t1;
   if (RestartAtRelease(system_, t, t1, &state_)) {
     a_ = state_.qddot;
     elastic_.Reset(state_.q);
     started_ = true;
   }
-  if (!started_) {
+  // A failed step leaves the integrator as it was, its start-up too: the retry starts up again
+  // (a start-up that failed used to mark the integrator started, and the retried first step
+  // then went without it).
+  const bool starting = !started_;
+  if (starting) {
     // a_0 = q̈(t_0 + Δα h), Δα = αm − αf < 0 (accurate to O(h²), which is what second order
     // needs): the accelerations consistent with the state at t_0 + Δα h, and that state from
     // one trapezoidal step (CGα with ρ∞ = 1, time-reversible) of length Δα h.
@@ -340,7 +377,11 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
       CgAlphaSettings trapezoidal = settings_;
       trapezoidal.rho_inf = 1.0;  // Δα = 0: no start-up of its own
       CgAlpha shift(system_, trapezoidal, state_);
-      shift.Step(t, delta);
+      const StepStatus shifted_status = shift.TryStep(t, delta);
+      if (!shifted_status.ok()) {
+        started_ = false;
+        return shifted_status;
+      }
       DaeState shifted = shift.state();
       ConsistentAccelerations(system_, t + delta, &shifted);
       a_ = shifted.qddot;
@@ -365,26 +406,22 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
                             : settings_.frame_body >= 0 ? Matrices::kFreshFirst
                                                         : Matrices::kFreshEach;
   if (matrices != Matrices::kFreshEach) predicted_ = next_;  // kept for a retry with fresh matrices
-  int iterations = 0;
-  bool converged = Newton(t1, h, matrices, &iterations);
-  if (!converged && matrices != Matrices::kFreshEach) {
+  Newton(t1, h, matrices, &status);
+  if (!status.ok() && status.outcome != StepStatus::Outcome::kSingularMatrix && matrices != Matrices::kFreshEach) {
     next_ = predicted_;
-    converged = Newton(t1, h, Matrices::kFreshEach, &iterations);
+    Newton(t1, h, Matrices::kFreshEach, &status);
   }
-  if (converged) {
+  if (status.ok()) {
     // Accept: a_{n+1} from Eq. (3).
     a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) /
          (1.0 - coef_.alpha_m);
     elastic_.Accept(state_.q, next_.q);
     std::swap(state_, next_);
     ++age_;
-    return iterations;
+  } else if (starting) {
+    started_ = false;  // (a_ is set again by the next start-up)
   }
-  if (!failure_.empty()) throw NumericalError(failure_);
-  throw NumericalError("CGα: Newton did not converge in " + std::to_string(settings_.max_iterations) +
-                       " iterations at t = " + interface::FormatNumber(t1) + " s (tolerance " +
-                       interface::FormatNumber(settings_.tolerance) +
-                       "); reduce the step or raise numerics.smooth.newton_max_iterations");
+  return status;
 }
 
 Eigen::Matrix3d CgAlpha::FrameAxes(const Eigen::VectorXd& q) const { return BodyAxes(q, settings_.frame_body); }
@@ -415,16 +452,16 @@ void CgAlpha::SolveAt(Eigen::Ref<Eigen::VectorXd> x, const Eigen::VectorXd& q) {
   rotate(R);
 }
 
-bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
+void CgAlpha::Newton(double t1, double h, Matrices matrices, StepStatus* status) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const double bh2 = coef_.beta * h * h;
   const double beta_prime = (1.0 - coef_.alpha_m) / ((1.0 - coef_.alpha_f) * bh2);
   const double gamma_prime = coef_.gamma / (coef_.beta * h);
   double previous_dq = std::numeric_limits<double>::infinity();
-  failure_.clear();
+  using Outcome = StepStatus::Outcome;
   ConstraintRows(t1, /*phi_known=*/false);
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
-    ++*iterations;
+    ++status->iterations;
     // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix unless reused.
     system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
     const bool fresh = matrices == Matrices::kFreshEach || (matrices == Matrices::kFreshFirst && iteration == 1);
@@ -447,13 +484,13 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
       // (observed: |q| 3e158 after 13 iterations): a failed Newton solve, not a singular model.
       const Eigen::Map<const Eigen::VectorXd> values(S_.valuePtr(), S_.nonZeros());
       if (!values.allFinite()) {
-        failure_ = "CGα: Newton diverged at t = " + interface::FormatNumber(t1) + " s (iteration " +
-                   std::to_string(iteration) + ": the iteration matrix is no longer finite)";
-        return false;
+        status->outcome = Outcome::kDiverged;
+        status->failed_iteration = iteration;
+        return;
       }
       if (!lu_.Factorize(S_)) {
-        throw NumericalError("CGα: the iteration matrix is singular at t = " + std::to_string(t1) +
-                             " s (redundant constraints or a singular configuration)");
+        status->outcome = Outcome::kSingularMatrix;
+        return;
       }
       factorized_ = true;
       h_factorized_ = h;
@@ -468,14 +505,17 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
     next_.qddot += beta_prime * dq;
     next_.lambda += delta_.tail(m) / bh2;
     const double dq_norm = dq.lpNorm<Eigen::Infinity>();
-    if (!std::isfinite(dq_norm)) return false;
+    if (!std::isfinite(dq_norm)) {
+      status->outcome = Outcome::kNonFiniteCorrection;
+      return;
+    }
     // INDEX2_PROJECTED: the positions back onto Φ = 0 (velocity rows) inside the iteration, as a
     // displacement of q alone (q̇ and q̈ stay the Newmark ones): the next residual, forces and
     // the GEMM elastic force then see the corrected positions, as in the coupled GGL form
     // q_{n+1} = q_Newmark + Φ_qᵀν. Projecting only after convergence leaves λ and f̃ at the
     // uncorrected positions, and the multipliers drop to first order (observed: 1.0–1.2 for the
     // flexible pendulum's reactions, 2.1 with the projection here).
-    if (any_velocity_row_ && !ProjectPositions(t1)) return false;
+    if (any_velocity_row_ && !ProjectPositions(t1, status)) return;
     // Converged: small correction and the closing rows met (velocity rows measured as h |Φ_q q̇ + Φ_t|,
     // the position change their violation makes over one step). rows_ serves the next iteration too.
     ConstraintRows(t1, /*phi_known=*/any_velocity_row_);
@@ -499,9 +539,10 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
       // Only a finite iterate is a solution: the multipliers are not in the test above, and a
       // reused matrix far from today's can leave them non-finite with a small |Δq| (observed:
       // the continuous Puma engagement at h = 2 ms, jacobian_max_age 80, the watchdog at 26.4 s).
-      if (next_.lambda.allFinite() && next_.qdot.allFinite() && next_.qddot.allFinite()) return true;
-      failure_ = "CGα: Newton reached non-finite multipliers or rates at t = " + interface::FormatNumber(t1) + " s";
-      return false;
+      status->outcome = next_.lambda.allFinite() && next_.qdot.allFinite() && next_.qddot.allFinite()
+                            ? Outcome::kConverged
+                            : Outcome::kNonFiniteSolution;
+      return;
     }
     // A reused matrix that no longer contracts the correction well is replaced by a fresh one
     // for the rest of the step (full Newton from here).
@@ -510,7 +551,7 @@ bool CgAlpha::Newton(double t1, double h, Matrices matrices, int* iterations) {
     }
     previous_dq = dq_norm;
   }
-  return false;
+  status->outcome = Outcome::kNotConverged;
 }
 
 }  // namespace cosim::smooth

@@ -104,6 +104,30 @@ struct CgAlphaSettings {
   int frame_body = -1;
 };
 
+// How a CGα step went: its outcome and statistics (in the spirit of Drake's SapSolverStatus). A
+// failed step leaves the integrator's state as it was; Describe says why in words for a run's
+// reason. Only the callers that end a run turn a failed status into an error (Step does, for
+// those with nothing else to try); the adaptive controller and the coupling back-track on it.
+struct StepStatus {
+  enum class Outcome {
+    kConverged,
+    kNotConverged,         // max_iterations without meeting the tolerances
+    kNonFiniteCorrection,  // a Newton correction was not finite
+    kDiverged,             // the iteration matrix stopped being finite (at failed_iteration)
+    kProjectionFailed,     // INDEX2_PROJECTED: the position projection did not converge
+    kNonFiniteSolution,    // converged positions with non-finite multipliers or rates
+    kSingularMatrix,       // the iteration matrix is singular (a model fault, not the step's)
+  };
+  Outcome outcome = Outcome::kConverged;
+  int iterations = 0;        // Newton iterations, over every try of the step
+  double time = 0.0;         // the step's end t + h [s]
+  int failed_iteration = 0;  // kDiverged
+  double violation = 0.0;    // kProjectionFailed: |Φ| left
+  int solves = 0;            // kProjectionFailed: projection solves done
+  bool ok() const { return outcome == Outcome::kConverged; }
+  std::string Describe(const CgAlphaSettings& settings) const;
+};
+
 class CgAlpha : public SmoothIntegrator {
  public:
   // `initial` must be consistent (positions, velocities, accelerations, multipliers).
@@ -117,6 +141,9 @@ class CgAlpha : public SmoothIntegrator {
   // whose imposed coordinates have changed a little since), which satisfies the step's Newmark
   // relations between q, q̇ and q̈ as the predictor does.
   int Step(double t, double h, const DaeState* guess);
+  // The same without throwing: the step's status (state advanced only if it converged).
+  StepStatus TryStep(double t, double h, const DaeState* guess = nullptr);
+  const CgAlphaSettings& settings() const { return settings_; }
 
   const DaeState& state() const override { return state_; }
   double alpha_m() const { return coef_.alpha_m; }
@@ -195,8 +222,9 @@ class CgAlpha : public SmoothIntegrator {
   // convergence test); returns |out|∞.
   double ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) const;
   // INDEX2_PROJECTED: projects next_.q onto Φ(q, t1) = 0 on the velocity rows with the last
-  // factorisation (a chord iteration); false (and failure_ says why) if it does not converge.
-  bool ProjectPositions(double t1);
+  // factorisation (a chord iteration); false (and *status says how far it got) if it does not
+  // converge.
+  bool ProjectPositions(double t1, StepStatus* status);
 
   const MultibodySystem& system_;
   SystemData* data_ = nullptr;  // system_'s changing state, saved with the checkpoints (AttachData)
@@ -212,7 +240,6 @@ class CgAlpha : public SmoothIntegrator {
   bool any_velocity_row_ = false;
   long long projection_solves_ = 0;
   long long factorizations_ = 0;
-  std::string failure_;  // why the last Newton solve failed, if not for want of iterations
   // The factorisation in lu_: valid for step h_factorized_, reused for age_ accepted steps.
   bool factorized_ = false;
   double h_factorized_ = 0.0;
@@ -221,9 +248,9 @@ class CgAlpha : public SmoothIntegrator {
   // step (then fresh ones if it stops contracting), a fresh one in the first iteration kept for
   // the later ones while they contract well (modified Newton), or a fresh one in every iteration.
   enum class Matrices { kReused, kFreshFirst, kFreshEach };
-  // One Newton solve of the step from its predictor (next_ set). Returns whether it converged;
-  // adds the iterations to *iterations.
-  bool Newton(double t1, double h, Matrices matrices, int* iterations);
+  // One Newton solve of the step from its predictor (next_ set): status->outcome says how it
+  // ended; the iterations are added to status->iterations.
+  void Newton(double t1, double h, Matrices matrices, StepStatus* status);
   // x ← S⁻¹ x with the factorisation in lu_, co-rotated with settings_.frame_body (see there)
   // from its axes when the matrix was assembled to their value at next_.q.
   void Solve(Eigen::Ref<Eigen::VectorXd> x);

@@ -494,10 +494,11 @@ void MultibodySimulation::Step(double t, double h) {
   StepHooks standalone;
   standalone.attempt = [&cg](double from, double step) {
     AttemptOutcome outcome;
-    try {
-      outcome.iterations = cg.Step(from, step);
-    } catch (const NumericalError& e) {
-      outcome.failure = e.what();
+    const StepStatus status = cg.TryStep(from, step);
+    if (status.ok()) {
+      outcome.iterations = status.iterations;
+    } else {
+      outcome.failure = status.Describe(cg.settings());
     }
     return outcome;
   };

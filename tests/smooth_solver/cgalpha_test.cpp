@@ -267,6 +267,34 @@ DaeState RunTo(const std::string& path, const std::vector<std::string>& sets, do
   return sim->integrator().state();
 }
 
+TEST(StepStatus, AFailedStepSaysWhyWithoutThrowingAndLeavesTheIntegratorAsItWas) {
+  // The adaptive controller and the coupling back-track on a failed step: TryStep reports it
+  // (outcome and statistics) instead of throwing, and leaves the integrator at the step's start,
+  // its start-up included, so that the same step fails the same way again. Step, for callers
+  // with nothing else to try, throws the same words. One Newton iteration cannot close a
+  // quarter turn of the four-bar's crank in one step. (Before, a failed first step marked the
+  // integrator started: its retry skipped the start-up and failed in the position projection.)
+  auto sim = Load(kFourBar, {"numerics.smooth.newton_max_iterations=1"});
+  CgAlpha& cg = *sim->cgalpha();
+  const Eigen::VectorXd q0 = cg.state().q;
+  const StepStatus first = cg.TryStep(0.0, 0.5);
+  EXPECT_FALSE(first.ok());
+  EXPECT_GE(first.iterations, 1);
+  EXPECT_EQ(cg.state().q, q0);
+  const std::string why = first.Describe(cg.settings());
+  EXPECT_NE(why.find("CGα: Newton did not converge in 1 iterations"), std::string::npos) << why;
+  const StepStatus again = cg.TryStep(0.0, 0.5);
+  EXPECT_EQ(again.outcome, first.outcome);
+  EXPECT_EQ(again.Describe(cg.settings()), why);
+  try {
+    cg.Step(0.0, 0.5);
+    ADD_FAILURE() << "Step took the step";
+  } catch (const NumericalError& e) {
+    EXPECT_EQ(std::string(e.what()), why);
+  }
+  EXPECT_EQ(cg.state().q, q0);
+}
+
 TEST(JacobianReuse, SameAnswerToTheNewtonToleranceWithFewerFactorisations) {
   // numerics.smooth.jacobian_max_age: a modified Newton method. The step's acceptance test is the
   // same (|Δq| and |Φ| within the tolerance), so the state after 1 s of the four-bar (1000 steps)

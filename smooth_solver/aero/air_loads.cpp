@@ -169,10 +169,9 @@ bool LocateInMesh(const ElasticMesh& mesh, const Vector3d& X, MeshPoint* at) {
   return false;
 }
 
-AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset, SystemData* data)
-    : model_(std::move(model)), elastic_offset_(std::move(elastic_offset)), data_(data) {
+AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset)
+    : model_(std::move(model)), elastic_offset_(std::move(elastic_offset)) {
   rotor_sections_.resize(model_.rotors.size());
-  data->rotors.assign(model_.rotors.size(), RotorState{});
   std::vector<double> gx, gw;
   for (size_t si = 0; si < model_.surfaces.size(); ++si) {
     const AeroSurfaceSpec& sf = model_.surfaces[si];
@@ -409,11 +408,11 @@ void AirLoads::Compute(const AeroSection& s, const Eigen::VectorXd& q, const Eig
   o->D(3, 2) = 0.0;
 }
 
-void AirLoads::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+void AirLoads::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                         Eigen::Ref<Eigen::VectorXd> f) const {
   Local o;
   for (const AeroSection& s : sections_) {
-    const RotorState* r = s.rotor >= 0 ? &data_->rotors[static_cast<size_t>(s.rotor)] : nullptr;
+    const RotorState* r = s.rotor >= 0 ? &data.rotors[static_cast<size_t>(s.rotor)] : nullptr;
     Compute(s, q, qdot, t, r, false, &o);
     const Vector3d F = s.weight * o.F, couple = s.weight * o.m * o.e2;
     for (int k = 0; k < s.slots; ++k) {
@@ -423,8 +422,8 @@ void AirLoads::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, d
   }
 }
 
-void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                          double damping_scale, SparseSink* sink) const {
+void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                          double stiffness_scale, double damping_scale, SparseSink* sink) const {
   constexpr int kMax = 3 * AeroSection::kMaxSlots;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMax, kMax> L;
   Local o;
@@ -433,7 +432,7 @@ void AirLoads::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
     L.setZero(3 * slots, 3 * slots);
     for (int k = group.first; k < group.last; ++k) {
       const AeroSection& s = sections_[static_cast<size_t>(k)];
-      const RotorState* r = s.rotor >= 0 ? &data_->rotors[static_cast<size_t>(s.rotor)] : nullptr;
+      const RotorState* r = s.rotor >= 0 ? &data.rotors[static_cast<size_t>(s.rotor)] : nullptr;
       Compute(s, q, qdot, t, r, true, &o);
       Matrix3d R;
       R << o.e1, o.e2, o.e3;
@@ -496,9 +495,9 @@ void AirLoads::Pattern(SparseSink* sink) const {
 }
 
 AirLoads::SectionResult AirLoads::Evaluate(const AeroSection& section, const Eigen::VectorXd& q,
-                                           const Eigen::VectorXd& qdot, double t) const {
+                                           const Eigen::VectorXd& qdot, double t, const SystemData& data) const {
   Local o;
-  const RotorState* r = section.rotor >= 0 ? &data_->rotors[static_cast<size_t>(section.rotor)] : nullptr;
+  const RotorState* r = section.rotor >= 0 ? &data.rotors[static_cast<size_t>(section.rotor)] : nullptr;
   Compute(section, q, qdot, t, r, false, &o);
   SectionResult res;
   res.alpha = o.alpha;
@@ -557,8 +556,9 @@ AirLoads::RotorResult AirLoads::RotorLoads(int r, const RotorState& state, const
   return res;
 }
 
-AirLoads::RotorResult AirLoads::Rotor(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const {
-  return RotorLoads(r, data_->rotors[static_cast<size_t>(r)], q, qdot, t);
+AirLoads::RotorResult AirLoads::Rotor(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                                      const SystemData& data) const {
+  return RotorLoads(r, data.rotors[static_cast<size_t>(r)], q, qdot, t);
 }
 
 void AirLoads::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, SystemData* data) const {

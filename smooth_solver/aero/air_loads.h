@@ -136,12 +136,13 @@ struct AeroSection {
 class AirLoads : public ForceElement {
  public:
   // `elastic_offset`: the first coordinate of each elastic body's nodes. The rotors' inflow is
-  // read from `data->rotors` (sized here, one per rotor), which AcceptStep advances.
-  AirLoads(AeroModel model, std::vector<int> elastic_offset, SystemData* data);
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  // read from `data.rotors` (one per rotor: rotor_count()), which AcceptStep advances.
+  AirLoads(AeroModel model, std::vector<int> elastic_offset);
+  size_t rotor_count() const { return model_.rotors.size(); }
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   bool Passive() const override { return false; }
   // Advances the rotors' inflow to the accepted state (uniform: solved anew; Pitt–Peters: one
@@ -156,14 +157,15 @@ class AirLoads : public ForceElement {
     Eigen::Vector3d force_local = Eigen::Vector3d::Zero();  // per span, section frame
     Eigen::Vector3d force = Eigen::Vector3d::Zero(), point = Eigen::Vector3d::Zero();  // global, at a
   };
-  SectionResult Evaluate(const AeroSection& section, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
-                         double t) const;
+  SectionResult Evaluate(const AeroSection& section, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                         const SystemData& data) const;
   struct RotorResult {
     double thrust = 0.0, torque = 0.0, moment_x = 0.0, moment_y = 0.0;  // moments: first moments of thrust
     double inflow_ratio = 0.0, induced = 0.0, tip_speed = 0.0;
   };
   // Loads of rotor r's blades at (q, q̇, t) under its current inflow.
-  RotorResult Rotor(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) const;
+  RotorResult Rotor(int r, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                    const SystemData& data) const;
   size_t section_count() const { return sections_.size(); }
 
  private:
@@ -189,7 +191,6 @@ class AirLoads : public ForceElement {
   };
   std::vector<Group> groups_;
   std::vector<std::vector<int>> rotor_sections_;
-  const SystemData* data_;  // data_->rotors: one per model_.rotors
 };
 
 }  // namespace cosim::smooth

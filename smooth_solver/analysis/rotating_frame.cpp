@@ -110,8 +110,8 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
     system.Force(q, zero, options.t, f);
     if (air != nullptr) {  // the air's share at W q̂ instead of at rest
       Eigen::VectorXd moving = Eigen::VectorXd::Zero(n), still = Eigen::VectorXd::Zero(n);
-      air->AddForce(q, velocity(q), options.t, moving);
-      air->AddForce(q, zero, options.t, still);
+      air->AddForce(q, velocity(q), options.t, system.data(), moving);
+      air->AddForce(q, zero, options.t, system.data(), still);
       f += moving - still;
     }
     R->head(n) = -f + MW2 * WithoutOrigin(system, q, frame.origin);
@@ -133,9 +133,9 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
     if (air != nullptr) {
       const Eigen::VectorXd v = velocity(r.q);
       TripletSink damping;
-      air->AddTangent(r.q, v, options.t, 1.0, 0.0, &sink);
-      air->AddTangent(r.q, zero, options.t, -1.0, 0.0, &sink);
-      air->AddTangent(r.q, v, options.t, 0.0, 1.0, &damping);
+      air->AddTangent(r.q, v, options.t, system.data(), 1.0, 0.0, &sink);
+      air->AddTangent(r.q, zero, options.t, system.data(), -1.0, 0.0, &sink);
+      air->AddTangent(r.q, v, options.t, system.data(), 0.0, 1.0, &damping);
       AddSparse(Eigen::SparseMatrix<double>(damping.Build(n) * W), 1.0, &sink);  // −∂f/∂q̇ · ∂(W q̂)/∂q
     }
     AddSparse(MW2, 1.0, &sink);
@@ -191,12 +191,12 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
       const Eigen::VectorXd v = W * WithoutOrigin(system, q, frame.origin);
       Eigen::MatrixXd Ca = Eigen::MatrixXd::Zero(n, n);  // the air's −∂f/∂q̇ at W q̂
       DenseSink ca(&Ca);
-      air->AddTangent(q, v, t, 1.0, 0.0, &k);
-      air->AddTangent(q, zero, t, -1.0, 0.0, &k);
-      air->AddTangent(q, v, t, 0.0, 1.0, &ca);
+      air->AddTangent(q, v, t, system.data(), 1.0, 0.0, &k);
+      air->AddTangent(q, zero, t, system.data(), -1.0, 0.0, &k);
+      air->AddTangent(q, v, t, system.data(), 0.0, 1.0, &ca);
       K += Ca * W;
       // C holds the air's damping at rest (from AddForceTangent): replace it by the one at W q̂.
-      air->AddTangent(q, zero, t, 0.0, -1.0, &c);
+      air->AddTangent(q, zero, t, system.data(), 0.0, -1.0, &c);
       C += Ca;
     }
   }

@@ -218,7 +218,7 @@ void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, 
   }
 }
 
-void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
                          Eigen::Ref<Eigen::VectorXd> f) const {
   Local ql, vl, fl;
   for (const BeamElement& e : elements_) {
@@ -233,8 +233,8 @@ void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, 
   }
 }
 
-void BeamForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, double stiffness_scale,
-                           double damping_scale, SparseSink* sink) const {
+void BeamForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
+                           double stiffness_scale, double damping_scale, SparseSink* sink) const {
   Local ql, vl;
   LocalMatrix K, C;
   const int nl = kCoordinatesPerBody * n_;

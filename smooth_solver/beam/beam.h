@@ -102,10 +102,10 @@ Eigen::MatrixXd BeamElementMass(int n, double s0, double length, const BeamTable
 class BeamForce : public ForceElement {
  public:
   BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, double retardation);
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 

@@ -9,27 +9,27 @@ void ElasticForce::AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::Vecto
                           k_scale, sink, offset_);
 }
 
-void ElasticForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, double,
+void ElasticForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, double, const SystemData&,
                             Eigen::Ref<Eigen::VectorXd> f) const {
   body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, -1.0,
                           f.segment(offset_, 3 * body_->node_count()), 0.0, nullptr, offset_);
 }
 
-void ElasticForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd&, double, double stiffness_scale, double,
-                              SparseSink* sink) const {
+void ElasticForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd&, double, const SystemData&,
+                              double stiffness_scale, double, SparseSink* sink) const {
   if (stiffness_scale == 0.0) return;  // no damping in the material law
   Eigen::VectorXd unused(0);           // f_scale = 0: the force is not assembled
   body_->AssembleMidpoint(Positions(q), Positions(q), MidpointWeights{}, 0.0, unused, stiffness_scale, sink, offset_);
 }
 
-void ElasticDamping::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+void ElasticDamping::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
                               Eigen::Ref<Eigen::VectorXd> f) const {
   body_->AssembleViscous(Nodes(q), Nodes(qdot), retardation_, -1.0, f.segment(offset_, 3 * body_->node_count()), 0.0,
                          0.0, nullptr, offset_);
 }
 
-void ElasticDamping::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, double stiffness_scale,
-                                double damping_scale, SparseSink* sink) const {
+void ElasticDamping::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
+                                double stiffness_scale, double damping_scale, SparseSink* sink) const {
   if (stiffness_scale == 0.0 && damping_scale == 0.0) return;
   Eigen::VectorXd unused(0);
   body_->AssembleViscous(Nodes(q), Nodes(qdot), retardation_, 0.0, unused, stiffness_scale, damping_scale, sink,

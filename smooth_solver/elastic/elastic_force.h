@@ -19,10 +19,10 @@ class ElasticForce : public ForceElement {
  public:
   ElasticForce(const ElasticBody* body, int offset, double strain_damping)
       : body_(body), offset_(offset), strain_damping_(strain_damping) {}
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
   bool IsElastic() const override { return true; }
@@ -48,10 +48,10 @@ class ElasticDamping : public ForceElement {
  public:
   ElasticDamping(const ElasticBody* body, int offset, double retardation)
       : body_(body), offset_(offset), retardation_(retardation) {}
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
 
  private:
@@ -71,11 +71,12 @@ class NodalForce : public ForceElement {
   NodalForce(int index, const Eigen::Vector3d& reference, const Eigen::Vector3d& force, interface::TimeFunction factor,
              bool time_varying)
       : index_(index), reference_(reference), force_(force), factor_(std::move(factor)), time_varying_(time_varying) {}
-  void AddForce(const Eigen::VectorXd&, const Eigen::VectorXd&, double t,
+  void AddForce(const Eigen::VectorXd&, const Eigen::VectorXd&, double t, const SystemData&,
                 Eigen::Ref<Eigen::VectorXd> f) const override {
     f.segment<3>(index_) += factor_.Value(t) * force_;
   }
-  void AddTangent(const Eigen::VectorXd&, const Eigen::VectorXd&, double, double, double, SparseSink*) const override {}
+  void AddTangent(const Eigen::VectorXd&, const Eigen::VectorXd&, double, const SystemData&, double, double,
+                  SparseSink*) const override {}
   void Pattern(SparseSink*) const override {}
   double PotentialEnergy(const Eigen::VectorXd& q) const override {
     return time_varying_ ? 0.0 : -factor_.Value(0.0) * force_.dot(q.segment<3>(index_) - reference_);

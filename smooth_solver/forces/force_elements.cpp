@@ -30,7 +30,7 @@ Eigen::Vector3d AppliedLoad::Value(const std::array<interface::TimeFunction, 3>&
   return Eigen::Vector3d(f[0].Value(t), f[1].Value(t), f[2].Value(t));
 }
 
-void AppliedLoad::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, double t,
+void AppliedLoad::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, double t, const SystemData&,
                            Eigen::Ref<Eigen::VectorXd> f) const {
   const Eigen::Vector3d F = Value(force_, t);
   f.segment<3>(offset_) += F;
@@ -41,8 +41,8 @@ void AppliedLoad::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&, dou
   }
 }
 
-void AppliedLoad::AddTangent(const Eigen::VectorXd&, const Eigen::VectorXd&, double t, double stiffness_scale, double,
-                             SparseSink* sink) const {
+void AppliedLoad::AddTangent(const Eigen::VectorXd&, const Eigen::VectorXd&, double t, const SystemData&,
+                             double stiffness_scale, double, SparseSink* sink) const {
   if (!has_torque_) return;
   // f_{u_k} = ½ T × u_k = ½ [T]× u_k:  K = −∂f/∂q = −½ [T]× on each axis block.
   const Eigen::Matrix3d block = -0.5 * stiffness_scale * Skew(Value(torque_, t));
@@ -70,7 +70,7 @@ void AppliedLoad::Pattern(SparseSink* sink) const {
 PointSpring::PointSpring(LinearVector p1, LinearVector p2, double stiffness, double damping, double rest_length)
     : d_(p2 - p1), k_(stiffness), c_(damping), rest_(rest_length) {}
 
-void PointSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+void PointSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
                            Eigen::Ref<Eigen::VectorXd> f) const {
   const Eigen::Vector3d d = d_.Value(q), d_dot = d_.Rate(qdot);
   const double L = d.norm();
@@ -81,8 +81,8 @@ void PointSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot
   for (const auto& t : d_.terms) f.segment<3>(t.offset) -= t.coefficient * F;
 }
 
-void PointSpring::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, double stiffness_scale,
-                             double damping_scale, SparseSink* sink) const {
+void PointSpring::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
+                             double stiffness_scale, double damping_scale, SparseSink* sink) const {
   const Eigen::Vector3d d = d_.Value(q), d_dot = d_.Rate(qdot);
   const double L = d.norm();
   if (!(L > 0.0)) return;
@@ -218,7 +218,7 @@ CoordinateSpring::Local CoordinateSpring::Evaluate(const Eigen::VectorXd& q, boo
   return out;
 }
 
-void CoordinateSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+void CoordinateSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
                                 Eigen::Ref<Eigen::VectorXd> f) const {
   const Local l = Evaluate(q, /*hessian=*/false);
   double rate = 0.0;
@@ -228,8 +228,8 @@ void CoordinateSpring::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd&
   for (size_t i = 0; i < coordinates_.size(); ++i) f(coordinates_[i]) -= tau * l.gradient(static_cast<Eigen::Index>(i));
 }
 
-void CoordinateSpring::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, double stiffness_scale,
-                                  double damping_scale, SparseSink* sink) const {
+void CoordinateSpring::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
+                                  double stiffness_scale, double damping_scale, SparseSink* sink) const {
   const Local l = Evaluate(q);
   const int n = static_cast<int>(coordinates_.size());
   LocalVector v(n);
@@ -261,17 +261,17 @@ double CoordinateSpring::PotentialEnergy(const Eigen::VectorXd& q) const {
 
 void UnilateralContact::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double /*t*/,
                                    SystemData* data) const {
-  const State s = Evaluate(q, qdot);
+  const State s = Measure(q, qdot);
   if (s.delta <= 0.0) data->impact_speed[slot_] = std::max(s.rate, law_.speed_threshold);  // the approach speed so far
 }
 
 double UnilateralContact::TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
-  const State s = Evaluate(q, qdot);
+  const State s = Measure(q, qdot);
   if (s.delta >= 0.0 || s.rate <= 0.0) return std::numeric_limits<double>::infinity();  // in contact, or opening
   return -s.delta / s.rate;
 }
 
-UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
+UnilateralContact::State UnilateralContact::Measure(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
   State s;
   s.measure = measure_.Evaluate(q, /*hessian=*/false);
   double theta_dot = 0.0;
@@ -280,8 +280,14 @@ UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, c
     theta_dot += s.measure.gradient(static_cast<Eigen::Index>(i)) * qdot(index[i]);
   s.delta = side_ * (threshold_ - s.measure.value);
   s.rate = -side_ * theta_dot;
+  return s;
+}
+
+UnilateralContact::State UnilateralContact::Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot,
+                                                     const SystemData& data) const {
+  State s = Measure(q, qdot);
   const interface::HuntCrossleyForce c =
-      interface::EvaluateHuntCrossley(law_, data_->impact_speed[slot_], s.delta, s.rate);
+      interface::EvaluateHuntCrossley(law_, data.impact_speed[slot_], s.delta, s.rate);
   s.f = c.f;
   s.df_ddelta = c.df_ddelta;
   s.df_drate = c.df_drate;
@@ -294,9 +300,9 @@ double UnilateralContact::PotentialEnergy(const Eigen::VectorXd& q) const {
   return law_.stiffness * std::pow(delta, law_.exponent + 1.0) / (law_.exponent + 1.0);
 }
 
-void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
+void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData& data,
                                  Eigen::Ref<Eigen::VectorXd> f) const {
-  const State c = Evaluate(q, qdot);
+  const State c = Evaluate(q, qdot, data);
   if (c.f == 0.0) return;
   const auto& index = measure_.coordinates();
   // The force opposes penetration: its virtual work is −f δδ, so Q = −f ∇δ = side f ∇θ.
@@ -306,8 +312,9 @@ void UnilateralContact::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd
 }
 
 void UnilateralContact::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double,
-                                   double stiffness_scale, double damping_scale, SparseSink* sink) const {
-  const State c = Evaluate(q, qdot);
+                                   const SystemData& data, double stiffness_scale, double damping_scale,
+                                   SparseSink* sink) const {
+  const State c = Evaluate(q, qdot, data);
   if (c.f == 0.0) return;  // open: no tangent (and no Hessian to make)
   const CoordinateSpring::Local l = measure_.Evaluate(q, /*hessian=*/true);
   const auto& index = measure_.coordinates();

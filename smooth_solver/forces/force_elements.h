@@ -22,11 +22,11 @@ class ForceElement {
  public:
   virtual ~ForceElement() = default;
   // f += generalised force at (q, q̇, t).
-  virtual void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  virtual void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                         Eigen::Ref<Eigen::VectorXd> f) const = 0;
   // sink += stiffness_scale · K + damping_scale · C (entries in q-space).
-  virtual void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                          double damping_scale, SparseSink* sink) const = 0;
+  virtual void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                          double stiffness_scale, double damping_scale, SparseSink* sink) const = 0;
   // Every (row, column) AddTangent may touch.
   virtual void Pattern(SparseSink* sink) const = 0;
   virtual double PotentialEnergy(const Eigen::VectorXd&) const { return 0.0; }
@@ -36,8 +36,8 @@ class ForceElement {
   // (time-varying or follower loads): the energy watchdog is then off in AUTO mode.
   virtual bool Passive() const { return true; }
   // A step was accepted (or the run starts) at (q, q̇): elements with a memory update it in
-  // `data` (the contact laws' impact speed, the rotors' inflow), which they read otherwise
-  // through the const pointer they were built with. Called by the owner of the run's
+  // `data` (the contact laws' impact speed, the rotors' inflow), which every evaluation is given
+  // (the element keeps its slots in it, never a pointer to it). Called by the owner of the run's
   // SystemData, never inside Newton; the element itself keeps nothing that changes.
   virtual void AcceptStep(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/, double /*t*/,
                           SystemData* /*data*/) const {}
@@ -55,10 +55,10 @@ class AppliedLoad : public ForceElement {
  public:
   AppliedLoad(int body, const Eigen::Vector3d& point, std::array<interface::TimeFunction, 3> force,
               std::array<interface::TimeFunction, 3> torque, bool has_torque);
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
 
   // Its work is not in PotentialEnergy (a torque, or a force that varies in time).
@@ -77,10 +77,10 @@ class AppliedLoad : public ForceElement {
 class PointSpring : public ForceElement {
  public:
   PointSpring(LinearVector p1, LinearVector p2, double stiffness, double damping, double rest_length);
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 
@@ -97,10 +97,10 @@ class CoordinateSpring : public ForceElement {
   CoordinateSpring(LinearVector b1, LinearVector c1, LinearVector b2, double stiffness, double damping, double rest);
   // Prismatic form.
   CoordinateSpring(LinearVector separation, LinearVector axis, double stiffness, double damping, double rest);
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 
@@ -133,31 +133,25 @@ class CoordinateSpring : public ForceElement {
 // angle against a stop (lower: side = +1, upper: side = −1). The generalised force is −f ∇δ.
 // δ̇⁻ is a memory: taken at the last accepted state before the penetration (AcceptStep), so it
 // is fixed within a step's Newton iterations (an O(h) approximation of the onset speed); it
-// lives in SystemData::impact_speed (slot given at construction), saved with CGα's checkpoints.
+// lives in SystemData::impact_speed (the slot given at construction), saved with CGα's checkpoints.
 using HuntCrossleyLaw = interface::HuntCrossleyLaw;
 
 class UnilateralContact : public ForceElement {
  public:
-  // Takes a new slot in data->impact_speed.
-  UnilateralContact(CoordinateSpring measure, double threshold, double side, const HuntCrossleyLaw& law,
-                    SystemData* data)
-      : measure_(std::move(measure)),
-        threshold_(threshold),
-        side_(side),
-        law_(law),
-        data_(data),
-        slot_(data->impact_speed.size()) {
-    data->impact_speed.push_back(0.0);
-  }
-  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+  // `slot`: its δ̇⁻ in SystemData::impact_speed.
+  UnilateralContact(CoordinateSpring measure, double threshold, double side, const HuntCrossleyLaw& law, size_t slot)
+      : measure_(std::move(measure)), threshold_(threshold), side_(side), law_(law), slot_(slot) {}
+  void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                 Eigen::Ref<Eigen::VectorXd> f) const override;
-  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                  double damping_scale, SparseSink* sink) const override;
+  void AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                  double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override { measure_.Pattern(sink); }
   void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, SystemData* data) const override;
   double TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const override;
   // The law's force f >= 0 [N, or N m for a joint stop] at (q, q̇): zero out of contact.
-  double LawForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const { return Evaluate(q, qdot).f; }
+  double LawForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, const SystemData& data) const {
+    return Evaluate(q, qdot, data).f;
+  }
   // The law's elastic part stores K δⁿ⁺¹/(n + 1); its damping part only dissipates.
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
 
@@ -169,14 +163,15 @@ class UnilateralContact : public ForceElement {
     double delta = 0.0, rate = 0.0;
     double f = 0.0, df_ddelta = 0.0, df_drate = 0.0;
   };
-  // The law's force at q, q̇ (its measure without the Hessian: only the tangent needs that).
-  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+  // θ, δ and δ̇ at q, q̇ (the measure without the Hessian: only the tangent needs that).
+  State Measure(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
+  // The same with the law's force (its onset speed from `data`).
+  State Evaluate(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, const SystemData& data) const;
 
   CoordinateSpring measure_;  // θ(q) with gradient and Hessian (zero stiffness: a measure only)
   double threshold_, side_;
   HuntCrossleyLaw law_;
-  const SystemData* data_;  // data_->impact_speed[slot_]: δ̇⁻, from the last accepted state without contact
-  size_t slot_;
+  size_t slot_;  // data.impact_speed[slot_]: δ̇⁻, from the last accepted state without contact
 };
 
 }  // namespace cosim::smooth

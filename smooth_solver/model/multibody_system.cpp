@@ -66,7 +66,7 @@ void MultibodySystem::Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdo
                             Eigen::Ref<Eigen::VectorXd> f, bool include_elastic) const {
   f = constant_force;
   for (const auto& element : forces) {
-    if (include_elastic || !element->IsElastic()) element->AddForce(q, qdot, t, f);
+    if (include_elastic || !element->IsElastic()) element->AddForce(q, qdot, t, *data_, f);
   }
 }
 
@@ -75,7 +75,7 @@ void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::Vec
                                       bool include_elastic) const {
   for (const auto& element : forces) {
     if (include_elastic || !element->IsElastic()) {
-      element->AddTangent(q, qdot, t, stiffness_scale, damping_scale, sink);
+      element->AddTangent(q, qdot, t, *data_, stiffness_scale, damping_scale, sink);
     }
   }
 }
@@ -151,6 +151,13 @@ Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::Vec
 }
 
 namespace {
+
+// A new slot for a contact law's onset speed in the system's data.
+size_t NewImpactSlot(MultibodySystem* sys) {
+  std::vector<double>& speeds = sys->mutable_data()->impact_speed;
+  speeds.push_back(0.0);
+  return speeds.size() - 1;
+}
 
 // Rigid bodies: the coordinates' initial values, the mass (kinetic energy in natural
 // coordinates), gravity, and six rigidity rows per body.
@@ -413,7 +420,7 @@ void AddForceElements(const MultibodyModel& model, MultibodySystem* sys) {
         // Signed gap g = (p − c)·n of body1's point against the plane (θ0 = 0, g >= 0 allowed).
         CoordinateSpring gap(LinearVector::Point(f.body1, f.point1) - LinearVector::Point(f.plane_body, f.plane_point),
                              LinearVector::Direction(f.plane_body, f.plane_normal), 0.0, 0.0, 0.0);
-        auto contact = std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law, sys->mutable_data());
+        auto contact = std::make_unique<UnilateralContact>(std::move(gap), 0.0, 1.0, f.law, NewImpactSlot(sys));
         sys->contact_laws.back().push_back(contact.get());
         sys->forces.push_back(std::move(contact));
         break;
@@ -426,7 +433,7 @@ void AddForceElements(const MultibodyModel& model, MultibodySystem* sys) {
           if (side > 0 ? !f.has_lower : !f.has_upper) continue;
           auto stop = std::make_unique<UnilateralContact>(CoordinateSpring(m.b1, m.c1, m.b2, 0.0, 0.0, 0.0),
                                                           (side > 0 ? f.lower : f.upper) - offset, side, f.law,
-                                                          sys->mutable_data());
+                                                          NewImpactSlot(sys));
           sys->contact_laws.back().push_back(stop.get());
           sys->forces.push_back(std::move(stop));
         }
@@ -520,7 +527,8 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   sys.mass.resize(n, n);
   sys.mass.setFromTriplets(mass.begin(), mass.end());
   if (!model.aero.empty()) {
-    auto air = std::make_unique<AirLoads>(model.aero, sys.elastic_offset, sys.mutable_data());
+    auto air = std::make_unique<AirLoads>(model.aero, sys.elastic_offset);
+    sys.mutable_data()->rotors.assign(air->rotor_count(), RotorInflowState{});
     sys.air_loads = air.get();
     sys.forces.push_back(std::move(air));
   }

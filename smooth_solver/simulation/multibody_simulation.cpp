@@ -383,7 +383,8 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kAeroMoment:
       case Kind::kAeroMach: {
         const AirLoads& air = *system_->air_loads;
-        const AirLoads::SectionResult r = air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_);
+        const AirLoads::SectionResult r =
+            air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_, system_->data());
         value = p.kind == Kind::kAeroAlpha    ? r.alpha
                 : p.kind == Kind::kAeroMoment ? r.moment
                 : p.kind == Kind::kAeroMach   ? r.mach
@@ -394,7 +395,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kRotorTorque:
       case Kind::kInflowRatio:
       case Kind::kInducedVelocity: {
-        const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_);
+        const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_, system_->data());
         value = p.kind == Kind::kRotorThrust   ? r.thrust
                 : p.kind == Kind::kRotorTorque ? r.torque
                 : p.kind == Kind::kInflowRatio ? r.inflow_ratio
@@ -403,7 +404,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       }
       case Kind::kContactForce:
         for (const UnilateralContact* law : system_->contact_laws[static_cast<size_t>(p.index)])
-          value += law->LawForce(s.q, s.qdot);
+          value += law->LawForce(s.q, s.qdot, system_->data());
         break;
       case Kind::kJointCoordinate:
         value = system_->JointCoordinate(p.index, s.q);

@@ -222,7 +222,8 @@ MultibodySystem Build(const std::string& text, const std::vector<std::string>& s
 // K = −∂f/∂q and C = −∂f/∂q̇ of the air loads against central differences of f, at q0 moved
 // off the manifold by ±dq and velocities ±v (deterministic patterns), time t: the relative
 // errors of each (Frobenius norms).
-std::pair<double, double> TangentErrors(const AirLoads& air, const Eigen::VectorXd& q0, double dq, double v, double t) {
+std::pair<double, double> TangentErrors(const AirLoads& air, const SystemData& data, const Eigen::VectorXd& q0,
+                                        double dq, double v, double t) {
   const int n = static_cast<int>(q0.size());
   Eigen::VectorXd q = q0, qdot(n);
   for (int i = 0; i < n; ++i) {
@@ -230,11 +231,11 @@ std::pair<double, double> TangentErrors(const AirLoads& air, const Eigen::Vector
     qdot(i) = v * std::cos(1.3 * i);
   }
   DenseCollector K(n), C(n);
-  air.AddTangent(q, qdot, t, 1.0, 0.0, &K);
-  air.AddTangent(q, qdot, t, 0.0, 1.0, &C);
+  air.AddTangent(q, qdot, t, data, 1.0, 0.0, &K);
+  air.AddTangent(q, qdot, t, data, 0.0, 1.0, &C);
   auto force = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv) {
     Eigen::VectorXd f = Eigen::VectorXd::Zero(n);
-    air.AddForce(qq, vv, t, f);
+    air.AddForce(qq, vv, t, data, f);
     return f;
   };
   Eigen::MatrixXd Kfd(n, n), Cfd(n, n);
@@ -275,12 +276,12 @@ TEST(AirLoads, TangentsMatchFiniteDifferences) {
   ASSERT_NE(sys.air_loads, nullptr);
   const AirLoads& air = *sys.air_loads;
   const int n = sys.coordinates;
-  const auto [k_error, c_error] = TangentErrors(air, sys.q0, 0.05, 8.0, 0.3);
+  const auto [k_error, c_error] = TangentErrors(air, sys.data(), sys.q0, 0.05, 8.0, 0.3);
   EXPECT_LT(k_error, 1e-6);
   EXPECT_LT(c_error, 1e-6);
   DenseCollector K(n), C(n);
-  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, 1.0, 0.0, &K);
-  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, 0.0, 1.0, &C);
+  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, sys.data(), 1.0, 0.0, &K);
+  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, sys.data(), 0.0, 1.0, &C);
   // And the pattern covers every entry the tangent touches.
   struct Marker : SparseSink {
     explicit Marker(int n) : m(Eigen::MatrixXi::Zero(n, n)) {}
@@ -327,7 +328,7 @@ TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents
   const int n = sys.coordinates;
   const Eigen::VectorXd qdot0 = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(n);
-  air.AddForce(sys.q0, qdot0, 0.0, f);
+  air.AddForce(sys.q0, qdot0, 0.0, sys.data(), f);
   const Eigen::Vector3d rigid = f.head<3>();
   Eigen::Vector3d flexible = Eigen::Vector3d::Zero();
   for (int k = sys.elastic_offset[0]; k < n; k += 3) flexible += f.segment<3>(k);
@@ -336,7 +337,7 @@ TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents
   EXPECT_GT(rigid.norm(), 50.0);
   EXPECT_LT((rigid - flexible).norm(), 1e-9 * rigid.norm());
   // Deformed and moving: K and C against central differences.
-  const auto [k_error, c_error] = TangentErrors(air, sys.q0, 0.01, 3.0, 0.0);
+  const auto [k_error, c_error] = TangentErrors(air, sys.data(), sys.q0, 0.01, 3.0, 0.0);
   EXPECT_LT(k_error, 1e-6);
   EXPECT_LT(c_error, 1e-6);
 }
@@ -370,7 +371,7 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
     MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal", theta,
                                            twist, omega, "UNIFORM"));
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
+    const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data());
     const double ct = r.thrust / (rho * A * std::pow(omega * R, 2));
     // Independent: ν from 2 ρ A ν² = T_strip(ν) by bisection.
     double lo = 0.0, hi = 50.0;
@@ -404,7 +405,7 @@ TEST(AirLoads, HoverInflowCarriesItsInducedPowerFactor) {
     MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM"),
                                 {"model.air.rotors[0].induced_velocity_factor=" + std::to_string(kappa)});
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data());
   };
   const AirLoads::RotorResult plain = hover(1.0), corrected = hover(1.21);
   double lo = 0.0, hi = 50.0;
@@ -430,7 +431,7 @@ TEST(AirLoads, BuiltinLiftSlopeScalesTheThrustWithoutInflow) {
   auto thrust = [&](const std::string& air, const std::string& airfoil) {
     MultibodySystem sys = Build(RigidRotor(air, airfoil, theta, twist, omega, "NONE"));
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0).thrust;
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data()).thrust;
   };
   const double fit = thrust("", "naca0012"),
                steeper = thrust("airfoils { name: \"deck\" builtin_lift_slope: 6.04 }", "deck");
@@ -450,7 +451,7 @@ TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
   auto hover = [&](int modelled, const std::vector<std::string>& sets) {
     MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, modelled), sets);
     sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data());
   };
   const AirLoads::RotorResult four = hover(4, {}), one_of_four = hover(1, {"model.air.rotors[0].blades=4"}),
                               alone = hover(1, {});
@@ -485,7 +486,7 @@ TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
   const AirLoads& air = *sys.air_loads;
   double lift[4], alpha[4];
   for (int b = 0; b < 4; ++b) {
-    const AirLoads::SectionResult s = air.Evaluate(air.Section(b, 5.0, 1.0), sys.q0, qdot, 0.0);
+    const AirLoads::SectionResult s = air.Evaluate(air.Section(b, 5.0, 1.0), sys.q0, qdot, 0.0, sys.data());
     lift[b] = s.force.z();
     alpha[b] = s.alpha / kDeg;
   }
@@ -499,7 +500,7 @@ TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
   EXPECT_LT(lift[2], -0.2 * q);
   EXPECT_LT(std::abs(lift[1]), 0.01 * lift[0]);
   EXPECT_LT(std::abs(lift[3]), 0.01 * lift[0]);
-  const AirLoads::RotorResult r = air.Rotor(0, sys.q0, qdot, 0.0);
+  const AirLoads::RotorResult r = air.Rotor(0, sys.q0, qdot, 0.0, sys.data());
   EXPECT_EQ(r.induced, 0.0);
 }
 
@@ -907,7 +908,7 @@ TEST(AirLoads, AirfoilsBlendBetweenStations) {
                         naca = wing("naca0012", "naca0012");
   const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(mixed.coordinates);
   auto load = [&](const MultibodySystem& sys) {
-    return sys.air_loads->Evaluate(sys.air_loads->Section(0, 0.5, 1.0), sys.q0, qdot, 0.0).force_local;
+    return sys.air_loads->Evaluate(sys.air_loads->Section(0, 0.5, 1.0), sys.q0, qdot, 0.0, sys.data()).force_local;
   };
   const Eigen::Vector3d expected = 0.75 * load(ideal) + 0.25 * load(naca);
   EXPECT_GT((load(ideal) - load(naca)).norm(), 1.0);
@@ -980,7 +981,7 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
   std::vector<double> nu(steps + 1, 0.0);
   for (int k = 1; k <= steps; ++k) {
     sys.AcceptStep(sys.q0, sys.qdot0, k * h);
-    nu[static_cast<size_t>(k)] = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, k * h).induced;
+    nu[static_cast<size_t>(k)] = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, k * h, sys.data()).induced;
   }
   // Independent RK4 of the same equation.
   auto rate = [&](double n) {

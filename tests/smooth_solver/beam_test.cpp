@@ -62,24 +62,24 @@ TEST(Beam, TangentsMatchFiniteDifferences) {
       qdot(i) = std::cos(1.3 * i);
     }
     DenseCollector K(n), C(n);
-    beam.AddTangent(q, qdot, 0.0, 1.0, 0.0, &K);
-    beam.AddTangent(q, qdot, 0.0, 0.0, 1.0, &C);
+    beam.AddTangent(q, qdot, 0.0, sys.data(), 1.0, 0.0, &K);
+    beam.AddTangent(q, qdot, 0.0, sys.data(), 0.0, 1.0, &C);
     const double h = 1e-6;
     double worst_k = 0.0, worst_c = 0.0;
     for (int k = 0; k < n; ++k) {
       Eigen::VectorXd fp = Eigen::VectorXd::Zero(n), fm = Eigen::VectorXd::Zero(n), qp = q, qm = q;
       qp(k) += h;
       qm(k) -= h;
-      beam.AddForce(qp, qdot, 0.0, fp);
-      beam.AddForce(qm, qdot, 0.0, fm);
+      beam.AddForce(qp, qdot, 0.0, sys.data(), fp);
+      beam.AddForce(qm, qdot, 0.0, sys.data(), fm);
       worst_k = std::max(worst_k, (-(fp - fm) / (2 * h) - K.m.col(k)).lpNorm<Eigen::Infinity>());
       fp.setZero();
       fm.setZero();
       Eigen::VectorXd vp = qdot, vm = qdot;
       vp(k) += h;
       vm(k) -= h;
-      beam.AddForce(q, vp, 0.0, fp);
-      beam.AddForce(q, vm, 0.0, fm);
+      beam.AddForce(q, vp, 0.0, sys.data(), fp);
+      beam.AddForce(q, vm, 0.0, sys.data(), fm);
       worst_c = std::max(worst_c, (-(fp - fm) / (2 * h) - C.m.col(k)).lpNorm<Eigen::Infinity>());
     }
     EXPECT_LT(worst_k, 1e-6 * K.m.lpNorm<Eigen::Infinity>()) << nodes << " nodes";
@@ -100,7 +100,7 @@ TEST(Beam, RigidMotionsAreStressFree) {
     if (k % 4 == 0) q.segment<3>(3 * k) += Eigen::Vector3d(0.3, -2, 5);
   }
   Eigen::VectorXd f = Eigen::VectorXd::Zero(sys.coordinates);
-  sys.beam_forces[0]->AddForce(q, Eigen::VectorXd::Zero(sys.coordinates), 0.0, f);
+  sys.beam_forces[0]->AddForce(q, Eigen::VectorXd::Zero(sys.coordinates), 0.0, sys.data(), f);
   EXPECT_LT(f.lpNorm<Eigen::Infinity>(), 1e-10);
   EXPECT_LT(sys.beam_forces[0]->PotentialEnergy(q), 1e-20);
 }

@@ -23,17 +23,18 @@ class DenseCollector : public SparseSink {
 // −∂f/∂q and −∂f/∂q̇ by central differences (step 1e-6; agreement ~1e-8 expected).
 void ExpectTangentsMatch(const ForceElement& e, const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) {
   const int n = static_cast<int>(q.size());
+  const SystemData data;  // (these elements keep no memory in it)
   DenseCollector K(n), C(n);
-  e.AddTangent(q, qdot, t, 1.0, 0.0, &K);
-  e.AddTangent(q, qdot, t, 0.0, 1.0, &C);
+  e.AddTangent(q, qdot, t, data, 1.0, 0.0, &K);
+  e.AddTangent(q, qdot, t, data, 0.0, 1.0, &C);
   const double eps = 1e-6;
   for (int k = 0; k < n; ++k) {
     Eigen::VectorXd fp = Eigen::VectorXd::Zero(n), fm = Eigen::VectorXd::Zero(n);
     Eigen::VectorXd qp = q, qm = q;
     qp(k) += eps;
     qm(k) -= eps;
-    e.AddForce(qp, qdot, t, fp);
-    e.AddForce(qm, qdot, t, fm);
+    e.AddForce(qp, qdot, t, data, fp);
+    e.AddForce(qm, qdot, t, data, fm);
     const Eigen::VectorXd fd_k = -(fp - fm) / (2 * eps);
     EXPECT_LT((fd_k - K.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + K.m.lpNorm<Eigen::Infinity>()))
         << "K column " << k;
@@ -42,8 +43,8 @@ void ExpectTangentsMatch(const ForceElement& e, const Eigen::VectorXd& q, const 
     Eigen::VectorXd vp = qdot, vm = qdot;
     vp(k) += eps;
     vm(k) -= eps;
-    e.AddForce(q, vp, t, fp);
-    e.AddForce(q, vm, t, fm);
+    e.AddForce(q, vp, t, data, fp);
+    e.AddForce(q, vm, t, data, fm);
     const Eigen::VectorXd fd_c = -(fp - fm) / (2 * eps);
     EXPECT_LT((fd_c - C.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + C.m.lpNorm<Eigen::Infinity>()))
         << "C column " << k;

@@ -1,0 +1,1 @@
+"""The studies behind scripts/cosim study (scripts/study.py runs studies.cli.main)."""

@@ -1,0 +1,396 @@
+"""The envelope study: a scene over a grid of one or two named quantities, per point the tips'
+clearance, stop loads and impacts; polar or grid plots and the operating-limits diagram."""
+import os
+import re
+import time
+
+import numpy as np
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from studies.common import (
+    SAFE_MATH,
+    contact_episodes,
+    fail,
+    failures_section,
+    fmt,
+    read_histories,
+    settled_start,
+    with_study_sets,
+    write_csv,
+    write_report,
+)
+
+
+def axis_sets(axis, value, where):
+    """The overrides of one envelope axis at `value`: each {expression} of v evaluated."""
+
+    def evaluate(match):
+        expression = match.group(1)
+        try:
+            result = eval(compile(expression, where, "eval"), {"__builtins__": {}}, dict(SAFE_MATH, v=float(value)))
+            return repr(float(result))
+        except Exception as e:  # noqa: BLE001 - the user's expression
+            fail(f"{where}: '{{{expression}}}' at v = {value:g} fails: {e}")
+
+    out = []
+    for j, template in enumerate(axis.get("set", [])):
+        if "=" not in template:
+            fail(f"{where}.set[{j}]: '{template}' is not FIELD.PATH=VALUE")
+        out.append(re.sub(r"\{([^{}]*)\}", evaluate, template))
+    return out
+
+
+def envelope_point(history, spec, step):
+    """The envelope's measures of one run from its history (what exists of it for a failed run),
+    over t >= spec.from_time."""
+    start = float(spec.get("from_time", 0.0))
+    history = {p: (t[t >= start], v[t >= start]) for p, (t, v) in history.items()}
+    m = {}
+    lowest = highest = (float("nan"), "", float("nan"))
+    down = up = (float("nan"), "")
+    for p in spec.get("tip_probes", []):
+        if p not in history or len(history[p][0]) == 0:
+            continue
+        t, z = history[p]
+        i, k = int(np.argmin(z)), int(np.argmax(z))
+        if not z[i] >= lowest[0]:
+            lowest = (float(z[i]), p, float(t[i]))
+        if not z[k] <= highest[0]:
+            highest = (float(z[k]), p, float(t[k]))
+        if not z[0] - z[i] <= down[0]:
+            down = (float(z[0] - z[i]), p)
+        if not z[k] - z[0] <= up[0]:
+            up = (float(z[k] - z[0]), p)
+    m["tip_lowest"], m["tip_lowest_probe"], m["tip_lowest_time"] = lowest
+    m["tip_highest"], m["tip_highest_probe"], m["tip_highest_time"] = highest
+    m["tip_down"], m["tip_down_probe"] = down
+    m["tip_up"], m["tip_up_probe"] = up
+    height = spec.get("clearance_height")
+    m["clearance"] = lowest[0] - height if height is not None else float("nan")
+    peak, peak_probe, impacts = 0.0, "", 0
+    found = False
+    for kind in ("impulse_probes", "force_probes"):
+        for p in spec.get(kind, []):
+            if p not in history:
+                continue
+            found = True
+            t, v = history[p]
+            force = np.abs(v) / step if kind == "impulse_probes" else np.abs(v)
+            if len(force) and force.max() > peak:
+                peak, peak_probe = float(force.max()), p
+            impacts += len(contact_episodes(t, v))
+    m["peak_stop_force"] = peak if found else float("nan")
+    m["peak_stop_force_probe"] = peak_probe
+    m["impacts"] = impacts if found else float("nan")
+    return m
+
+
+# envelope_point's measures, in runs.csv's order.
+ENVELOPE_COLUMNS = [
+    "tip_lowest",
+    "tip_lowest_probe",
+    "tip_lowest_time",
+    "tip_highest",
+    "tip_highest_probe",
+    "tip_highest_time",
+    "tip_down",
+    "tip_up",
+    "clearance",
+    "peak_stop_force",
+    "peak_stop_force_probe",
+    "impacts",
+]
+ENVELOPE_MEASURES = [
+    ("tip_lowest", "lowest tip [m]"),
+    ("tip_highest", "highest tip [m]"),
+    ("clearance", "smallest clearance [m]"),
+    ("peak_stop_force", "peak stop force"),
+    ("impacts", "stop impacts"),
+]
+
+
+def study_envelope(runner, scenario_path, out, sets):
+    """The scene over a grid of one or two named quantities (study.envelope.axes), each point a
+    full run; per point the tips' extremes, the clearance to a plane, the stops' peak force and
+    impacts. Failed runs are points too (their measures up to where they stopped, marked)."""
+    started = time.time()
+    scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    spec = study.get("envelope")
+    where = f"{scenario_path}: study.envelope"
+    if not spec:
+        fail(f"{scenario_path}: study envelope needs `study {{ envelope {{ axes {{ ... }} tip_probes: [...] }} }}`")
+    axes = spec.get("axes", [])
+    if not 1 <= len(axes) <= 2:
+        fail(f"{where}.axes: {len(axes)} axes; expected one or two")
+    for a, axis in enumerate(axes):
+        if not axis.get("values") or not axis.get("set"):
+            fail(f"{where}.axes[{a}] ('{axis.get('name', '')}'): needs values and set")
+    if not spec.get("tip_probes") and not spec.get("impulse_probes") and not spec.get("force_probes"):
+        fail(f"{where}: nothing to measure: give tip_probes, impulse_probes or force_probes")
+    sets = list(sets) + list(spec.get("set", []))
+    if spec.get("impulse_probes"):
+        sets.append("output.every=1")  # every step's impulse: none missed between rows
+    # study.restart_time: every point starts from one run's state there (co-simulated scenes
+    # too: each contact process's state travels with the smooth solver's); the axes' overrides
+    # must not act before that time (a gust that has not reached the rotor).
+    restart_sets, restart_note = settled_start(
+        runner, scenario_path, study, sets, out, "the measures are the window's, without the start-up"
+    )
+    sets += restart_sets
+    names = [a.get("name") or f"axis{i}" for i, a in enumerate(axes)]
+    grid = [[v] for v in axes[0]["values"]]
+    if len(axes) == 2:
+        grid = [[v0, v1] for v0 in axes[0]["values"] for v1 in axes[1]["values"]]
+    runs = []
+    for i, point in enumerate(grid):
+        point_sets = [s_ for a, v in zip(axes, point) for s_ in axis_sets(a, v, f"{where}.axes[{axes.index(a)}]")]
+        label = ", ".join(f"{n} = {v:g}" for n, v in zip(names, point))
+        runs.append(
+            {
+                "id": label,
+                "point": point,
+                "scenario": scenario_path,
+                "sets": sets + point_sets,
+                "out": os.path.join(out, "runs", f"p{i}"),
+            }
+        )
+    # Every override checked before any run: a bad field path is the study's input error.
+    runner.scenario_json(scenario_path, runs[0]["sets"])
+    runs = runner.run_all(runs)
+    rows = []
+    for r in runs:
+        summary = r["summary"] or {}
+        step = (summary.get("numerics") or {}).get("step") or scenario["numerics"].get("step", 1.0)
+        m = envelope_point(read_histories(r["out"]), spec, float(step))
+        r["measures"] = m
+        rows.append(
+            list(r["point"])
+            + [r["code"], r["wall"], summary.get("simulated_time", float("nan")), r.get("host", "")]
+            + [m[k] for k in ENVELOPE_COLUMNS]
+        )
+    write_csv(
+        os.path.join(out, "runs.csv"), names + ["exit", "wall_time", "simulated_time", "host"] + ENVELOPE_COLUMNS, rows
+    )
+    measures = [(k, label) for k, label in ENVELOPE_MEASURES if any(np.isfinite(r["measures"][k]) for r in runs)]
+    plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])
+    limits_note = plot_operating_limits(
+        runs, axes, names, spec, os.path.join(out, "operating_limits.png"), scenario["name"]
+    )
+    elapsed = time.time() - started
+    cpu = sum(r["seconds"] for r in runs if r["seconds"] == r["seconds"])
+    lines = (
+        [
+            f"# Envelope: {scenario['name']}",
+            "",
+            scenario.get("description", ""),
+            "",
+            f"{len(runs)} runs over "
+            + " × ".join(f"{n} ({len(a['values'])} values)" for n, a in zip(names, axes))
+            + (
+                f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
+                f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
+                f"one after the other (processes' wall time)."
+                if any(r.get("host") != "kept" for r in runs)
+                else f"; every run kept from an earlier study (--reuse): the runs took {cpu:.0f} s one after the other."
+            ),
+            "",
+            "![envelope](envelope.png)",
+            "",
+        ]
+        + ([restart_note, ""] if restart_note else [])
+        + (["![operating limits](operating_limits.png)", "", limits_note, ""] if limits_note else [])
+        + [
+            "Tip heights are the tip probes' values (lowest and highest over the run and the probes, e.g. the "
+            "blades; down/up: the largest excursion from a tip's height at the start"
+            + (f", measured from t = {spec['from_time']:g} s on" if spec.get("from_time") else "")
+            + ")"
+            + (f"; clearance above the plane at {spec['clearance_height']:g} m" if "clearance_height" in spec else "")
+            + "; stop force: "
+            + (
+                "a step's impulse over the step (impulse probes)"
+                if spec.get("impulse_probes")
+                else "the force probes as they are"
+            )
+            + "; impacts: runs of non-zero contact samples.",
+            "",
+            "| " + " | ".join(names) + " | exit | lowest tip [m] (probe, t [s]) | highest tip [m] | down / up [m] | "
+            "clearance [m] | peak stop force | impacts | wall [s] |",
+            "|" + "---|" * (len(names) + 8),
+        ]
+    )
+    for r in runs:
+        m = r["measures"]
+        exit_text = (
+            "0"
+            if r["code"] == 0
+            else f"**{r['code']}** (t = {fmt((r['summary'] or {}).get('simulated_time', float('nan')))} s)"
+        )
+        lines.append(
+            "| " + " | ".join(f"{v:g}" for v in r["point"]) + f" | {exit_text} | {fmt(m['tip_lowest'])} "
+            f"({m['tip_lowest_probe']}, {fmt(m['tip_lowest_time'])}) | {fmt(m['tip_highest'])} | "
+            f"{fmt(m['tip_down'])} / {fmt(m['tip_up'])} | {fmt(m['clearance'])} | {fmt(m['peak_stop_force'])} | "
+            f"{fmt(m['impacts'])} | {r['wall']:.1f} |"
+        )
+    ok = [r for r in runs if r["code"] == 0]
+    if ok:
+        lines += ["", "Worst points (completed runs):", ""]
+        for key, label, worst in (
+            ("tip_lowest", "lowest tip", min),
+            ("clearance", "smallest clearance", min),
+            ("peak_stop_force", "largest stop force", max),
+            ("impacts", "most impacts", max),
+        ):
+            finite = [r for r in ok if np.isfinite(r["measures"][key])]
+            if finite:
+                r = worst(finite, key=lambda x: x["measures"][key])
+                lines.append(f"- {label}: {fmt(r['measures'][key])} at {r['id']}")
+    lines += ["", failures_section(runs)]
+    write_report(out, lines)
+    return {"runs": runs}
+
+
+def plot_envelope(runs, axes, names, measures, path, title):
+    """One panel per measure: against the axis (one axis), a polar map (second axis in degrees),
+    or a coloured grid (two axes); failed runs marked with a cross."""
+    if not measures:
+        return
+    polar = len(axes) == 2 and axes[1].get("unit") == "deg"
+    fig = plt.figure(figsize=(4.2 * min(len(measures), 3), 3.8 * ((len(measures) + 2) // 3)))
+    for n, (key, label) in enumerate(measures):
+        ax = fig.add_subplot(
+            (len(measures) + 2) // 3, min(len(measures), 3), n + 1, projection="polar" if polar else None
+        )
+        values = np.array([r["measures"][key] for r in runs], dtype=float)
+        failed = np.array([r["code"] != 0 for r in runs])
+        if len(axes) == 1:
+            x = np.array([r["point"][0] for r in runs])
+            order = np.argsort(x)
+            ax.plot(x[order], values[order], "o-")
+            ax.plot(x[failed], values[failed], "rx", ms=9, label="failed run")
+            ax.set_xlabel(f"{names[0]} [{axes[0].get('unit', '')}]")
+            ax.set_ylabel(label)
+        else:
+            a0 = np.array([r["point"][0] for r in runs])
+            a1 = np.array([r["point"][1] for r in runs])
+            if polar:
+                if axes[1].get("compass"):
+                    ax.set_theta_zero_location("N")
+                    ax.set_theta_direction(-1)
+                theta, radius = np.radians(a1), a0
+                sc = ax.scatter(theta, radius, c=values, s=140, cmap="viridis", edgecolors="k")
+                ax.set_rlabel_position(90)
+                ax.set_title(
+                    f"{label}\n(angle: {names[1]}, radius: {names[0]} [{axes[0].get('unit', '')}])", fontsize=8
+                )
+            else:
+                sc = ax.scatter(a1, a0, c=values, s=160, marker="s", cmap="viridis", edgecolors="k")
+                for values_of, scale in ((a1, ax.set_xscale), (a0, ax.set_yscale)):
+                    if values_of.min() > 0 and values_of.max() >= 50 * values_of.min():
+                        scale("log")  # values over decades (a stiffness, a step)
+                ax.set_xlabel(f"{names[1]} [{axes[1].get('unit', '')}]")
+                ax.set_ylabel(f"{names[0]} [{axes[0].get('unit', '')}]")
+                ax.set_title(label, fontsize=9)
+            ax.scatter((np.radians(a1) if polar else a1)[failed], a0[failed], marker="x", c="r", s=90)
+            for th, rr, v in zip(np.radians(a1) if polar else a1, a0, values):
+                if np.isfinite(v):
+                    ax.annotate(
+                        f"{v:.3g}",
+                        (th, rr),
+                        fontsize=6,
+                        ha="center",
+                        va="bottom",
+                        xytext=(0, 7),
+                        textcoords="offset points",
+                    )
+            fig.colorbar(sc, ax=ax, shrink=0.7)
+    fig.suptitle(f"{title}: envelope (red crosses: failed runs)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def unsafe_points(runs, threshold):
+    """Per run: True where the clearance is below `threshold` or the run failed (a failed run is
+    not counted safe), False where it completed above it, None without a clearance."""
+    flags = []
+    for r in runs:
+        c = r["measures"]["clearance"]
+        if r["code"] != 0:
+            flags.append(True)
+        elif np.isfinite(c):
+            flags.append(bool(c < threshold))
+        else:
+            flags.append(None)
+    return flags
+
+
+def plot_operating_limits(runs, axes, names, spec, path, title):
+    """The operating-limits diagram: wind speed radial, direction around (clockwise from the top
+    for a `compass` axis), each point's sector coloured by its clearance and hatched red where it
+    is unsafe (clearance below spec.unsafe_clearance, or a failed run). Returns the report's
+    sentence on it, or "" when the study has no such threshold."""
+    threshold = spec.get("unsafe_clearance")
+    if threshold is None or len(axes) != 2 or axes[1].get("unit") != "deg":
+        return ""
+    speeds, directions = sorted(set(axes[0]["values"])), sorted(set(axes[1]["values"]))
+
+    def edges(values, lo=None):
+        mids = [(a + b) / 2 for a, b in zip(values, values[1:])]
+        first = values[0] - (mids[0] - values[0] if mids else 0.5)
+        last = values[-1] + (values[-1] - mids[-1] if mids else 0.5)
+        return [max(first, lo) if lo is not None else first] + mids + [last]
+
+    r_edges = edges(speeds, 0.0)
+    step = (directions[1] - directions[0]) if len(directions) > 1 else 360.0
+    flags = unsafe_points(runs, float(threshold))
+    clearances = np.array([r["measures"]["clearance"] for r in runs], dtype=float)
+    finite = clearances[np.isfinite(clearances)]
+    norm = plt.Normalize(finite.min(), finite.max()) if len(finite) else plt.Normalize(0, 1)
+    cmap = plt.get_cmap("viridis")
+    fig = plt.figure(figsize=(6.4, 6.0))
+    ax = fig.add_subplot(projection="polar")
+    if axes[1].get("compass"):
+        ax.set_theta_zero_location("N")
+        ax.set_theta_direction(-1)
+    for r, unsafe, c in zip(runs, flags, clearances):
+        speed, direction = r["point"]
+        i = speeds.index(speed)
+        # The point's cell: its direction's sector between its speed's ring edges.
+        cell = dict(
+            x=np.radians(direction), height=r_edges[i + 1] - r_edges[i], width=np.radians(step), bottom=r_edges[i]
+        )
+        colour = cmap(norm(c)) if np.isfinite(c) else (0.85, 0.85, 0.85, 1)
+        ax.bar(**cell, color=colour, edgecolor="white", linewidth=0.5)
+        if unsafe:
+            ax.bar(**cell, fill=False, hatch="///", edgecolor="red", linewidth=0.0)
+        if r["code"] != 0:
+            ax.plot(np.radians(direction), speed, "rx", ms=8, mew=2)
+    # The boundary: per direction, the lowest unsafe speed's inner edge.
+    boundary = []
+    for d in directions:
+        at = [(r["point"][0], f) for r, f in zip(runs, flags) if r["point"][1] == d and f]
+        boundary.append(r_edges[speeds.index(min(at)[0])] if at else r_edges[-1])
+    theta = np.radians(directions + [directions[0] + 360])
+    ax.plot(theta, boundary + boundary[:1], "r-", lw=2, drawstyle="steps-mid")
+    ax.set_rlim(0, r_edges[-1])
+    ax.set_rlabel_position(135)
+    sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
+    fig.colorbar(sm, ax=ax, shrink=0.7, label="smallest tip clearance [m]")
+    ax.set_title(
+        f"{title}: operating limits\nradial: {names[0]} [{axes[0].get('unit', '')}]; around: {names[1]}\n"
+        f"hatched: clearance < {threshold:g} m or a failed run (x)",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    n_unsafe = sum(1 for f in flags if f)
+    failed = sum(1 for r in runs if r["code"] != 0)
+    return (
+        f"Operating limits: {n_unsafe} of {len(runs)} points unsafe (clearance below {threshold:g} m"
+        + (f", or one of the {failed} failed runs" if failed else "")
+        + "); the red line bounds the safe region "
+        "from inside (per direction, the lowest unsafe wind speed's cell)."
+    )

@@ -1,0 +1,153 @@
+#!/usr/bin/python3
+"""Unit tests of the studies' pure functions (scripts/studies): each says why its answer holds.
+Run by ctest (Studies.PureFunctions) or directly: tests/scripts/studies_test.py."""
+import math
+import os
+import sys
+import tempfile
+import time
+import unittest
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+from studies.common import (  # noqa: E402
+    ROOT,
+    Reference,
+    StudyError,
+    analytic,
+    contact_episodes,
+    every_for,
+    fitted_order,
+    fmt,
+    halving_steps,
+    probe_error,
+    same_overrides,
+)
+from studies.compare import compare_measure  # noqa: E402
+from studies.coupling import relaxation_sets  # noqa: E402
+from studies.envelope import axis_sets, unsafe_points  # noqa: E402
+
+
+class Common(unittest.TestCase):
+    def test_root_is_the_repository(self):
+        # The package sits two folders below the root: the default output and binary folders hang on it.
+        self.assertTrue(os.path.isfile(os.path.join(ROOT, "CMakeLists.txt")))
+        self.assertTrue(os.path.isdir(os.path.join(ROOT, "scenarios")))
+
+    def test_fitted_order_of_exact_power_laws(self):
+        # e = C h^p gives the slope p in log-log whatever C; errors at round-off are left out.
+        steps = [0.1 / 2**i for i in range(5)]
+        self.assertAlmostEqual(fitted_order(steps, [3.0 * h**2 for h in steps]), 2.0, places=12)
+        self.assertAlmostEqual(fitted_order(steps, [0.5 * h for h in steps]), 1.0, places=12)
+        self.assertAlmostEqual(fitted_order(steps, [h**2 for h in steps[:-1]] + [1e-16]), 2.0, places=12)
+        self.assertTrue(math.isnan(fitted_order(steps[:1], [1e-3])))  # one point: no slope
+
+    def test_analytic_reference_and_its_refusals(self):
+        # math's names and t are all an expression sees; a bad one is the user's input error (exit 2).
+        values = analytic("cos(2*pi*t)", [0.0, 0.25, 0.5], "study.references[x]")
+        np.testing.assert_allclose(values, [1.0, 0.0, -1.0], atol=1e-15)
+        with self.assertRaises(StudyError) as bad:
+            analytic("cos(", [0.0], "study.references[x]")
+        self.assertEqual(bad.exception.code, 2)
+        self.assertIn("study.references[x]", str(bad.exception))
+        with self.assertRaises(StudyError) as fails:
+            analytic("1/t", [0.0], "study.references[y]")
+        self.assertIn("fails at t = 0.0", str(fails.exception))
+        with self.assertRaises(StudyError):
+            analytic("__import__('os')", [0.0], "w")  # no builtins
+
+    def test_probe_error_against_an_analytic_reference(self):
+        # MAX: the largest deviation after error_from; END: the last sample's.
+        t = np.array([0.0, 0.5, 1.0])
+        history = {"x": (t, np.array([0.0, 0.6, 0.9]))}
+        reference = Reference({"references": [{"probe": "x", "expression": "t"}]})
+        self.assertAlmostEqual(probe_error(history, reference, "x", {}), 0.1, places=14)
+        self.assertAlmostEqual(probe_error(history, reference, "x", {"error": "END"}), 0.1, places=14)
+        self.assertAlmostEqual(probe_error(history, reference, "x", {"error_from": 0.9}), 0.1, places=14)
+        self.assertTrue(math.isnan(probe_error(history, reference, "y", {})))
+
+    def test_a_reference_run_is_interpolated_between_its_rows(self):
+        reference = Reference({}, {"x": (np.array([0.0, 1.0]), np.array([0.0, 2.0]))})
+        np.testing.assert_allclose(reference.values("x", [0.0, 0.25, 1.0]), [0.0, 0.5, 2.0])
+
+    def test_halvings_and_output_decimation(self):
+        # At least four halvings from the coarsest step; every run writes the coarsest run's times.
+        steps = halving_steps({"numerics": {"step": 0.01}}, {"halvings": 2})
+        self.assertEqual(steps, [0.01, 0.005, 0.0025, 0.00125, 0.000625])
+        self.assertEqual(every_for({"output": {"every": 2}}, 0.0025, 0.01), 8)
+        self.assertEqual(every_for({}, 0.01, 0.01), 1)
+
+    def test_contact_episodes(self):
+        # Runs of |value| above the floor, with their first and last samples in contact.
+        times = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
+        self.assertEqual(contact_episodes(times, [0, 5, 6, 0, 0, -2]), [(0.1, 0.2, 1, 2), (0.5, 0.5, 5, 5)])
+        self.assertEqual(contact_episodes(times, [1, 1, 0, 0, 0, 0], floor=1.0), [])
+
+    def test_fmt(self):
+        self.assertEqual(fmt(0.000123456), "0.000123")
+
+    def test_same_overrides_accepts_a_shipped_file_only_if_unchanged(self):
+        # A file sent to a worker is recorded at the worker's copy: the same name, and not
+        # rewritten since the run (a new settling run's state makes the runs from it run again).
+        with tempfile.TemporaryDirectory() as d:
+            state, summary = os.path.join(d, "final_state.pb"), os.path.join(d, "summary.json")
+            open(state, "w").close()
+            time.sleep(0.01)
+            open(summary, "w").close()
+            wanted = [f"numerics.initial_state={state}", "numerics.step=0.001"]
+            recorded = ["numerics.initial_state=/worker/copy/final_state.pb", "numerics.step=0.001"]
+            self.assertTrue(same_overrides(recorded, wanted, summary))
+            self.assertFalse(same_overrides(recorded[:1], wanted, summary))
+            self.assertFalse(same_overrides(["numerics.initial_state=/w/other.pb", recorded[1]], wanted, summary))
+            os.utime(state, (time.time() + 10, time.time() + 10))
+            self.assertFalse(same_overrides(recorded, wanted, summary))
+
+
+class Studies(unittest.TestCase):
+    def test_relaxation_sets(self):
+        self.assertEqual(
+            relaxation_sets("CONSTANT(0.05)"),
+            ["coupling.iteration.relaxation=CONSTANT", "coupling.iteration.relaxation_factor=0.05"],
+        )
+        self.assertEqual(
+            relaxation_sets("IQN_ILS(4)"),
+            ["coupling.iteration.relaxation=IQN_ILS", "coupling.iteration.reuse_steps=4"],
+        )
+        self.assertEqual(relaxation_sets("AITKEN"), ["coupling.iteration.relaxation=AITKEN"])
+        with self.assertRaises(StudyError):
+            relaxation_sets("NEWTON")
+
+    def test_axis_sets_evaluate_each_braced_expression_of_v(self):
+        axis = {"set": ["model.air.wind_x.constant={v*cos(radians(30))}", "numerics.step=0.001"]}
+        sets = axis_sets(axis, 2.0, "study.envelope.axes[0]")
+        self.assertEqual(sets[1], "numerics.step=0.001")
+        self.assertAlmostEqual(float(sets[0].split("=")[1]), 2.0 * math.cos(math.radians(30)), places=15)
+        with self.assertRaises(StudyError):
+            axis_sets({"set": ["no equals sign"]}, 1.0, "a")
+        with self.assertRaises(StudyError):
+            axis_sets({"set": ["x={1/(v-1)}"]}, 1.0, "a")
+
+    def test_unsafe_points_count_failed_runs_as_unsafe(self):
+        runs = [
+            {"code": 0, "measures": {"clearance": 0.5}},
+            {"code": 0, "measures": {"clearance": 0.1}},
+            {"code": 3, "measures": {"clearance": float("nan")}},
+            {"code": 0, "measures": {"clearance": float("nan")}},
+        ]
+        self.assertEqual(unsafe_points(runs, 0.3), [False, True, True, None])
+
+    def test_compare_measures(self):
+        # Means and extremes over a window; the first or last time a probe is back near its start.
+        t = np.array([0.0, 1.0, 2.0, 3.0])
+        history = {"p": (t, np.array([1.0, 3.0, 1.05, 5.0]))}
+        self.assertAlmostEqual(compare_measure(history, {"probe": "p", "kind": "MEAN", "to": 2.0}), 5.05 / 3)
+        self.assertEqual(compare_measure(history, {"probe": "p", "kind": "MAX"}), 5.0)
+        self.assertEqual(compare_measure(history, {"probe": "p", "kind": "MIN", "from": 1.5}), 1.05)
+        near = {"probe": "p", "kind": "LAST_NEAR_START", "tolerance": 0.1}
+        self.assertEqual(compare_measure(history, near), 2.0)
+        self.assertTrue(math.isnan(compare_measure(history, {"probe": "q", "kind": "MAX"})))
+
+
+if __name__ == "__main__":
+    unittest.main()

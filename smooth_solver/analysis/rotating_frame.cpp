@@ -115,8 +115,8 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
       f += moving - still;
     }
     R->head(n) = -f + MW2 * WithoutOrigin(system, q, frame.origin);
-    system.constraints.AddJacobianTransposeTimes(q, options.t, lambda, R->head(n));
-    system.constraints.Evaluate(q, options.t, R->tail(m));
+    system.constraints.AddJacobianTransposeTimes(system.data().imposed, q, options.t, lambda, R->head(n));
+    system.constraints.Evaluate(system.data().imposed, q, options.t, R->tail(m));
     for (int i = 0; i < m; ++i) {
       if (!system.constraints.Active(static_cast<size_t>(i), options.t))
         (*R)(n + i) = lambda(i);
@@ -139,9 +139,9 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
       AddSparse(Eigen::SparseMatrix<double>(damping.Build(n) * W), 1.0, &sink);  // −∂f/∂q̇ · ∂(W q̂)/∂q
     }
     AddSparse(MW2, 1.0, &sink);
-    system.constraints.HessianTimesLambda(options.t, r.lambda, &sink, 1.0);
-    system.constraints.JacobianTranspose(r.q, options.t, &sink, n, 1.0);
-    system.constraints.Jacobian(r.q, options.t, &sink, n, 1.0);
+    system.constraints.HessianTimesLambda(system.data().imposed, options.t, r.lambda, &sink, 1.0);
+    system.constraints.JacobianTranspose(system.data().imposed, r.q, options.t, &sink, n, 1.0);
+    system.constraints.Jacobian(system.data().imposed, r.q, options.t, &sink, n, 1.0);
     system.constraints.AddReleasedDiagonal(options.t, &sink, n);
     system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
     const Eigen::SparseMatrix<double> A = sink.Build(N);
@@ -185,7 +185,7 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
     DenseSink k(&K), c(&C);
     system.AddForceTangent(q, zero, t, 1.0, 0.0, &k);
     system.AddForceTangent(q, zero, t, 0.0, 1.0, &c);
-    system.constraints.HessianTimesLambda(t, lambda, &k, 1.0);
+    system.constraints.HessianTimesLambda(system.data().imposed, t, lambda, &k, 1.0);
     if (const AirLoads* air = system.air_loads; air != nullptr) {
       const Eigen::MatrixXd W = Eigen::MatrixXd(PerTriple(n, O));
       const Eigen::VectorXd v = W * WithoutOrigin(system, q, frame.origin);
@@ -205,7 +205,7 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m, n);
   {
     DenseSink g(&G);
-    system.constraints.Jacobian(q, t, &g, 0, 1.0);
+    system.constraints.Jacobian(system.data().imposed, q, t, &g, 0, 1.0);
   }
   for (int i = 0; i < m; ++i) {
     if (!system.constraints.Active(static_cast<size_t>(i), t)) G.row(i).setZero();

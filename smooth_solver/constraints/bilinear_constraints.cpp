@@ -60,10 +60,10 @@ LinearVector LinearVector::operator-(const LinearVector& other) const {
   return v;
 }
 
-double ConstraintSet::Weight(const DriveWeight& w, double t, int derivative) const {
+double ConstraintSet::Weight(const ImposedValues& imposed, const DriveWeight& w, double t, int derivative) const {
   if (w.kind == DriveWeight::Kind::kOne) return derivative == 0 ? w.scale : 0.0;
   const Drive& d = drives[static_cast<size_t>(w.drive)];
-  const double th = d.Value(t), th_dot = d.Rate(t), th_ddot = d.Acceleration(t);
+  const double th = d.Value(imposed, t), th_dot = d.Rate(imposed, t), th_ddot = d.Acceleration(imposed, t);
   const double s = std::sin(th), c = std::cos(th);
   switch (w.kind) {
     case DriveWeight::Kind::kSin:
@@ -78,7 +78,7 @@ double ConstraintSet::Weight(const DriveWeight& w, double t, int derivative) con
   return 0.0;
 }
 
-void ConstraintSet::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+void ConstraintSet::Evaluate(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                              Eigen::Ref<Eigen::VectorXd> phi) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t)) {
@@ -86,8 +86,8 @@ void ConstraintSet::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, double 
       continue;
     }
     const ScalarConstraint& c = constraints[i];
-    double value = c.constant * Weight(c.constant_weight, t, 0);
-    for (const auto& term : c.terms) value += Weight(term.weight, t, 0) * term.a.Value(q).dot(term.b.Value(q));
+    double value = c.constant * Weight(imposed, c.constant_weight, t, 0);
+    for (const auto& term : c.terms) value += Weight(imposed, term.weight, t, 0) * term.a.Value(q).dot(term.b.Value(q));
     phi(static_cast<Eigen::Index>(i)) = value;
   }
 }
@@ -109,44 +109,44 @@ void ForEachJacobianEntry(const ScalarConstraint::Term& term, double w, const Ei
 
 }  // namespace
 
-void ConstraintSet::Jacobian(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink, int row_offset,
-                             double scale) const {
+void ConstraintSet::Jacobian(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                             SparseSink* sink, int row_offset, double scale) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t)) continue;
     const int row = row_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
-      ForEachJacobianEntry(term, scale * Weight(term.weight, t, 0), q,
+      ForEachJacobianEntry(term, scale * Weight(imposed, term.weight, t, 0), q,
                            [&](int column, double value) { sink->Add(row, column, value); });
     }
   }
 }
 
-void ConstraintSet::JacobianTranspose(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink,
-                                      int column_offset, double scale) const {
+void ConstraintSet::JacobianTranspose(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                      double t, SparseSink* sink, int column_offset, double scale) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t)) continue;
     const int column = column_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
-      ForEachJacobianEntry(term, scale * Weight(term.weight, t, 0), q,
+      ForEachJacobianEntry(term, scale * Weight(imposed, term.weight, t, 0), q,
                            [&](int row, double value) { sink->Add(row, column, value); });
     }
   }
 }
 
-void ConstraintSet::AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
-                                              const Eigen::Ref<const Eigen::VectorXd>& lambda,
+void ConstraintSet::AddJacobianTransposeTimes(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                              double t, const Eigen::Ref<const Eigen::VectorXd>& lambda,
                                               Eigen::Ref<Eigen::VectorXd> out) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t)) continue;
     const double l = lambda(static_cast<Eigen::Index>(i));
     for (const auto& term : constraints[i].terms) {
-      ForEachJacobianEntry(term, l * Weight(term.weight, t, 0), q,
+      ForEachJacobianEntry(term, l * Weight(imposed, term.weight, t, 0), q,
                            [&](int column, double value) { out(column) += value; });
     }
   }
 }
 
-void ConstraintSet::JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+void ConstraintSet::JacobianTimes(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                   const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out,
                                   const std::vector<char>* rows) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
@@ -157,20 +157,22 @@ void ConstraintSet::JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, do
     double value = 0.0;
     for (const auto& term : constraints[i].terms) {
       // d/dε [A(q + εv)·B(q + εv)] = A_q v · B + A · B_q v.
-      value += Weight(term.weight, t, 0) * (term.a.Rate(v).dot(term.b.Value(q)) + term.a.Value(q).dot(term.b.Rate(v)));
+      value += Weight(imposed, term.weight, t, 0) *
+               (term.a.Rate(v).dot(term.b.Value(q)) + term.a.Value(q).dot(term.b.Rate(v)));
     }
     out(static_cast<Eigen::Index>(i)) = value;
   }
 }
 
-void ConstraintSet::HessianTimesLambda(double t, const Eigen::Ref<const Eigen::VectorXd>& lambda, SparseSink* sink,
+void ConstraintSet::HessianTimesLambda(const ImposedValues& imposed, double t,
+                                       const Eigen::Ref<const Eigen::VectorXd>& lambda, SparseSink* sink,
                                        double scale) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t)) continue;
     const double l = scale * lambda(static_cast<Eigen::Index>(i));
     if (l == 0.0) continue;
     for (const auto& term : constraints[i].terms) {
-      const double w = l * Weight(term.weight, t, 0);
+      const double w = l * Weight(imposed, term.weight, t, 0);
       // ∂²(A·B)/∂q² = A_qᵀ B_q + B_qᵀ A_q: identity blocks between the two vectors' terms.
       for (const auto& ta : term.a.terms) {
         for (const auto& tb : term.b.terms) {
@@ -229,7 +231,7 @@ void ConstraintSet::HessianPattern(SparseSink* sink) const {
   }
 }
 
-void ConstraintSet::AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q,
+void ConstraintSet::AccelerationBias(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
                                      const Eigen::Ref<const Eigen::VectorXd>& qdot, double t,
                                      Eigen::Ref<Eigen::VectorXd> xi) const {
   // d²/dt² [w A·B] = ẅ A·B + 2ẇ (Ȧ·B + A·Ḃ) + w (Ä·B + 2 Ȧ·Ḃ + A·B̈); the Ä, B̈ part is Φ_q q̈.
@@ -239,18 +241,19 @@ void ConstraintSet::AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q,
       continue;
     }
     const ScalarConstraint& c = constraints[i];
-    double value = c.constant * Weight(c.constant_weight, t, 2);
+    double value = c.constant * Weight(imposed, c.constant_weight, t, 2);
     for (const auto& term : c.terms) {
       const Eigen::Vector3d a = term.a.Value(q), b = term.b.Value(q);
       const Eigen::Vector3d a_dot = term.a.Rate(qdot), b_dot = term.b.Rate(qdot);
-      value += Weight(term.weight, t, 2) * a.dot(b) + 2.0 * Weight(term.weight, t, 1) * (a_dot.dot(b) + a.dot(b_dot)) +
-               2.0 * Weight(term.weight, t, 0) * a_dot.dot(b_dot);
+      value += Weight(imposed, term.weight, t, 2) * a.dot(b) +
+               2.0 * Weight(imposed, term.weight, t, 1) * (a_dot.dot(b) + a.dot(b_dot)) +
+               2.0 * Weight(imposed, term.weight, t, 0) * a_dot.dot(b_dot);
     }
     xi(static_cast<Eigen::Index>(i)) = value;
   }
 }
 
-void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q,
+void ConstraintSet::VelocityConstraintJacobian(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
                                                const Eigen::Ref<const Eigen::VectorXd>& v, double t, SparseSink* sink,
                                                int row_offset, double scale, const std::vector<char>* rows) const {
   // Φ_q v = Σ w (A_q v · B + A · B_q v):  ∂/∂q = w ((B_q v)ᵀ A_q + (A_q v)ᵀ B_q);
@@ -259,7 +262,7 @@ void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::Vec
     if (!Active(i, t) || (rows != nullptr && (*rows)[i] == 0)) continue;
     const int row = row_offset + static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
-      const double w = Weight(term.weight, t, 0), w_dot = Weight(term.weight, t, 1);
+      const double w = Weight(imposed, term.weight, t, 0), w_dot = Weight(imposed, term.weight, t, 1);
       const Eigen::Vector3d a = term.a.Value(q), b = term.b.Value(q);
       const Eigen::Vector3d a_rate = term.a.Rate(v), b_rate = term.b.Rate(v);
       const Eigen::Vector3d along_a = scale * (w * b_rate + w_dot * b), along_b = scale * (w * a_rate + w_dot * a);
@@ -273,7 +276,7 @@ void ConstraintSet::VelocityConstraintJacobian(const Eigen::Ref<const Eigen::Vec
   }
 }
 
-void ConstraintSet::TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+void ConstraintSet::TimeDerivative(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                    Eigen::Ref<Eigen::VectorXd> phi_t, const std::vector<char>* rows) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t) || (rows != nullptr && (*rows)[i] == 0)) {
@@ -281,8 +284,8 @@ void ConstraintSet::TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, d
       continue;
     }
     const ScalarConstraint& c = constraints[i];
-    double value = c.constant * Weight(c.constant_weight, t, 1);
-    for (const auto& term : c.terms) value += Weight(term.weight, t, 1) * term.a.Value(q).dot(term.b.Value(q));
+    double value = c.constant * Weight(imposed, c.constant_weight, t, 1);
+    for (const auto& term : c.terms) value += Weight(imposed, term.weight, t, 1) * term.a.Value(q).dot(term.b.Value(q));
     phi_t(static_cast<Eigen::Index>(i)) = value;
   }
 }

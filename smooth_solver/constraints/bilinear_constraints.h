@@ -90,20 +90,27 @@ struct ImposedCoordinate {
   double value = 0.0, rate = 0.0, acceleration = 0.0;
 };
 
+// The coordinates the coupling peers impose now (SystemData::imposed): an input of every
+// evaluation of the constraints, never stored in them.
+using ImposedValues = std::vector<ImposedCoordinate>;
+
 // A prescribed joint coordinate θ(t) (angle or displacement), with its derivatives; or, if
-// `imposed` is set, whatever the coupling peer imposes now (t is then not used).
+// `imposed` >= 0, the coordinate the coupling peer imposes now (imposed values, that index;
+// t is then not used).
 struct Drive {
   interface::TimeFunction function;
   bool is_rate = false;  // the function gives θ̇ (speed drives): θ = ∫ f
-  const ImposedCoordinate* imposed = nullptr;
-  double Value(double t) const {
-    return imposed != nullptr ? imposed->value : is_rate ? function.Integral(t) : function.Value(t);
+  int imposed = -1;
+  double Value(const ImposedValues& now, double t) const {
+    return imposed >= 0 ? now[static_cast<size_t>(imposed)].value : is_rate ? function.Integral(t) : function.Value(t);
   }
-  double Rate(double t) const {
-    return imposed != nullptr ? imposed->rate : is_rate ? function.Value(t) : function.Derivative(t);
+  double Rate(const ImposedValues& now, double t) const {
+    return imposed >= 0 ? now[static_cast<size_t>(imposed)].rate : is_rate ? function.Value(t) : function.Derivative(t);
   }
-  double Acceleration(double t) const {
-    return imposed != nullptr ? imposed->acceleration : is_rate ? function.Derivative(t) : function.SecondDerivative(t);
+  double Acceleration(const ImposedValues& now, double t) const {
+    return imposed >= 0 ? now[static_cast<size_t>(imposed)].acceleration
+           : is_rate    ? function.Derivative(t)
+                        : function.SecondDerivative(t);
   }
 };
 
@@ -159,41 +166,45 @@ class ConstraintSet {
   // The earliest release time of a row active at t0 and released at t1, or +∞.
   double ReleaseWithin(double t0, double t1) const;
 
+  // Every evaluation below reads the drives' values from the imposed values of now (those of
+  // the coupling rows; an empty set for a system without).
   // Φ(q, t) into `phi` (size m).
-  void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi) const;
+  void Evaluate(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                Eigen::Ref<Eigen::VectorXd> phi) const;
   // Φ_q into `sink` at (row_offset + i, column), scaled by `scale`.
-  void Jacobian(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink, int row_offset,
-                double scale) const;
+  void Jacobian(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink,
+                int row_offset, double scale) const;
   // The same transposed: (column, row_offset + i).
-  void JacobianTranspose(const Eigen::Ref<const Eigen::VectorXd>& q, double t, SparseSink* sink, int column_offset,
-                         double scale) const;
+  void JacobianTranspose(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                         SparseSink* sink, int column_offset, double scale) const;
   // Φ_qᵀ λ into `out` (size n, accumulated).
-  void AddJacobianTransposeTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+  void AddJacobianTransposeTimes(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
                                  const Eigen::Ref<const Eigen::VectorXd>& lambda,
                                  Eigen::Ref<Eigen::VectorXd> out) const;
   // Φ_q v into `out` (size m). `rows` (optional): only the rows flagged non-zero, 0 elsewhere
   // (here and in VelocityConstraintJacobian and TimeDerivative).
-  void JacobianTimes(const Eigen::Ref<const Eigen::VectorXd>& q, double t, const Eigen::Ref<const Eigen::VectorXd>& v,
-                     Eigen::Ref<Eigen::VectorXd> out, const std::vector<char>* rows = nullptr) const;
+  void JacobianTimes(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                     const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out,
+                     const std::vector<char>* rows = nullptr) const;
   // scale · Σ_i λ_i ∂²φ_i/∂q² into `sink` (constant Hessians of the bilinear terms).
-  void HessianTimesLambda(double t, const Eigen::Ref<const Eigen::VectorXd>& lambda, SparseSink* sink,
-                          double scale) const;
+  void HessianTimesLambda(const ImposedValues& imposed, double t, const Eigen::Ref<const Eigen::VectorXd>& lambda,
+                          SparseSink* sink, double scale) const;
   // Every (row, column) HessianTimesLambda may touch, for the sparsity pattern.
   void HessianPattern(SparseSink* sink) const;
   // The acceleration right-hand side: Φ_q q̈ = −ξ, ξ = (Φ_q q̇)_q q̇ + 2 Φ_qt q̇ + Φ_tt.
-  void AccelerationBias(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qdot,
-                        double t, Eigen::Ref<Eigen::VectorXd> xi) const;
+  void AccelerationBias(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& qdot, double t, Eigen::Ref<Eigen::VectorXd> xi) const;
   // ∂(Φ_q v + Φ_t)/∂q into `sink` at (row_offset + i, column): the derivative of the velocity
   // constraint with respect to the positions (index-2 formulations).
-  void VelocityConstraintJacobian(const Eigen::Ref<const Eigen::VectorXd>& q,
+  void VelocityConstraintJacobian(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
                                   const Eigen::Ref<const Eigen::VectorXd>& v, double t, SparseSink* sink,
                                   int row_offset, double scale = 1.0, const std::vector<char>* rows = nullptr) const;
   // Φ_t (size m): the velocity constraint is Φ_q q̇ + Φ_t = 0.
-  void TimeDerivative(const Eigen::Ref<const Eigen::VectorXd>& q, double t, Eigen::Ref<Eigen::VectorXd> phi_t,
-                      const std::vector<char>* rows = nullptr) const;
+  void TimeDerivative(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                      Eigen::Ref<Eigen::VectorXd> phi_t, const std::vector<char>* rows = nullptr) const;
 
  private:
-  double Weight(const DriveWeight& w, double t, int derivative) const;
+  double Weight(const ImposedValues& imposed, const DriveWeight& w, double t, int derivative) const;
 };
 
 }  // namespace cosim::smooth

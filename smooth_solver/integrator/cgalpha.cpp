@@ -20,8 +20,8 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   system.ForcePattern(&pattern);
   // t = −∞: every row active (a locked joint's row exists until its release).
   const double always = -std::numeric_limits<double>::infinity();
-  system.constraints.Jacobian(system.q0, always, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(system.q0, always, &pattern, n, 1.0);
+  system.constraints.Jacobian(system.data().imposed, system.q0, always, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(system.data().imposed, system.q0, always, &pattern, n, 1.0);
   for (int i = 0; i < n + m; ++i) pattern.Add(i, i, 0.0);  // keep the diagonal structurally present
   // An interface point's rows: the 3 × 3 block of the peer's compliance (interface Jacobians).
   for (const InterfacePoint& p : system.interface_points) {
@@ -47,7 +47,7 @@ bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
   if (cs.Compliance(i) != 0.0) return false;
   const ScalarConstraint& c = cs.constraints[i];
   auto imposed = [&](const DriveWeight& w) {
-    return w.drive >= 0 && cs.drives[static_cast<size_t>(w.drive)].imposed != nullptr;
+    return w.drive >= 0 && cs.drives[static_cast<size_t>(w.drive)].imposed >= 0;
   };
   if (imposed(c.constant_weight)) return false;
   bool curved = false;
@@ -66,12 +66,12 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   Eigen::SparseMatrix<double> A = SaddlePattern(system);
   MatrixSink sink(&A);
   AddSparse(system.mass, 1.0, &sink);
-  system.constraints.Jacobian(state->q, t, &sink, n, 1.0);
-  system.constraints.JacobianTranspose(state->q, t, &sink, n, 1.0);
+  system.constraints.Jacobian(system.data().imposed, state->q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(system.data().imposed, state->q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
   Eigen::VectorXd rhs(n + m);
   system.Force(state->q, state->qdot, t, rhs.head(n));
-  system.constraints.AccelerationBias(state->q, state->qdot, t, rhs.tail(m));
+  system.constraints.AccelerationBias(system.data().imposed, state->q, state->qdot, t, rhs.tail(m));
   rhs.tail(m) *= -1.0;
   // Rows left out (`free_rows`): an identity row and column, λ_i = 0. Regularised rows
   // (Φ_i − c_i λ_i = 0, Eq. (7) of the rotor-sailing paper): λ_i = Φ_i / c_i is a function of
@@ -88,7 +88,7 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   }
   if (special) {
     Eigen::VectorXd phi(m);
-    system.constraints.Evaluate(state->q, t, phi);
+    system.constraints.Evaluate(system.data().imposed, state->q, t, phi);
     for (int k = 0; k < A.outerSize(); ++k) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(A, k); it; ++it) {
         const Row r = mode[static_cast<size_t>(it.row())], c = mode[static_cast<size_t>(it.col())];
@@ -160,7 +160,7 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
 
 double CgAlpha::ConstraintViolation(double t) const {
   violation_.resize(system_.constraints.size());  // sized once
-  system_.constraints.Evaluate(state_.q, t, violation_);
+  system_.constraints.Evaluate(system_.data().imposed, state_.q, t, violation_);
   return violation_.size() > 0 ? violation_.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
@@ -172,18 +172,18 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   MatrixSink sink(&S_);
   // The elastic force and its tangent in one pass (force_ holds the other forces already).
   elastic_.Add(state_.q, next_.q, force_, bh2, &sink);
-  AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);  // βh² β' M
-  system_.constraints.HessianTimesLambda(t1, next_.lambda, &sink, bh2);           // βh² Σ λ_i ∂²φ_i/∂q²
+  AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);                 // βh² β' M
+  system_.constraints.HessianTimesLambda(system_.data().imposed, t1, next_.lambda, &sink, bh2);  // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
   system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink,
                           /*include_elastic=*/false);
-  system_.constraints.JacobianTranspose(next_.q, t1, &sink, n, 1.0);
-  system_.constraints.Jacobian(next_.q, t1, &sink, n, 1.0);
+  system_.constraints.JacobianTranspose(system_.data().imposed, next_.q, t1, &sink, n, 1.0);
+  system_.constraints.Jacobian(system_.data().imposed, next_.q, t1, &sink, n, 1.0);
   if (any_velocity_row_) {
     // Velocity rows: ∂(Φ_q q̇ + Φ_t)/∂q_{n+1} / γ' = Φ_q + (Φ_q q̇ + Φ_t)_q / γ' (q̇ moves with
     // γ' Δq along the Newton correction).
-    system_.constraints.VelocityConstraintJacobian(next_.q, next_.qdot, t1, &sink, n, coef_.beta * h / coef_.gamma,
-                                                   &velocity_row_);
+    system_.constraints.VelocityConstraintJacobian(system_.data().imposed, next_.q, next_.qdot, t1, &sink, n,
+                                                   coef_.beta * h / coef_.gamma, &velocity_row_);
   }
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
   // Regularised rows Φ_i − c_i λ_i (Eq. (7) of the rotor-sailing paper): −c_i ∂λ/∂λ̂ = −c_i/(βh²).
@@ -249,11 +249,12 @@ void CgAlpha::ConstraintRows(double t1, bool phi_known) {
   // rows_ = Φ − cλ (position rows) or Φ_q q̇ + Φ_t (velocity rows) at next_; phi_ = Φ, taken
   // as it is when the projection has just evaluated it at next_.q.
   const ConstraintSet& cs = system_.constraints;
-  if (!phi_known) cs.Evaluate(next_.q, t1, phi_);
+  const ImposedValues& imposed = system_.data().imposed;
+  if (!phi_known) cs.Evaluate(imposed, next_.q, t1, phi_);
   rows_ = phi_;
   if (any_velocity_row_) {
-    cs.JacobianTimes(next_.q, t1, next_.qdot, rate_, &velocity_row_);
-    cs.TimeDerivative(next_.q, t1, phi_t_, &velocity_row_);
+    cs.JacobianTimes(imposed, next_.q, t1, next_.qdot, rate_, &velocity_row_);
+    cs.TimeDerivative(imposed, next_.q, t1, phi_t_, &velocity_row_);
     for (Eigen::Index i = 0; i < rows_.size(); ++i) {
       if (velocity_row_[static_cast<size_t>(i)] != 0) rows_(i) = rate_(i) + phi_t_(i);
     }
@@ -292,7 +293,7 @@ bool CgAlpha::ProjectPositions(double t1, StepStatus* status) {
   const double target = std::max(1e-4 * settings_.tolerance, 1e-14);
   double previous = std::numeric_limits<double>::infinity();
   for (int k = 0;; ++k) {
-    system_.constraints.Evaluate(next_.q, t1, phi_);
+    system_.constraints.Evaluate(system_.data().imposed, next_.q, t1, phi_);
     for (int i = 0; i < m; ++i) rhs(i) = velocity_row_[static_cast<size_t>(i)] != 0 ? -phi_(i) : 0.0;
     const double violation = rhs.lpNorm<Eigen::Infinity>();
     if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return true;
@@ -473,7 +474,7 @@ void CgAlpha::Newton(double t1, double h, Matrices matrices, StepStatus* status)
     auto r_q = residual_.head(n);
     r_q.noalias() = system_.mass * next_.qddot;
     r_q -= force_;
-    system_.constraints.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r_q);
+    system_.constraints.AddJacobianTransposeTimes(system_.data().imposed, next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     ScaledRows(1.0 / gamma_prime, residual_.tail(m));  // rows_ is at next_ (below, or before the loop)
     if (fresh) {

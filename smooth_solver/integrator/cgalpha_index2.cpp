@@ -30,6 +30,7 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSetting
   // every row a locked joint may release.
   const double always = -std::numeric_limits<double>::infinity();
   const ConstraintSet& cs = system.constraints;
+  const ImposedValues& imposed = system.data().imposed;
   PatternSink p;
   OffsetSink r1_vdot(&p, 0, n), r2(&p, n, 0), r4(&p, 2 * n + m, 0), r4_vdot(&p, 2 * n + m, n);
   for (int i = 0; i < 2 * n + 2 * m; ++i) p.Add(i, i, 0.0);
@@ -37,48 +38,49 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSetting
   system.ForcePattern(&p);
   AddSparse(system.mass, 1.0, &r1_vdot);
   system.ForcePattern(&r1_vdot);
-  cs.JacobianTranspose(system.q0, always, &p, 2 * n, 1.0);
+  cs.JacobianTranspose(imposed, system.q0, always, &p, 2 * n, 1.0);
   cs.HessianPattern(&r2);
   for (int i = 0; i < n; ++i) p.Add(n + i, i, 0.0);  // R2: I in the Δq columns
-  cs.JacobianTranspose(system.q0, always, &r2, 2 * n + m, 1.0);
-  cs.Jacobian(system.q0, always, &p, 2 * n, 1.0);
-  cs.Jacobian(system.q0, always, &r4, 0, 1.0);
-  cs.Jacobian(system.q0, always, &r4_vdot, 0, 1.0);
+  cs.JacobianTranspose(imposed, system.q0, always, &r2, 2 * n + m, 1.0);
+  cs.Jacobian(imposed, system.q0, always, &p, 2 * n, 1.0);
+  cs.Jacobian(imposed, system.q0, always, &r4, 0, 1.0);
+  cs.Jacobian(imposed, system.q0, always, &r4_vdot, 0, 1.0);
   S_ = p.Build(2 * n + 2 * m, 2 * n + 2 * m);
   lu_.Analyze(S_);
 }
 
 double CgAlphaIndex2::ConstraintViolation(double t) const {
   violation_.resize(system_.constraints.size());  // sized once
-  system_.constraints.Evaluate(state_.q, t, violation_);
+  system_.constraints.Evaluate(system_.data().imposed, state_.q, t, violation_);
   return violation_.size() > 0 ? violation_.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
 void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const ConstraintSet& cs = system_.constraints;
+  const ImposedValues& imposed = system_.data().imposed;
   MatrixSink sink(&S_);  // zeroed by Step, which added the elastic tangent
   // R1 × c_q: [c_q (Σλ∇²φ − ∂f/∂q), M − c_v ∂f/∂v (column ÷ c_q), Φ_qᵀ (column ÷ c_q), 0].
-  cs.HessianTimesLambda(t1, next_.lambda, &sink, cq);
+  cs.HessianTimesLambda(imposed, t1, next_.lambda, &sink, cq);
   system_.AddForceTangent(next_.q, next_.qdot, t1, cq, 0.0, &sink, /*include_elastic=*/false);
   OffsetSink r1_vdot(&sink, 0, n);
   AddSparse(system_.mass, 1.0, &r1_vdot);
   system_.AddForceTangent(next_.q, next_.qdot, t1, 0.0, cv, &r1_vdot, /*include_elastic=*/false);
-  cs.JacobianTranspose(next_.q, t1, &sink, 2 * n, 1.0);
+  cs.JacobianTranspose(imposed, next_.q, t1, &sink, 2 * n, 1.0);
   // R2: [I − Σν∇²φ, −I (column ÷ c_q: −c_q I / c_q), 0, −Φ_qᵀ].
   OffsetSink r2(&sink, n, 0);
   for (int i = 0; i < n; ++i) {
     sink.Add(n + i, i, 1.0);
     sink.Add(n + i, n + i, -1.0);
   }
-  cs.HessianTimesLambda(t1, nu_, &r2, -1.0);
-  cs.JacobianTranspose(next_.q, t1, &r2, 2 * n + m, -1.0);
+  cs.HessianTimesLambda(imposed, t1, nu_, &r2, -1.0);
+  cs.JacobianTranspose(imposed, next_.q, t1, &r2, 2 * n + m, -1.0);
   // R3: [Φ_q, 0, 0, 0].
-  cs.Jacobian(next_.q, t1, &sink, 2 * n, 1.0);
+  cs.Jacobian(imposed, next_.q, t1, &sink, 2 * n, 1.0);
   // R4 × c_q/c_v: [(c_q/c_v) ∂(Φ_q v + Φ_t)/∂q, Φ_q (c_v Φ_q × c_q/c_v ÷ c_q), 0, 0].
   OffsetSink r4(&sink, 2 * n + m, 0, cq / cv), r4_vdot(&sink, 2 * n + m, n);
-  cs.VelocityConstraintJacobian(next_.q, next_.qdot, t1, &r4, 0);
-  cs.Jacobian(next_.q, t1, &r4_vdot, 0, 1.0);
+  cs.VelocityConstraintJacobian(imposed, next_.q, next_.qdot, t1, &r4, 0);
+  cs.Jacobian(imposed, next_.q, t1, &r4_vdot, 0, 1.0);
   // Released joints: identity rows for their λ and ν.
   cs.AddReleasedDiagonal(t1, &sink, 2 * n);
   cs.AddReleasedDiagonal(t1, &sink, 2 * n + m);
@@ -87,6 +89,7 @@ void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
 int CgAlphaIndex2::Step(double t, double h) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const ConstraintSet& cs = system_.constraints;
+  const ImposedValues& imposed = system_.data().imposed;
   const double t1 = t + h;
   const double ca = (1.0 - coef_.alpha_f) / (1.0 - coef_.alpha_m);  // ∂a_{n+1}/∂v̇_{n+1}
   const double cv = h * coef_.gamma * ca, cq = h * h * coef_.beta * ca;
@@ -120,15 +123,15 @@ int CgAlphaIndex2::Step(double t, double h) {
     }
     r1.noalias() = system_.mass * next_.qddot;
     r1 -= force_;
-    cs.AddJacobianTransposeTimes(next_.q, t1, next_.lambda, r1);
+    cs.AddJacobianTransposeTimes(imposed, next_.q, t1, next_.lambda, r1);
     r1 *= cq;
     r2 = next_.q - q_newmark_;
     force_.setZero();  // reused as scratch for Φ_qᵀ ν
-    cs.AddJacobianTransposeTimes(next_.q, t1, nu_, force_);
+    cs.AddJacobianTransposeTimes(imposed, next_.q, t1, nu_, force_);
     r2 -= force_;
-    cs.Evaluate(next_.q, t1, residual_.segment(2 * n, m));
-    cs.JacobianTimes(next_.q, t1, next_.qdot, residual_.tail(m));
-    cs.TimeDerivative(next_.q, t1, scratch_);
+    cs.Evaluate(imposed, next_.q, t1, residual_.segment(2 * n, m));
+    cs.JacobianTimes(imposed, next_.q, t1, next_.qdot, residual_.tail(m));
+    cs.TimeDerivative(imposed, next_.q, t1, scratch_);
     residual_.tail(m) = (residual_.tail(m) + scratch_) * (cq / cv);
     Assemble(t1, cq, cv);
     if (!lu_.Factorize(S_)) {
@@ -142,10 +145,10 @@ int CgAlphaIndex2::Step(double t, double h) {
     nu_ += delta_.tail(m);
     update_kinematics();
     // Converged: small position correction, constraints met at position and velocity level.
-    cs.Evaluate(next_.q, t1, scratch_);
+    cs.Evaluate(imposed, next_.q, t1, scratch_);
     const double phi = m > 0 ? scratch_.lpNorm<Eigen::Infinity>() : 0.0;
-    cs.JacobianTimes(next_.q, t1, next_.qdot, residual_.tail(m));  // reused as scratch
-    cs.TimeDerivative(next_.q, t1, scratch_);
+    cs.JacobianTimes(imposed, next_.q, t1, next_.qdot, residual_.tail(m));  // reused as scratch
+    cs.TimeDerivative(imposed, next_.q, t1, scratch_);
     const double vel_error = m > 0 ? (residual_.tail(m) + scratch_).lpNorm<Eigen::Infinity>() * h : 0.0;
     const double dq = delta_.head(n).lpNorm<Eigen::Infinity>();
     if (!std::isfinite(dq)) break;

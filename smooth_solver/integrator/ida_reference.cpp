@@ -45,17 +45,17 @@ struct IdaReference::Impl {
     const auto q = y.head(n), v = y.segment(n, n), lambda = yp.segment(2 * n, m), mu = yp.tail(m);
     // q̇ − v + Φ_qᵀ μ
     r.head(n) = yp.head(n) - v;
-    p->system->constraints.AddJacobianTransposeTimes(q, t, mu, r.head(n));
+    p->system->constraints.AddJacobianTransposeTimes(p->system->data().imposed, q, t, mu, r.head(n));
     // M v̇ − f + Φ_qᵀ λ
     p->system->Force(q, v, t, p->force);
     r.segment(n, n) = p->system->mass * yp.segment(n, n) - p->force;
-    p->system->constraints.AddJacobianTransposeTimes(q, t, lambda, r.segment(n, n));
+    p->system->constraints.AddJacobianTransposeTimes(p->system->data().imposed, q, t, lambda, r.segment(n, n));
     // Φ_q v + Φ_t
-    p->system->constraints.JacobianTimes(q, t, v, r.segment(2 * n, m));
-    p->system->constraints.TimeDerivative(q, t, p->scratch);
+    p->system->constraints.JacobianTimes(p->system->data().imposed, q, t, v, r.segment(2 * n, m));
+    p->system->constraints.TimeDerivative(p->system->data().imposed, q, t, p->scratch);
     r.segment(2 * n, m) += p->scratch;
     // Φ
-    p->system->constraints.Evaluate(q, t, r.tail(m));
+    p->system->constraints.Evaluate(p->system->data().imposed, q, t, r.tail(m));
     // Released rows (a locked joint after its release): λ_i = Λ̇_i = 0, μ_i = Μ̇_i = 0.
     for (int i = 0; i < m; ++i) {
       if (!p->system->constraints.Active(static_cast<size_t>(i), t)) {
@@ -72,25 +72,26 @@ struct IdaReference::Impl {
     const int n = p.n, m = p.m;
     const Eigen::VectorXd q = y.head(n), v = y.segment(n, n), lambda = yp.segment(2 * n, m), mu = yp.tail(m);
     const ConstraintSet& cs = p.system->constraints;
+    const ImposedValues& imposed = p.system->data().imposed;
     OffsetSink v_rows(sink, n, 0), v_block(sink, n, n), v_columns(sink, 0, n);
     for (int i = 0; i < n; ++i) {
       sink->Add(i, i, cj);        // ∂(q̇)/∂ẏ
       sink->Add(i, n + i, -1.0);  // −v
     }
     // Rows of q̇: Σ μ_i ∂²φ_i/∂q² and c_j Φ_qᵀ (Μ columns: μ = Μ̇).
-    cs.HessianTimesLambda(t, mu, sink, 1.0);
-    cs.JacobianTranspose(q, t, sink, 2 * n + m, cj);
+    cs.HessianTimesLambda(imposed, t, mu, sink, 1.0);
+    cs.JacobianTranspose(imposed, q, t, sink, 2 * n + m, cj);
     // Rows of v̇: Σ λ_i ∂²φ_i/∂q², −∂f/∂q (q columns), c_j M − ∂f/∂v (v columns), c_j Φ_qᵀ (Λ).
-    cs.HessianTimesLambda(t, lambda, &v_rows, 1.0);
+    cs.HessianTimesLambda(imposed, t, lambda, &v_rows, 1.0);
     p.system->AddForceTangent(q, v, t, 1.0, 0.0, &v_rows);
     p.system->AddForceTangent(q, v, t, 0.0, 1.0, &v_block);
     AddSparse(p.system->mass, cj, &v_block);
-    cs.JacobianTranspose(q, t, &v_rows, 2 * n, cj);
+    cs.JacobianTranspose(imposed, q, t, &v_rows, 2 * n, cj);
     // Velocity constraint rows: ∂(Φ_q v + Φ_t)/∂q and Φ_q (v columns).
-    cs.VelocityConstraintJacobian(q, v, t, sink, 2 * n);
-    cs.Jacobian(q, t, &v_columns, 2 * n, 1.0);
+    cs.VelocityConstraintJacobian(imposed, q, v, t, sink, 2 * n);
+    cs.Jacobian(imposed, q, t, &v_columns, 2 * n, 1.0);
     // Position constraint rows: Φ_q.
-    cs.Jacobian(q, t, sink, 2 * n + m, 1.0);
+    cs.Jacobian(imposed, q, t, sink, 2 * n + m, 1.0);
     for (int i = 0; i < m; ++i) {
       if (!cs.Active(static_cast<size_t>(i), t)) {
         sink->Add(2 * n + i, 2 * n + i, cj);
@@ -104,20 +105,21 @@ struct IdaReference::Impl {
     const int n = p.n, m = p.m, N = 2 * n + 2 * m;
     const double always = -std::numeric_limits<double>::infinity();
     const ConstraintSet& cs = p.system->constraints;
+    const ImposedValues& imposed = p.system->data().imposed;
     PatternSink pattern;
     OffsetSink v_rows(&pattern, n, 0), v_block(&pattern, n, n), v_columns(&pattern, 0, n);
     for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
     for (int i = 0; i < n; ++i) pattern.Add(i, n + i, 0.0);
     cs.HessianPattern(&pattern);
-    cs.JacobianTranspose(p.system->q0, always, &pattern, 2 * n + m, 1.0);
+    cs.JacobianTranspose(imposed, p.system->q0, always, &pattern, 2 * n + m, 1.0);
     cs.HessianPattern(&v_rows);
     p.system->ForcePattern(&v_rows);
     p.system->ForcePattern(&v_block);
     AddSparse(p.system->mass, 1.0, &v_block);
-    cs.JacobianTranspose(p.system->q0, always, &v_rows, 2 * n, 1.0);
-    cs.Jacobian(p.system->q0, always, &pattern, 2 * n, 1.0);  // the velocity rows' q-pattern is Φ_q's
-    cs.Jacobian(p.system->q0, always, &v_columns, 2 * n, 1.0);
-    cs.Jacobian(p.system->q0, always, &pattern, 2 * n + m, 1.0);
+    cs.JacobianTranspose(imposed, p.system->q0, always, &v_rows, 2 * n, 1.0);
+    cs.Jacobian(imposed, p.system->q0, always, &pattern, 2 * n, 1.0);  // the velocity rows' q-pattern is Φ_q's
+    cs.Jacobian(imposed, p.system->q0, always, &v_columns, 2 * n, 1.0);
+    cs.Jacobian(imposed, p.system->q0, always, &pattern, 2 * n + m, 1.0);
     return pattern.Build(N, N);
   }
 
@@ -226,7 +228,7 @@ int IdaReference::Step(double t, double h) {
 
 double IdaReference::ConstraintViolation(double t) const {
   Eigen::VectorXd phi(impl_->m);
-  impl_->system->constraints.Evaluate(state_.q, t, phi);
+  impl_->system->constraints.Evaluate(impl_->system->data().imposed, state_.q, t, phi);
   return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
 }
 

@@ -43,14 +43,14 @@ int Residual(N_Vector y, N_Vector f, void* data) {
   auto F = View(f);
   const Eigen::VectorXd q = Y.head(p->n);
   F.head(p->n) = q - p->system->q0;
-  p->constraints->AddJacobianTransposeTimes(q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
-  p->system->holds.AddJacobianTransposeTimes(q, p->t0, Y.tail(p->mh), F.head(p->n));
-  p->constraints->Evaluate(q, p->t0, F.segment(p->n, p->mc));
+  p->constraints->AddJacobianTransposeTimes(p->system->data().imposed, q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
+  p->system->holds.AddJacobianTransposeTimes(p->system->data().imposed, q, p->t0, Y.tail(p->mh), F.head(p->n));
+  p->constraints->Evaluate(p->system->data().imposed, q, p->t0, F.segment(p->n, p->mc));
   for (int i = 0; i < p->mc; ++i) F(p->n + i) -= p->constraints->Compliance(static_cast<size_t>(i)) * Y(p->n + i);
   for (int i = 0; i < p->mc; ++i) {
     if (!p->constraints->Active(static_cast<size_t>(i), p->t0)) F(p->n + i) = Y(p->n + i);  // released: μ = 0
   }
-  p->system->holds.Evaluate(q, p->t0, F.tail(p->mh));
+  p->system->holds.Evaluate(p->system->data().imposed, q, p->t0, F.tail(p->mh));
   return F.allFinite() ? 0 : 1;
 }
 
@@ -59,14 +59,14 @@ int Residual(N_Vector y, N_Vector f, void* data) {
 void FillJacobian(const ClosureProblem& p, const Eigen::Ref<const Eigen::VectorXd>& Y, SparseSink* sink) {
   const Eigen::VectorXd q = Y.head(p.n);
   for (int i = 0; i < p.n; ++i) sink->Add(i, i, 1.0);
-  p.constraints->HessianTimesLambda(p.t0, Y.segment(p.n, p.mc), sink, 1.0);
-  p.system->holds.HessianTimesLambda(p.t0, Y.tail(p.mh), sink, 1.0);
-  p.constraints->Jacobian(q, p.t0, sink, p.n, 1.0);
-  p.constraints->JacobianTranspose(q, p.t0, sink, p.n, 1.0);
+  p.constraints->HessianTimesLambda(p.system->data().imposed, p.t0, Y.segment(p.n, p.mc), sink, 1.0);
+  p.system->holds.HessianTimesLambda(p.system->data().imposed, p.t0, Y.tail(p.mh), sink, 1.0);
+  p.constraints->Jacobian(p.system->data().imposed, q, p.t0, sink, p.n, 1.0);
+  p.constraints->JacobianTranspose(p.system->data().imposed, q, p.t0, sink, p.n, 1.0);
   p.constraints->AddReleasedDiagonal(p.t0, sink, p.n);
   p.constraints->AddComplianceDiagonal(sink, p.n, 1.0);
-  p.system->holds.Jacobian(q, p.t0, sink, p.n + p.mc, 1.0);
-  p.system->holds.JacobianTranspose(q, p.t0, sink, p.n + p.mc, 1.0);
+  p.system->holds.Jacobian(p.system->data().imposed, q, p.t0, sink, p.n + p.mc, 1.0);
+  p.system->holds.JacobianTranspose(p.system->data().imposed, q, p.t0, sink, p.n + p.mc, 1.0);
 }
 
 // Every entry FillJacobian may touch (and the whole diagonal, for the released rows).
@@ -77,10 +77,10 @@ Eigen::SparseMatrix<double> JacobianPattern(const ClosureProblem& p) {
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
   p.constraints->HessianPattern(&pattern);
   p.system->holds.HessianPattern(&pattern);
-  p.constraints->Jacobian(p.system->q0, always, &pattern, p.n, 1.0);
-  p.constraints->JacobianTranspose(p.system->q0, always, &pattern, p.n, 1.0);
-  p.system->holds.Jacobian(p.system->q0, always, &pattern, p.n + p.mc, 1.0);
-  p.system->holds.JacobianTranspose(p.system->q0, always, &pattern, p.n + p.mc, 1.0);
+  p.constraints->Jacobian(p.system->data().imposed, p.system->q0, always, &pattern, p.n, 1.0);
+  p.constraints->JacobianTranspose(p.system->data().imposed, p.system->q0, always, &pattern, p.n, 1.0);
+  p.system->holds.Jacobian(p.system->data().imposed, p.system->q0, always, &pattern, p.n + p.mc, 1.0);
+  p.system->holds.JacobianTranspose(p.system->data().imposed, p.system->q0, always, &pattern, p.n + p.mc, 1.0);
   return pattern.Build(N, N);
 }
 
@@ -107,11 +107,11 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
   if (mass_metric) AddSparse(system.mass, 1.0, &pattern);
-  system.constraints.Jacobian(q, t, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(q, t, &pattern, n, 1.0);
+  system.constraints.Jacobian(system.data().imposed, q, t, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(system.data().imposed, q, t, &pattern, n, 1.0);
   if (holds != nullptr) {
-    holds->Jacobian(q, t, &pattern, n + mc, 1.0);
-    holds->JacobianTranspose(q, t, &pattern, n + mc, 1.0);
+    holds->Jacobian(system.data().imposed, q, t, &pattern, n + mc, 1.0);
+    holds->JacobianTranspose(system.data().imposed, q, t, &pattern, n + mc, 1.0);
   }
   Eigen::SparseMatrix<double> A = pattern.Build(N, N);
   MatrixSink sink(&A);
@@ -120,19 +120,19 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   } else {
     for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
   }
-  system.constraints.Jacobian(q, t, &sink, n, 1.0);
-  system.constraints.JacobianTranspose(q, t, &sink, n, 1.0);
+  system.constraints.Jacobian(system.data().imposed, q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(system.data().imposed, q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
   system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
   if (holds != nullptr) {
-    holds->Jacobian(q, t, &sink, n + mc, 1.0);
-    holds->JacobianTranspose(q, t, &sink, n + mc, 1.0);
+    holds->Jacobian(system.data().imposed, q, t, &sink, n + mc, 1.0);
+    holds->JacobianTranspose(system.data().imposed, q, t, &sink, n + mc, 1.0);
   }
   Eigen::VectorXd rhs(N);
   rhs.head(n) = mass_metric ? Eigen::VectorXd(system.mass * qdot_ref) : qdot_ref;
-  system.constraints.TimeDerivative(q, t, rhs.segment(n, mc));
+  system.constraints.TimeDerivative(system.data().imposed, q, t, rhs.segment(n, mc));
   rhs.segment(n, mc) *= -1.0;
-  if (holds != nullptr) holds->JacobianTimes(q, t, qdot_ref, rhs.tail(mh));
+  if (holds != nullptr) holds->JacobianTimes(system.data().imposed, q, t, qdot_ref, rhs.tail(mh));
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
   if (lu.info() != Eigen::Success && mh > 0) {
     // A held speed the constraints already fix (a held joint of a structure the closure made
@@ -236,8 +236,9 @@ void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state)
 
 void HoldClosedLocks(MultibodySystem* system, const Eigen::VectorXd& q, double t0) {
   ConstraintSet& cs = system->constraints;
+  const ImposedValues& imposed = system->data().imposed;
   Eigen::VectorXd phi(cs.size());
-  cs.Evaluate(q, t0, phi);
+  cs.Evaluate(imposed, q, t0, phi);
   for (int i = 0; i < cs.size(); ++i) {
     ScalarConstraint& c = cs.constraints[static_cast<size_t>(i)];
     if (c.set_by_closure) c.constant -= phi(i);  // Φ_i(q) = 0 from now on (its constant has weight 1)

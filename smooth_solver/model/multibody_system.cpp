@@ -127,7 +127,7 @@ Eigen::Vector3d MultibodySystem::JointReactionForce(int joint, const Eigen::Vect
   Eigen::VectorXd selected = Eigen::VectorXd::Zero(lambda.size());
   selected.segment(m.first_row, m.row_count) = lambda.segment(m.first_row, m.row_count);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(coordinates);
-  constraints.AddJacobianTransposeTimes(q, t, selected, g);
+  constraints.AddJacobianTransposeTimes(data().imposed, q, t, selected, g);
   return m.body2 >= 0 ? Eigen::Vector3d(-g.segment<3>(kCoordinatesPerBody * m.body2))
                       : Eigen::Vector3d(g.segment<3>(kCoordinatesPerBody * m.body1));
 }
@@ -139,7 +139,7 @@ Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::Vec
   const int first = m.first_row + (m.has_point_rows ? 3 : 0);
   selected.segment(first, m.first_row + m.row_count - first) = lambda.segment(first, m.first_row + m.row_count - first);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(coordinates);
-  constraints.AddJacobianTransposeTimes(q, t, selected, g);  // Φ_qᵀ λ; the force is −g
+  constraints.AddJacobianTransposeTimes(data().imposed, q, t, selected, g);  // Φ_qᵀ λ; the force is −g
   // A generalised force g_k on the axis e_k of a body is the couple Σ_k e_k × g_k.
   const int body = m.body2 >= 0 ? m.body2 : m.body1;
   const int o = kCoordinatesPerBody * body;
@@ -473,7 +473,7 @@ void AddInterfacePoints(const MultibodyModel& model, MultibodySystem* sys) {
         x.value = at(j);  // until the peer says otherwise: where the point is
         const int d = static_cast<int>(cs.drives.size());
         Drive drive;
-        drive.imposed = &x;
+        drive.imposed = static_cast<int>(3 * k) + j;  // (data.imposed, read at each evaluation)
         cs.drives.push_back(drive);
         ScalarConstraint row;
         row.name = "coupling." + spec.contact_node + "." + std::string(1, "xyz"[j]);

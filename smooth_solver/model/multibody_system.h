@@ -81,8 +81,8 @@ struct MultibodySystem {
   // mutable_data() (a const system cannot), CGα's checkpoints save and restore it.
   const SystemData& data() const { return *data_; }
   SystemData* mutable_data() { return data_.get(); }
-  std::unique_ptr<SystemData> data_ =
-      std::make_unique<SystemData>();  // (on the heap: its address is bound into the elements)
+  // (On the heap: CgAlpha's checkpoints and the coordinator hold its address.)
+  std::unique_ptr<SystemData> data_ = std::make_unique<SystemData>();
   // Force [N] the smooth model exerts on interface node k, from the multipliers.
   Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
     return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);

@@ -2,7 +2,9 @@
 // Everything of a smooth model that changes during a run besides (q, q̇, q̈, λ): the coordinates
 // a coupling peer imposes on the interface points, the contact laws' impact-speed memories and
 // the rotors' inflow. The MultibodySystem (the model, like Pinocchio's Model or MuJoCo's mjModel)
-// is immutable once built and reads this through a const reference; its owner writes it (the
+// is immutable once built; its force elements and constraint rows are given this data at every
+// evaluation (AddForce(…, data, …), ConstraintSet::Evaluate(imposed, …)) and keep only their slots
+// in it, never a pointer to it. Its owner writes it (the
 // coordinator between coupling iterations, AcceptStep after an accepted step) and CGα's
 // checkpoints save and restore it with the integrator's state, so that a rejected step (an
 // adaptive step's error test, a coupling iteration that fails) leaves no trace
@@ -31,7 +33,7 @@ struct RotorInflowState {
 
 struct SystemData {
   // 3 per interface point (x, y, z): the end-of-step values the peer imposes; the coupling rows'
-  // drives point at these (their addresses never change after the build).
+  // drives name them by index, and every evaluation of the constraints is given them.
   std::vector<ImposedCoordinate> imposed;
   // One per interface point: the peer's compliance as the coordinator linearised it, ∂x/∂λ of
   // the imposed position x with respect to the point's multipliers (interface Jacobians,
@@ -47,8 +49,8 @@ struct SystemData {
     return other.imposed.size() == imposed.size() && other.impact_speed.size() == impact_speed.size() &&
            other.interface_compliance.size() == interface_compliance.size() && other.rotors.size() == rotors.size();
   }
-  // Copies `other` into this object's storage (same sizes: no reallocation, so the drives'
-  // pointers into `imposed` stay valid).
+  // Copies `other` into this object's storage (same sizes: no reallocation, as the checkpoints
+  // of a warm run must not allocate).
   void CopyFrom(const SystemData& other) {
     if (!SameShape(other)) {
       throw std::logic_error("SystemData::CopyFrom: the two objects belong to different systems");

@@ -478,7 +478,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
 double MultibodySimulation::Violation(const Eigen::VectorXd& q) const {
   if (!interpolated_) return integrator_->ConstraintViolation(time_);
   Eigen::VectorXd phi(system_->constraints.size());
-  system_->constraints.Evaluate(q, probe_time_, phi);
+  system_->constraints.Evaluate(system_->data().imposed, q, probe_time_, phi);
   return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
 }
 

@@ -77,29 +77,30 @@ TEST(Constraints, JacobianAndHessianMatchFiniteDifferences) {
   auto sim = Load(kFourBar, {});
   const MultibodySystem& sys = sim->system();
   const ConstraintSet& cs = sys.constraints;
+  const ImposedValues& imposed = sys.data().imposed;
   const int n = sys.coordinates, m = cs.size();
   Eigen::VectorXd q = sys.q0;
   for (int i = 0; i < n; ++i) q(i) += 0.01 * std::sin(1.7 * i + 0.3);
   Eigen::VectorXd lambda(m);
   for (int i = 0; i < m; ++i) lambda(i) = std::cos(0.9 * i);
   DenseCollector J(m, n), H(n, n);
-  cs.Jacobian(q, 0.0, &J, 0, 1.0);
-  cs.HessianTimesLambda(0.0, lambda, &H, 1.0);
+  cs.Jacobian(imposed, q, 0.0, &J, 0, 1.0);
+  cs.HessianTimesLambda(imposed, 0.0, lambda, &H, 1.0);
   const double eps = 1e-6;
   Eigen::VectorXd plus(m), minus(m), g_plus(n), g_minus(n);
   for (int k = 0; k < n; ++k) {
     Eigen::VectorXd qp = q, qm = q;
     qp(k) += eps;
     qm(k) -= eps;
-    cs.Evaluate(qp, 0.0, plus);
-    cs.Evaluate(qm, 0.0, minus);
+    cs.Evaluate(imposed, qp, 0.0, plus);
+    cs.Evaluate(imposed, qm, 0.0, minus);
     const Eigen::VectorXd fd = (plus - minus) / (2 * eps);
     EXPECT_LT((fd - J.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + J.m.col(k).lpNorm<Eigen::Infinity>()))
         << "column " << k;
     g_plus.setZero();
     g_minus.setZero();
-    cs.AddJacobianTransposeTimes(qp, 0.0, lambda, g_plus);
-    cs.AddJacobianTransposeTimes(qm, 0.0, lambda, g_minus);
+    cs.AddJacobianTransposeTimes(imposed, qp, 0.0, lambda, g_plus);
+    cs.AddJacobianTransposeTimes(imposed, qm, 0.0, lambda, g_minus);
     const Eigen::VectorXd fd_h = (g_plus - g_minus) / (2 * eps);
     EXPECT_LT((fd_h - H.m.col(k)).lpNorm<Eigen::Infinity>(), 1e-6 * (1.0 + H.m.col(k).lpNorm<Eigen::Infinity>()))
         << "column " << k;

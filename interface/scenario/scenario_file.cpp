@@ -490,6 +490,63 @@ void ScenarioFile::CheckFinite(const pb::Message& message, const std::string& pr
   }
 }
 
+namespace {
+
+// The last segment of an override: `value` into `field` of `message` (element `index` of a
+// repeated field, or the whole field for -1); `given` is the value as the user wrote it.
+void SetOverriddenField(const std::string& context, const std::string& given, pb::Message* message,
+                        const pb::FieldDescriptor* field, int index, std::string value) {
+  const pb::Reflection* reflection = message->GetReflection();
+  // The last segment: parse "name: VALUE" as text format into a scratch copy of the parent
+  // with the field cleared, then move the value over. This gives --set exactly the syntax
+  // of the scenario file (enums by name, lists as [a, b, c], messages as { ... }).
+  // A bare word is a string; a whole repeated field of strings is a list ["a", "b"].
+  const bool string_list = field->is_repeated() && index < 0 && !value.empty() && value[0] == '[';
+  if (field->type() == pb::FieldDescriptor::TYPE_STRING && !string_list && (value.empty() || value[0] != '"')) {
+    value = "\"" + value + "\"";
+  }
+  std::unique_ptr<pb::Message> scratch(message->New());
+  FirstErrorCollector errors;
+  pb::TextFormat::Parser parser;
+  parser.RecordErrorsTo(&errors);
+  const std::string snippet = field->name() + ": " + value;
+  if (!parser.ParseFromString(snippet, scratch.get()) || errors.has_error()) {
+    throw InputError(context + ": value '" + given + "' does not fit field '" + field->name() + "' (" +
+                     std::string(field->type_name()) + "): " + errors.Format("value"));
+  }
+  const pb::Reflection* scratch_reflection = scratch->GetReflection();
+  if (index >= 0) {
+    if (scratch_reflection->FieldSize(*scratch, field) != 1) {
+      throw InputError(context + ": an element of '" + field->name() + "' takes one value");
+    }
+    // Copy the single parsed element into place.
+    switch (field->cpp_type()) {
+      case pb::FieldDescriptor::CPPTYPE_MESSAGE:
+        reflection->MutableRepeatedMessage(message, field, index)
+            ->CopyFrom(scratch_reflection->GetRepeatedMessage(*scratch, field, 0));
+        break;
+      case pb::FieldDescriptor::CPPTYPE_DOUBLE:
+        reflection->SetRepeatedDouble(message, field, index, scratch_reflection->GetRepeatedDouble(*scratch, field, 0));
+        break;
+      case pb::FieldDescriptor::CPPTYPE_INT32:
+        reflection->SetRepeatedInt32(message, field, index, scratch_reflection->GetRepeatedInt32(*scratch, field, 0));
+        break;
+      case pb::FieldDescriptor::CPPTYPE_STRING:
+        reflection->SetRepeatedString(message, field, index, scratch_reflection->GetRepeatedString(*scratch, field, 0));
+        break;
+      default:
+        throw InputError(context + ": setting one element of '" + field->name() +
+                         "' is not supported; set the whole list");
+    }
+  } else {
+    reflection->ClearField(message, field);
+    // Swap the freshly parsed field in (MergeFrom of the scratch adds only what it holds).
+    message->MergeFrom(*scratch);
+  }
+}
+
+}  // namespace
+
 void ScenarioFile::ApplyOverride(const std::string& argument) {
   const std::string context = "--set " + argument;
   const size_t eq = argument.find('=');
@@ -542,54 +599,7 @@ void ScenarioFile::ApplyOverride(const std::string& argument) {
       continue;
     }
 
-    // The last segment: parse "name: VALUE" as text format into a scratch copy of the parent
-    // with the field cleared, then move the value over. This gives --set exactly the syntax
-    // of the scenario file (enums by name, lists as [a, b, c], messages as { ... }).
-    // A bare word is a string; a whole repeated field of strings is a list ["a", "b"].
-    const bool string_list = field->is_repeated() && index < 0 && !value.empty() && value[0] == '[';
-    if (field->type() == pb::FieldDescriptor::TYPE_STRING && !string_list && (value.empty() || value[0] != '"')) {
-      value = "\"" + value + "\"";
-    }
-    std::unique_ptr<pb::Message> scratch(message->New());
-    FirstErrorCollector errors;
-    pb::TextFormat::Parser parser;
-    parser.RecordErrorsTo(&errors);
-    const std::string snippet = field->name() + ": " + value;
-    if (!parser.ParseFromString(snippet, scratch.get()) || errors.has_error()) {
-      throw InputError(context + ": value '" + argument.substr(eq + 1) + "' does not fit field '" + field->name() +
-                       "' (" + std::string(field->type_name()) + "): " + errors.Format("value"));
-    }
-    const pb::Reflection* scratch_reflection = scratch->GetReflection();
-    if (index >= 0) {
-      if (scratch_reflection->FieldSize(*scratch, field) != 1) {
-        throw InputError(context + ": an element of '" + field->name() + "' takes one value");
-      }
-      // Copy the single parsed element into place.
-      switch (field->cpp_type()) {
-        case pb::FieldDescriptor::CPPTYPE_MESSAGE:
-          reflection->MutableRepeatedMessage(message, field, index)
-              ->CopyFrom(scratch_reflection->GetRepeatedMessage(*scratch, field, 0));
-          break;
-        case pb::FieldDescriptor::CPPTYPE_DOUBLE:
-          reflection->SetRepeatedDouble(message, field, index,
-                                        scratch_reflection->GetRepeatedDouble(*scratch, field, 0));
-          break;
-        case pb::FieldDescriptor::CPPTYPE_INT32:
-          reflection->SetRepeatedInt32(message, field, index, scratch_reflection->GetRepeatedInt32(*scratch, field, 0));
-          break;
-        case pb::FieldDescriptor::CPPTYPE_STRING:
-          reflection->SetRepeatedString(message, field, index,
-                                        scratch_reflection->GetRepeatedString(*scratch, field, 0));
-          break;
-        default:
-          throw InputError(context + ": setting one element of '" + field->name() +
-                           "' is not supported; set the whole list");
-      }
-    } else {
-      reflection->ClearField(message, field);
-      // Swap the freshly parsed field in (MergeFrom of the scratch adds only what it holds).
-      message->MergeFrom(*scratch);
-    }
+    SetOverriddenField(context, argument.substr(eq + 1), message, field, index, value);
   }
   overridden_.emplace_back(normalised, argument);
 }

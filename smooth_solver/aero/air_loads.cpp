@@ -222,6 +222,68 @@ AirLoads::AirLoads(AeroModel model, std::vector<int> elastic_offset)
   }
 }
 
+namespace {
+
+// Adds the weights of one coordinate slot to a section (summed with the slot's if it has it).
+void AddSlot(AeroSection* sec, int slot, double wa, double we, double wn) {
+  for (int k = 0; k < sec->slots; ++k) {
+    if (sec->slot[static_cast<size_t>(k)] == slot) {
+      sec->wa[static_cast<size_t>(k)] += wa;
+      sec->we[static_cast<size_t>(k)] += we;
+      sec->wn[static_cast<size_t>(k)] += wn;
+      return;
+    }
+  }
+  const size_t k = static_cast<size_t>(sec->slots++);
+  sec->slot[k] = slot;
+  sec->wa[k] = wa;
+  sec->we[k] = we;
+  sec->wn[k] = wn;
+}
+
+// A beam section's weights: the element containing s, its shape functions there, and the chord and
+// normal from the interpolated directors turned by the table's structural twist and the aerodynamic
+// twist (cos, sin: ct, stw); x_qc: the reference line's offset to the quarter chord.
+void BeamSectionWeights(const AeroSurfaceSpec& sf, double s, double ct, double stw, double x_qc, AeroSection* sec) {
+  auto add = [&](int slot, double wa, double we, double wn) { AddSlot(sec, slot, wa, we, wn); };
+  // The element containing s and the shape functions there.
+  const BeamModel& beam = sf.beam;
+  const int nn = beam.nodes_per_element;
+  const BeamElement* el = &beam.elements.back();
+  for (const BeamElement& e : beam.elements) {
+    if (s <= e.s0 + e.length) {
+      el = &e;
+      break;
+    }
+  }
+  const double xi = std::min(std::max(2.0 * (s - el->s0) / el->length - 1.0, -1.0), 1.0);
+  double N[3], dN[3];
+  BeamShape(nn, xi, N, dN);
+  // Reference directors interpolated at s, and the structural twist the table gives there: the
+  // section's chord c = cos δ d2 + sin δ d3 with δ the difference (the interpolated directors
+  // carry the nodes' twist only).
+  Vector3d d2r = Vector3d::Zero(), d3r = Vector3d::Zero();
+  for (int I = 0; I < nn; ++I) {
+    d2r += N[I] * el->q_ref.segment<3>(kCoordinatesPerBody * I + 6);
+    d3r += N[I] * el->q_ref.segment<3>(kCoordinatesPerBody * I + 9);
+  }
+  const double theta = beam.table.At(s).twist;
+  const Vector3d chord_structural = std::cos(theta) * beam.d2_0 + std::sin(theta) * beam.d3_0;
+  const double delta = std::atan2(chord_structural.dot(d3r.normalized()), chord_structural.dot(d2r.normalized()));
+  const double cd = std::cos(delta), sd = std::sin(delta), us = sf.upper_sign;
+  // c = cd d2 + sd d3; n = us (−sd d2 + cd d3).
+  const double e_d2 = ct * cd + stw * us * (-sd), e_d3 = ct * sd + stw * us * cd;
+  const double n_d2 = -stw * cd + ct * us * (-sd), n_d3 = -stw * sd + ct * us * cd;
+  for (int I = 0; I < nn; ++I) {
+    const int base = kCoordinatesPerBody * el->node[static_cast<size_t>(I)];
+    add(base, N[I], 0.0, 0.0);
+    add(base + 6, x_qc * N[I] * e_d2, N[I] * e_d2, N[I] * n_d2);
+    add(base + 9, x_qc * N[I] * e_d3, N[I] * e_d3, N[I] * n_d3);
+  }
+}
+
+}  // namespace
+
 AeroSection AirLoads::Section(int surface, double s, double weight) const {
   const AeroSurfaceSpec& sf = model_.surfaces[static_cast<size_t>(surface)];
   AeroSection sec;
@@ -246,56 +308,9 @@ AeroSection AirLoads::Section(int surface, double s, double weight) const {
   // Chord axis and normal as combinations of two section vectors (c_ref, n_ref), rotated by the
   // aerodynamic twist: e1 = cos τ c + sin τ n, e2 = −sin τ c + cos τ n.
   const double ct = std::cos(twist), stw = std::sin(twist);
-  auto add = [&](int slot, double wa, double we, double wn) {
-    for (int k = 0; k < sec.slots; ++k) {
-      if (sec.slot[static_cast<size_t>(k)] == slot) {
-        sec.wa[static_cast<size_t>(k)] += wa;
-        sec.we[static_cast<size_t>(k)] += we;
-        sec.wn[static_cast<size_t>(k)] += wn;
-        return;
-      }
-    }
-    const size_t k = static_cast<size_t>(sec.slots++);
-    sec.slot[k] = slot;
-    sec.wa[k] = wa;
-    sec.we[k] = we;
-    sec.wn[k] = wn;
-  };
+  auto add = [&](int slot, double wa, double we, double wn) { AddSlot(&sec, slot, wa, we, wn); };
   if (sf.on_beam) {
-    // The element containing s and the shape functions there.
-    const BeamModel& beam = sf.beam;
-    const int nn = beam.nodes_per_element;
-    const BeamElement* el = &beam.elements.back();
-    for (const BeamElement& e : beam.elements) {
-      if (s <= e.s0 + e.length) {
-        el = &e;
-        break;
-      }
-    }
-    const double xi = std::min(std::max(2.0 * (s - el->s0) / el->length - 1.0, -1.0), 1.0);
-    double N[3], dN[3];
-    BeamShape(nn, xi, N, dN);
-    // Reference directors interpolated at s, and the structural twist the table gives there: the
-    // section's chord c = cos δ d2 + sin δ d3 with δ the difference (the interpolated directors
-    // carry the nodes' twist only).
-    Vector3d d2r = Vector3d::Zero(), d3r = Vector3d::Zero();
-    for (int I = 0; I < nn; ++I) {
-      d2r += N[I] * el->q_ref.segment<3>(kCoordinatesPerBody * I + 6);
-      d3r += N[I] * el->q_ref.segment<3>(kCoordinatesPerBody * I + 9);
-    }
-    const double theta = beam.table.At(s).twist;
-    const Vector3d chord_structural = std::cos(theta) * beam.d2_0 + std::sin(theta) * beam.d3_0;
-    const double delta = std::atan2(chord_structural.dot(d3r.normalized()), chord_structural.dot(d2r.normalized()));
-    const double cd = std::cos(delta), sd = std::sin(delta), us = sf.upper_sign;
-    // c = cd d2 + sd d3; n = us (−sd d2 + cd d3).
-    const double e_d2 = ct * cd + stw * us * (-sd), e_d3 = ct * sd + stw * us * cd;
-    const double n_d2 = -stw * cd + ct * us * (-sd), n_d3 = -stw * sd + ct * us * cd;
-    for (int I = 0; I < nn; ++I) {
-      const int base = kCoordinatesPerBody * el->node[static_cast<size_t>(I)];
-      add(base, N[I], 0.0, 0.0);
-      add(base + 6, x_qc * N[I] * e_d2, N[I] * e_d2, N[I] * n_d2);
-      add(base + 9, x_qc * N[I] * e_d3, N[I] * e_d3, N[I] * n_d3);
-    }
+    BeamSectionWeights(sf, s, ct, stw, x_qc, &sec);
   } else if (sf.elastic >= 0) {
     // The material point of the reference line and the reference chord and normal, carried by
     // the deformation gradient: e1 = F c = Σ_a x_a (∇N_a · c), e2 = F n.

@@ -39,6 +39,103 @@ BeamSection ReadStation(const Checks& checks, const std::string& path, const sc:
 
 }  // namespace
 
+// The beam's section table (stations in span order; a step is two stations at one s) and its
+// loaded span.
+void ReadSectionTable(const Checks& checks, const sc::Beam& b, const std::string& path, BeamModel* beam_out) {
+  BeamModel& beam = *beam_out;
+  if (b.stations_size() < 1) checks.Fail(path + ".stations", "a beam needs at least one station of section data");
+  std::vector<double> s;
+  std::vector<BeamSection> sections;
+  for (int k = 0; k < b.stations_size(); ++k) {
+    const std::string spath = ElementPath(path + ".stations", k);
+    const sc::BeamStation& st = b.stations(k);
+    checks.Require(spath + ".s", st.has_s(), "the station's span coordinate in m");
+    if (!s.empty() && st.s() < s.back()) {
+      checks.Fail(spath + ".s", "station out of order: s = " + FormatNumber(st.s()) +
+                                    " m comes after s = " + FormatNumber(s.back()) + " m; stations must not decrease");
+    }
+    if (s.size() >= 2 && st.s() == s.back() && s[s.size() - 2] == st.s()) {
+      checks.Fail(spath + ".s",
+                  "a third station at s = " + FormatNumber(st.s()) + " m; a step is two stations at the same s");
+    }
+    s.push_back(st.s());
+    sections.push_back(ReadStation(checks, spath, st));
+  }
+  beam.span_start = b.has_span_start() ? b.span_start() : s.front();
+  beam.span_end = b.has_span_end() ? b.span_end() : s.back();
+  if (beam.span_start < s.front() || beam.span_start > s.back()) {
+    checks.Fail(path + ".span_start", FormatNumber(beam.span_start) + " m is outside the stations' range [" +
+                                          FormatNumber(s.front()) + ", " + FormatNumber(s.back()) + "] m");
+  }
+  if (!(beam.span_end > beam.span_start) || beam.span_end > s.back()) {
+    checks.Fail(path + ".span_end", FormatNumber(beam.span_end) +
+                                        " m: expected in (span_start = " + FormatNumber(beam.span_start) +
+                                        ", last station = " + FormatNumber(s.back()) + "] m");
+  }
+  beam.table = BeamTable(s, sections);
+}
+
+// The beam's nodes: bodies along the reference line, their axes the section frames (twisted
+// with the table), moving with the beam's initial velocity and angular velocity.
+void AddBeamNodes(const Checks& checks, const sc::Beam& b, const std::string& path, interface::NameTable* body_names,
+                  BeamModel* beam_out, MultibodyModel* model) {
+  BeamModel& beam = *beam_out;
+  const Eigen::Vector3d root = checks.Vector3(path + ".root", b.root(), std::nullopt);
+  const Eigen::Vector3d axis = checks.Direction(path + ".axis", b.axis());
+  const Eigen::Vector3d d2_0 = checks.AcrossAxis(path + ".chord", b.chord(), axis), d3_0 = axis.cross(d2_0);
+  beam.d2_0 = d2_0;
+  beam.d3_0 = d3_0;
+  const Eigen::Vector3d v0 = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
+  const Eigen::Vector3d w0 = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
+
+  const int n = beam.nodes_per_element, ne = b.elements(), nodes = ne * (n - 1) + 1;
+  const double length = beam.span_end - beam.span_start;
+  for (int k = 0; k < nodes; ++k) {
+    const double sk = beam.span_start + length * k / (nodes - 1);
+    const double twist = beam.table.At(sk).twist;
+    RigidBody node;
+    node.name = beam.name + ".n" + std::to_string(k);
+    body_names->Add(path + ".name", node.name);
+    node.position = root + (sk - beam.span_start) * axis;
+    Eigen::Matrix3d R;
+    R.col(0) = axis;
+    R.col(1) = std::cos(twist) * d2_0 + std::sin(twist) * d3_0;
+    R.col(2) = -std::sin(twist) * d2_0 + std::cos(twist) * d3_0;
+    node.orientation = Eigen::Quaterniond(R);
+    node.velocity = v0 + w0.cross(node.position - root);
+    node.angular_velocity = w0;
+    beam.node_bodies.push_back(static_cast<int>(model->bodies.size()));
+    model->bodies.push_back(node);
+  }
+}
+
+// The beam's elements over its nodes: reference coordinates and the Gauss points' stiffness.
+void AddBeamElements(int ne, const MultibodyModel& model, BeamModel* beam_out) {
+  BeamModel& beam = *beam_out;
+  const int n = beam.nodes_per_element;
+  const double le = (beam.span_end - beam.span_start) / ne;
+  std::array<double, 2> xi{}, w{};
+  const int gauss = BeamGaussPoints(n, &xi, &w);
+  for (int e = 0; e < ne; ++e) {
+    BeamElement el;
+    el.s0 = beam.span_start + e * le;
+    el.length = le;
+    for (int I = 0; I < n; ++I) {
+      const int body = beam.node_bodies[static_cast<size_t>(e * (n - 1) + I)];
+      el.node[static_cast<size_t>(I)] = body;
+      const RigidBody& nb = model.bodies[static_cast<size_t>(body)];
+      const Eigen::Matrix3d R = nb.orientation.toRotationMatrix();
+      el.q_ref.segment<3>(kCoordinatesPerBody * I) = nb.position;
+      for (int a = 0; a < 3; ++a) el.q_ref.segment<3>(kCoordinatesPerBody * I + 3 + 3 * a) = R.col(a);
+    }
+    for (int g = 0; g < gauss; ++g) {
+      const double sg = el.s0 + 0.5 * (xi[static_cast<size_t>(g)] + 1.0) * le;
+      el.stiffness[static_cast<size_t>(g)] = SectionStiffness(beam.table.At(sg));
+    }
+    beam.elements.push_back(el);
+  }
+}
+
 void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyModel* model) {
   const sc::Model& m = checks.file().proto().model();
   interface::NameTable beam_names(checks, "beam");
@@ -49,37 +146,7 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
     beam.name = beam_names.Declare(path + ".name", b.has_name(), b.name());
     if (b.name() == "ground") checks.Fail(path + ".name", "'ground' is the fixed frame; choose another name");
 
-    // Section table.
-    if (b.stations_size() < 1) checks.Fail(path + ".stations", "a beam needs at least one station of section data");
-    std::vector<double> s;
-    std::vector<BeamSection> sections;
-    for (int k = 0; k < b.stations_size(); ++k) {
-      const std::string spath = ElementPath(path + ".stations", k);
-      const sc::BeamStation& st = b.stations(k);
-      checks.Require(spath + ".s", st.has_s(), "the station's span coordinate in m");
-      if (!s.empty() && st.s() < s.back()) {
-        checks.Fail(spath + ".s", "station out of order: s = " + FormatNumber(st.s()) + " m comes after s = " +
-                                      FormatNumber(s.back()) + " m; stations must not decrease");
-      }
-      if (s.size() >= 2 && st.s() == s.back() && s[s.size() - 2] == st.s()) {
-        checks.Fail(spath + ".s",
-                    "a third station at s = " + FormatNumber(st.s()) + " m; a step is two stations at the same s");
-      }
-      s.push_back(st.s());
-      sections.push_back(ReadStation(checks, spath, st));
-    }
-    beam.span_start = b.has_span_start() ? b.span_start() : s.front();
-    beam.span_end = b.has_span_end() ? b.span_end() : s.back();
-    if (beam.span_start < s.front() || beam.span_start > s.back()) {
-      checks.Fail(path + ".span_start", FormatNumber(beam.span_start) + " m is outside the stations' range [" +
-                                            FormatNumber(s.front()) + ", " + FormatNumber(s.back()) + "] m");
-    }
-    if (!(beam.span_end > beam.span_start) || beam.span_end > s.back()) {
-      checks.Fail(path + ".span_end", FormatNumber(beam.span_end) +
-                                          " m: expected in (span_start = " + FormatNumber(beam.span_start) +
-                                          ", last station = " + FormatNumber(s.back()) + "] m");
-    }
-    beam.table = BeamTable(s, sections);
+    ReadSectionTable(checks, b, path, &beam);
 
     // Discretisation.
     checks.Require(path + ".elements", b.has_elements(), "the number of elements (>= 1)");
@@ -93,55 +160,8 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
     beam.nodes_per_element = b.nodes_per_element();
     beam.retardation = checks.NonNegative(path + ".retardation_time", b.retardation_time(), "s");
 
-    // Reference line and section frames.
-    const Eigen::Vector3d root = checks.Vector3(path + ".root", b.root(), std::nullopt);
-    const Eigen::Vector3d axis = checks.Direction(path + ".axis", b.axis());
-    const Eigen::Vector3d d2_0 = checks.AcrossAxis(path + ".chord", b.chord(), axis), d3_0 = axis.cross(d2_0);
-    beam.d2_0 = d2_0;
-    beam.d3_0 = d3_0;
-    const Eigen::Vector3d v0 = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
-    const Eigen::Vector3d w0 =
-        checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
-
-    const int n = beam.nodes_per_element, ne = b.elements(), nodes = ne * (n - 1) + 1;
-    const double length = beam.span_end - beam.span_start, le = length / ne;
-    for (int k = 0; k < nodes; ++k) {
-      const double sk = beam.span_start + length * k / (nodes - 1);
-      const double twist = beam.table.At(sk).twist;
-      RigidBody node;
-      node.name = beam.name + ".n" + std::to_string(k);
-      body_names->Add(path + ".name", node.name);
-      node.position = root + (sk - beam.span_start) * axis;
-      Eigen::Matrix3d R;
-      R.col(0) = axis;
-      R.col(1) = std::cos(twist) * d2_0 + std::sin(twist) * d3_0;
-      R.col(2) = -std::sin(twist) * d2_0 + std::cos(twist) * d3_0;
-      node.orientation = Eigen::Quaterniond(R);
-      node.velocity = v0 + w0.cross(node.position - root);
-      node.angular_velocity = w0;
-      beam.node_bodies.push_back(static_cast<int>(model->bodies.size()));
-      model->bodies.push_back(node);
-    }
-    std::array<double, 2> xi{}, w{};
-    const int gauss = BeamGaussPoints(n, &xi, &w);
-    for (int e = 0; e < ne; ++e) {
-      BeamElement el;
-      el.s0 = beam.span_start + e * le;
-      el.length = le;
-      for (int I = 0; I < n; ++I) {
-        const int body = beam.node_bodies[static_cast<size_t>(e * (n - 1) + I)];
-        el.node[static_cast<size_t>(I)] = body;
-        const RigidBody& nb = model->bodies[static_cast<size_t>(body)];
-        const Eigen::Matrix3d R = nb.orientation.toRotationMatrix();
-        el.q_ref.segment<3>(kCoordinatesPerBody * I) = nb.position;
-        for (int a = 0; a < 3; ++a) el.q_ref.segment<3>(kCoordinatesPerBody * I + 3 + 3 * a) = R.col(a);
-      }
-      for (int g = 0; g < gauss; ++g) {
-        const double sg = el.s0 + 0.5 * (xi[static_cast<size_t>(g)] + 1.0) * le;
-        el.stiffness[static_cast<size_t>(g)] = SectionStiffness(beam.table.At(sg));
-      }
-      beam.elements.push_back(el);
-    }
+    AddBeamNodes(checks, b, path, body_names, &beam, model);
+    AddBeamElements(b.elements(), *model, &beam);
     model->beams.push_back(std::move(beam));
   }
 }

@@ -44,56 +44,11 @@ std::vector<Coordinator::MovingObstacle> CoupledSmoothSimulation::MovingObstacle
   return out;
 }
 
-CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& file)
-    : simulation_(std::make_unique<MultibodySimulation>(file, /*coupled=*/true)),
-      context_(std::make_unique<zmq::context_t>()),
-      scenario_name_(file.proto().name()) {
-  const interface::Checks checks(file);
-  const sc::Coupling& coupling = file.proto().coupling();
-  if (simulation_->cgalpha() == nullptr) {
-    checks.Fail("numerics.smooth.integrator",
-                "a coupled run needs CGALPHA (its steps are repeated per coupling "
-                "iteration from a checkpoint)");
-  }
-  const interface::ChannelTiming timing = interface::ReadChannelTiming(file);
-  const interface::CurveKeys keys = interface::CurveKeysFromEnvironment();
-  std::vector<Coordinator::Peer> peers;
-  const MultibodySystem& sys = simulation_->system();
-  std::vector<bool> served(sys.interface_points.size(), false);
-  for (const interface::ContactProcessPlan& process : interface::ReadCouplingPlan(file)) {
-    const std::string path = interface::ElementPath("coupling.processes", process.index);
-    checks.Require(path + ".endpoint", !process.endpoint.empty(),
-                   "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
-    interface::ChannelOptions options;
-    options.endpoint = process.endpoint;
-    options.bind = false;
-    options.self = "smooth_solver";
-    options.peer = process.name;
-    options.timeout = timing.timeout;
-    options.heartbeat = timing.heartbeat;
-    options.keys = keys;
-    // The interface points whose contact node this process integrates, in interface order.
-    std::vector<int> points;
-    for (size_t k = 0; k < sys.interface_points.size(); ++k) {
-      for (const std::string& node : process.nodes) {
-        if (node == sys.interface_points[k].contact_node) {
-          points.push_back(static_cast<int>(k));
-          served[k] = true;
-        }
-      }
-    }
-    if (points.empty()) continue;  // a process without interface nodes has nothing to exchange
-    channels_.push_back(std::make_unique<interface::Channel>(context_.get(), options));
-    peers.push_back(Coordinator::Peer{channels_.back().get(), points, MovingObstacles(file, process)});
-  }
-  for (size_t k = 0; k < served.size(); ++k) {
-    if (!served[k]) {
-      checks.Fail(interface::ElementPath("coupling.interface_nodes", static_cast<int>(k)) + ".contact_node",
-                  "contact node '" + sys.interface_points[k].contact_node + "' is in no contact process");
-    }
-  }
+namespace {
 
-  const sc::Coupling::CouplingIteration& it = coupling.iteration();
+// coupling.iteration, checked: the coordinator's settings.
+CouplingSettings ReadCouplingSettings(const interface::Checks& checks, const interface::ScenarioFile& file) {
+  const sc::Coupling::CouplingIteration& it = file.proto().coupling().iteration();
   CouplingSettings settings;
   if (it.max_iterations() < 1) {
     checks.Fail("coupling.iteration.max_iterations", "must be >= 1, got " + std::to_string(it.max_iterations()));
@@ -156,6 +111,60 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
     }
   }
 
+  return settings;
+}
+
+}  // namespace
+
+CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& file)
+    : simulation_(std::make_unique<MultibodySimulation>(file, /*coupled=*/true)),
+      context_(std::make_unique<zmq::context_t>()),
+      scenario_name_(file.proto().name()) {
+  const interface::Checks checks(file);
+  if (simulation_->cgalpha() == nullptr) {
+    checks.Fail("numerics.smooth.integrator",
+                "a coupled run needs CGALPHA (its steps are repeated per coupling "
+                "iteration from a checkpoint)");
+  }
+  const interface::ChannelTiming timing = interface::ReadChannelTiming(file);
+  const interface::CurveKeys keys = interface::CurveKeysFromEnvironment();
+  std::vector<Coordinator::Peer> peers;
+  const MultibodySystem& sys = simulation_->system();
+  std::vector<bool> served(sys.interface_points.size(), false);
+  for (const interface::ContactProcessPlan& process : interface::ReadCouplingPlan(file)) {
+    const std::string path = interface::ElementPath("coupling.processes", process.index);
+    checks.Require(path + ".endpoint", !process.endpoint.empty(),
+                   "an endpoint (ipc://path or tcp://host:port; scripts/cosim run sets one)");
+    interface::ChannelOptions options;
+    options.endpoint = process.endpoint;
+    options.bind = false;
+    options.self = "smooth_solver";
+    options.peer = process.name;
+    options.timeout = timing.timeout;
+    options.heartbeat = timing.heartbeat;
+    options.keys = keys;
+    // The interface points whose contact node this process integrates, in interface order.
+    std::vector<int> points;
+    for (size_t k = 0; k < sys.interface_points.size(); ++k) {
+      for (const std::string& node : process.nodes) {
+        if (node == sys.interface_points[k].contact_node) {
+          points.push_back(static_cast<int>(k));
+          served[k] = true;
+        }
+      }
+    }
+    if (points.empty()) continue;  // a process without interface nodes has nothing to exchange
+    channels_.push_back(std::make_unique<interface::Channel>(context_.get(), options));
+    peers.push_back(Coordinator::Peer{channels_.back().get(), points, MovingObstacles(file, process)});
+  }
+  for (size_t k = 0; k < served.size(); ++k) {
+    if (!served[k]) {
+      checks.Fail(interface::ElementPath("coupling.interface_nodes", static_cast<int>(k)) + ".contact_node",
+                  "contact node '" + sys.interface_points[k].contact_node + "' is in no contact process");
+    }
+  }
+
+  const CouplingSettings settings = ReadCouplingSettings(checks, file);
   coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(),
                                                std::move(peers), settings);
   start_time_ = file.proto().numerics().start_time();

@@ -353,6 +353,55 @@ void MultibodySimulation::Visual(interface::VisualFrame* frame) const {
   DrawScene(model_, *system_, (interpolated_ ? shown_ : integrator_->state()).q, visual_, frame);
 }
 
+// An aero section's or a rotor's probe at the state `s`.
+double MultibodySimulation::AeroProbe(const ProbeSpec& p, const DaeState& s) const {
+  if (p.kind == Kind::kAeroAlpha || p.kind == Kind::kAeroForce || p.kind == Kind::kAeroMoment ||
+      p.kind == Kind::kAeroMach) {
+    const AirLoads& air = *system_->air_loads;
+    const AirLoads::SectionResult r =
+        air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_, system_->data());
+    return p.kind == Kind::kAeroAlpha    ? r.alpha
+           : p.kind == Kind::kAeroMoment ? r.moment
+           : p.kind == Kind::kAeroMach   ? r.mach
+                                         : interface::PickComponent(r.force_local, p.component);
+  }
+  const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_, system_->data());
+  return p.kind == Kind::kRotorThrust   ? r.thrust
+         : p.kind == Kind::kRotorTorque ? r.torque
+         : p.kind == Kind::kInflowRatio ? r.inflow_ratio
+                                        : r.induced;
+}
+
+// A joint's coordinate, revolute angles unwrapped across ±π, from the joint's initial coordinate.
+double MultibodySimulation::JointCoordinateProbe(const ProbeSpec& p, const Eigen::VectorXd& q) const {
+  double value = system_->JointCoordinate(p.index, q);
+  if (system_->joints[static_cast<size_t>(p.index)].rotational) {
+    // An interpolated state lies within the last step: on last_angle_'s side of ±π.
+    const double last = last_angle_[static_cast<size_t>(p.index)];
+    if (value - last > std::numbers::pi) value -= 2.0 * std::numbers::pi;
+    if (value - last < -std::numbers::pi) value += 2.0 * std::numbers::pi;
+    value += angle_offset_[static_cast<size_t>(p.index)];
+  } else {
+    value += model_.joints[static_cast<size_t>(p.index)].initial_coordinate;
+  }
+  return value;
+}
+
+// An elastic body's node displacement, in the probe's frame (from the initial relative position).
+double MultibodySimulation::NodeDisplacementProbe(const ProbeSpec& p, const Eigen::VectorXd& q) const {
+  const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
+  Eigen::Vector3d d;
+  if (p.frame >= 0) {  // relative to the frame, in its axes, from the initial relative position
+    const int f = kCoordinatesPerBody * p.frame;
+    const Eigen::Matrix3d F = BodyAxes(q, p.frame);
+    d = F.transpose() * (Eigen::Vector3d(q.segment<3>(at)) - Eigen::Vector3d(q.segment<3>(f))) - p.initial_position;
+  } else {
+    d = Eigen::Vector3d(q.segment<3>(at)) -
+        system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
+  }
+  return interface::PickComponent(d, p.component);
+}
+
 void MultibodySimulation::Probe(std::vector<double>* values) const {
   const DaeState& s = interpolated_ ? shown_ : integrator_->state();
   for (size_t i = 0; i < probes_.size(); ++i) {
@@ -381,42 +430,19 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kAeroAlpha:
       case Kind::kAeroForce:
       case Kind::kAeroMoment:
-      case Kind::kAeroMach: {
-        const AirLoads& air = *system_->air_loads;
-        const AirLoads::SectionResult r =
-            air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_, system_->data());
-        value = p.kind == Kind::kAeroAlpha    ? r.alpha
-                : p.kind == Kind::kAeroMoment ? r.moment
-                : p.kind == Kind::kAeroMach   ? r.mach
-                                              : interface::PickComponent(r.force_local, p.component);
-        break;
-      }
+      case Kind::kAeroMach:
       case Kind::kRotorThrust:
       case Kind::kRotorTorque:
       case Kind::kInflowRatio:
-      case Kind::kInducedVelocity: {
-        const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_, system_->data());
-        value = p.kind == Kind::kRotorThrust   ? r.thrust
-                : p.kind == Kind::kRotorTorque ? r.torque
-                : p.kind == Kind::kInflowRatio ? r.inflow_ratio
-                                               : r.induced;
+      case Kind::kInducedVelocity:
+        value = AeroProbe(p, s);
         break;
-      }
       case Kind::kContactForce:
         for (const UnilateralContact* law : system_->contact_laws[static_cast<size_t>(p.index)])
           value += law->LawForce(s.q, s.qdot, system_->data());
         break;
       case Kind::kJointCoordinate:
-        value = system_->JointCoordinate(p.index, s.q);
-        if (system_->joints[static_cast<size_t>(p.index)].rotational) {
-          // An interpolated state lies within the last step: on last_angle_'s side of ±π.
-          const double last = last_angle_[static_cast<size_t>(p.index)];
-          if (value - last > std::numbers::pi) value -= 2.0 * std::numbers::pi;
-          if (value - last < -std::numbers::pi) value += 2.0 * std::numbers::pi;
-          value += angle_offset_[static_cast<size_t>(p.index)];
-        } else {
-          value += model_.joints[static_cast<size_t>(p.index)].initial_coordinate;
-        }
+        value = JointCoordinateProbe(p, s.q);
         break;
       case Kind::kJointSpeed:
         value = system_->JointRate(p.index, s.q, s.qdot);
@@ -441,21 +467,9 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
       case Kind::kViolation:
         value = Violation(s.q);
         break;
-      case Kind::kDisplacement: {
-        const int at = system_->elastic_offset[static_cast<size_t>(p.index)] + 3 * p.node;
-        Eigen::Vector3d d;
-        if (p.frame >= 0) {  // relative to the frame, in its axes, from the initial relative position
-          const int f = kCoordinatesPerBody * p.frame;
-          const Eigen::Matrix3d F = BodyAxes(s.q, p.frame);
-          d = F.transpose() * (Eigen::Vector3d(s.q.segment<3>(at)) - Eigen::Vector3d(s.q.segment<3>(f))) -
-              p.initial_position;
-        } else {
-          d = Eigen::Vector3d(s.q.segment<3>(at)) -
-              system_->elastic[static_cast<size_t>(p.index)]->body.mesh().nodes.col(p.node);
-        }
-        value = interface::PickComponent(d, p.component);
+      case Kind::kDisplacement:
+        value = NodeDisplacementProbe(p, s.q);
         break;
-      }
       case Kind::kClampForce:
       case Kind::kClampMoment: {
         Eigen::Vector3d force, moment;

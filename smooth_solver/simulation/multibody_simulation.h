@@ -97,6 +97,10 @@ class MultibodySimulation : public interface::Simulation {
   bool static_ = false;
   // A body's vector quantity (kind), in the probe's frame.
   Eigen::Vector3d BodyVector(const ProbeSpec& p) const;
+  // Probe's pieces.
+  double AeroProbe(const ProbeSpec& p, const DaeState& s) const;
+  double JointCoordinateProbe(const ProbeSpec& p, const Eigen::VectorXd& q) const;
+  double NodeDisplacementProbe(const ProbeSpec& p, const Eigen::VectorXd& q) const;
 
   MultibodyModel model_;
   std::unique_ptr<MultibodySystem> system_;  // changed only through AcceptStep and mutable_data()

@@ -1,9 +1,25 @@
 """Every study of docs/results.md, regenerated into docs/."""
+import csv
 import os
 import shutil
 import sys
 from studies.common import ROOT
 from studies.kinds import STUDIES
+
+
+def envelope_headline(runs_csv, speed_unit):
+    """The envelope's figures for the results table, from its runs.csv: how many runs, how many
+    failed, and the smallest clearance (where: the first two columns are the axes)."""
+    with open(runs_csv) as f:
+        rows = list(csv.DictReader(f))
+    axes = list(rows[0])[:2]
+    failed = sum(1 for r in rows if r["exit"] != "0")
+    done = [r for r in rows if r["exit"] == "0" and r["clearance"] not in ("", "nan")]
+    least = min(done, key=lambda r: float(r["clearance"]))
+    return (
+        f"{len(rows)} runs, {failed} failed; the least clearance {float(least['clearance']):.2f} m at "
+        f"{least[axes[0]]} {speed_unit} from {least[axes[1]]}°"
+    )
 
 
 def results(runner, out_root, sets, reuse=False):
@@ -128,7 +144,9 @@ def results(runner, out_root, sets, reuse=False):
         "| SHARCS-like hub, hex27 against beam blade (issue 17) | — | flap 0.08° RMS apart, radial root force 33 N RMS of 11.1 kN (below) | compare study |",
         "| Puma gust, co-simulated impact response as h is refined (issue 16) | — | both impacts of the 35 m/s gust: loads converge at order 1.6, at h = 1 ms the root shear within 2.7 kN of ~8 kN peaks, flap within 0.17° (the bouncing after the landing); h ≤ 0.5 ms for peaks within ~10 % (below) | convergence study |",
         "| Puma blade-sailing envelope, gust peak × direction (issue 19) | — | 24 co-simulated runs in 243 s on one worker; four-fold symmetric to the digits shown; at 25 m/s blade lift 0.63 m, smallest clearance to a plane 2 m below the hub at 45°, not at the paper's 90° (below) | envelope study |",
-        "| Puma engagement on a frigate's moving deck in its airwake, operating limits (issue 35) | — | 108 continuous runs in 2899 s on two workers; the lowest tips in the run-down; clearance falls with wind speed everywhere, worst from the starboard beam (90–120°); the tip reaches the tail-boom plane at 40 kt; 7 runs failed numerically at stop landings (below) | envelope study |",
+        "| Puma engagement on a frigate's moving deck in its airwake, operating limits | — | "
+        + envelope_headline(os.path.join(out_root, "envelope-puma_ship", "runs.csv"), "kt")
+        + " (below) | envelope study |",
         "",
     ]
     with open(os.path.join(docs, "results.md"), "w") as f:

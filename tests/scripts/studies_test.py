@@ -27,6 +27,7 @@ from studies.common import (  # noqa: E402
 from studies.compare import compare_measure  # noqa: E402
 from studies.coupling import relaxation_sets  # noqa: E402
 from studies.envelope import axis_sets, unsafe_points  # noqa: E402
+from studies.results import envelope_headline  # noqa: E402
 
 
 class Common(unittest.TestCase):
@@ -136,6 +137,17 @@ class Studies(unittest.TestCase):
             {"code": 0, "measures": {"clearance": float("nan")}},
         ]
         self.assertEqual(unsafe_points(runs, 0.3), [False, True, True, None])
+
+    def test_the_results_table_takes_the_envelope_figures_from_its_runs(self):
+        # Counted from runs.csv (a failed run has no clearance to compare), not written by hand.
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "runs.csv")
+            with open(path, "w") as f:
+                f.write("wind speed,relative wind direction,exit,clearance\n")
+                f.write("5,0,0,0.49\n45,120,0,-0.15\n45,60,3,nan\n40,90,0,0.02\n")
+            self.assertEqual(
+                envelope_headline(path, "kt"), "4 runs, 1 failed; the least clearance -0.15 m at 45 kt from 120°"
+            )
 
     def test_compare_measures(self):
         # Means and extremes over a window; the first or last time a probe is back near its start.

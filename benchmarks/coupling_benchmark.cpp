@@ -2,7 +2,7 @@
 // real messages (Reactions → Kinematics, serialised, sent, received, parsed and checked on both
 // sides) against a raw ZeroMQ ping-pong of the same byte sizes over the same transport, in one
 // run, for ipc and tcp, between two processes (fork), for 1 and 12 interface nodes.
-// Target (issue 6): the protocol within 1.25× of the raw ping-pong. Peer figures on this kind of
+// Target: the protocol within 1.25× of the raw ping-pong. Peer figures on this kind of
 // machine (docs/reference/peers.md): ipc 38-79 µs, tcp 44-81 µs per round trip.
 #include <google/protobuf/util/json_util.h>
 #include <sys/wait.h>

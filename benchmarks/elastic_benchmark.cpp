@@ -7,7 +7,7 @@
 //  4. A four-blade hub (rigid hub on a driven shaft, four blades of ten elements clamped to it,
 //     spinning up): cost per CGα step, Newton iterations per step, the share of one elastic
 //     force+tangent evaluation in it, and the same run with IDA (tolerances 1e-6) as the peer;
-//     then the Newton-matrix levers of issue 18 on the same run (reuse across steps, unrotated
+//     then the Newton-matrix levers on the same run (reuse across steps, unrotated
 //     and co-rotated with the hub; the element loop on one core and on all), each with its
 //     difference from full Newton at the tip and root; then the whole spin-up (0.5 s at
 //     h = 1 ms, where the blades flap 8 mm and the centrifugal stiffening grows), full Newton
@@ -175,7 +175,7 @@ int main() {
                   sim.ida_internal_steps());
     }
   }
-  // The Newton-matrix levers on the same 50 steps (issue 18), against full Newton above: the
+  // The Newton-matrix levers on the same 50 steps, against full Newton above: the
   // matrix reused across steps (modified Newton; a reused matrix stops when it contracts less
   // than 4x per iteration), unrotated and co-rotated with the hub (numerics.smooth.jacobian_frame).
   std::printf("  %-44s %10s %8s %9s %14s %14s\n", "Newton matrices", "ms/step", "speed-up", "factor/step",
@@ -226,7 +226,7 @@ int main() {
                 reuse ? "reused, co-rotated with the hub" : "full Newton", 1e3 * per_step, full_step / per_step,
                 static_cast<double>(cg.factorizations()) / n, v[0] - full[0], v[2] - full[2]);
   }
-  // Issue 14: the research Puma's articulated rotor with beam blades (scenarios/puma/
+  // The research Puma's articulated rotor with beam blades (scenarios/puma/
   // rotor_no_air.pbtxt: lag and flap hinges, beams clamped at the pitch bearing, lag dampers,
   // gravity, no air) at h = 1e-4 s, against the hex27 hub's CGα step above.
   std::printf("\nPuma rotor, 4 beam blades, CGα at h = 1e-4 s (200 steps from steady spin):\n");
@@ -256,7 +256,7 @@ int main() {
                   static_cast<double>(sim.newton_iterations() - before) / n, hex_step / per_step);
     }
   }
-  // Issue 15: the cost of the air loads on the same rotor (scenarios/puma/rotor_air.pbtxt, strip
+  // The cost of the air loads on the same rotor (scenarios/puma/rotor_air.pbtxt, strip
   // theory on the four beams with uniform inflow) against the rotor without them, 10 quadratic
   // elements per blade; runs alternated, the median of five of each (the machine is noisy).
   std::printf("\nPuma rotor with and without air (10 × 3-node elements per blade, h = 1e-4 s, 200 steps):\n");

@@ -1,4 +1,4 @@
-// Rotor benchmark (not a test; issue 31): the Puma rotor-sailing scenes as a user runs them,
+// Rotor benchmark (not a test): the Puma rotor-sailing scenes as a user runs them,
 // each alone through cosim_launch (next to this executable), with what a study pays for one:
 // wall time per simulated second, its ratio to real time (< 1: faster than real time) and to
 // MBDyn's figure for the same rotor (the scene's study.peer, measured on this kind of machine),
@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "(wall/sim s: the process's wall time per simulated second; x realtime: simulated seconds per wall "
-      "second, > 1 is faster than real time (issue 31's goal: 2); x MBDyn: how many times faster than MBDyn's "
+      "second, > 1 is faster than real time (the goal: 2); x MBDyn: how many times faster than MBDyn's "
       "figure for the same rotor in the engagement's study.peer)\n");
   return 0;
 }

@@ -3,7 +3,7 @@
 //     next to the MBDyn figure in docs/reference/peers.md (24 µs/step);
 //  2. cost per step of open and closed chains of 10 and 100 bodies (spherical joints), to see
 //     how it grows with the number of bodies;
-//  2b. the constraint forms of CGα (issue 12) side by side: cost per four-bar step of INDEX3
+//  2b. the constraint forms of CGα side by side: cost per four-bar step of INDEX3
 //     (the paper's), INDEX2_PROJECTED (the default) and the coupled GGL form CGALPHA_INDEX2;
 //     on the spinning body (Ωh = 0.3 .. 0.075) and the flat-disc top, the energy change over
 //     2 s, the error against the exact spin / IDA, its order, and the cost per step;
@@ -108,7 +108,7 @@ int main() {
     }
   }
 
-  std::printf("\n== CGα constraint forms (issue 12) ==\n");
+  std::printf("\n== CGα constraint forms ==\n");
   const std::pair<const char*, std::vector<std::string>> forms[] = {
       {"INDEX3 (paper)", {"numerics.smooth.constraint_form=INDEX3"}},
       {"INDEX2_PROJECTED", {"numerics.smooth.constraint_form=INDEX2_PROJECTED"}},

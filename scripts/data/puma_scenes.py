@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the SA330 Puma rotor-sailing scenes of issue 16 (docs/reference/puma.md) as
+"""Writes the SA330 Puma rotor-sailing scenes (docs/reference/puma.md) as
 scenario files with one blade written once (a `patterns` entry placed at four azimuths).
 Usage: puma_scenes.py engage_continuous > scenarios/puma/engage_disengage_continuous.pbtxt
        puma_scenes.py gust_continuous   > scenarios/puma/gust_continuous.pbtxt
@@ -139,7 +139,7 @@ ENVELOPE = (
     if GUST
     else ""
 )
-# The ship's operating-limits envelope (issue 35): wind speed in knots (radial) × relative wind
+# The ship's operating-limits envelope: wind speed in knots (radial) × relative wind
 # direction (around, clockwise from the bow as in a ship–helicopter operating-limits diagram).
 KNOT = 0.514444
 SHIP_KNOTS, SHIP_DIRECTION, K_WINDWARD, K_LEEWARD = 30, 30, 0.27, -0.1
@@ -171,14 +171,14 @@ SHIP_ENVELOPE = (
     if SHIP
     else ""
 )
-# The engagement's work-precision study (issue 31): each model against its own converged run —
+# The engagement's work-precision study: each model against its own converged run —
 # the co-simulated one at h = 0.25 ms (a quarter of the scene's step: a finer co-simulated
 # reference costs hours), the continuous one at 0.125 ms — with the measures the issue names:
 # blade 1's flap angle over the run, its stop contacts' start and end times (lift-off, re-contact)
 # and the peak root shear and flapwise moment in each contact.
 PRECISION = (
     """
-  # `scripts/cosim study work-precision`: error of each measure against wall time (issue 31).
+  # `scripts/cosim study work-precision`: error of each measure against wall time.
   events { history_probes: ["blade1_flap"] peak_probes: ["blade1_root_shear_z", "blade1_root_flap_moment"] }
   methods { name: "continuous, fixed h" scenario: "engage_disengage_continuous.pbtxt" sweep_values: [4e-3, 2e-3, 1e-3, 5e-4]
             contact_probes: ["blade1_stop_moment"] reference: { name: "continuous, h = 0.125 ms"
@@ -202,7 +202,7 @@ PRECISION = (
     else ""
 )
 # MBDyn's histories beside this variant's and the continuous scene's, with the issue's measures of
-# agreement (issue 33): lift-off and re-contact within 50 ms, coning within 0.05°, lag within 1°;
+# agreement: lift-off and re-contact within 50 ms, coning within 0.05°, lag within 1°;
 # and the variant with each of MBDyn's choices undone in turn, to size each one's share.
 MBDYN_STUDY = """# `scripts/cosim study compare`: MBDyn's blade 1 against this variant's (settled start) and the
 # continuous scene's, and this variant with MBDyn's inflow correction, lift slope, Ω100 or settled
@@ -401,7 +401,7 @@ MBDYN_HEADER = f"""# SA330 research Puma, engagement and disengagement with cont
 print(MBDYN_HEADER if MBDYN else HEADER)
 if SHIP:
     print(
-        f"""# The ship (issue 35; every figure below a stated choice, docs/reference/ship.md for the sources):
+        f"""# The ship (every figure below a stated choice, docs/reference/ship.md for the sources):
 # - the rotor on a frigate's flight deck: the hub 4.4 m above the deck (the Puma's rotor-head
 #   height on its wheels, a choice); the deck moved by model.moving_bases "deck" (the shaft's
 #   body1), its rotations about a point 6 m below the deck on the hub's vertical (a roll and
@@ -524,7 +524,7 @@ patterns {{
 # (2.25 kN without, the continuous twin 2.7 kN); the blade's flap angle is the same within 0.002°.
 # Without it the pad's velocity jump reaches the blade through the stiff tie (5e-9 m/N) in a
 # few steps.''' + ('' if GUST else '''
-# Issue 31: the matrix is reused co-rotated with the hub (jacobian_frame), the peers' compliance
+# The matrix is reused co-rotated with the hub (jacobian_frame), the peers' compliance
 # added to each solve by Woodbury's identity in the factorised axes: whole run 92.9 s against
 # 330 s unrotated, 1.001 exchanges a step (5010 factorisations in 50 000 steps); a step whose
 # contact processes' answer agrees with its linearising pre-solve is accepted on it (the
@@ -532,12 +532,12 @@ patterns {{
 # the engagement takes the index-3 form at h = 1 ms as its continuous twin does (Ωh = 0.028):
 # no position projection (1.9 solves a step of ~6): 91 s, 1.001 exchanges a step.''') if COSIM else '''The CGα paper's index-3 form: the hub's Ωh = 0.028 is below the ~0.04 where that form stops
 # damping its velocity-constraint mode (docs/design.md, "Spinning bodies").''' + ('' if GUST else '''
-# The matrix is reused co-rotated with the hub (jacobian_frame, issue 31): whole run 35.7 s
+# The matrix is reused co-rotated with the hub (jacobian_frame): whole run 35.7 s
 # against 127.9 s (2519 factorisations instead of 27 972), and closer to a converged run
 # (h = 0.125 ms, first 12 s): flap 0.0028° against 0.0081°, root shear 85 N against 473 N,
 # flapwise moment 74 against 445 N m (its stricter acceptance of a reused matrix's iterate).
 # Not in the gust (the rotor stands still: 38 % slower, the same error).
-# h = 2 ms, the matrix reused over up to 40 steps (issue 31; scripts/cosim study work-precision,
+# h = 2 ms, the matrix reused over up to 40 steps (scripts/cosim study work-precision,
 # each against h = 0.125 ms): 14.8 s for the 50 s, closer than the unrotated 1 ms run the scene
 # had in all four of the study's measures (flap 0.0058° against 0.0081°, contact times exact
 # against 2 ms, peak root shear 11.9 against 48.5 N, flapwise moment 0.80 against 13.5 N m);

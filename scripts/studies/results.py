@@ -38,18 +38,18 @@ def results(runner, out_root, sets, reuse=False):
         ("stability", "scenarios", "scenarios"),
         ("compare", "puma_gust", "scenarios/puma/gust.pbtxt"),
         ("compare", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
-        # MBDyn's histories of the same rotor beside the engagement modelled as MBDyn models it
-        # (issue 33), with each of MBDyn's aerodynamic choices undone in turn.
+        # MBDyn's histories of the same rotor beside the engagement modelled as MBDyn models it,
+        # with each of MBDyn's aerodynamic choices undone in turn.
         ("compare", "puma_mbdyn", "scenarios/puma/engage_disengage_mbdyn.pbtxt"),
         ("timing", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
-        # The engagement's error against wall time, each model against its converged run (issue 31).
+        # The engagement's error against wall time, each model against its converged run.
         ("work-precision", "puma_engage", "scenarios/puma/engage_disengage.pbtxt"),
-        # The still rotor's blade-sailing envelope (issue 19): gust peak × direction.
+        # The still rotor's blade-sailing envelope: gust peak × direction.
         ("envelope", "puma_gust", "scenarios/puma/gust.pbtxt"),
-        # The shipborne engagement's operating-limits envelope (issue 35): wind speed ×
+        # The shipborne engagement's operating-limits envelope: wind speed ×
         # relative wind direction on the moving deck, the continuous twin (108 runs).
         ("envelope", "puma_ship", "scenarios/puma/ship_engage_continuous.pbtxt"),
-        # The co-simulated impact response under step refinement (issue 16, item 7): the gust's
+        # The co-simulated impact response under step refinement: the gust's
         # first 6 s (lift-off at ~2.4 s, onto the anti-flap stop at ~3.7 s, back on the droop
         # stop at ~5.0 s and ringing there), error from 3.5 s: both impacts.
         (
@@ -64,7 +64,7 @@ def results(runner, out_root, sets, reuse=False):
                 "study.error_from=3.5",
             ],
         ),
-        # The SHARCS-like hub (issue 17): the paper's Figs. 9–11 for both blade models, and
+        # The SHARCS-like hub: the paper's Figs. 9–11 for both blade models, and
         # Fig. 12 over 0.02 s after 0.15 s of settling, at the paper's ρ∞ = 0.95 and damped.
         ("compare", "sharcs_hub", "scenarios/sharcs/hub.pbtxt"),
         (
@@ -137,13 +137,13 @@ def results(runner, out_root, sets, reuse=False):
         "| cantilever tip displacement, 10 kN (CGα paper, Table 2) | Table 2 | within 0.4 % | `scenarios/cantilever_static.pbtxt`, elastic tests |",
         "| co-simulation against entirely nonsmooth, linear oscillator (rotor-sailing paper, Fig. 1) | agree | same error, first order (below) | work-precision study |",
         '| Puma engagement, co-simulated against continuous stops (rotor-sailing paper, Fig. 5) | "good agreement" | flap angle within 0.35° RMS (the droop plane\'s geometry); at full speed coning within 0.0003°, root shear within 1.3 N (below) | compare study |',
-        "| Puma engagement against MBDyn on the same rotor (docs/reference/mbdyn-puma.md; issue 33) | — | modelled as MBDyn models it: lift-off 4 ms and re-contact 6 ms apart, peak lag within 0.23° and lead 0.63°, coning 0.052° apart (0.05° asked); MBDyn's inflow correction is the largest difference from the scenes (0.35° of coning) (below) | compare study |",
-        '| Puma still rotor in a gust (rotor-sailing paper, Fig. 7) | "correlate well" | blade 1 onto its anti-flap stop and back in both models (a 35 m/s gust, issue 33); flap angle within 0.14° RMS, anti-flap contact 4 ms apart, landing together (below) | compare study |',
-        "| Puma engagement (50 s), wall time against MBDyn's 787 s for 52 s (peers.md) | — | co-simulated 73–80 s, 9–10× faster than MBDyn, 1.5–1.6× slower than real time; continuous 13.5 s at h = 2 ms, 3.7× faster than real time (issue 31; below) | timing study, `rotor_benchmark` |",
+        "| Puma engagement against MBDyn on the same rotor (docs/reference/mbdyn-puma.md) | — | modelled as MBDyn models it: lift-off 4 ms and re-contact 6 ms apart, peak lag within 0.23° and lead 0.63°, coning 0.052° apart (0.05° asked); MBDyn's inflow correction is the largest difference from the scenes (0.35° of coning) (below) | compare study |",
+        '| Puma still rotor in a gust (rotor-sailing paper, Fig. 7) | "correlate well" | blade 1 onto its anti-flap stop and back in both models (a 35 m/s gust); flap angle within 0.14° RMS, anti-flap contact 4 ms apart, landing together (below) | compare study |',
+        "| Puma engagement (50 s), wall time against MBDyn's 787 s for 52 s (peers.md) | — | co-simulated 73–80 s, 9–10× faster than MBDyn, 1.5–1.6× slower than real time; continuous 13.5 s at h = 2 ms, 3.7× faster than real time (below) | timing study, `rotor_benchmark` |",
         "| SHARCS-like hub, blade tip position under step refinement (CGα paper, Fig. 12) | 2 | radial and in-plane 2.2–2.4; flapwise to 1e-4 of its deflection, monotonically (~1.3) once the solid's high-frequency modes are damped (below) | convergence study |",
-        "| SHARCS-like hub, hex27 against beam blade (issue 17) | — | flap 0.08° RMS apart, radial root force 33 N RMS of 11.1 kN (below) | compare study |",
-        "| Puma gust, co-simulated impact response as h is refined (issue 16) | — | both impacts of the 35 m/s gust: loads converge at order 1.6, at h = 1 ms the root shear within 2.7 kN of ~8 kN peaks, flap within 0.17° (the bouncing after the landing); h ≤ 0.5 ms for peaks within ~10 % (below) | convergence study |",
-        "| Puma blade-sailing envelope, gust peak × direction (issue 19) | — | 24 co-simulated runs in 243 s on one worker; four-fold symmetric to the digits shown; at 25 m/s blade lift 0.63 m, smallest clearance to a plane 2 m below the hub at 45°, not at the paper's 90° (below) | envelope study |",
+        "| SHARCS-like hub, hex27 against beam blade | — | flap 0.08° RMS apart, radial root force 33 N RMS of 11.1 kN (below) | compare study |",
+        "| Puma gust, co-simulated impact response as h is refined | — | both impacts of the 35 m/s gust: loads converge at order 1.6, at h = 1 ms the root shear within 2.7 kN of ~8 kN peaks, flap within 0.17° (the bouncing after the landing); h ≤ 0.5 ms for peaks within ~10 % (below) | convergence study |",
+        "| Puma blade-sailing envelope, gust peak × direction | — | 24 co-simulated runs in 243 s on one worker; four-fold symmetric to the digits shown; at 25 m/s blade lift 0.63 m, smallest clearance to a plane 2 m below the hub at 45°, not at the paper's 90° (below) | envelope study |",
         "| Puma engagement on a frigate's moving deck in its airwake, operating limits | — | "
         + envelope_headline(os.path.join(out_root, "envelope-puma_ship", "runs.csv"), "kt")
         + " (below) | envelope study |",

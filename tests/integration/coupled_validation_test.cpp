@@ -1,6 +1,6 @@
 // Coupled runs (smooth_solver + nonsmooth_solver as processes) against the exact nonsmooth
 // solution of the same system, and the monolithic continuous-contact model converging to it
-// as the contact stiffness grows (rotor-sailing paper, Sections 2 and 3.1; issue 6).
+// as the contact stiffness grows (rotor-sailing paper, Sections 2 and 3.1).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -594,7 +594,7 @@ std::pair<double, double> PumaBladesApart(const Table& ta, const Table& tb) {
 }
 
 TEST(CoupledStep, ThePumaSpinUpReusesItsMatrixCoRotatedWithThePeersComplianceBesideIt) {
-  // Issue 31: the co-simulated engagement's Newton matrix, reused as it was (not co-rotated),
+  // The co-simulated engagement's Newton matrix, reused as it was (not co-rotated),
   // stopped contracting once the hub had turned a milliradian (the whole run: 330 s); reused
   // co-rotated with the compliance of the contact processes inside it, a contact that opened or
   // closed refactorised it and each coupling iteration took extra Newton iterations (1.15
@@ -626,7 +626,7 @@ TEST(CoupledStep, ThePumaSpinUpReusesItsMatrixCoRotatedWithThePeersComplianceBes
 }
 
 TEST(CoupledStep, AFreeFlyingPumaStepIsAcceptedOnItsLinearisingPreSolve) {
-  // Issue 31: with interface Jacobians every coupled step solved the smooth model twice — the
+  // With interface Jacobians every coupled step solved the smooth model twice — the
   // linearising pre-solve, then again with the contact processes' answer — though with the
   // blades off their stops that answer only confirmed the pre-solve. The pre-solve now takes
   // the processes' last affine law carried a step on (exact for a free node), and a step whose
@@ -791,7 +791,7 @@ Rebound AntiFlapRebound(const Table& t) {
 TEST(SmallRotor, BladesRestOnTheirCoSimulatedDroopStopsWithDefaultNumerics) {
   // scenarios/small_rotor/droop_rest.pbtxt: three rigid 40 kg blades at 3 rad/s land on their
   // droop stops (−5°) and rest there, each through a 0.2 kg node on a stiff tie (5e-9 m/N) in its
-  // own contact process — with the coupling's defaults (before issue 30 it ended at 0.112 s: no
+  // own contact process — with the coupling's defaults (before the interface Jacobians it ended at 0.112 s: no
   // convergence in 50 Aitken iterations where a node left its stop after the landing). With
   // interface Jacobians every step is one exchange (observed 1000 in 1000 steps). At rest the
   // blades lie on the stop: −5.0021° (the tie's stretch under the 1990 N pad force, hand
@@ -826,7 +826,7 @@ TEST(SmallRotor, ABladeThrownOntoItsAntiFlapStopReboundsWithTheStopsRestitution)
   // scenarios/small_rotor/anti_flap_impact.pbtxt: an 8 kN pulse throws blade 1 off its droop
   // stop onto its anti-flap stop (+5°); default coupling numerics. The impact restarts blade 1's
   // point with its node's velocity (the stop's e = 0.5 given to the blade: 2.525 → −1.258 rad/s
-  // observed; before issue 30 the restart was missed while the other blades rested, and the
+  // observed; once the restart was missed while the other blades rested, and the
   // blade bounced off the stiff tie elastically, ratio 1.00), while blades 2 and 3 stay on their
   // stops. The continuous twin (Hunt–Crossley, K = 1e8, effective e = 0.5, a ~14 ms contact)
   // arrives as fast (2.509 against 2.525 rad/s) and rebounds with 0.51.
@@ -859,7 +859,7 @@ TEST(SmallRotor, ABladeThrownOntoItsAntiFlapStopReboundsWithTheStopsRestitution)
 
 TEST(ElasticInterface, AHex27TipStrikesItsStopAndComesToRestWithDefaultNumerics) {
   // tests/data/impacts/hex27_tip_on_stop.pbtxt: an impact on an elastic body's interface node (a known
-  // limit before issue 30: the restart's velocity projection in the consistent mass made Newton
+  // limit once: the restart's velocity projection in the consistent mass made Newton
   // fail the step after the impact). The tip falls 2 mm onto the stop, bounces, and rests; then
   // the clamp and the stop carry the weight of beam and node, 26.5851 N (observed 26.58510).
   const fs::path out = TempDir("hex27_tip_on_stop");

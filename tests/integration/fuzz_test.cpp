@@ -1,4 +1,4 @@
-// Seeded mutations of the shipped scenarios through `cosim_launch` (issue 13): whatever the
+// Seeded mutations of the shipped scenarios through `cosim_launch`: whatever the
 // mutation — a number replaced by 0, −1, ±1e308, NaN, inf, 2³¹ − 1, a line deleted or doubled,
 // a name emptied or made "..", a file cut short — the run ends with exit 0, 2, 3 or 4 and a
 // summary.json in its output folder: never a signal, a hang or a sanitizer report.

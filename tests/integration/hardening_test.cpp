@@ -1,4 +1,4 @@
-// End-to-end hardening (issue 13): the run contract — exit 0 ok, 2 bad input with the place,
+// End-to-end hardening: the run contract — exit 0 ok, 2 bad input with the place,
 // 3 numerical failure, 4 peer failure, outputs kept — under a hostile user and a failing
 // machine: files that are not files, full disks, shared output folders, signals to each
 // process, stopped processes, peers that are slow, silent or not ours. Each test names the
@@ -291,7 +291,7 @@ TEST(Hardening, StoppedCoordinatorDoesNotHangTheRun) {
 }
 
 TEST(Hardening, ACoordinatorStoppedBeforeItsContactProcessHeardFromItDoesNotHangTheRun) {
-  // CI, stop 46: on a loaded machine the coordinator of the test above gave up on its Welcome
+  // Seen in CI: on a loaded machine the coordinator of the test above gave up on its Welcome
   // after coupling.timeout (1 s: the contact process had not started yet) and was stopped
   // (SIGSTOP) while its socket lingered. The contact process, which had never heard from it,
   // waited for the Hello for ever and the launcher for the coordinator: the run hung. Replayed
@@ -551,7 +551,7 @@ TEST(Hardening, ExtremeLcpDataDoNotCrashSiconos) {
   // Found by the fuzz test under AddressSanitizer: a sliding block at 1e20 m/s made Siconos'
   // Lemke crash (SIGSEGV, which the launcher reported as exit 4). The LCP is now handed over
   // scaled by powers of two when its data leave 2^±40, and the friction step runs. (At 1e300 m/s
-  // the block's kinetic energy is inf, which ends a run as a numerical failure since issue 32,
+  // the block's kinetic energy is inf, which ends a run as a numerical failure (a non-finite probe),
   // before any step: 1e150, whose energy is finite, carries the extreme LCP now.)
   for (const std::string speed : {"1e20", "1e150"}) {
     const fs::path out = TempDir("extreme_lcp_" + speed);
@@ -570,7 +570,7 @@ TEST(Hardening, ExtremeLcpDataDoNotCrashSiconos) {
 }
 
 TEST(Hardening, ALauncherKilledWithSigkillLeavesNoSocketFolder) {
-  // Issue 32, item 7: SIGKILL to `cosim run` left /tmp/cosim-XXXXXX/ and its ipc files behind
+  // SIGKILL to `cosim run` left /tmp/cosim-XXXXXX/ and its ipc files behind
   // (6 of 6 tries): no destructor runs. Its janitor process removes the folder when the
   // launcher's pipe closes, however the launcher ended.
   const fs::path out = TempDir("sigkill_launcher");
@@ -592,7 +592,7 @@ TEST(Hardening, ALauncherKilledWithSigkillLeavesNoSocketFolder) {
 }
 
 TEST(Hardening, AContactProcessUnderTheLauncherWaitsForAHelloAsLongAsItTakes) {
-  // Issue 32, item 3: the Puma gust with 200 blades failed as "peer died" — its contact
+  // The Puma gust with 200 blades failed as "peer died" — its contact
   // processes waited coupling.timeout (10 s) for the Hello while the coordinator was still
   // building its model. Played here with a contact process and no coordinator, timeout 1 s:
   // started by the launcher (COSIM_SUPERVISED=1) it is still waiting after 3 s and ends at once
@@ -618,7 +618,7 @@ TEST(Hardening, AContactProcessUnderTheLauncherWaitsForAHelloAsLongAsItTakes) {
 }
 
 TEST(Hardening, ANewtonIterateWithNonFiniteMultipliersIsNotAStepsSolution) {
-  // Found measuring issue 31's levers: the continuous Puma engagement at h = 2 ms with its
+  // Found while measuring the Newton-matrix levers: the continuous Puma engagement at h = 2 ms with its
   // matrix reused over up to 80 steps ended with exit 3 at 26.408 s, "watchdog: non-finite
   // multipliers": Newton's test (|Δq| and |Φ|) had accepted an iterate of the stale matrix whose
   // multipliers were no longer finite. Such an iterate is now a failed solve, which the step
@@ -634,7 +634,7 @@ TEST(Hardening, ANewtonIterateWithNonFiniteMultipliersIsNotAStepsSolution) {
 }
 
 TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
-  // Issue 32, item 4: SIGTERM to `cosim run` while smooth_solver built a large model (the Puma
+  // SIGTERM to `cosim run` while smooth_solver built a large model (the Puma
   // gust with many blades): the launcher killed it after the grace period and its summary had
   // no folder to go to — exit 4, "the run's outcome is lost", no output at all. The launcher now
   // makes the folder, and the summary says the process died before its first output.
@@ -659,7 +659,7 @@ TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
 }
 
 TEST(Hardening, AContactProcessKilledInItsTeardownKeepsItsOwnSummary) {
-  // Issue 32, item 8: a contact process killed after its complete run had written its summary
+  // A contact process killed after its complete run had written its summary
   // (exit 0, every step), while it tore down, turned the run into exit 4 and the launcher wrote
   // "killed by signal 9 … steps 0" over that summary. Played exactly: the contact process is
   // stopped (SIGSTOP) the moment its summary appears, then killed. Its own summary stands and

@@ -97,7 +97,7 @@ std::string WelcomeBytes(const std::string& process, const std::vector<std::stri
 }
 
 TEST(ProtocolFaults, AWelcomeNamingOtherNodesIsRefused) {
-  // Issue 32, item 2: only the count was compared, so a contact process with a node-order bug
+  // Only the count was compared, so a contact process with a node-order bug
   // (or another scene's nodes) was coupled to the wrong nodes and the run ended "ok". The
   // Hello asked for "node"; this Welcome names "other".
   const Outcome o =
@@ -109,7 +109,7 @@ TEST(ProtocolFaults, AWelcomeNamingOtherNodesIsRefused) {
 }
 
 TEST(ProtocolFaults, AWelcomeFromAProcessOfAnotherNameIsRefused) {
-  // Issue 32, item 2: the process that answers must be the one the Hello addressed.
+  // The process that answers must be the one the Hello addressed.
   const Outcome o = AgainstFakePeer("welcome_name", [](const std::string&) { return WelcomeBytes("stops", {"node"}); });
   EXPECT_EQ(o.code, 2) << o.output;
   EXPECT_NE(o.output.find("the Welcome from the process addressed as 'contacts' names itself 'stops'"),
@@ -157,7 +157,7 @@ TEST(ProtocolFaults, AContactProcessRefusingItsPartStopsTheRunAtOnce) {
   // (exit 2) while the coordinator waits for it. The launcher stops the coordinator (its outputs
   // kept) and the run exits 2 naming the field, in seconds rather than after the 10 s coupling
   // timeout. The run's summary (the coordinator's folder) says 2 and the contact process's
-  // reason, not "terminated by a signal while waiting for Welcome" with exit 4 (issue 13).
+  // reason, not "terminated by a signal while waiting for Welcome" with exit 4.
   const fs::path out = TempDir("contact_refuses");
   const auto t0 = std::chrono::steady_clock::now();
   const Result r = Launch(std::string(COSIM_SOURCE_DIR) + "/tests/data/two_pendulums.pbtxt --out " + out.string() +

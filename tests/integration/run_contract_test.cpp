@@ -62,7 +62,7 @@ TEST(RunContract, EveryShippedScenarioRunsAndWritesTheContractFiles) {
 }
 
 TEST(RunContract, SpinningHardCasesEndHonestly) {
-  // Issue 12's failures as shipped hard cases: the default CGα completes the spinning body, the
+  // The spinning-body failures as shipped hard cases: the default CGα completes the spinning body, the
   // free-shaft rotor and the flat disc top with exit 0; the CGα paper's index-3 form on the
   // first two, which used to end "ok" with the energy ×3.5e3 or with exit 3 after ×8660, is
   // stopped by the watchdog (exit 3) within its first 0.1 s / 1 s, with the reason in the
@@ -340,7 +340,7 @@ INSTANTIATE_TEST_SUITE_P(
                  "restitution: 0.9 friction: -1",
                  "",
                  {"friction", "must be >= 0"}},
-        // Hardening (issue 13): an index too large for any integer type is no element (it
+        // Hardening: an index too large for any integer type is no element (it
         // threw std::out_of_range: abort, 134).
         BadInput{"huge_index",
                  kBall,
@@ -545,7 +545,7 @@ TEST(CoupledRun, TiedDropRunsAsTwoProcessesThatAgree) {
   EXPECT_EQ(contacts.status(), "ok");
   EXPECT_EQ(smooth.steps(), 1000);
   EXPECT_EQ(contacts.steps(), 1000);
-  // With interface Jacobians (the default, issue 30) every step is one exchange, the impact's
+  // With interface Jacobians (the default) every step is one exchange, the impact's
   // included (observed 1.000; Aitken took 2.8).
   EXPECT_EQ(smooth.coupling_iterations().mean_per_step(), 1.0);
   EXPECT_LE(smooth.coupling_iterations().max_per_step(), 1);
@@ -604,7 +604,7 @@ TEST(RunContract, ProbeScaleMultipliesItsColumnOnly) {
 
 TEST(RunContract, ASceneOfBeamsAloneRunsDynamicAndStatic) {
   // A scene made only of beams once ended "nothing to simulate" at the launcher, and STATIC took
-  // hex27 bodies alone (issue 33). A cantilever of 4 quadratic elements clamped to the ground
+  // hex27 bodies alone. A cantilever of 4 quadratic elements clamped to the ground
   // (EI = 100 N m², L = 1 m) under its weight q = 9.81 N/m: STATIC's tip deflection is the
   // Euler–Bernoulli q L⁴/(8 EI) = 12.2625 mm to 2e-4 (measured 12.2615 mm: the foreshortening of a
   // 1.2 % deflection and the shear, both ~1e-4), the same at every output time (the loads do not
@@ -1162,7 +1162,7 @@ TEST(CoupledRun, KilledContactProcessEndsTheRunWithExitFourAndTheOutputsKept) {
 }
 
 TEST(RunContract, TheCoordinatorsOwnNonFiniteReactionIsANumericalFailure) {
-  // Issue 32, item 5: with gravity at -1e308 the relaxed reaction became NaN and was sent as it
+  // With gravity at -1e308 the relaxed reaction became NaN and was sent as it
   // was; the contact process refused the message and the run ended with exit 2, bad input.
   // The side that made the number reports it: exit 3, naming the node. (With interface
   // Jacobians the contact process's node overflows first: exit 3 from there.)
@@ -1181,7 +1181,7 @@ TEST(RunContract, TheCoordinatorsOwnNonFiniteReactionIsANumericalFailure) {
 }
 
 TEST(RunContract, AnOutputPathLongerThanPathMaxIsBadInputForACoupledRun) {
-  // Issue 32, item 9: both processes refused the path with exit 2, and then the launcher's
+  // Both processes refused the path with exit 2, and then the launcher's
   // own look for their visual output threw (std::filesystem: "File name too long"): exit 4.
   const std::string out = "/tmp/" + std::string(5000, 'a');
   const Result r = Launch(kScenarios + "/tied_drop.pbtxt --out " + out);
@@ -1190,7 +1190,7 @@ TEST(RunContract, AnOutputPathLongerThanPathMaxIsBadInputForACoupledRun) {
 }
 
 TEST(RunContract, AProbeThatIsNoLongerFiniteEndsTheRunAsANumericalFailure) {
-  // Issue 32, item 6: sharcs/hub_beam with model.joints[1].initial_coordinate=1e308 ended
+  // The scene sharcs/hub_beam with model.joints[1].initial_coordinate=1e308 ended
   // exit 0 "ok" with inf in every row of a probe. The row is not written; exit 3 names the probe.
   const fs::path out = TempDir("inf_probe");
   const Result r = Launch(kScenarios + "/sharcs/hub_beam.pbtxt --out " + out.string() +

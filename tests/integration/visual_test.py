@@ -117,7 +117,7 @@ class Visual(unittest.TestCase):
     def test_each_contact_process_draws_the_planes_of_its_own_nodes_only(self):
         # The co-simulated Puma: four contact processes, each with one blade's pad against that
         # blade's droop and anti-flap planes. Each draws those two planes and no other blade's
-        # (issue 34: each drew all eight, six of them as 0.2 m squares at the hub).
+        # (each once drew all eight, six of them as 0.2 m squares at the hub).
         out = run(
             "puma_planes", "scenarios/puma/engage_disengage.pbtxt", "output.visual.every=2", "numerics.end_time=0.004"
         )
@@ -212,7 +212,7 @@ class Visual(unittest.TestCase):
         frames = series(os.path.join(out, "visual.pvd"))
         self.assertEqual(len(frames), 3)
         with open(os.path.join(out, frames[-1][1]), "rb") as f:
-            self.assertIn(b'<AppendedData encoding="raw">', f.read())  # binary arrays (issue 34)
+            self.assertIn(b'<AppendedData encoding="raw">', f.read())  # binary arrays
         mesh = meshio.read(os.path.join(out, frames[-1][1]))
         axis = cells_of(mesh, "beam_axis")
         nodes = len(axis) + 1
@@ -230,7 +230,7 @@ class Visual(unittest.TestCase):
     def test_render_snapshot_box_holds_a_frame_the_animation_leaves_out(self):
         # The bouncing ball's first fall: at 1 m at t = 0, 1 − g t²/2 = 0.007 m at 0.45 s. An
         # animation of one frame (the first) and the snapshot at 0.45 s: the box is drawn from
-        # both (issue 34: from the animation's frames only, so the snapshot's ball near the
+        # both (once: from the animation's frames only, so the snapshot's ball near the
         # floor fell outside a box around 1 m).
         out = run("render_ball", "scenarios/bouncing_ball.pbtxt", "numerics.end_time=0.5", "output.visual.every=10")
         p = subprocess.run(

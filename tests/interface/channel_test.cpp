@@ -200,7 +200,7 @@ TEST(Channel, CurveAuthenticatesThePeersOfARun) {
 }
 
 TEST(Channel, ACurveHandshakeGoesThroughWhileTheContactProcessAlreadyWaits) {
-  // CI, stop 46: with coupling.timeout 1 s (heartbeat 0.1 s) no Hello reached a secured contact
+  // Seen in CI: with coupling.timeout 1 s (heartbeat 0.1 s) no Hello reached a secured contact
   // process that was already waiting for it when the coordinator connected: its heartbeat
   // thread held the lock the ZAP handler takes between polls while it waited for the socket,
   // which the waiting thread holds through its receive slices, so the handler starved and the

@@ -95,7 +95,7 @@ TEST(ScenarioFile, BadOverridesAreReportedWithTheArgument) {
             std::string::npos);
 }
 
-// Parameters (issue 34): a rotor radius and a chord written once, used in numbers, lists and a
+// Parameters: a rotor radius and a chord written once, used in numbers, lists and a
 // string, one defined from another.
 const char* kParametric = R"P(name: "p"
 parameters { name: "R" value: 7.49 unit: "m" }
@@ -176,7 +176,7 @@ TEST(Parameters, MistakesNameTheirPlace) {
             std::string::npos);
 }
 
-// Included files (issue 34): a scene's parts in files of their own.
+// Included files: a scene's parts in files of their own.
 TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   // `include: "FILE"` on its own line is FILE's text (relative to the including file, included
   // files including others), with parameters used across files; every field's place, and a
@@ -434,7 +434,7 @@ TEST(Pattern, OverridesOutsideThePatternsReachTheCopies) {
 }
 
 TEST(Pattern, AnOverrideOfOneCopySaysSoAndNamesTheTemplatesPath) {
-  // Issue 34: `--set model.bodies[1].mass=…` in a patterned scene changes blade 1 only, which a
+  // `--set model.bodies[1].mass=…` in a patterned scene changes blade 1 only, which a
   // user who meant the blades would not see. The override still applies (one copy is a
   // legitimate target), with a warning that names the copy, the pattern and the template's own
   // path; that path, by index or by the template's names, changes every copy and warns nothing,

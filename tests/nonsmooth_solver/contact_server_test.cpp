@@ -227,7 +227,7 @@ TEST(ContactServer, UnknownInterfaceNodeIsRefusedNamingIt) {
   }
 }
 
-// Issue 32, item 1: a coordinator's invalid Hello was welcomed (an infinite step, a start time
+// A coordinator's invalid Hello was welcomed (an infinite step, a start time
 // that is not a number, a node named twice, no node at all) and its text echoed whole. Each
 // Hello below is played as it was sent and must be refused naming the field and the value.
 std::string RefusalOfHello(const std::function<void(coupling::Hello*)>& edit) {
@@ -285,7 +285,7 @@ TEST(EchoedText, CutsAtACharacterBoundary) {
 }
 
 TEST(ContactServer, AStepBeginAtATimeThatIsNotANumberIsRefused) {
-  // Issue 32, item 1: StepBegin.time = NaN was answered (|NaN − t| > tol is false) and a whole
+  // StepBegin.time = NaN was answered (|NaN − t| > tol is false) and a whole
   // run ended "ok" with nan in the contact history.
   Harness h;
   h.Hello("ball");

@@ -1,4 +1,4 @@
-// numerics.adaptive (issue 18): CGα with its own step size in a standalone run, the history on
+// numerics.adaptive: CGα with its own step size in a standalone run, the history on
 // the output grid by interpolation. Why each test holds is stated in it.
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Counts heap allocations inside CGα steps: after the first steps (which allocate the element
 // workspaces and the integrator's start-up), a step of a model with rigid and elastic bodies
-// must not allocate (issue 5: assembly allocation-free inside the step loop). malloc is
+// must not allocate (assembly is allocation-free inside the step loop). malloc is
 // interposed for this executable only (glibc's __libc_malloc underneath); Eigen allocates
 // through malloc, operator new too. Not built under the sanitizers, which intercept malloc.
 #include <gtest/gtest.h>
@@ -45,7 +45,7 @@ TEST(Allocation, CgAlphaStepsOfRigidAndElasticBodiesDoNotAllocate) {
 }
 
 TEST(Allocation, BeamRotorStepsDoNotAllocate) {
-  // The Puma rotor with beam blades (issue 14's speed scene): element kernels on bounded local
+  // The Puma rotor with beam blades (the speed benchmark's scene): element kernels on bounded local
   // Eigen types, section stiffness and reference strains stored per Gauss point.
   const long rotor = AllocationsInFiveSteps("/scenarios/puma/rotor_no_air.pbtxt", {}, 1e-4);
   std::printf("heap allocations in five CGα steps of the Puma beam rotor: %ld\n", rotor);

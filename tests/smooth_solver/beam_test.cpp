@@ -206,7 +206,7 @@ TEST(Beam, ClampedFreeShaftTwistsAtItsClosedFormFrequencies) {
   // and d3 about the axis: no motion of the node points or of d1. Ten quadratic elements give the
   // first three to 0.1 %. The rotary floor (2 f m = 6e-5 kg m here, ℓ = L/10) must not add to
   // the data's polar moment: the floor of f m on every director did, and put the first torsion
-  // mode at 124 rad/s (issue 33).
+  // mode at 124 rad/s.
   MultibodySystem sys = Build(Cantilever(10, 3, 1e7, 1.0));
   const EquilibriumResult st = StaticEquilibrium(sys, sys.q0, SpinningFrame{}, EquilibriumOptions{});
   ASSERT_TRUE(st.converged);
@@ -358,7 +358,7 @@ TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
   // within 1 % — the beam samples GJ at its Gauss points, and the root's steps in GJ (8.4e5 to
   // 8.5e4 N m² over 0.6 m) converge unevenly (40 elements +0.5 %, 80 −0.14 %; the scene's blade
   // at 10 elements +0.9 %, at 20 −1.2 %). The scene's own blade (10 elements) within 1.5 %. The old rotary
-  // floor, f m on every director, added 2 f m to the polar moment everywhere: 6.78/rev (issue 33).
+  // floor, f m on every director, added 2 f m to the polar moment everywhere: 6.78/rev.
   const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/blade_fan_plot.pbtxt";
   const double omega = 28.0;
   // The blade without its chordwise c.g. offsets and twist, which couple torsion to flap and lag

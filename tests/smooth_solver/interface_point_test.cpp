@@ -19,7 +19,7 @@ namespace {
 // A free 1 kg rod (no joints: its point has three free translations, so the three coincidence
 // rows are independent) whose centre of mass is tied to contact node "tip". A hinged rod tied
 // at its end would be overconstrained (3 rows for 1 degree of freedom): that is the closed loop
-// the regularisation is for, and its consistent initial state is still to do (issue 6).
+// the regularisation is for, and its consistent initial state is still to do.
 std::string TiedPendulum(double regularization) {
   return R"(
     name: "tied_pendulum"

@@ -1,4 +1,4 @@
-// The SA330 Puma rotor-sailing scenes (issue 16, scenarios/puma/*_continuous.pbtxt): short
+// The SA330 Puma rotor-sailing scenes (scenarios/puma/*_continuous.pbtxt): short
 // windows that show the scenes are what puma.md describes — the full runs belong in the study.
 #include <gtest/gtest.h>
 
@@ -215,7 +215,7 @@ TEST(PumaScenes, TheGustThrowsBladeOneOntoItsAntiFlapStopAsFig7Shows) {
   // The rotor-sailing paper's Fig. 7: blade 1 (chordwise flow from its leading edge) lifted onto
   // its anti-flap stop at +10°, blade 3 (reverse flow) pushed down, blades 2 and 4 (radial flow)
   // barely moving. The gust's peak, which the paper only draws, is the scene's choice (35 m/s;
-  // at 25 m/s blade 1 rose to −5.6° only, issue 33). The continuous scene's first 4.1 s: blade 1
+  // at 25 m/s blade 1 rose to −5.6° only). The continuous scene's first 4.1 s: blade 1
   // reaches the anti-flap stop at 3.66 s (a positive flap contact moment pushes it down there);
   // the others stay on their droop stops within 0.05°.
   MultibodySimulation sim(interface::ScenarioFile::Load(kPuma + "gust_continuous.pbtxt", {}));
@@ -246,7 +246,7 @@ TEST(PumaScenes, TheGustThrowsBladeOneOntoItsAntiFlapStopAsFig7Shows) {
 
 }  // namespace
 TEST(PumaScenes, TheSpinUpReusesItsNewtonMatrixCoRotatedWithTheHub) {
-  // Issue 31: the continuous engagement refactorised its matrix every ~2 steps (27 972 times in
+  // The continuous engagement refactorised its matrix every ~2 steps (27 972 times in
   // 50 000): natural coordinates turn with the hub, and a matrix a few steps old stops
   // contracting the corrections. Reused co-rotated with the hub (jacobian_frame, the scene's
   // choice) it serves ~10× as many steps, and its stricter acceptance of a reused matrix's

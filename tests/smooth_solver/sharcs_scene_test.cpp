@@ -1,4 +1,4 @@
-// The SHARCS-like hub of the CGα paper (issue 17, scenarios/sharcs/): the loop closed by the
+// The SHARCS-like hub of the CGα paper (scenarios/sharcs/): the loop closed by the
 // initial-condition solver at Table 8's hinge values, the start-up and release with the beam
 // blade, and the hex27 blade against the beam blade at the end of the start-up. The full runs,
 // the paper's figures and the convergence study belong in `scripts/cosim study`.

@@ -1,4 +1,4 @@
-// Fast-spinning rigid bodies (issue 12): the default CGα (INDEX2_PROJECTED) stays stable and
+// Fast-spinning rigid bodies: the default CGα (INDEX2_PROJECTED) stays stable and
 // second order where the CGα paper's index-3 form blows up; flat bodies (I1 + I2 = I3) are
 // accepted; the watchdog trips on constructed blow-ups and not on healthy runs.
 #include <gtest/gtest.h>

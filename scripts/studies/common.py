@@ -456,6 +456,11 @@ def failures_section(runs):
     return "\n".join(out)
 
 
+def report_head(title, scenario):
+    """A study report's first lines: '# TITLE: scene name', a blank line, the scene's description."""
+    return [f"# {title}: {scenario['name']}", "", scenario.get("description", ""), ""]
+
+
 def write_report(out, lines):
     with open(os.path.join(out, "report.md"), "w") as f:
         f.write("\n".join(lines) + "\n")

@@ -7,6 +7,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
+    report_head,
     compare_run_scenario,
     contact_episodes,
     fail,
@@ -160,10 +161,7 @@ def study_compare(runner, scenario_path, out, sets):
     axes[0].set_title(f"{scenario['name']}: {title}", fontsize=10)
     save_plot(fig, list(axes), os.path.join(out, "compare.png"))
     lines = [
-        f"# Compared: {scenario['name']}",
-        "",
-        scenario.get("description", ""),
-        "",
+        *report_head("Compared", scenario),
         "![compare](compare.png)",
         "",
         "| run | exit | wall time of the steps [s] | process [s] | steps | coupling iterations per step |",

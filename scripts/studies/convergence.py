@@ -8,6 +8,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
+    report_head,
     every_for,
     failures_section,
     fitted_order,
@@ -66,10 +67,7 @@ def study_convergence(runner, scenario_path, out, sets):
     ax.set_title(f"{scenario['name']}: convergence")
     save_plot(fig, [ax], os.path.join(out, "convergence.png"))
     lines = [
-        f"# Convergence: {scenario['name']}",
-        "",
-        scenario.get("description", ""),
-        "",
+        *report_head("Convergence", scenario),
         f"Reference: {'analytic (study.references)' if study.get('references') else 'a finer run' if not study.get('reference_run') else 'study.reference_run'}; "
         f"error: {study.get('error', 'MAX')} over the output times from t = {study.get('error_from', 0)} s.",
         "",

@@ -8,6 +8,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
+    report_head,
     EXIT_MEANING,
     fail,
     failures_section,
@@ -110,10 +111,7 @@ def study_coupling(runner, scenario_path, out, sets):
     ax.set_title(f"{scenario['name']}: the hardest step, tolerance {min(tolerances):g}")
     save_plot(fig, [ax], os.path.join(out, "residuals.png"))
     lines = [
-        f"# Coupling: {scenario['name']}",
-        "",
-        scenario.get("description", ""),
-        "",
+        *report_head("Coupling", scenario),
         "![iterations](iterations.png)",
         "",
         "![residuals](residuals.png)",

@@ -10,6 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
+    report_head,
     SAFE_MATH,
     contact_episodes,
     fail,
@@ -182,10 +183,7 @@ def study_envelope(runner, scenario_path, out, sets):
     cpu = sum(r["seconds"] for r in runs if r["seconds"] == r["seconds"])
     lines = (
         [
-            f"# Envelope: {scenario['name']}",
-            "",
-            scenario.get("description", ""),
-            "",
+            *report_head("Envelope", scenario),
             f"{len(runs)} runs over "
             + " × ".join(f"{n} ({len(a['values'])} values)" for n, a in zip(names, axes))
             + (

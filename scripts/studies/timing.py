@@ -1,6 +1,7 @@
 """The timing study: wall time of a scene's runs with and without output, against study.peer."""
 import os
 from studies.common import (
+    report_head,
     compare_run_scenario,
     failures_section,
     fmt,
@@ -78,10 +79,7 @@ def study_timing(runner, scenario_path, out, sets):
     ]
     write_csv(os.path.join(out, "timing.csv"), header, rows)
     lines = [
-        f"# Timing: {scenario['name']}",
-        "",
-        scenario.get("description", ""),
-        "",
+        *report_head("Timing", scenario),
         "Each run alone (one at a time), with its output as written and without (`output.every` = 1e9: "
         "a history row at the first and last step only). Wall time of the time steps (the step loop; "
         "the process's includes start-up, the initial conditions and the last writes).",

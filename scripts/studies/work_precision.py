@@ -9,6 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
+    report_head,
     Reference,
     contact_episodes,
     default_methods,
@@ -173,10 +174,7 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     fig.suptitle(f"{scenario['name']}: work against precision", fontsize=10)
     save_plot(fig, [ax for ax in axes.flat if ax.has_data()], os.path.join(out, "work_precision.png"), legend_size=7)
     lines = [
-        f"# Work against precision: {scenario['name']}",
-        "",
-        scenario.get("description", ""),
-        "",
+        *report_head("Work against precision", scenario),
         "Each method against its own reference run ("
         + "; ".join(f"'{m['name']}': {references[reference_of[m['name']]]['id']}" for m in methods)
         + "). Measures: "
@@ -266,10 +264,7 @@ def study_work_precision(runner, scenario_path, out, sets):
     ax.set_title(f"{scenario['name']}: work against precision\n({', '.join(probes)})", fontsize=10)
     save_plot(fig, [ax], os.path.join(out, "work_precision.png"))
     lines = [
-        f"# Work against precision: {scenario['name']}",
-        "",
-        scenario.get("description", ""),
-        "",
+        *report_head("Work against precision", scenario),
         f"Error: the largest over {', '.join(probes)} of {study.get('error', 'MAX')} |value − reference|; "
         f"reference: {'analytic' if study.get('references') else 'a reference run'}; wall time of the time steps "
         f"(summary.json step_wall_time; a coupled run: the coordinator's, which includes waiting for its peers).",

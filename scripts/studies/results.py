@@ -143,7 +143,9 @@ def results(runner, out_root, sets, reuse=False):
         "| SHARCS-like hub, blade tip position under step refinement (CGα paper, Fig. 12) | 2 | radial and in-plane 2.2–2.4; flapwise to 1e-4 of its deflection, monotonically (~1.3) once the solid's high-frequency modes are damped (below) | convergence study |",
         "| SHARCS-like hub, hex27 against beam blade | — | flap 0.08° RMS apart, radial root force 33 N RMS of 11.1 kN (below) | compare study |",
         "| Puma gust, co-simulated impact response as h is refined | — | both impacts of the 35 m/s gust: loads converge at order 1.6, at h = 1 ms the root shear within 2.7 kN of ~8 kN peaks, flap within 0.17° (the bouncing after the landing); h ≤ 0.5 ms for peaks within ~10 % (below) | convergence study |",
-        "| Puma blade-sailing envelope, gust peak × direction | — | 24 co-simulated runs in 243 s on one worker; four-fold symmetric to the digits shown; at 25 m/s blade lift 0.63 m, smallest clearance to a plane 2 m below the hub at 45°, not at the paper's 90° (below) | envelope study |",
+        "| Puma blade-sailing envelope, gust peak × direction | — | "
+        + envelope_headline(os.path.join(out_root, "envelope-puma_gust", "runs.csv"), "m/s")
+        + " (below) | envelope study |",
         "| Puma engagement on a frigate's moving deck in its airwake, operating limits | — | "
         + envelope_headline(os.path.join(out_root, "envelope-puma_ship", "runs.csv"), "kt")
         + " (below) | envelope study |",

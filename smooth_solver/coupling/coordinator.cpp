@@ -703,7 +703,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       }
       // The relaxation's update could not be solved: back-track (Backtrack), up to
       // kMaxBacktracks times a step, within max_iterations.
-      if (jacobians_ || iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
+      if (iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
         return Failed(iteration, std::move(why), result);
       }
       Backtrack(iteration, ++backtracks);

@@ -30,9 +30,7 @@ const std::array<int, 27>& VtkHex27Order() {
 
 namespace {
 
-// A rigid body: its origin and axes, lines to the points attached to it, and the box around them
-// (its shape: each side at least a tenth of its size, 0.1 of the axis length for a body with no
-// such points).
+// A rigid body: its origin and axes, lines to the points attached to it, and its box.
 void DrawRigidBody(const MultibodyModel& model, const Eigen::VectorXd& q, size_t b,
                    const std::vector<Eigen::Vector3d>& attached, const VisualSettings& settings, VisualFrame* frame) {
   const int base = kCoordinatesPerBody * static_cast<int>(b);

@@ -302,10 +302,10 @@ int main() {
     } sink;
     const int reps = 2000;
     auto t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < reps; ++k) air.AddForce(q, qdot, 0.0, sys.data(), f);
+    for (int k = 0; k < reps; ++k) air.AddForce(q, qdot, 0.0, sim.data(), f);
     const double force = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
     t0 = std::chrono::steady_clock::now();
-    for (int k = 0; k < reps; ++k) air.AddTangent(q, qdot, 0.0, sys.data(), 1.0, 0.5, &sink);
+    for (int k = 0; k < reps; ++k) air.AddTangent(q, qdot, 0.0, sim.data(), 1.0, 0.5, &sink);
     const double tangent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
     t0 = std::chrono::steady_clock::now();
     for (int k = 0; k < reps / 10; ++k) air.AcceptStep(q, qdot, 1e-4 * (k + 2), sim.mutable_data());

@@ -88,8 +88,8 @@ Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::Vec
   return v;
 }
 
-EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess, const SpinningFrame& frame,
-                                    const EquilibriumOptions& options) {
+EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* data, const Eigen::VectorXd& q_guess,
+                                    const SpinningFrame& frame, const EquilibriumOptions& options) {
   const int n = system.coordinates, m = system.constraints.size(), N = n + m;
   const Eigen::Matrix3d O = Skew(frame.omega);
   const Eigen::SparseMatrix<double> MW2 = system.mass * PerTriple(n, O * O);
@@ -107,16 +107,16 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
   auto residual = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::VectorXd* R) {
     R->resize(N);
     Eigen::VectorXd f(n);
-    system.Force(q, zero, options.t, f);
+    system.Force(q, zero, options.t, *data, f);
     if (air != nullptr) {  // the air's share at W q̂ instead of at rest
       Eigen::VectorXd moving = Eigen::VectorXd::Zero(n), still = Eigen::VectorXd::Zero(n);
-      air->AddForce(q, velocity(q), options.t, system.data(), moving);
-      air->AddForce(q, zero, options.t, system.data(), still);
+      air->AddForce(q, velocity(q), options.t, *data, moving);
+      air->AddForce(q, zero, options.t, *data, still);
       f += moving - still;
     }
     R->head(n) = -f + MW2 * WithoutOrigin(system, q, frame.origin);
-    system.constraints.AddJacobianTransposeTimes(system.data().imposed, q, options.t, lambda, R->head(n));
-    system.constraints.Evaluate(system.data().imposed, q, options.t, R->tail(m));
+    system.constraints.AddJacobianTransposeTimes(data->imposed, q, options.t, lambda, R->head(n));
+    system.constraints.Evaluate(data->imposed, q, options.t, R->tail(m));
     for (int i = 0; i < m; ++i) {
       if (!system.constraints.Active(static_cast<size_t>(i), options.t))
         (*R)(n + i) = lambda(i);
@@ -125,23 +125,23 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
     }
   };
   Eigen::VectorXd R;
-  system.AcceptStep(r.q, velocity(r.q), options.t);  // the rotors' inflow at the guess
+  system.AcceptStep(r.q, velocity(r.q), options.t, data);  // the rotors' inflow at the guess
   residual(r.q, r.lambda, &R);
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;
-    system.AddForceTangent(r.q, zero, options.t, 1.0, 0.0, &sink);
+    system.AddForceTangent(r.q, zero, options.t, *data, 1.0, 0.0, &sink);
     if (air != nullptr) {
       const Eigen::VectorXd v = velocity(r.q);
       TripletSink damping;
-      air->AddTangent(r.q, v, options.t, system.data(), 1.0, 0.0, &sink);
-      air->AddTangent(r.q, zero, options.t, system.data(), -1.0, 0.0, &sink);
-      air->AddTangent(r.q, v, options.t, system.data(), 0.0, 1.0, &damping);
+      air->AddTangent(r.q, v, options.t, *data, 1.0, 0.0, &sink);
+      air->AddTangent(r.q, zero, options.t, *data, -1.0, 0.0, &sink);
+      air->AddTangent(r.q, v, options.t, *data, 0.0, 1.0, &damping);
       AddSparse(Eigen::SparseMatrix<double>(damping.Build(n) * W), 1.0, &sink);  // −∂f/∂q̇ · ∂(W q̂)/∂q
     }
     AddSparse(MW2, 1.0, &sink);
-    system.constraints.HessianTimesLambda(system.data().imposed, options.t, r.lambda, &sink, 1.0);
-    system.constraints.JacobianTranspose(system.data().imposed, r.q, options.t, &sink, n, 1.0);
-    system.constraints.Jacobian(system.data().imposed, r.q, options.t, &sink, n, 1.0);
+    system.constraints.HessianTimesLambda(data->imposed, options.t, r.lambda, &sink, 1.0);
+    system.constraints.JacobianTranspose(data->imposed, r.q, options.t, &sink, n, 1.0);
+    system.constraints.Jacobian(data->imposed, r.q, options.t, &sink, n, 1.0);
     system.constraints.AddReleasedDiagonal(options.t, &sink, n);
     system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
     const Eigen::SparseMatrix<double> A = sink.Build(N);
@@ -159,7 +159,7 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
     // stiffness 1e7 times the directors' second-order stretch) rejects the steps that converge.
     r.q += delta.head(n);
     r.lambda += delta.tail(m);
-    system.AcceptStep(r.q, velocity(r.q), options.t);  // inflow of the new state, held in Newton
+    system.AcceptStep(r.q, velocity(r.q), options.t, data);  // inflow of the new state, held in Newton
     residual(r.q, r.lambda, &R);
     if (!R.allFinite()) break;
     if (delta.head(n).lpNorm<Eigen::Infinity>() <= options.tolerance * (1.0 + r.q.lpNorm<Eigen::Infinity>())) {
@@ -172,8 +172,9 @@ EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::Vector
   return r;
 }
 
-std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
-                              double t, const SpinningFrame& frame, int count, double zero_frequency) {
+std::vector<Mode> LinearModes(const MultibodySystem& system, const SystemData& data, const Eigen::VectorXd& q,
+                              const Eigen::VectorXd& lambda, double t, const SpinningFrame& frame, int count,
+                              double zero_frequency) {
   const int n = system.coordinates, m = system.constraints.size();
   const Eigen::Matrix3d O = Skew(frame.omega);
   const Eigen::MatrixXd M = Eigen::MatrixXd(system.mass);
@@ -183,20 +184,20 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
     // (see StaticEquilibrium): with q̇_abs = q̇ + W q̂ its K gains C_air W.
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
     DenseSink k(&K), c(&C);
-    system.AddForceTangent(q, zero, t, 1.0, 0.0, &k);
-    system.AddForceTangent(q, zero, t, 0.0, 1.0, &c);
-    system.constraints.HessianTimesLambda(system.data().imposed, t, lambda, &k, 1.0);
+    system.AddForceTangent(q, zero, t, data, 1.0, 0.0, &k);
+    system.AddForceTangent(q, zero, t, data, 0.0, 1.0, &c);
+    system.constraints.HessianTimesLambda(data.imposed, t, lambda, &k, 1.0);
     if (const AirLoads* air = system.air_loads; air != nullptr) {
       const Eigen::MatrixXd W = Eigen::MatrixXd(PerTriple(n, O));
       const Eigen::VectorXd v = W * WithoutOrigin(system, q, frame.origin);
       Eigen::MatrixXd Ca = Eigen::MatrixXd::Zero(n, n);  // the air's −∂f/∂q̇ at W q̂
       DenseSink ca(&Ca);
-      air->AddTangent(q, v, t, system.data(), 1.0, 0.0, &k);
-      air->AddTangent(q, zero, t, system.data(), -1.0, 0.0, &k);
-      air->AddTangent(q, v, t, system.data(), 0.0, 1.0, &ca);
+      air->AddTangent(q, v, t, data, 1.0, 0.0, &k);
+      air->AddTangent(q, zero, t, data, -1.0, 0.0, &k);
+      air->AddTangent(q, v, t, data, 0.0, 1.0, &ca);
       K += Ca * W;
       // C holds the air's damping at rest (from AddForceTangent): replace it by the one at W q̂.
-      air->AddTangent(q, zero, t, system.data(), 0.0, -1.0, &c);
+      air->AddTangent(q, zero, t, data, 0.0, -1.0, &c);
       C += Ca;
     }
   }
@@ -205,7 +206,7 @@ std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::Vector
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m, n);
   {
     DenseSink g(&G);
-    system.constraints.Jacobian(system.data().imposed, q, t, &g, 0, 1.0);
+    system.constraints.Jacobian(data.imposed, q, t, &g, 0, 1.0);
   }
   for (int i = 0; i < m; ++i) {
     if (!system.constraints.Active(static_cast<size_t>(i), t)) G.row(i).setZero();

@@ -46,9 +46,9 @@ Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::Vec
 
 // Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t)] = 0 from `q_guess` (full steps: ramp large
 // loads, e.g. through the loads' time functions). The rotors' inflow is updated at the
-// iterates (AcceptStep: the system's data changes).
-EquilibriumResult StaticEquilibrium(MultibodySystem& system, const Eigen::VectorXd& q_guess, const SpinningFrame& frame,
-                                    const EquilibriumOptions& options);
+// iterates (AcceptStep: `data`, the run's changing state, changes).
+EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* data, const Eigen::VectorXd& q_guess,
+                                    const SpinningFrame& frame, const EquilibriumOptions& options);
 
 struct Mode {
   double frequency = 0.0;  // [rad/s], |λ| (the undamped circular frequency of the pair)
@@ -63,7 +63,8 @@ struct Mode {
 // with Z an orthonormal basis of the null space of Φ_q, K = −∂f/∂q, C = −∂f/∂q̇ (dense:
 // for analysis, not for the time loop). Sorted by frequency; rigid modes (|λ| below
 // `zero_frequency`) are left out; at most `count` are returned.
-std::vector<Mode> LinearModes(const MultibodySystem& system, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
-                              double t, const SpinningFrame& frame, int count, double zero_frequency = 1e-6);
+std::vector<Mode> LinearModes(const MultibodySystem& system, const SystemData& data, const Eigen::VectorXd& q,
+                              const Eigen::VectorXd& lambda, double t, const SpinningFrame& frame, int count,
+                              double zero_frequency = 1e-6);
 
 }  // namespace cosim::smooth

@@ -88,7 +88,7 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   for (int k : points) {
     for (int j = 0; j < 3; ++j) rows.push_back(system_.interface_points[static_cast<size_t>(k)].first_row + j);
   }
-  ConsistentAccelerations(system_, t, &state, &rows);
+  ConsistentAccelerations(system_, *data_, t, &state, &rows);
   integrator_->Restart(state);
   // The freed rows' multipliers are 0 there, and a = q̈: their filtered multipliers too; the
   // others' are the state's.
@@ -262,11 +262,11 @@ void Coordinator::ImposeRates(double h) {
 
 int Coordinator::Step(double t, double h) {
   const Attempt attempt = Try(t, h);
-  if (!attempt.failure.empty()) throw NumericalError(attempt.failure);  // (everything restored)
-  if (!attempt.converged) {
+  if (attempt.failed()) throw NumericalError(Describe(attempt));  // (everything restored)
+  if (!attempt.converged()) {
     if (settings_.stop_at_max_iterations) {
       integrator_->Restore(start_);
-      throw NumericalError(NoConvergence(t, h));
+      throw NumericalError(Describe(attempt));
     }
     ++marked_;
   }
@@ -274,13 +274,30 @@ int Coordinator::Step(double t, double h) {
   return attempt.iterations;
 }
 
-std::string Coordinator::NoConvergence(double t, double h) const {
-  return "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
-         std::to_string(step_) + " (t = " + interface::FormatNumber(t + h) + " s): reaction residual " +
-         interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
-         interface::FormatNumber(log_.back().displacement_change) + " m; " + CouplingState() +
-         (jacobians_ ? "; raise coupling.iteration.max_iterations"
-                     : "; raise coupling.iteration.max_iterations, choose another relaxation, or shorten the step");
+std::string Coordinator::Describe(const Attempt& attempt) const {
+  const std::string to = " the step to t = " + interface::FormatNumber(attempt.end_time) + " s";
+  switch (attempt.outcome) {
+    case Attempt::Outcome::kConverged:
+      return "coupling: the step to t = " + interface::FormatNumber(attempt.end_time) + " s converged";
+    case Attempt::Outcome::kNotConverged:
+      return "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
+             std::to_string(step_) + " (t = " + interface::FormatNumber(attempt.end_time) + " s): reaction residual " +
+             interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
+             interface::FormatNumber(log_.back().displacement_change) + " m; " + CouplingState() +
+             (jacobians_ ? "; raise coupling.iteration.max_iterations"
+                         : "; raise coupling.iteration.max_iterations, choose another relaxation, or shorten the step");
+    case Attempt::Outcome::kSmoothFailed: {
+      const std::string why = attempt.smooth.Describe(integrator_->settings());
+      if (!attempt.with_answers) return why;
+      // The smooth step could not take the contact processes' answers: say which.
+      return "coupling iteration " + std::to_string(attempt.failed_iteration) + " of" + to +
+             ": the smooth step with the contact processes' answers failed (" + CouplingState() + "): " + why;
+    }
+    case Attempt::Outcome::kReactionsNotFinite:
+      return "coupling: the smooth model's reactions on the interface nodes are not finite after coupling iteration " +
+             std::to_string(attempt.failed_iteration) + " of" + to;
+  }
+  return {};
 }
 
 std::string Coordinator::CouplingState() const {
@@ -453,18 +470,15 @@ double Coordinator::FrameDrift(const DaeState& state) const {
   return drift;
 }
 
-bool Coordinator::SolveStep(double t, double h, const DaeState* guess, std::string* failure) {
+StepStatus Coordinator::SolveStep(double t, double h, const DaeState* guess) {
   if (guess != nullptr && !iterate_solved_) guess = nullptr;  // (the step's predictor instead)
   const StepStatus status = integrator_->TryStep(t, h, guess);
-  if (!status.ok()) {
-    *failure = status.Describe(integrator_->settings());
-    return false;
-  }
+  if (!status.ok()) return status;
   newton_ += status.iterations;
   iterate_ = integrator_->state();  // equal sizes: no allocation once warm
   iterate_solved_ = true;
   ReactionsFromSolve();
-  return true;
+  return status;
 }
 
 void Coordinator::Linearise(double t, double h) {
@@ -492,8 +506,7 @@ void Coordinator::Linearise(double t, double h) {
   applied_ = x_;
   integrator_->Restore(start_);
   ImposeModel(h);
-  std::string failure;
-  if (!SolveStep(t, h, nullptr, &failure)) {
+  if (!SolveStep(t, h, nullptr).ok()) {
     // The predicted node positions with the last answers' compliance were more than CGα could
     // take (observed: the Puma gust at h = 2 ms, 6.638 s, a blade landing on its stop): the
     // predictions themselves (x_0, k_pred) serve as the linearisation point, with the last E.
@@ -609,9 +622,10 @@ void Coordinator::BeginTry(double h) {
 
 // This side failed in iteration `at` (every peer waits for its next message): the integrator back
 // at the step's start; the caller rejects the step (adaptive) or ends the run.
-Coordinator::Attempt Coordinator::Failed(int at, std::string why, Attempt result) {
+Coordinator::Attempt Coordinator::Failed(int at, Attempt::Outcome outcome, Attempt result) {
   integrator_->Restore(start_);
-  result.failure = std::move(why);
+  result.outcome = outcome;
+  result.failed_iteration = at;
   result.iterations = at + 1;
   last_iteration_ = at;  // (the StepEnd that rejects it carries this iteration)
   return result;
@@ -654,6 +668,7 @@ void Coordinator::Backtrack(int iteration, int backtracks) {
 
 Coordinator::Attempt Coordinator::Try(double t, double h) {
   Attempt result;
+  result.end_time = t + h;
   BeginTry(h);
   if (jacobians_) Linearise(t, h);
   // The moving obstacles' frames: the pre-solve's at the step's end; without one (no interface
@@ -677,7 +692,6 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       ImposeRates(h);
       ++linearisation_accepted_;
       log_.push_back(record);
-      result.converged = true;
       return Finished(0, result);
     }
   }
@@ -689,22 +703,15 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       Impose(h);
     }
     const bool warm = jacobians_ || (settings_.warm_start && iteration > 0);
-    std::string why;
-    if (!SolveStep(t, h, warm ? &iterate_ : nullptr, &why)) {
-      if (jacobians_) {
-        // The smooth step could not take the contact processes' answers: say which.
-        return Failed(iteration,
-                      "coupling iteration " + std::to_string(iteration) +
-                          " of the step to t = " + interface::FormatNumber(t + h) +
-                          " s: the smooth step with the contact processes' "
-                          "answers failed (" +
-                          CouplingState() + "): " + why,
-                      result);
-      }
+    result.smooth = SolveStep(t, h, warm ? &iterate_ : nullptr);
+    if (!result.smooth.ok()) {
+      // With interface Jacobians the smooth step could not take the contact processes' answers.
+      result.with_answers = jacobians_;
+      if (jacobians_) return Failed(iteration, Attempt::Outcome::kSmoothFailed, result);
       // The relaxation's update could not be solved: back-track (Backtrack), up to
       // kMaxBacktracks times a step, within max_iterations.
       if (iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
-        return Failed(iteration, std::move(why), result);
+        return Failed(iteration, Attempt::Outcome::kSmoothFailed, result);
       }
       Backtrack(iteration, ++backtracks);
       continue;
@@ -713,24 +720,21 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (!x_tilde_.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
-      return Failed(iteration,
-                    "coupling: the smooth model's reactions on the interface nodes are not finite after "
-                    "coupling iteration " +
-                        std::to_string(iteration) + " of the step to t = " + interface::FormatNumber(t + h) + " s",
-                    result);
+      return Failed(iteration, Attempt::Outcome::kReactionsNotFinite, result);
     }
     CouplingIterationRecord record;
     record.step = step_;
     record.iteration = iteration;
     bool skipped = false;
-    result.converged =
+    const bool converged =
         jacobians_ ? JacobianConverged(&record) : RelaxationConverged(iteration, free_flight, &record, &skipped);
+    result.outcome = converged ? Attempt::Outcome::kConverged : Attempt::Outcome::kNotConverged;
     if (skipped) {
       result.free_flight = true;
       ++free_flight_;
     }
     previous_x_tilde_ = x_tilde_;
-    if (result.converged || iteration + 1 >= settings_.max_iterations) {
+    if (converged || iteration + 1 >= settings_.max_iterations) {
       record.relaxation_factor = 0.0;
       log_.push_back(record);
       break;
@@ -789,7 +793,7 @@ void Coordinator::Accept(double t, double h) {
   }
   if (!restarted.empty() && settings_.restart_at_impact) {
     DaeState after = integrator_->state();
-    ProjectVelocities(system_, t + h, &after);  // the points move with their nodes
+    ProjectVelocities(system_, *data_, t + h, &after);  // the points move with their nodes
     RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
     for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
     accepted_steps_ = 0;

@@ -91,7 +91,7 @@ class Coordinator {
     std::vector<MovingObstacle> obstacles = {};
     bool jacobians = false;  // its Welcome offered interface Jacobians
   };
-  // `data`: the system's changing state (its owner's mutable_data()), where the interface
+  // `data`: the run's changing state (the one `integrator` was made with), where the interface
   // rows' imposed coordinates are written; the integrator's checkpoints hold it.
   Coordinator(const MultibodySystem& system, SystemData* data, CgAlpha* integrator, std::vector<Peer> peers,
               const CouplingSettings& settings);
@@ -107,19 +107,33 @@ class Coordinator {
   // committed to nothing: the integrator holds the last iteration's end state, every peer its
   // tentative step. Then exactly one of Accept (StepEnd accepted) or Reject (StepEnd rejected:
   // every peer and the integrator back at the step's start; the next Try may take another h).
+  // What a Try came to, and its statistics; Describe turns a failure into words (the run driver's).
   struct Attempt {
+    enum class Outcome : unsigned char {
+      kConverged,           // within the tolerances (or free flight)
+      kNotConverged,        // max_iterations reached
+      kSmoothFailed,        // a CGα solve failed (integrator restored): `smooth` says how
+      kReactionsNotFinite,  // the smooth model's reactions on the nodes are not finite
+    };
+    Outcome outcome = Outcome::kConverged;
     int iterations = 0;
-    bool converged = false;        // within the tolerances (or free flight)
+    double end_time = 0.0;         // the step's end t + h [s]
     bool free_flight = false;      // accepted after one iteration: no contact reachable (free_flight_margin)
-    std::string failure;           // a failed Newton solve (integrator restored): reject or stop
     bool impact = false;           // a node's contact closed in the step (its velocity jumped)
     bool contact = false;          // an impulsive contact acted in the step
     double time_to_contact = 0.0;  // the peers' earliest, from the step's end [s]
+    int failed_iteration = -1;     // kSmoothFailed, kReactionsNotFinite: the coupling iteration
+    bool with_answers = false;     // kSmoothFailed: the solve imposed the contact processes' answers
+    StepStatus smooth;             // kSmoothFailed: CGα's status
+    bool converged() const { return outcome == Outcome::kConverged; }
+    bool failed() const { return outcome == Outcome::kSmoothFailed || outcome == Outcome::kReactionsNotFinite; }
   };
   Attempt Try(double t, double h);
   void Accept(double t, double h);
   void Reject();
-  std::string NoConvergence(double t, double h) const;  // the reason of an unconverged step
+  // Why `attempt` (the last Try's, not converged) did not converge or failed, with the coupling
+  // state it left (CouplingState): the message of its NumericalError or rejected step.
+  std::string Describe(const Attempt& attempt) const;
   // The interface nodes in contact and the largest force mismatch, for a failed step's reason.
   std::string CouplingState() const;
   long long rejected_steps() const { return rejected_; }
@@ -167,9 +181,9 @@ class Coordinator {
   // Peer q's reactions x_ (and E, k̂) and the frames of `frames` advanced `ahead` (recorded in
   // sent_frames_): the body of a StepBegin's predictor or of a Reactions.
   void FillReactions(size_t q, const DaeState& frames, double ahead, coupling::Reactions* reactions);
-  // One CGα solve of the step (from `guess`, or the predictor): iterate_ and x̃ from it; false
-  // (and why) if Newton failed.
-  bool SolveStep(double t, double h, const DaeState* guess, std::string* failure);
+  // One CGα solve of the step (from `guess`, or the predictor): iterate_ and x̃ from it; its
+  // status (a failed one leaves the integrator at the step's start).
+  StepStatus SolveStep(double t, double h, const DaeState* guess);
   // The convergence tests of an iteration (filling the record's residuals).
   bool JacobianConverged(CouplingIterationRecord* record) const;
   bool RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record, bool* skipped);
@@ -213,7 +227,7 @@ class Coordinator {
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
   // Try's pieces.
   void BeginTry(double h);
-  Attempt Failed(int at, std::string why, Attempt result);
+  Attempt Failed(int at, Attempt::Outcome outcome, Attempt result);
   Attempt Finished(int last, Attempt result);
   void Backtrack(int iteration, int backtracks);
   long long step_ = 0;

@@ -213,9 +213,8 @@ void CoupledSmoothSimulation::StepAdaptively(double until) {
     last = coordinator_->Try(from, step);
     MultibodySimulation::AttemptOutcome outcome;
     outcome.iterations = coordinator_->last_newton_iterations();
-    outcome.failure = last.failure;
-    if (outcome.failure.empty() && !last.converged) outcome.failure = coordinator_->NoConvergence(from, step);
-    outcome.impact = last.impact;  // a contact that closed in the step (a resting one is smooth motion)
+    outcome.failed = !last.converged();  // (an unconverged step is rejected as a failed one)
+    outcome.impact = last.impact;        // a contact that closed in the step (a resting one is smooth motion)
     outcome.time_to_contact = last.time_to_contact;
     return outcome;
   };
@@ -225,6 +224,7 @@ void CoupledSmoothSimulation::StepAdaptively(double until) {
     coupling_.Add(last.iterations);
   };
   hooks.reject = [&] { coordinator_->Reject(); };
+  hooks.why = [&] { return coordinator_->Describe(last); };
   simulation_->Advance(target, hooks);
 }
 

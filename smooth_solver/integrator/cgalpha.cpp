@@ -12,7 +12,7 @@ namespace cosim::smooth {
 namespace {
 
 // Sparsity pattern of [A, Φ_qᵀ; Φ_q, 0] where A holds M and the constraint Hessians.
-Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
+Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system, const SystemData& data) {
   const int n = system.coordinates, m = system.constraints.size();
   PatternSink pattern;
   AddSparse(system.mass, 0.0, &pattern);
@@ -20,8 +20,8 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system) {
   system.ForcePattern(&pattern);
   // t = −∞: every row active (a locked joint's row exists until its release).
   const double always = -std::numeric_limits<double>::infinity();
-  system.constraints.Jacobian(system.data().imposed, system.q0, always, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(system.data().imposed, system.q0, always, &pattern, n, 1.0);
+  system.constraints.Jacobian(data.imposed, system.q0, always, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, system.q0, always, &pattern, n, 1.0);
   for (int i = 0; i < n + m; ++i) pattern.Add(i, i, 0.0);  // keep the diagonal structurally present
   // An interface point's rows: the 3 × 3 block of the peer's compliance (interface Jacobians).
   for (const InterfacePoint& p : system.interface_points) {
@@ -60,18 +60,18 @@ bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
 
 }  // namespace
 
-void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state,
+void ConsistentAccelerations(const MultibodySystem& system, const SystemData& data, double t, DaeState* state,
                              const std::vector<int>* free_rows) {
   const int n = system.coordinates, m = system.constraints.size();
-  Eigen::SparseMatrix<double> A = SaddlePattern(system);
+  Eigen::SparseMatrix<double> A = SaddlePattern(system, data);
   MatrixSink sink(&A);
   AddSparse(system.mass, 1.0, &sink);
-  system.constraints.Jacobian(system.data().imposed, state->q, t, &sink, n, 1.0);
-  system.constraints.JacobianTranspose(system.data().imposed, state->q, t, &sink, n, 1.0);
+  system.constraints.Jacobian(data.imposed, state->q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, state->q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
   Eigen::VectorXd rhs(n + m);
-  system.Force(state->q, state->qdot, t, rhs.head(n));
-  system.constraints.AccelerationBias(system.data().imposed, state->q, state->qdot, t, rhs.tail(m));
+  system.Force(state->q, state->qdot, t, data, rhs.head(n));
+  system.constraints.AccelerationBias(data.imposed, state->q, state->qdot, t, rhs.tail(m));
   rhs.tail(m) *= -1.0;
   // Rows left out (`free_rows`): an identity row and column, λ_i = 0. Regularised rows
   // (Φ_i − c_i λ_i = 0, Eq. (7) of the rotor-sailing paper): λ_i = Φ_i / c_i is a function of
@@ -88,7 +88,7 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   }
   if (special) {
     Eigen::VectorXd phi(m);
-    system.constraints.Evaluate(system.data().imposed, state->q, t, phi);
+    system.constraints.Evaluate(data.imposed, state->q, t, phi);
     for (int k = 0; k < A.outerSize(); ++k) {
       for (Eigen::SparseMatrix<double>::InnerIterator it(A, k); it; ++it) {
         const Row r = mode[static_cast<size_t>(it.row())], c = mode[static_cast<size_t>(it.col())];
@@ -118,15 +118,17 @@ void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* 
   state->lambda = x.tail(m);
 }
 
-bool RestartAtRelease(const MultibodySystem& system, double t, double t1, DaeState* state) {
+bool RestartAtRelease(const MultibodySystem& system, const SystemData& data, double t, double t1, DaeState* state) {
   const double release = system.constraints.ReleaseWithin(t, t1);
   if (!std::isfinite(release)) return false;
-  ConsistentAccelerations(system, std::max(t, std::nextafter(release, INFINITY)), state);
+  ConsistentAccelerations(system, data, std::max(t, std::nextafter(release, INFINITY)), state);
   return true;
 }
 
-CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
+CgAlpha::CgAlpha(const MultibodySystem& system, SystemData* data, const CgAlphaSettings& settings,
+                 const DaeState& initial)
     : system_(system),
+      data_(data),
       settings_(settings),
       coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)),
       state_(initial),
@@ -154,13 +156,13 @@ CgAlpha::CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings,
   }
   woodbury_ = !system.interface_points.empty();
   // (Φ_q q̇)_q has the coordinates of Φ_q in every row: the pattern is the index-3 one.
-  S_ = SaddlePattern(system);
+  S_ = SaddlePattern(system, *data);
   lu_.Analyze(S_);  // once: the pattern never changes
 }
 
 double CgAlpha::ConstraintViolation(double t) const {
   violation_.resize(system_.constraints.size());  // sized once
-  system_.constraints.Evaluate(system_.data().imposed, state_.q, t, violation_);
+  system_.constraints.Evaluate(data_->imposed, state_.q, t, violation_);
   return violation_.size() > 0 ? violation_.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
@@ -172,17 +174,17 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   MatrixSink sink(&S_);
   // The elastic force and its tangent in one pass (force_ holds the other forces already).
   elastic_.Add(state_.q, next_.q, force_, bh2, &sink);
-  AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);                 // βh² β' M
-  system_.constraints.HessianTimesLambda(system_.data().imposed, t1, next_.lambda, &sink, bh2);  // βh² Σ λ_i ∂²φ_i/∂q²
+  AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);         // βh² β' M
+  system_.constraints.HessianTimesLambda(data_->imposed, t1, next_.lambda, &sink, bh2);  // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
-  system_.AddForceTangent(next_.q, next_.qdot, t1, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink,
+  system_.AddForceTangent(next_.q, next_.qdot, t1, *data_, bh2, bh2 * coef_.gamma / (coef_.beta * h), &sink,
                           /*include_elastic=*/false);
-  system_.constraints.JacobianTranspose(system_.data().imposed, next_.q, t1, &sink, n, 1.0);
-  system_.constraints.Jacobian(system_.data().imposed, next_.q, t1, &sink, n, 1.0);
+  system_.constraints.JacobianTranspose(data_->imposed, next_.q, t1, &sink, n, 1.0);
+  system_.constraints.Jacobian(data_->imposed, next_.q, t1, &sink, n, 1.0);
   if (any_velocity_row_) {
     // Velocity rows: ∂(Φ_q q̇ + Φ_t)/∂q_{n+1} / γ' = Φ_q + (Φ_q q̇ + Φ_t)_q / γ' (q̇ moves with
     // γ' Δq along the Newton correction).
-    system_.constraints.VelocityConstraintJacobian(system_.data().imposed, next_.q, next_.qdot, t1, &sink, n,
+    system_.constraints.VelocityConstraintJacobian(data_->imposed, next_.q, next_.qdot, t1, &sink, n,
                                                    coef_.beta * h / coef_.gamma, &velocity_row_);
   }
   system_.constraints.AddReleasedDiagonal(t1, &sink, n);  // released rows: Δλ = 0
@@ -217,7 +219,7 @@ void CgAlpha::AddComplianceCorrection(Eigen::Ref<Eigen::VectorXd> x, const Eigen
   // resting on its plane has no normal compliance). Co-rotated (x already turned into the
   // factorised axes, J = T J₀ Tᵀ): TᵀP = P Rᵀ on the interface triples, so the compliance is
   // taken into those axes as well, Ĉ₀ = Rᵀ Ĉ R (to_factorized = Rᵀ).
-  const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
+  const std::vector<Eigen::Matrix3d>& compliance = data_->interface_compliance;
   bool any = false;
   for (const Eigen::Matrix3d& c : compliance) any = any || !c.isZero(0.0);
   if (!any) return;
@@ -249,7 +251,7 @@ void CgAlpha::ConstraintRows(double t1, bool phi_known) {
   // rows_ = Φ − cλ (position rows) or Φ_q q̇ + Φ_t (velocity rows) at next_; phi_ = Φ, taken
   // as it is when the projection has just evaluated it at next_.q.
   const ConstraintSet& cs = system_.constraints;
-  const ImposedValues& imposed = system_.data().imposed;
+  const ImposedValues& imposed = data_->imposed;
   if (!phi_known) cs.Evaluate(imposed, next_.q, t1, phi_);
   rows_ = phi_;
   if (any_velocity_row_) {
@@ -262,7 +264,7 @@ void CgAlpha::ConstraintRows(double t1, bool phi_known) {
   for (size_t i = 0; i < cs.compliance.size(); ++i) {
     rows_(static_cast<Eigen::Index>(i)) -= cs.compliance[i] * next_.lambda(static_cast<Eigen::Index>(i));
   }
-  const std::vector<Eigen::Matrix3d>& compliance = system_.data().interface_compliance;
+  const std::vector<Eigen::Matrix3d>& compliance = data_->interface_compliance;
   for (size_t k = 0; k < compliance.size(); ++k) {
     if (compliance[k].isZero(0.0)) continue;
     const int row = system_.interface_points[k].first_row;
@@ -293,7 +295,7 @@ bool CgAlpha::ProjectPositions(double t1, StepStatus* status) {
   const double target = std::max(1e-4 * settings_.tolerance, 1e-14);
   double previous = std::numeric_limits<double>::infinity();
   for (int k = 0;; ++k) {
-    system_.constraints.Evaluate(system_.data().imposed, next_.q, t1, phi_);
+    system_.constraints.Evaluate(data_->imposed, next_.q, t1, phi_);
     for (int i = 0; i < m; ++i) rhs(i) = velocity_row_[static_cast<size_t>(i)] != 0 ? -phi_(i) : 0.0;
     const double violation = rhs.lpNorm<Eigen::Infinity>();
     if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return true;
@@ -351,7 +353,7 @@ StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess) {
   const double t1 = t + h;
   StepStatus status;
   status.time = t1;
-  if (RestartAtRelease(system_, t, t1, &state_)) {
+  if (RestartAtRelease(system_, *data_, t, t1, &state_)) {
     a_ = state_.qddot;
     elastic_.Reset(state_.q);
     started_ = true;
@@ -377,14 +379,14 @@ StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess) {
     if (delta != 0.0) {
       CgAlphaSettings trapezoidal = settings_;
       trapezoidal.rho_inf = 1.0;  // Δα = 0: no start-up of its own
-      CgAlpha shift(system_, trapezoidal, state_);
+      CgAlpha shift(system_, data_, trapezoidal, state_);
       const StepStatus shifted_status = shift.TryStep(t, delta);
       if (!shifted_status.ok()) {
         started_ = false;
         return shifted_status;
       }
       DaeState shifted = shift.state();
-      ConsistentAccelerations(system_, t + delta, &shifted);
+      ConsistentAccelerations(system_, *data_, t + delta, &shifted);
       a_ = shifted.qddot;
     }
   }
@@ -464,7 +466,7 @@ void CgAlpha::Newton(double t1, double h, Matrices matrices, StepStatus* status)
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     ++status->iterations;
     // Residual, scaled: [βh² (M q̈ + f̃ − f + Φ_qᵀ λ); Φ], and the matrix unless reused.
-    system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
+    system_.Force(next_.q, next_.qdot, t1, *data_, force_, /*include_elastic=*/false);
     const bool fresh = matrices == Matrices::kFreshEach || (matrices == Matrices::kFreshFirst && iteration == 1);
     if (fresh) {
       AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
@@ -474,7 +476,7 @@ void CgAlpha::Newton(double t1, double h, Matrices matrices, StepStatus* status)
     auto r_q = residual_.head(n);
     r_q.noalias() = system_.mass * next_.qddot;
     r_q -= force_;
-    system_.constraints.AddJacobianTransposeTimes(system_.data().imposed, next_.q, t1, next_.lambda, r_q);
+    system_.constraints.AddJacobianTransposeTimes(data_->imposed, next_.q, t1, next_.lambda, r_q);
     r_q *= bh2;
     ScaledRows(1.0 / gamma_prime, residual_.tail(m));  // rows_ is at next_ (below, or before the loop)
     if (fresh) {

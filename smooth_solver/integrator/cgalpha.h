@@ -130,8 +130,10 @@ struct StepStatus {
 
 class CgAlpha : public SmoothIntegrator {
  public:
-  // `initial` must be consistent (positions, velocities, accelerations, multipliers).
-  CgAlpha(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial);
+  // `initial` must be consistent (positions, velocities, accelerations, multipliers). `data`: the
+  // run's changing state (MakeData(system), owned by the caller, outliving the integrator), which
+  // every evaluation reads and the checkpoints save and restore.
+  CgAlpha(const MultibodySystem& system, SystemData* data, const CgAlphaSettings& settings, const DaeState& initial);
 
   // Advances from t to t + h. Returns the Newton iterations used; throws NumericalError if
   // Newton does not converge (state unchanged).
@@ -177,31 +179,23 @@ class CgAlpha : public SmoothIntegrator {
   }
 
   // Everything a step changes, to try a step again (a coupling iteration) or undo it (a
-  // rejected step): the integrator's state and, once attached, the run's SystemData (imposed
-  // interface coordinates, contact memories, inflow). SaveTo reuses the checkpoint's buffers.
+  // rejected step): the integrator's state and the run's SystemData (imposed interface
+  // coordinates, contact memories, inflow). SaveTo reuses the checkpoint's buffers.
   struct Checkpoint {
     DaeState state;
     Eigen::VectorXd a, elastic;
     bool started = false;
     SystemData data;
-    bool has_data = false;
   };
-  // The SystemData of the system being integrated (its owner's mutable_data()): checkpoints
-  // hold it from now on. Without it they hold the integrator's state only (tests that build a
-  // system without memories or interface points).
-  void AttachData(SystemData* data) { data_ = data; }
   void SaveTo(Checkpoint* c) const {  // assignments of equal sizes reuse the buffers
     c->state = state_;
     c->a = a_;
     c->elastic = elastic_.current();
     c->started = started_;
-    c->has_data = data_ != nullptr;
-    if (data_ != nullptr) {
-      if (c->data.SameShape(*data_)) {
-        c->data.CopyFrom(*data_);
-      } else {
-        c->data = *data_;  // the first save: allocates
-      }
+    if (c->data.SameShape(*data_)) {
+      c->data.CopyFrom(*data_);
+    } else {
+      c->data = *data_;  // the first save: allocates
     }
   }
   void Restore(const Checkpoint& c) {
@@ -209,7 +203,7 @@ class CgAlpha : public SmoothIntegrator {
     a_ = c.a;
     elastic_.set_current(c.elastic);
     started_ = c.started;
-    if (c.has_data && data_ != nullptr) data_->CopyFrom(c.data);
+    data_->CopyFrom(c.data);
   }
 
  private:
@@ -227,7 +221,7 @@ class CgAlpha : public SmoothIntegrator {
   bool ProjectPositions(double t1, StepStatus* status);
 
   const MultibodySystem& system_;
-  SystemData* data_ = nullptr;  // system_'s changing state, saved with the checkpoints (AttachData)
+  SystemData* data_;  // the run's changing state (the constructor's `data`), saved with the checkpoints
   CgAlphaSettings settings_;
   AlphaCoefficients coef_;
   DaeState state_;
@@ -282,12 +276,12 @@ class CgAlpha : public SmoothIntegrator {
 // singular mass matrix).
 // `free_rows` (optional): constraint rows left out (their λ = 0), e.g. the coupling rows at the
 // start of a coupled run, whose imposed accelerations nobody knows yet.
-void ConsistentAccelerations(const MultibodySystem& system, double t, DaeState* state,
+void ConsistentAccelerations(const MultibodySystem& system, const SystemData& data, double t, DaeState* state,
                              const std::vector<int>* free_rows = nullptr);
 
 // If a locked joint lets go between t and t1, the equations change and the accelerations,
 // multipliers and α history belong to the old ones: recompute q̈ and λ of `state` for the new
 // equations (just after the release) and return true, so the caller restarts its history.
-bool RestartAtRelease(const MultibodySystem& system, double t, double t1, DaeState* state);
+bool RestartAtRelease(const MultibodySystem& system, const SystemData& data, double t, double t1, DaeState* state);
 
 }  // namespace cosim::smooth

@@ -8,8 +8,10 @@
 
 namespace cosim::smooth {
 
-CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial)
+CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const SystemData& data, const CgAlphaSettings& settings,
+                             const DaeState& initial)
     : system_(system),
+      data_(data),
       settings_(settings),
       coef_(AlphaCoefficients::FromRhoInf(settings.rho_inf)),
       state_(initial),
@@ -30,7 +32,7 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSetting
   // every row a locked joint may release.
   const double always = -std::numeric_limits<double>::infinity();
   const ConstraintSet& cs = system.constraints;
-  const ImposedValues& imposed = system.data().imposed;
+  const ImposedValues& imposed = data.imposed;
   PatternSink p;
   OffsetSink r1_vdot(&p, 0, n), r2(&p, n, 0), r4(&p, 2 * n + m, 0), r4_vdot(&p, 2 * n + m, n);
   for (int i = 0; i < 2 * n + 2 * m; ++i) p.Add(i, i, 0.0);
@@ -51,21 +53,21 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSetting
 
 double CgAlphaIndex2::ConstraintViolation(double t) const {
   violation_.resize(system_.constraints.size());  // sized once
-  system_.constraints.Evaluate(system_.data().imposed, state_.q, t, violation_);
+  system_.constraints.Evaluate(data_.imposed, state_.q, t, violation_);
   return violation_.size() > 0 ? violation_.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
 void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const ConstraintSet& cs = system_.constraints;
-  const ImposedValues& imposed = system_.data().imposed;
+  const ImposedValues& imposed = data_.imposed;
   MatrixSink sink(&S_);  // zeroed by Step, which added the elastic tangent
   // R1 × c_q: [c_q (Σλ∇²φ − ∂f/∂q), M − c_v ∂f/∂v (column ÷ c_q), Φ_qᵀ (column ÷ c_q), 0].
   cs.HessianTimesLambda(imposed, t1, next_.lambda, &sink, cq);
-  system_.AddForceTangent(next_.q, next_.qdot, t1, cq, 0.0, &sink, /*include_elastic=*/false);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, data_, cq, 0.0, &sink, /*include_elastic=*/false);
   OffsetSink r1_vdot(&sink, 0, n);
   AddSparse(system_.mass, 1.0, &r1_vdot);
-  system_.AddForceTangent(next_.q, next_.qdot, t1, 0.0, cv, &r1_vdot, /*include_elastic=*/false);
+  system_.AddForceTangent(next_.q, next_.qdot, t1, data_, 0.0, cv, &r1_vdot, /*include_elastic=*/false);
   cs.JacobianTranspose(imposed, next_.q, t1, &sink, 2 * n, 1.0);
   // R2: [I − Σν∇²φ, −I (column ÷ c_q: −c_q I / c_q), 0, −Φ_qᵀ].
   OffsetSink r2(&sink, n, 0);
@@ -89,11 +91,11 @@ void CgAlphaIndex2::Assemble(double t1, double cq, double cv) {
 int CgAlphaIndex2::Step(double t, double h) {
   const int n = system_.coordinates, m = system_.constraints.size();
   const ConstraintSet& cs = system_.constraints;
-  const ImposedValues& imposed = system_.data().imposed;
+  const ImposedValues& imposed = data_.imposed;
   const double t1 = t + h;
   const double ca = (1.0 - coef_.alpha_f) / (1.0 - coef_.alpha_m);  // ∂a_{n+1}/∂v̇_{n+1}
   const double cv = h * coef_.gamma * ca, cq = h * h * coef_.beta * ca;
-  if (RestartAtRelease(system_, t, t1, &state_)) {  // a joint let go: new α history
+  if (RestartAtRelease(system_, data_, t, t1, &state_)) {  // a joint let go: new α history
     a_ = state_.qddot;
     elastic_.Reset(state_.q);
   }
@@ -115,7 +117,7 @@ int CgAlphaIndex2::Step(double t, double h) {
 
   for (int iteration = 1; iteration <= settings_.max_iterations; ++iteration) {
     auto r1 = residual_.head(n), r2 = residual_.segment(n, n);
-    system_.Force(next_.q, next_.qdot, t1, force_, /*include_elastic=*/false);
+    system_.Force(next_.q, next_.qdot, t1, data_, force_, /*include_elastic=*/false);
     for (Eigen::Index k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
     {
       MatrixSink sink(&S_);

@@ -19,7 +19,9 @@ namespace cosim::smooth {
 
 class CgAlphaIndex2 : public SmoothIntegrator {
  public:
-  CgAlphaIndex2(const MultibodySystem& system, const CgAlphaSettings& settings, const DaeState& initial);
+  // `data`: the run's changing state (MakeData(system)), outliving the integrator.
+  CgAlphaIndex2(const MultibodySystem& system, const SystemData& data, const CgAlphaSettings& settings,
+                const DaeState& initial);
 
   int Step(double t, double h) override;
   const DaeState& state() const override { return state_; }
@@ -29,6 +31,7 @@ class CgAlphaIndex2 : public SmoothIntegrator {
   void Assemble(double t1, double cq, double cv);
 
   const MultibodySystem& system_;
+  const SystemData& data_;
   CgAlphaSettings settings_;
   AlphaCoefficients coef_;
   DaeState state_;  // qddot holds v̇

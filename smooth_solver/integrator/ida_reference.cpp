@@ -27,6 +27,7 @@ Eigen::Map<Eigen::VectorXd> View(N_Vector v) {
 
 struct IdaReference::Impl {
   const MultibodySystem* system = nullptr;
+  const SystemData* data = nullptr;  // the run's changing state
   int n = 0, m = 0;
   SUNContext ctx = nullptr;
   N_Vector y = nullptr, yp = nullptr, id = nullptr;
@@ -45,17 +46,17 @@ struct IdaReference::Impl {
     const auto q = y.head(n), v = y.segment(n, n), lambda = yp.segment(2 * n, m), mu = yp.tail(m);
     // q̇ − v + Φ_qᵀ μ
     r.head(n) = yp.head(n) - v;
-    p->system->constraints.AddJacobianTransposeTimes(p->system->data().imposed, q, t, mu, r.head(n));
+    p->system->constraints.AddJacobianTransposeTimes(p->data->imposed, q, t, mu, r.head(n));
     // M v̇ − f + Φ_qᵀ λ
-    p->system->Force(q, v, t, p->force);
+    p->system->Force(q, v, t, *p->data, p->force);
     r.segment(n, n) = p->system->mass * yp.segment(n, n) - p->force;
-    p->system->constraints.AddJacobianTransposeTimes(p->system->data().imposed, q, t, lambda, r.segment(n, n));
+    p->system->constraints.AddJacobianTransposeTimes(p->data->imposed, q, t, lambda, r.segment(n, n));
     // Φ_q v + Φ_t
-    p->system->constraints.JacobianTimes(p->system->data().imposed, q, t, v, r.segment(2 * n, m));
-    p->system->constraints.TimeDerivative(p->system->data().imposed, q, t, p->scratch);
+    p->system->constraints.JacobianTimes(p->data->imposed, q, t, v, r.segment(2 * n, m));
+    p->system->constraints.TimeDerivative(p->data->imposed, q, t, p->scratch);
     r.segment(2 * n, m) += p->scratch;
     // Φ
-    p->system->constraints.Evaluate(p->system->data().imposed, q, t, r.tail(m));
+    p->system->constraints.Evaluate(p->data->imposed, q, t, r.tail(m));
     // Released rows (a locked joint after its release): λ_i = Λ̇_i = 0, μ_i = Μ̇_i = 0.
     for (int i = 0; i < m; ++i) {
       if (!p->system->constraints.Active(static_cast<size_t>(i), t)) {
@@ -72,7 +73,7 @@ struct IdaReference::Impl {
     const int n = p.n, m = p.m;
     const Eigen::VectorXd q = y.head(n), v = y.segment(n, n), lambda = yp.segment(2 * n, m), mu = yp.tail(m);
     const ConstraintSet& cs = p.system->constraints;
-    const ImposedValues& imposed = p.system->data().imposed;
+    const ImposedValues& imposed = p.data->imposed;
     OffsetSink v_rows(sink, n, 0), v_block(sink, n, n), v_columns(sink, 0, n);
     for (int i = 0; i < n; ++i) {
       sink->Add(i, i, cj);        // ∂(q̇)/∂ẏ
@@ -83,8 +84,8 @@ struct IdaReference::Impl {
     cs.JacobianTranspose(imposed, q, t, sink, 2 * n + m, cj);
     // Rows of v̇: Σ λ_i ∂²φ_i/∂q², −∂f/∂q (q columns), c_j M − ∂f/∂v (v columns), c_j Φ_qᵀ (Λ).
     cs.HessianTimesLambda(imposed, t, lambda, &v_rows, 1.0);
-    p.system->AddForceTangent(q, v, t, 1.0, 0.0, &v_rows);
-    p.system->AddForceTangent(q, v, t, 0.0, 1.0, &v_block);
+    p.system->AddForceTangent(q, v, t, *p.data, 1.0, 0.0, &v_rows);
+    p.system->AddForceTangent(q, v, t, *p.data, 0.0, 1.0, &v_block);
     AddSparse(p.system->mass, cj, &v_block);
     cs.JacobianTranspose(imposed, q, t, &v_rows, 2 * n, cj);
     // Velocity constraint rows: ∂(Φ_q v + Φ_t)/∂q and Φ_q (v columns).
@@ -105,7 +106,7 @@ struct IdaReference::Impl {
     const int n = p.n, m = p.m, N = 2 * n + 2 * m;
     const double always = -std::numeric_limits<double>::infinity();
     const ConstraintSet& cs = p.system->constraints;
-    const ImposedValues& imposed = p.system->data().imposed;
+    const ImposedValues& imposed = p.data->imposed;
     PatternSink pattern;
     OffsetSink v_rows(&pattern, n, 0), v_block(&pattern, n, n), v_columns(&pattern, 0, n);
     for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
@@ -136,11 +137,12 @@ struct IdaReference::Impl {
   }
 };
 
-IdaReference::IdaReference(const MultibodySystem& system, const IdaSettings& settings, const DaeState& initial,
-                           double t0)
+IdaReference::IdaReference(const MultibodySystem& system, const SystemData& data, const IdaSettings& settings,
+                           const DaeState& initial, double t0)
     : impl_(std::make_unique<Impl>()), state_(initial) {
   Impl& p = *impl_;
   p.system = &system;
+  p.data = &data;
   p.n = system.coordinates;
   p.m = system.constraints.size();
   const int N = 2 * p.n + 2 * p.m;
@@ -203,7 +205,7 @@ int IdaReference::Step(double t, double h) {
     DaeState after_release;
     after_release.q = View(p.y).head(p.n);
     after_release.qdot = View(p.y).segment(p.n, p.n);
-    ConsistentAccelerations(*p.system, std::nextafter(reached, INFINITY), &after_release);
+    ConsistentAccelerations(*p.system, *p.data, std::nextafter(reached, INFINITY), &after_release);
     View(p.yp).segment(p.n, p.n) = after_release.qddot;
     View(p.yp).segment(2 * p.n, p.m) = after_release.lambda;
     View(p.yp).tail(p.m).setZero();
@@ -228,7 +230,7 @@ int IdaReference::Step(double t, double h) {
 
 double IdaReference::ConstraintViolation(double t) const {
   Eigen::VectorXd phi(impl_->m);
-  impl_->system->constraints.Evaluate(impl_->system->data().imposed, state_.q, t, phi);
+  impl_->system->constraints.Evaluate(impl_->data->imposed, state_.q, t, phi);
   return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
 }
 

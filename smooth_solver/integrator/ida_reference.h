@@ -23,7 +23,9 @@ struct IdaSettings {
 
 class IdaReference : public SmoothIntegrator {
  public:
-  IdaReference(const MultibodySystem& system, const IdaSettings& settings, const DaeState& initial, double t0);
+  // `data`: the run's changing state (MakeData(system)), outliving the integrator.
+  IdaReference(const MultibodySystem& system, const SystemData& data, const IdaSettings& settings,
+               const DaeState& initial, double t0);
   ~IdaReference() override;
 
   // Integrates to t + h (IDA takes its own internal steps; the result is its interpolant at

@@ -21,6 +21,7 @@ namespace {
 
 struct ClosureProblem {
   const MultibodySystem* system;
+  const SystemData* data;  // the run's changing state (its imposed coordinates)
   // The constraints as the closure sees them: the system's, with the locks set by the closure
   // (Joint.lock_at_closure) released.
   const ConstraintSet* constraints;
@@ -43,14 +44,14 @@ int Residual(N_Vector y, N_Vector f, void* data) {
   auto F = View(f);
   const Eigen::VectorXd q = Y.head(p->n);
   F.head(p->n) = q - p->system->q0;
-  p->constraints->AddJacobianTransposeTimes(p->system->data().imposed, q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
-  p->system->holds.AddJacobianTransposeTimes(p->system->data().imposed, q, p->t0, Y.tail(p->mh), F.head(p->n));
-  p->constraints->Evaluate(p->system->data().imposed, q, p->t0, F.segment(p->n, p->mc));
+  p->constraints->AddJacobianTransposeTimes(p->data->imposed, q, p->t0, Y.segment(p->n, p->mc), F.head(p->n));
+  p->system->holds.AddJacobianTransposeTimes(p->data->imposed, q, p->t0, Y.tail(p->mh), F.head(p->n));
+  p->constraints->Evaluate(p->data->imposed, q, p->t0, F.segment(p->n, p->mc));
   for (int i = 0; i < p->mc; ++i) F(p->n + i) -= p->constraints->Compliance(static_cast<size_t>(i)) * Y(p->n + i);
   for (int i = 0; i < p->mc; ++i) {
     if (!p->constraints->Active(static_cast<size_t>(i), p->t0)) F(p->n + i) = Y(p->n + i);  // released: μ = 0
   }
-  p->system->holds.Evaluate(p->system->data().imposed, q, p->t0, F.tail(p->mh));
+  p->system->holds.Evaluate(p->data->imposed, q, p->t0, F.tail(p->mh));
   return F.allFinite() ? 0 : 1;
 }
 
@@ -59,14 +60,14 @@ int Residual(N_Vector y, N_Vector f, void* data) {
 void FillJacobian(const ClosureProblem& p, const Eigen::Ref<const Eigen::VectorXd>& Y, SparseSink* sink) {
   const Eigen::VectorXd q = Y.head(p.n);
   for (int i = 0; i < p.n; ++i) sink->Add(i, i, 1.0);
-  p.constraints->HessianTimesLambda(p.system->data().imposed, p.t0, Y.segment(p.n, p.mc), sink, 1.0);
-  p.system->holds.HessianTimesLambda(p.system->data().imposed, p.t0, Y.tail(p.mh), sink, 1.0);
-  p.constraints->Jacobian(p.system->data().imposed, q, p.t0, sink, p.n, 1.0);
-  p.constraints->JacobianTranspose(p.system->data().imposed, q, p.t0, sink, p.n, 1.0);
+  p.constraints->HessianTimesLambda(p.data->imposed, p.t0, Y.segment(p.n, p.mc), sink, 1.0);
+  p.system->holds.HessianTimesLambda(p.data->imposed, p.t0, Y.tail(p.mh), sink, 1.0);
+  p.constraints->Jacobian(p.data->imposed, q, p.t0, sink, p.n, 1.0);
+  p.constraints->JacobianTranspose(p.data->imposed, q, p.t0, sink, p.n, 1.0);
   p.constraints->AddReleasedDiagonal(p.t0, sink, p.n);
   p.constraints->AddComplianceDiagonal(sink, p.n, 1.0);
-  p.system->holds.Jacobian(p.system->data().imposed, q, p.t0, sink, p.n + p.mc, 1.0);
-  p.system->holds.JacobianTranspose(p.system->data().imposed, q, p.t0, sink, p.n + p.mc, 1.0);
+  p.system->holds.Jacobian(p.data->imposed, q, p.t0, sink, p.n + p.mc, 1.0);
+  p.system->holds.JacobianTranspose(p.data->imposed, q, p.t0, sink, p.n + p.mc, 1.0);
 }
 
 // Every entry FillJacobian may touch (and the whole diagonal, for the released rows).
@@ -77,10 +78,10 @@ Eigen::SparseMatrix<double> JacobianPattern(const ClosureProblem& p) {
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
   p.constraints->HessianPattern(&pattern);
   p.system->holds.HessianPattern(&pattern);
-  p.constraints->Jacobian(p.system->data().imposed, p.system->q0, always, &pattern, p.n, 1.0);
-  p.constraints->JacobianTranspose(p.system->data().imposed, p.system->q0, always, &pattern, p.n, 1.0);
-  p.system->holds.Jacobian(p.system->data().imposed, p.system->q0, always, &pattern, p.n + p.mc, 1.0);
-  p.system->holds.JacobianTranspose(p.system->data().imposed, p.system->q0, always, &pattern, p.n + p.mc, 1.0);
+  p.constraints->Jacobian(p.data->imposed, p.system->q0, always, &pattern, p.n, 1.0);
+  p.constraints->JacobianTranspose(p.data->imposed, p.system->q0, always, &pattern, p.n, 1.0);
+  p.system->holds.Jacobian(p.data->imposed, p.system->q0, always, &pattern, p.n + p.mc, 1.0);
+  p.system->holds.JacobianTranspose(p.data->imposed, p.system->q0, always, &pattern, p.n + p.mc, 1.0);
   return pattern.Build(N, N);
 }
 
@@ -99,7 +100,7 @@ int Jacobian(N_Vector y, N_Vector, SUNMatrix J, void* data, N_Vector, N_Vector) 
 // the one an impulse through the constraints makes (M Δq̇ = Gᵀ P), which spreads over an elastic
 // body as its inertia does instead of landing on the constrained nodes alone. Returns false if
 // it is singular (redundant rows not regularised).
-bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* holds, double t,
+bool SmallestVelocityChange(const MultibodySystem& system, const SystemData& data, const ConstraintSet* holds, double t,
                             const Eigen::VectorXd& q, const Eigen::VectorXd& qdot_ref, Eigen::VectorXd* qdot,
                             bool mass_metric = false) {
   const int n = system.coordinates, mc = system.constraints.size(), mh = holds != nullptr ? holds->size() : 0;
@@ -107,11 +108,11 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
   if (mass_metric) AddSparse(system.mass, 1.0, &pattern);
-  system.constraints.Jacobian(system.data().imposed, q, t, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(system.data().imposed, q, t, &pattern, n, 1.0);
+  system.constraints.Jacobian(data.imposed, q, t, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, q, t, &pattern, n, 1.0);
   if (holds != nullptr) {
-    holds->Jacobian(system.data().imposed, q, t, &pattern, n + mc, 1.0);
-    holds->JacobianTranspose(system.data().imposed, q, t, &pattern, n + mc, 1.0);
+    holds->Jacobian(data.imposed, q, t, &pattern, n + mc, 1.0);
+    holds->JacobianTranspose(data.imposed, q, t, &pattern, n + mc, 1.0);
   }
   Eigen::SparseMatrix<double> A = pattern.Build(N, N);
   MatrixSink sink(&A);
@@ -120,19 +121,19 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
   } else {
     for (int i = 0; i < n; ++i) sink.Add(i, i, 1.0);
   }
-  system.constraints.Jacobian(system.data().imposed, q, t, &sink, n, 1.0);
-  system.constraints.JacobianTranspose(system.data().imposed, q, t, &sink, n, 1.0);
+  system.constraints.Jacobian(data.imposed, q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
   system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
   if (holds != nullptr) {
-    holds->Jacobian(system.data().imposed, q, t, &sink, n + mc, 1.0);
-    holds->JacobianTranspose(system.data().imposed, q, t, &sink, n + mc, 1.0);
+    holds->Jacobian(data.imposed, q, t, &sink, n + mc, 1.0);
+    holds->JacobianTranspose(data.imposed, q, t, &sink, n + mc, 1.0);
   }
   Eigen::VectorXd rhs(N);
   rhs.head(n) = mass_metric ? Eigen::VectorXd(system.mass * qdot_ref) : qdot_ref;
-  system.constraints.TimeDerivative(system.data().imposed, q, t, rhs.segment(n, mc));
+  system.constraints.TimeDerivative(data.imposed, q, t, rhs.segment(n, mc));
   rhs.segment(n, mc) *= -1.0;
-  if (holds != nullptr) holds->JacobianTimes(system.data().imposed, q, t, qdot_ref, rhs.tail(mh));
+  if (holds != nullptr) holds->JacobianTimes(data.imposed, q, t, qdot_ref, rhs.tail(mh));
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
   if (lu.info() != Eigen::Success && mh > 0) {
     // A held speed the constraints already fix (a held joint of a structure the closure made
@@ -148,7 +149,8 @@ bool SmallestVelocityChange(const MultibodySystem& system, const ConstraintSet* 
 
 }  // namespace
 
-DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report) {
+DaeState ConsistentInitialState(const MultibodySystem& system, const SystemData& data, double t0,
+                                InitialConditionReport* report) {
   const int n = system.coordinates, mc = system.constraints.size(), mh = system.holds.size();
   const int N = n + mc + mh;
   // Locks whose value the closure chooses are not part of it (Joint.lock_at_closure).
@@ -160,7 +162,8 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
       if (c.set_by_closure) c.release_time = -std::numeric_limits<double>::infinity();  // released: left out
     }
   }
-  ClosureProblem problem{&system, closure_constraints ? &*closure_constraints : &system.constraints, t0, n, mc, mh, {}};
+  ClosureProblem problem{&system, &data, closure_constraints ? &*closure_constraints : &system.constraints, t0, n, mc,
+                         mh,      {}};
   problem.A = JacobianPattern(problem);
 
   SUNContext ctx = nullptr;
@@ -216,27 +219,27 @@ DaeState ConsistentInitialState(const MultibodySystem& system, double t0, Initia
   }
 
   // Velocities: min ½|q̇ − q̇₀|² s.t. Φ_q q̇ = −Φ_t, H_q q̇ = H_q q̇₀ (held joint speeds kept).
-  if (!SmallestVelocityChange(system, &system.holds, t0, state.q, system.qdot0, &state.qdot)) {
+  if (!SmallestVelocityChange(system, data, &system.holds, t0, state.q, system.qdot0, &state.qdot)) {
     throw InputError(
         "model: the velocity constraints are singular at the initial state (redundant joints, or coincidence rows "
         "that close a loop: give coupling.interface_nodes[].regularization)");
   }
   if (report != nullptr) report->velocity_change = (state.qdot - system.qdot0).lpNorm<Eigen::Infinity>();
-  ConsistentAccelerations(system, t0, &state);
+  ConsistentAccelerations(system, data, t0, &state);
   return state;
 }
 
-void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state) {
+void ProjectVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state) {
   const Eigen::VectorXd reference = state->qdot;
-  if (!SmallestVelocityChange(system, nullptr, t, state->q, reference, &state->qdot, /*mass_metric=*/true)) {
+  if (!SmallestVelocityChange(system, data, nullptr, t, state->q, reference, &state->qdot, /*mass_metric=*/true)) {
     throw NumericalError("the velocity constraints are singular at t = " + interface::FormatNumber(t) +
                          " s (redundant rows: regularise the coupling rows of a closed loop)");
   }
 }
 
-void HoldClosedLocks(MultibodySystem* system, const Eigen::VectorXd& q, double t0) {
+void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eigen::VectorXd& q, double t0) {
   ConstraintSet& cs = system->constraints;
-  const ImposedValues& imposed = system->data().imposed;
+  const ImposedValues& imposed = data.imposed;
   Eigen::VectorXd phi(cs.size());
   cs.Evaluate(imposed, q, t0, phi);
   for (int i = 0; i < cs.size(); ++i) {

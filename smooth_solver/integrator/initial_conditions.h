@@ -16,17 +16,19 @@ struct InitialConditionReport {
   double velocity_change = 0.0;  // |q̇ − q̇₀|∞
 };
 
-// Throws InputError (exit 2) when the loops cannot be closed from the guess.
-DaeState ConsistentInitialState(const MultibodySystem& system, double t0, InitialConditionReport* report);
+// Throws InputError (exit 2) when the loops cannot be closed from the guess. `data`: the run's
+// changing state (MakeData(system); its imposed coordinates hold the interface points).
+DaeState ConsistentInitialState(const MultibodySystem& system, const SystemData& data, double t0,
+                                InitialConditionReport* report);
 
 // The locks set by the closure (Joint.lock_at_closure) hold what the closure found: their
 // constants are set so that their rows vanish at `q` (the consistent initial positions).
-void HoldClosedLocks(MultibodySystem* system, const Eigen::VectorXd& q, double t0);
+void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eigen::VectorXd& q, double t0);
 
 // The smallest change of q̇ in the kinetic-energy metric (M Δq̇ = Φ_qᵀ P: the change an impulse
 // through the constraints makes) with Φ_q q̇ + Φ_t = 0 at t: after a velocity jump imposed from
 // outside (a contact node's impact in a coupled run). Throws NumericalError for redundant rows
 // that are not regularised.
-void ProjectVelocities(const MultibodySystem& system, double t, DaeState* state);
+void ProjectVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state);
 
 }  // namespace cosim::smooth

@@ -62,26 +62,27 @@ double MultibodySystem::JointRate(int joint, const Eigen::VectorXd& q, const Eig
   return (x * yd - y * xd) / (x * x + y * y);
 }
 
-void MultibodySystem::Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+void MultibodySystem::Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
                             Eigen::Ref<Eigen::VectorXd> f, bool include_elastic) const {
   f = constant_force;
   for (const auto& element : forces) {
-    if (include_elastic || !element->IsElastic()) element->AddForce(q, qdot, t, *data_, f);
+    if (include_elastic || !element->IsElastic()) element->AddForce(q, qdot, t, data, f);
   }
 }
 
 void MultibodySystem::AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
-                                      double stiffness_scale, double damping_scale, SparseSink* sink,
-                                      bool include_elastic) const {
+                                      const SystemData& data, double stiffness_scale, double damping_scale,
+                                      SparseSink* sink, bool include_elastic) const {
   for (const auto& element : forces) {
     if (include_elastic || !element->IsElastic()) {
-      element->AddTangent(q, qdot, t, *data_, stiffness_scale, damping_scale, sink);
+      element->AddTangent(q, qdot, t, data, stiffness_scale, damping_scale, sink);
     }
   }
 }
 
-void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t) {
-  for (const auto& element : forces) element->AcceptStep(q, qdot, t, data_.get());
+void MultibodySystem::AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t,
+                                 SystemData* data) const {
+  for (const auto& element : forces) element->AcceptStep(q, qdot, t, data);
 }
 
 double MultibodySystem::TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const {
@@ -118,7 +119,7 @@ double MultibodySystem::PotentialEnergy(const Eigen::VectorXd& q) const {
 }
 
 Eigen::Vector3d MultibodySystem::JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
-                                                    double t) const {
+                                                    double t, const SystemData& data) const {
   const JointMeasure& m = joints[static_cast<size_t>(joint)];
   // Φ = p1 − p2: the generalised constraint force −Φ_qᵀλ on body2's position is +λ.
   if (m.has_point_rows) return lambda.segment<3>(m.first_row);
@@ -127,19 +128,19 @@ Eigen::Vector3d MultibodySystem::JointReactionForce(int joint, const Eigen::Vect
   Eigen::VectorXd selected = Eigen::VectorXd::Zero(lambda.size());
   selected.segment(m.first_row, m.row_count) = lambda.segment(m.first_row, m.row_count);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(coordinates);
-  constraints.AddJacobianTransposeTimes(data().imposed, q, t, selected, g);
+  constraints.AddJacobianTransposeTimes(data.imposed, q, t, selected, g);
   return m.body2 >= 0 ? Eigen::Vector3d(-g.segment<3>(kCoordinatesPerBody * m.body2))
                       : Eigen::Vector3d(g.segment<3>(kCoordinatesPerBody * m.body1));
 }
 
 Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
-                                                     double t) const {
+                                                     double t, const SystemData& data) const {
   const JointMeasure& m = joints[static_cast<size_t>(joint)];
   Eigen::VectorXd selected = Eigen::VectorXd::Zero(lambda.size());
   const int first = m.first_row + (m.has_point_rows ? 3 : 0);
   selected.segment(first, m.first_row + m.row_count - first) = lambda.segment(first, m.first_row + m.row_count - first);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(coordinates);
-  constraints.AddJacobianTransposeTimes(data().imposed, q, t, selected, g);  // Φ_qᵀ λ; the force is −g
+  constraints.AddJacobianTransposeTimes(data.imposed, q, t, selected, g);  // Φ_qᵀ λ; the force is −g
   // A generalised force g_k on the axis e_k of a body is the couple Σ_k e_k × g_k.
   const int body = m.body2 >= 0 ? m.body2 : m.body1;
   const int o = kCoordinatesPerBody * body;
@@ -153,11 +154,7 @@ Eigen::Vector3d MultibodySystem::JointReactionMoment(int joint, const Eigen::Vec
 namespace {
 
 // A new slot for a contact law's onset speed in the system's data.
-size_t NewImpactSlot(MultibodySystem* sys) {
-  std::vector<double>& speeds = sys->mutable_data()->impact_speed;
-  speeds.push_back(0.0);
-  return speeds.size() - 1;
-}
+size_t NewImpactSlot(MultibodySystem* sys) { return static_cast<size_t>(sys->impact_slots++); }
 
 // Rigid bodies: the coordinates' initial values, the mass (kinetic energy in natural
 // coordinates), gravity, and six rigidity rows per body.
@@ -447,8 +444,6 @@ void AddInterfacePoints(const MultibodyModel& model, MultibodySystem* sys) {
   // Coupling interface nodes: e_j · p(q) − x_j = 0 with x_j imposed (drive weight −1 on the
   // constant), and the regularisation c on their rows.
   if (!model.interface_points.empty()) {
-    sys->mutable_data()->imposed.resize(3 * model.interface_points.size());  // (never resized again)
-    sys->mutable_data()->interface_compliance.assign(model.interface_points.size(), Eigen::Matrix3d::Zero());
     ConstraintSet& cs = sys->constraints;
     cs.compliance.resize(cs.constraints.size(), 0.0);
     for (size_t k = 0; k < model.interface_points.size(); ++k) {
@@ -466,11 +461,8 @@ void AddInterfacePoints(const MultibodyModel& model, MultibodySystem* sys) {
       } else {
         ip.point = LinearVector::Point(spec.body, spec.point);
       }
-      const Eigen::Vector3d at = ip.point.Value(sys->q0);
       cs.vector_triples.push_back(cs.size());
       for (int j = 0; j < 3; ++j) {
-        ImposedCoordinate& x = sys->mutable_data()->imposed[3 * k + static_cast<size_t>(j)];
-        x.value = at(j);  // until the peer says otherwise: where the point is
         const int d = static_cast<int>(cs.drives.size());
         Drive drive;
         drive.imposed = static_cast<int>(3 * k) + j;  // (data.imposed, read at each evaluation)
@@ -528,7 +520,6 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   sys.mass.setFromTriplets(mass.begin(), mass.end());
   if (!model.aero.empty()) {
     auto air = std::make_unique<AirLoads>(model.aero, sys.elastic_offset);
-    sys.mutable_data()->rotors.assign(air->rotor_count(), RotorInflowState{});
     sys.air_loads = air.get();
     sys.forces.push_back(std::move(air));
   }
@@ -537,6 +528,20 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   AddInterfacePoints(model, &sys);
   AddHolds(model, &sys);
   return sys;
+}
+
+SystemData MakeData(const MultibodySystem& system) {
+  SystemData data;
+  data.imposed.resize(3 * system.interface_points.size());  // (never resized again)
+  for (size_t k = 0; k < system.interface_points.size(); ++k) {
+    const Eigen::Vector3d at = system.interface_points[k].point.Value(system.q0);
+    // Until the peer says otherwise: where the point is.
+    for (int j = 0; j < 3; ++j) data.imposed[3 * k + static_cast<size_t>(j)].value = at(j);
+  }
+  data.interface_compliance.assign(system.interface_points.size(), Eigen::Matrix3d::Zero());
+  data.impact_speed.assign(static_cast<size_t>(system.impact_slots), 0.0);
+  if (system.air_loads != nullptr) data.rotors.assign(system.air_loads->rotor_count(), RotorInflowState{});
+  return data;
 }
 
 }  // namespace cosim::smooth

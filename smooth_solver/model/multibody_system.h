@@ -69,20 +69,19 @@ struct MultibodySystem {
   // Total generalised force f(q, q̇, t): gravity plus every force element (with
   // `include_elastic` false: without the elastic bodies' internal forces, which CGα takes
   // from `elastic_forces` as GEMM midpoint forces).
-  void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, Eigen::Ref<Eigen::VectorXd> f,
-             bool include_elastic = true) const;
+  // `data`: the run's changing state (system_data.h, made by MakeData).
+  void Force(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+             Eigen::Ref<Eigen::VectorXd> f, bool include_elastic = true) const;
   // sink += stiffness_scale · (−∂f/∂q) + damping_scale · (−∂f/∂q̇).
-  void AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, double stiffness_scale,
-                       double damping_scale, SparseSink* sink, bool include_elastic = true) const;
+  void AddForceTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
+                       double stiffness_scale, double damping_scale, SparseSink* sink,
+                       bool include_elastic = true) const;
   // Coupling interface nodes; the coordinates their peers impose (3 per node: x, y, z) are in
-  // data().imposed, which the coordinator sets between iterations (the rows' drives read it).
+  // the run's SystemData::imposed, which the coordinator sets between iterations (the rows'
+  // drives name them by index).
   std::vector<InterfacePoint> interface_points;
-  // The run's changing state (system_data.h): the model reads it, its owner writes it through
-  // mutable_data() (a const system cannot), CGα's checkpoints save and restore it.
-  const SystemData& data() const { return *data_; }
-  SystemData* mutable_data() { return data_.get(); }
-  // (On the heap: CgAlpha's checkpoints and the coordinator hold its address.)
-  std::unique_ptr<SystemData> data_ = std::make_unique<SystemData>();
+  // Contact laws' onset-speed slots in SystemData::impact_speed (MakeData sizes it).
+  int impact_slots = 0;
   // Force [N] the smooth model exerts on interface node k, from the multipliers.
   Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
     return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);
@@ -98,8 +97,8 @@ struct MultibodySystem {
   std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;
   // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it
-  // in mutable_data().
-  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t);
+  // in `data`.
+  void AcceptStep(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, SystemData* data) const;
   // The earliest time until a continuous contact begins at the present rates (+∞: none near).
   double TimeToContact(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot) const;
 
@@ -110,10 +109,10 @@ struct MultibodySystem {
   // multipliers): the force from the point-coincidence rows (a joint without them, prismatic:
   // the generalised force all its rows put on body2's position), the moment (a pure couple, the
   // same about any point) from the orientation and drive rows.
-  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
-                                     double t) const;
-  Eigen::Vector3d JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda,
-                                      double t) const;
+  Eigen::Vector3d JointReactionForce(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, double t,
+                                     const SystemData& data) const;
+  Eigen::Vector3d JointReactionMoment(int joint, const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, double t,
+                                      const SystemData& data) const;
   // Position of body b's centre of mass, its axes (columns u, v, w).
   static Eigen::Vector3d Position(int body, const Eigen::VectorXd& q) {
     return q.segment<3>(kCoordinatesPerBody * body);
@@ -125,5 +124,11 @@ struct MultibodySystem {
 // `elastic` (optional) is moved into the system: its bodies' nodes become coordinates after
 // the rigid bodies', clamped to rigid bodies or the ground by point rows.
 MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<ElasticBodySpec>* elastic = nullptr);
+
+// The run's changing state of `system` at its start (like Pinocchio's Data(model) or MuJoCo's
+// mj_makeData): the imposed coordinates where the interface points are at q0, no compliance, no
+// onset speeds, one unstarted inflow state per rotor. Its owner (the simulation) passes it to
+// every evaluation and integrator; a system may have several (a restart, a probe's trial).
+SystemData MakeData(const MultibodySystem& system);
 
 }  // namespace cosim::smooth

@@ -2,13 +2,13 @@
 // Everything of a smooth model that changes during a run besides (q, q̇, q̈, λ): the coordinates
 // a coupling peer imposes on the interface points, the contact laws' impact-speed memories and
 // the rotors' inflow. The MultibodySystem (the model, like Pinocchio's Model or MuJoCo's mjModel)
-// is immutable once built; its force elements and constraint rows are given this data at every
-// evaluation (AddForce(…, data, …), ConstraintSet::Evaluate(imposed, …)) and keep only their slots
-// in it, never a pointer to it. Its owner writes it (the
-// coordinator between coupling iterations, AcceptStep after an accepted step) and CGα's
-// checkpoints save and restore it with the integrator's state, so that a rejected step (an
-// adaptive step's error test, a coupling iteration that fails) leaves no trace
-// (like Pinocchio's Data or MuJoCo's mjData).
+// is immutable once built; MakeData(system) (multibody_system.h) makes this data from it, and its
+// force elements and constraint rows are given it at every evaluation (AddForce(…, data, …),
+// ConstraintSet::Evaluate(imposed, …)) and keep only their slots in it, never a pointer to it.
+// Its owner (the simulation) writes it (the coordinator between coupling iterations, AcceptStep
+// after an accepted step) and CGα's checkpoints save and restore it with the integrator's state,
+// so that a rejected step (an adaptive step's error test, a coupling iteration that fails) leaves
+// no trace (like Pinocchio's Data or MuJoCo's mjData).
 #include <Eigen/Core>
 #include <algorithm>
 #include <stdexcept>

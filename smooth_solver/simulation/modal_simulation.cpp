@@ -41,6 +41,7 @@ ModalSimulation::ModalSimulation(const interface::ScenarioFile& file) : model_(B
                                            interface::FormatNumber(numerics_.start_time()));
   }
   system_ = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_));
+  data_ = MakeData(*system_);
   q_ = system_->q0;
   // The steady state at the first speed, reached by ramping Ω.
   for (int k = 1; k < ramp_steps_; ++k) Solve(numerics_.start_time() * k / ramp_steps_);
@@ -57,7 +58,7 @@ void ModalSimulation::Solve(double omega) {
   options.t = 0.0;
   options.tolerance = 1e-10;
   options.max_iterations = 200;  // capped steps (EquilibriumOptions::max_step) may need more
-  const EquilibriumResult r = StaticEquilibrium(*system_, q_, frame, options);
+  const EquilibriumResult r = StaticEquilibrium(*system_, &data_, q_, frame, options);
   newton_total_ += r.iterations;
   ++solves_;
   if (!r.converged) {
@@ -69,7 +70,7 @@ void ModalSimulation::Solve(double omega) {
   q_ = r.q;
   omega_ = omega;
   modes_.clear();
-  for (const Mode& mode : LinearModes(*system_, r.q, r.lambda, 0.0, frame, count_)) {
+  for (const Mode& mode : LinearModes(*system_, data_, r.q, r.lambda, 0.0, frame, count_)) {
     modes_.push_back(Classify(r.q, mode));
   }
   pending_.push_back(modes_);

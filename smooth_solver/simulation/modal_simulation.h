@@ -39,6 +39,7 @@ class ModalSimulation : public interface::Simulation {
   void WritePending();  // the solved speeds' modes into modes.csv, once it is open
   MultibodyModel model_;
   std::unique_ptr<MultibodySystem> system_;
+  SystemData data_;  // the system's changing state (the rotors' inflow at the steady states)
   scenario::Numerics numerics_;
   Eigen::Vector3d axis_, origin_;
   int count_ = 10, ramp_steps_ = 1;

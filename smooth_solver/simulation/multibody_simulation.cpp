@@ -221,6 +221,7 @@ void MultibodySimulation::ReadAdaptive(const Checks& checks, bool coupled) {
 void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioFile& file, bool coupled,
                                 const StepSettings& settings, std::vector<ElasticBodySpec>* elastic) {
   auto system = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_, elastic));
+  data_ = std::make_unique<SystemData>(MakeData(*system));
   time_ = numerics_.start_time();
   // A restart (numerics.initial_state) does not close the loops again: the first run's
   // consistent initial configuration, saved with the state, is the probes' reference and fixes
@@ -236,30 +237,29 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
   } else {
     // Elements with a memory (contact laws' onset speed, rotor inflow) start from the user's
     // guess, so the consistent state's accelerations see an inflow, then from that state.
-    system->AcceptStep(system->q0, system->qdot0, time_);
-    initial = ConsistentInitialState(*system, time_, &initial_report_);
+    system->AcceptStep(system->q0, system->qdot0, time_, data_.get());
+    initial = ConsistentInitialState(*system, *data_, time_, &initial_report_);
   }
-  HoldClosedLocks(system.get(), initial.q, time_);
+  HoldClosedLocks(system.get(), *data_, initial.q, time_);
   reference_q_ = initial.q;
   if (numerics_.smooth().settle()) Settle(checks, coupled, system.get(), &initial);
   reference_time_ = restart ? restart->reference_time() : time_;
   system_ = std::move(system);
-  if (!restart) system_->AcceptStep(initial.q, initial.qdot, time_);
+  if (!restart) system_->AcceptStep(initial.q, initial.qdot, time_, data_.get());
   SetProbeReferences(initial.q);
   if (restart) {
     initial.q = Eigen::Map<const Eigen::VectorXd>(restart->q().data(), restart->q_size());
     initial.qdot = Eigen::Map<const Eigen::VectorXd>(restart->qdot().data(), restart->qdot_size());
-    system_->AcceptStep(initial.q, initial.qdot, time_);
-    ConsistentAccelerations(*system_, time_, &initial);
+    system_->AcceptStep(initial.q, initial.qdot, time_, data_.get());
+    ConsistentAccelerations(*system_, *data_, time_, &initial);
   }
   if (ida_) {
-    integrator_ = std::make_unique<IdaReference>(*system_, settings.ida, initial, time_);
+    integrator_ = std::make_unique<IdaReference>(*system_, *data_, settings.ida, initial, time_);
   } else if (numerics_.smooth().integrator() == sc::SmoothSettings::CGALPHA_INDEX2) {
-    integrator_ = std::make_unique<CgAlphaIndex2>(*system_, settings.cgalpha, initial);
+    integrator_ = std::make_unique<CgAlphaIndex2>(*system_, *data_, settings.cgalpha, initial);
   } else {
-    auto cg = std::make_unique<CgAlpha>(*system_, settings.cgalpha, initial);
-    cg->AttachData(system_->mutable_data());  // checkpoints (rejected steps, coupling iterations) restore it
-    integrator_ = std::move(cg);
+    // Its checkpoints (rejected steps, coupling iterations) save and restore the data too.
+    integrator_ = std::make_unique<CgAlpha>(*system_, data_.get(), settings.cgalpha, initial);
   }
   WatchdogSettings watchdog = settings.watchdog;
   watchdog.energy = settings.energy_check == sc::Watchdog::ON ||
@@ -350,7 +350,7 @@ Eigen::Vector3d MultibodySimulation::BodyVector(const ProbeSpec& p) const {
 }
 
 void MultibodySimulation::Visual(interface::VisualFrame* frame) const {
-  DrawScene(model_, *system_, (interpolated_ ? shown_ : integrator_->state()).q, visual_, frame);
+  DrawScene(model_, *system_, *data_, (interpolated_ ? shown_ : integrator_->state()).q, visual_, frame);
 }
 
 // An aero section's or a rotor's probe at the state `s`.
@@ -359,13 +359,13 @@ double MultibodySimulation::AeroProbe(const ProbeSpec& p, const DaeState& s) con
       p.kind == Kind::kAeroMach) {
     const AirLoads& air = *system_->air_loads;
     const AirLoads::SectionResult r =
-        air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_, system_->data());
+        air.Evaluate(air.Section(p.index, p.station, 1.0), s.q, s.qdot, probe_time_, *data_);
     return p.kind == Kind::kAeroAlpha    ? r.alpha
            : p.kind == Kind::kAeroMoment ? r.moment
            : p.kind == Kind::kAeroMach   ? r.mach
                                          : interface::PickComponent(r.force_local, p.component);
   }
-  const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_, system_->data());
+  const AirLoads::RotorResult r = system_->air_loads->Rotor(p.index, s.q, s.qdot, probe_time_, *data_);
   return p.kind == Kind::kRotorThrust   ? r.thrust
          : p.kind == Kind::kRotorTorque ? r.torque
          : p.kind == Kind::kInflowRatio ? r.inflow_ratio
@@ -439,7 +439,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         break;
       case Kind::kContactForce:
         for (const UnilateralContact* law : system_->contact_laws[static_cast<size_t>(p.index)])
-          value += law->LawForce(s.q, s.qdot, system_->data());
+          value += law->LawForce(s.q, s.qdot, *data_);
         break;
       case Kind::kJointCoordinate:
         value = JointCoordinateProbe(p, s.q);
@@ -449,11 +449,13 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
         break;
       case Kind::kReactionForce:
         value = interface::PickComponent(
-            InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, probe_time_)), p.component);
+            InFrame(p.frame, s.q, system_->JointReactionForce(p.index, s.q, s.lambda, probe_time_, *data_)),
+            p.component);
         break;
       case Kind::kReactionMoment:
         value = interface::PickComponent(
-            InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, probe_time_)), p.component);
+            InFrame(p.frame, s.q, system_->JointReactionMoment(p.index, s.q, s.lambda, probe_time_, *data_)),
+            p.component);
         break;
       case Kind::kKinetic:
         value = system_->KineticEnergy(s.qdot);
@@ -492,7 +494,7 @@ void MultibodySimulation::Probe(std::vector<double>* values) const {
 double MultibodySimulation::Violation(const Eigen::VectorXd& q) const {
   if (!interpolated_) return integrator_->ConstraintViolation(time_);
   Eigen::VectorXd phi(system_->constraints.size());
-  system_->constraints.Evaluate(system_->data().imposed, q, probe_time_, phi);
+  system_->constraints.Evaluate(data_->imposed, q, probe_time_, phi);
   return phi.size() > 0 ? phi.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
@@ -506,17 +508,16 @@ void MultibodySimulation::Step(double t, double h) {
     return;
   }
   auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
+  StepStatus last;
   StepHooks standalone;
-  standalone.attempt = [&cg](double from, double step) {
+  standalone.attempt = [&cg, &last](double from, double step) {
     AttemptOutcome outcome;
-    const StepStatus status = cg.TryStep(from, step);
-    if (status.ok()) {
-      outcome.iterations = status.iterations;
-    } else {
-      outcome.failure = status.Describe(cg.settings());
-    }
+    last = cg.TryStep(from, step);
+    outcome.failed = !last.ok();
+    if (!outcome.failed) outcome.iterations = last.iterations;
     return outcome;
   };
+  standalone.why = [&cg, &last] { return last.Describe(cg.settings()); };
   Advance(t + h, standalone);
 }
 
@@ -543,19 +544,21 @@ void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
     cg.SaveTo(&checkpoint_);
     const AttemptOutcome outcome = hooks.attempt(time_, step);
     double norm = std::numeric_limits<double>::infinity();
-    std::string why = outcome.failure;
-    if (why.empty()) {
+    if (!outcome.failed) {
       // A step in which a contact process's contact closed (an impact: velocities jumped) is not
       // the smooth motion the estimate measures: the next ones are contact_step long instead. (A
       // contact that stays closed, a blade resting on its stop, is tested as any motion.)
       norm = outcome.impact ? 0.0 : ErrorNorm(step);
-      why = "the error estimate " + interface::FormatNumber(norm) + " > 1";
     }
     if (!(norm <= 1.0)) {  // rejected: the same step again, smaller
+      h_next_ = step * (std::isfinite(norm) ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 0.9) : 0.25);
+      std::string why;  // (asked before the rejection, while the attempt's state is there to describe)
+      if (h_next_ < adaptive_.min_step) {
+        why = outcome.failed ? hooks.why() : "the error estimate " + interface::FormatNumber(norm) + " > 1";
+      }
       cg.Restore(checkpoint_);
       if (hooks.reject) hooks.reject();
       ++rejected_;
-      h_next_ = step * (std::isfinite(norm) ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 0.9) : 0.25);
       if (h_next_ < adaptive_.min_step) {
         throw NumericalError(
             "numerics.adaptive: the step would fall below min_step = " + interface::FormatNumber(adaptive_.min_step) +
@@ -644,7 +647,7 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
       const Eigen::Vector3d rate = spin.omega.cross(nodes[k].position - spin.origin);
       const Eigen::Vector3d acceleration = spin.omega.cross(rate);
       for (size_t j = 0; j < 3; ++j) {
-        ImposedCoordinate& x = system->mutable_data()->imposed[3 * k + j];
+        ImposedCoordinate& x = data_->imposed[3 * k + j];
         x.value = nodes[k].position(static_cast<Eigen::Index>(j));
         x.rate = rate(static_cast<Eigen::Index>(j));
         x.acceleration = acceleration(static_cast<Eigen::Index>(j));
@@ -655,7 +658,7 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   options.t = time_;
   options.tolerance = numerics_.smooth().newton_tolerance();
   options.max_iterations = std::max(50, numerics_.smooth().newton_max_iterations());
-  const EquilibriumResult r = StaticEquilibrium(*system, initial->q, spin, options);
+  const EquilibriumResult r = StaticEquilibrium(*system, data_.get(), initial->q, spin, options);
   if (!r.converged) {
     throw NumericalError("numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) +
                          " s" + (spin.omega.isZero() ? std::string() : " in the frame spinning with the rotor") +
@@ -679,12 +682,12 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   // elements' memories from there.
   system->q0 = r.q;
   system->qdot0 = SpinningVelocity(*system, r.q, spin);
-  system->AcceptStep(system->q0, system->qdot0, time_);
+  system->AcceptStep(system->q0, system->qdot0, time_, data_.get());
   DaeState settled;
   settled.q = r.q;
   settled.qdot = system->qdot0;
-  ProjectVelocities(*system, time_, &settled);
-  ConsistentAccelerations(*system, time_, &settled);
+  ProjectVelocities(*system, *data_, time_, &settled);
+  ConsistentAccelerations(*system, *data_, time_, &settled);
   *initial = settled;
 }
 
@@ -733,7 +736,7 @@ void MultibodySimulation::StaticStep(double t1) {
   options.t = t1;
   options.tolerance = numerics_.smooth().newton_tolerance();
   options.max_iterations = numerics_.smooth().newton_max_iterations();
-  const EquilibriumResult r = StaticEquilibrium(*system_, from.q, SpinningFrame{}, options);
+  const EquilibriumResult r = StaticEquilibrium(*system_, data_.get(), from.q, SpinningFrame{}, options);
   if (!r.converged) {
     throw NumericalError("STATIC: no equilibrium at t = " + interface::FormatNumber(t1) + " s (residual " +
                          interface::FormatNumber(r.residual) + " after " + std::to_string(r.iterations) +
@@ -765,7 +768,7 @@ void MultibodySimulation::UnwrapAngles(const Eigen::VectorXd& q) {
 }
 
 void MultibodySimulation::Record(double t1, int iterations) {
-  system_->AcceptStep(integrator_->state().q, integrator_->state().qdot, t1);
+  system_->AcceptStep(integrator_->state().q, integrator_->state().qdot, t1, data_.get());
   if (ida_) {
     ida_steps_ += iterations;  // IDA's internal steps
   } else {

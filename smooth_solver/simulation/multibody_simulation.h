@@ -34,8 +34,9 @@ class MultibodySimulation : public interface::Simulation {
   void EndOutput() override;
 
   const MultibodySystem& system() const { return *system_; }
-  // The system's changing state (the coordinator of a coupled run writes the imposed coordinates).
-  SystemData* mutable_data() { return system_->mutable_data(); }
+  // The run's changing state (the coordinator of a coupled run writes the imposed coordinates).
+  const SystemData& data() const { return *data_; }
+  SystemData* mutable_data() { return data_.get(); }
   const MultibodyModel& model() const { return model_; }
   const SmoothIntegrator& integrator() const { return *integrator_; }
   long long newton_iterations() const { return newton_.total(); }  // CGα, all steps so far
@@ -47,7 +48,7 @@ class MultibodySimulation : public interface::Simulation {
   // numerics.adaptive: one try of a step, what the controller needs to judge it.
   struct AttemptOutcome {
     int iterations = 0;   // Newton iterations (for the statistics)
-    std::string failure;  // non-empty: the step failed (Newton, coupling): rejected
+    bool failed = false;  // the step failed (Newton, coupling): rejected (`StepHooks::why` says why)
     bool impact = false;  // a contact process's contact closed in the step: no error test
     double time_to_contact = std::numeric_limits<double>::infinity();  // the peers', from its end [s]
   };
@@ -55,6 +56,7 @@ class MultibodySimulation : public interface::Simulation {
     std::function<AttemptOutcome(double t, double h)> attempt;  // the step from t to t + h on cgalpha()
     std::function<void(double t, double h)> accept;             // the attempt passed (before Record)
     std::function<void()> reject;                               // it did not (cgalpha() restored)
+    std::function<std::string()> why;  // why the last attempt failed (asked only when the run ends on it)
   };
   // Error-controlled steps from the integrator's time to `target` (or past it, standalone: the
   // probes then read the state interpolated there; coupled runs land on it), each tried by
@@ -103,7 +105,10 @@ class MultibodySimulation : public interface::Simulation {
   double NodeDisplacementProbe(const ProbeSpec& p, const Eigen::VectorXd& q) const;
 
   MultibodyModel model_;
-  std::unique_ptr<MultibodySystem> system_;  // changed only through AcceptStep and mutable_data()
+  std::unique_ptr<MultibodySystem> system_;  // the model: fixed once the start is made
+  // The run's changing state, made from the system (MakeData) and passed to every evaluation.
+  // (On the heap: the integrator and the coordinator hold its address.)
+  std::unique_ptr<SystemData> data_;
   std::unique_ptr<SmoothIntegrator> integrator_;
   bool ida_ = false;
   long ida_steps_ = 0;

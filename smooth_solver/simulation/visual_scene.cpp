@@ -169,9 +169,9 @@ void DrawContacts(const MultibodyModel& model, const Eigen::VectorXd& q, VisualF
   }
 }
 
-void DrawTies(const MultibodySystem& system, const Eigen::VectorXd& q, VisualFrame* frame) {
+void DrawTies(const MultibodySystem& system, const SystemData& data, const Eigen::VectorXd& q, VisualFrame* frame) {
   // Ties: the body point and the node the peer imposes (3 imposed coordinates per point).
-  const auto& imposed = system.data().imposed;
+  const auto& imposed = data.imposed;
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
     if (imposed.size() < 3 * (k + 1)) break;
     const Eigen::Vector3d node(imposed[3 * k].value, imposed[3 * k + 1].value, imposed[3 * k + 2].value);
@@ -184,12 +184,12 @@ void DrawTies(const MultibodySystem& system, const Eigen::VectorXd& q, VisualFra
 
 }  // namespace
 
-void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const Eigen::VectorXd& q,
-               const VisualSettings& settings, VisualFrame* frame) {
+void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const SystemData& data,
+               const Eigen::VectorXd& q, const VisualSettings& settings, VisualFrame* frame) {
   DrawRigidBodies(model, q, settings, frame);
   DrawBeams(model, q, frame);
   DrawHex27Bodies(system, q, frame);
   DrawContacts(model, q, frame);
-  DrawTies(system, q, frame);
+  DrawTies(system, data, q, frame);
 }
 }  // namespace cosim::smooth

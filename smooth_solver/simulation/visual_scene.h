@@ -18,8 +18,9 @@ struct VisualSettings {
   double axis_length = 0.0;  // rigid bodies' frame axes [m]; 0: a quarter of each body's size
 };
 
-void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const Eigen::VectorXd& q,
-               const VisualSettings& settings, interface::VisualFrame* frame);
+// `data`: the run's changing state (the ties' far ends are the imposed coordinates).
+void DrawScene(const MultibodyModel& model, const MultibodySystem& system, const SystemData& data,
+               const Eigen::VectorXd& q, const VisualSettings& settings, interface::VisualFrame* frame);
 
 // VTK's tri-quadratic hexahedron (cell type 29) numbers its nodes: corners, edge midpoints,
 // face centres (−x, +x, −y, +y, −z, +z), centre; entry k is the Hex27 node (i + 3j + 9k)

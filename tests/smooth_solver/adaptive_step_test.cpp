@@ -159,16 +159,16 @@ TEST(AdaptiveStep, ARejectedStepLeavesNoTraceInTheContactMemory) {
       interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop_continuous.pbtxt", {}));
   CgAlpha& cg = *sim.cgalpha();
   for (int k = 0; k < 100; ++k) sim.Step(k * 1e-3, 1e-3);  // swinging down: approaching the stop
-  const double before = sim.system().data().impact_speed.at(0);
+  const double before = sim.data().impact_speed.at(0);
   CgAlpha::Checkpoint checkpoint;
   cg.SaveTo(&checkpoint);
   cg.Step(0.1, 0.05);  // a long step, then its end state "accepted" into the memory
   for (const auto& element : sim.system().forces)
     element->AcceptStep(cg.state().q, cg.state().qdot, 0.15, sim.mutable_data());
-  const double tried = sim.system().data().impact_speed.at(0);
+  const double tried = sim.data().impact_speed.at(0);
   EXPECT_GT(std::abs(tried - before), 0.1) << "the tried step should have changed the approach speed";
   cg.Restore(checkpoint);
-  EXPECT_EQ(sim.system().data().impact_speed.at(0), before);
+  EXPECT_EQ(sim.data().impact_speed.at(0), before);
   EXPECT_EQ(cg.state().q, checkpoint.state.q);
 }
 

@@ -273,15 +273,16 @@ TEST(AirLoads, TangentsMatchFiniteDifferences) {
       "stations { s: 3 chord: 0.3 airfoil: \"naca0012\" } } } }\n"
       "numerics { end_time: 1 step: 1e-3 }";
   const MultibodySystem sys = Build(text);
+  SystemData data = MakeData(sys);
   ASSERT_NE(sys.air_loads, nullptr);
   const AirLoads& air = *sys.air_loads;
   const int n = sys.coordinates;
-  const auto [k_error, c_error] = TangentErrors(air, sys.data(), sys.q0, 0.05, 8.0, 0.3);
+  const auto [k_error, c_error] = TangentErrors(air, data, sys.q0, 0.05, 8.0, 0.3);
   EXPECT_LT(k_error, 1e-6);
   EXPECT_LT(c_error, 1e-6);
   DenseCollector K(n), C(n);
-  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, sys.data(), 1.0, 0.0, &K);
-  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, sys.data(), 0.0, 1.0, &C);
+  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, data, 1.0, 0.0, &K);
+  air.AddTangent(sys.q0, Eigen::VectorXd::Constant(n, 3.0), 0.3, data, 0.0, 1.0, &C);
   // And the pattern covers every entry the tangent touches.
   struct Marker : SparseSink {
     explicit Marker(int n) : m(Eigen::MatrixXi::Zero(n, n)) {}
@@ -324,11 +325,12 @@ TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents
   std::vector<ElasticBodySpec> elastic =
       BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
+  SystemData data = MakeData(sys);
   const AirLoads& air = *sys.air_loads;
   const int n = sys.coordinates;
   const Eigen::VectorXd qdot0 = Eigen::VectorXd::Zero(n);
   Eigen::VectorXd f = Eigen::VectorXd::Zero(n);
-  air.AddForce(sys.q0, qdot0, 0.0, sys.data(), f);
+  air.AddForce(sys.q0, qdot0, 0.0, data, f);
   const Eigen::Vector3d rigid = f.head<3>();
   Eigen::Vector3d flexible = Eigen::Vector3d::Zero();
   for (int k = sys.elastic_offset[0]; k < n; k += 3) flexible += f.segment<3>(k);
@@ -337,7 +339,7 @@ TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents
   EXPECT_GT(rigid.norm(), 50.0);
   EXPECT_LT((rigid - flexible).norm(), 1e-9 * rigid.norm());
   // Deformed and moving: K and C against central differences.
-  const auto [k_error, c_error] = TangentErrors(air, sys.data(), sys.q0, 0.01, 3.0, 0.0);
+  const auto [k_error, c_error] = TangentErrors(air, data, sys.q0, 0.01, 3.0, 0.0);
   EXPECT_LT(k_error, 1e-6);
   EXPECT_LT(c_error, 1e-6);
 }
@@ -370,8 +372,9 @@ TEST(AirLoads, HoverThrustMatchesBladeElementMomentumTheory) {
     const double theta = theta_deg * kDeg, twist = -8 * kDeg;
     MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal", theta,
                                            twist, omega, "UNIFORM"));
-    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data());
+    SystemData data = MakeData(sys);
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0, &data);
+    const AirLoads::RotorResult r = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, data);
     const double ct = r.thrust / (rho * A * std::pow(omega * R, 2));
     // Independent: ν from 2 ρ A ν² = T_strip(ν) by bisection.
     double lo = 0.0, hi = 50.0;
@@ -404,8 +407,9 @@ TEST(AirLoads, HoverInflowCarriesItsInducedPowerFactor) {
   auto hover = [&](double kappa) {
     MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM"),
                                 {"model.air.rotors[0].induced_velocity_factor=" + std::to_string(kappa)});
-    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data());
+    SystemData data = MakeData(sys);
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0, &data);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, data);
   };
   const AirLoads::RotorResult plain = hover(1.0), corrected = hover(1.21);
   double lo = 0.0, hi = 50.0;
@@ -430,8 +434,9 @@ TEST(AirLoads, BuiltinLiftSlopeScalesTheThrustWithoutInflow) {
   const double omega = 28.0, theta = 4 * kDeg, twist = 0.0;
   auto thrust = [&](const std::string& air, const std::string& airfoil) {
     MultibodySystem sys = Build(RigidRotor(air, airfoil, theta, twist, omega, "NONE"));
-    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data()).thrust;
+    SystemData data = MakeData(sys);
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0, &data);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, data).thrust;
   };
   const double fit = thrust("", "naca0012"),
                steeper = thrust("airfoils { name: \"deck\" builtin_lift_slope: 6.04 }", "deck");
@@ -450,8 +455,9 @@ TEST(AirLoads, OneModelledBladeOfAFourBladeRotorSeesTheWholeRotorsInflow) {
   const std::string air = "airfoils { name: \"ideal\" c81_file: \"" + IdealTable() + "\" }";
   auto hover = [&](int modelled, const std::vector<std::string>& sets) {
     MultibodySystem sys = Build(RigidRotor(air, "ideal", theta, twist, omega, "UNIFORM", "", false, modelled), sets);
-    sys.AcceptStep(sys.q0, sys.qdot0, 0.0);
-    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, sys.data());
+    SystemData data = MakeData(sys);
+    sys.AcceptStep(sys.q0, sys.qdot0, 0.0, &data);
+    return sys.air_loads->Rotor(0, sys.q0, sys.qdot0, 0.0, data);
   };
   const AirLoads::RotorResult four = hover(4, {}), one_of_four = hover(1, {"model.air.rotors[0].blades=4"}),
                               alone = hover(1, {});
@@ -481,12 +487,13 @@ TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
   // velocity is held at zero (still rotor).
   MultibodySystem sys =
       Build(RigidRotor("", "naca0012", 10 * kDeg, 0.0, 0.0, "UNIFORM", "wind_y { constant: 25 }", true));
+  SystemData data = MakeData(sys);
   const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(sys.coordinates);
-  sys.AcceptStep(sys.q0, qdot, 0.0);
+  sys.AcceptStep(sys.q0, qdot, 0.0, &data);
   const AirLoads& air = *sys.air_loads;
   double lift[4], alpha[4];
   for (int b = 0; b < 4; ++b) {
-    const AirLoads::SectionResult s = air.Evaluate(air.Section(b, 5.0, 1.0), sys.q0, qdot, 0.0, sys.data());
+    const AirLoads::SectionResult s = air.Evaluate(air.Section(b, 5.0, 1.0), sys.q0, qdot, 0.0, data);
     lift[b] = s.force.z();
     alpha[b] = s.alpha / kDeg;
   }
@@ -500,7 +507,7 @@ TEST(AirLoads, StillRotorInACrosswindLiftsTheBladeFacingIt) {
   EXPECT_LT(lift[2], -0.2 * q);
   EXPECT_LT(std::abs(lift[1]), 0.01 * lift[0]);
   EXPECT_LT(std::abs(lift[3]), 0.01 * lift[0]);
-  const AirLoads::RotorResult r = air.Rotor(0, sys.q0, qdot, 0.0, sys.data());
+  const AirLoads::RotorResult r = air.Rotor(0, sys.q0, qdot, 0.0, data);
   EXPECT_EQ(r.induced, 0.0);
 }
 
@@ -908,7 +915,7 @@ TEST(AirLoads, AirfoilsBlendBetweenStations) {
                         naca = wing("naca0012", "naca0012");
   const Eigen::VectorXd qdot = Eigen::VectorXd::Zero(mixed.coordinates);
   auto load = [&](const MultibodySystem& sys) {
-    return sys.air_loads->Evaluate(sys.air_loads->Section(0, 0.5, 1.0), sys.q0, qdot, 0.0, sys.data()).force_local;
+    return sys.air_loads->Evaluate(sys.air_loads->Section(0, 0.5, 1.0), sys.q0, qdot, 0.0, MakeData(sys)).force_local;
   };
   const Eigen::Vector3d expected = 0.75 * load(ideal) + 0.25 * load(naca);
   EXPECT_GT((load(ideal) - load(naca)).norm(), 1.0);
@@ -974,14 +981,15 @@ TEST(AirLoads, PittPetersInflowBuildsUpWithItsOwnDynamics) {
   const double M = 128.0 / (75.0 * kPi);
   MultibodySystem sys = Build(RigidRotor("airfoils { name: \"ideal\" c81_file: \"" + table + "\" }", "ideal", theta,
                                          twist, omega, "PITT_PETERS"));
+  SystemData data = MakeData(sys);
   const Eigen::VectorXd still = Eigen::VectorXd::Zero(sys.coordinates);
-  sys.AcceptStep(sys.q0, still, 0.0);
+  sys.AcceptStep(sys.q0, still, 0.0, &data);
   const double h = 2e-4;
   const int steps = 5000;
   std::vector<double> nu(steps + 1, 0.0);
   for (int k = 1; k <= steps; ++k) {
-    sys.AcceptStep(sys.q0, sys.qdot0, k * h);
-    nu[static_cast<size_t>(k)] = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, k * h, sys.data()).induced;
+    sys.AcceptStep(sys.q0, sys.qdot0, k * h, &data);
+    nu[static_cast<size_t>(k)] = sys.air_loads->Rotor(0, sys.q0, sys.qdot0, k * h, data).induced;
   }
   // Independent RK4 of the same equation.
   auto rate = [&](double n) {

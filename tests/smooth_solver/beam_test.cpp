@@ -55,6 +55,7 @@ TEST(Beam, TangentsMatchFiniteDifferences) {
         Build(Cantilever(2, nodes, 50.0, 2.0, "retardation_time: 0.3",
                          "tension_chord: 0.05 tension_flap: -0.02 ga_chord: 30 ga_flap: 40 twist: 0.3"));
     const BeamForce& beam = *sys.beam_forces.at(0);
+    const SystemData data = MakeData(sys);
     const int n = sys.coordinates;
     Eigen::VectorXd q = sys.q0, qdot(n);
     for (int i = 0; i < n; ++i) {
@@ -62,24 +63,24 @@ TEST(Beam, TangentsMatchFiniteDifferences) {
       qdot(i) = std::cos(1.3 * i);
     }
     DenseCollector K(n), C(n);
-    beam.AddTangent(q, qdot, 0.0, sys.data(), 1.0, 0.0, &K);
-    beam.AddTangent(q, qdot, 0.0, sys.data(), 0.0, 1.0, &C);
+    beam.AddTangent(q, qdot, 0.0, data, 1.0, 0.0, &K);
+    beam.AddTangent(q, qdot, 0.0, data, 0.0, 1.0, &C);
     const double h = 1e-6;
     double worst_k = 0.0, worst_c = 0.0;
     for (int k = 0; k < n; ++k) {
       Eigen::VectorXd fp = Eigen::VectorXd::Zero(n), fm = Eigen::VectorXd::Zero(n), qp = q, qm = q;
       qp(k) += h;
       qm(k) -= h;
-      beam.AddForce(qp, qdot, 0.0, sys.data(), fp);
-      beam.AddForce(qm, qdot, 0.0, sys.data(), fm);
+      beam.AddForce(qp, qdot, 0.0, data, fp);
+      beam.AddForce(qm, qdot, 0.0, data, fm);
       worst_k = std::max(worst_k, (-(fp - fm) / (2 * h) - K.m.col(k)).lpNorm<Eigen::Infinity>());
       fp.setZero();
       fm.setZero();
       Eigen::VectorXd vp = qdot, vm = qdot;
       vp(k) += h;
       vm(k) -= h;
-      beam.AddForce(q, vp, 0.0, sys.data(), fp);
-      beam.AddForce(q, vm, 0.0, sys.data(), fm);
+      beam.AddForce(q, vp, 0.0, data, fp);
+      beam.AddForce(q, vm, 0.0, data, fm);
       worst_c = std::max(worst_c, (-(fp - fm) / (2 * h) - C.m.col(k)).lpNorm<Eigen::Infinity>());
     }
     EXPECT_LT(worst_k, 1e-6 * K.m.lpNorm<Eigen::Infinity>()) << nodes << " nodes";
@@ -100,20 +101,21 @@ TEST(Beam, RigidMotionsAreStressFree) {
     if (k % 4 == 0) q.segment<3>(3 * k) += Eigen::Vector3d(0.3, -2, 5);
   }
   Eigen::VectorXd f = Eigen::VectorXd::Zero(sys.coordinates);
-  sys.beam_forces[0]->AddForce(q, Eigen::VectorXd::Zero(sys.coordinates), 0.0, sys.data(), f);
+  sys.beam_forces[0]->AddForce(q, Eigen::VectorXd::Zero(sys.coordinates), 0.0, MakeData(sys), f);
   EXPECT_LT(f.lpNorm<Eigen::Infinity>(), 1e-10);
   EXPECT_LT(sys.beam_forces[0]->PotentialEnergy(q), 1e-20);
 }
 
 // Static cantilever under the scenario's loads, ramped with t from 0 to 1 in `steps`.
-EquilibriumResult LoadSteps(MultibodySystem& sys, int steps) {
+EquilibriumResult LoadSteps(const MultibodySystem& sys, int steps) {
+  SystemData data = MakeData(sys);
   EquilibriumResult r;
   r.q = sys.q0;
   for (int k = 1; k <= steps; ++k) {
     EquilibriumOptions o;
     o.t = static_cast<double>(k) / steps;
     o.tolerance = 1e-12;
-    r = StaticEquilibrium(sys, r.q, SpinningFrame{}, o);
+    r = StaticEquilibrium(sys, &data, r.q, SpinningFrame{}, o);
     if (!r.converged) break;
   }
   return r;
@@ -179,9 +181,10 @@ TEST(Beam, RotatingCantileverFrequenciesOfWrightEtAl) {
     const double lambda = 4.0 * c;
     SpinningFrame frame;
     frame.omega = Eigen::Vector3d(0, 0, lambda);
-    const EquilibriumResult st = StaticEquilibrium(sys, sys.q0, frame, EquilibriumOptions{});
+    SystemData data = MakeData(sys);
+    const EquilibriumResult st = StaticEquilibrium(sys, &data, sys.q0, frame, EquilibriumOptions{});
     ASSERT_TRUE(st.converged) << "λ = " << lambda;
-    const std::vector<Mode> modes = LinearModes(sys, st.q, st.lambda, 0.0, frame, 40);
+    const std::vector<Mode> modes = LinearModes(sys, data, st.q, st.lambda, 0.0, frame, 40);
     std::vector<double> flap;
     for (const Mode& m : modes) {
       double z = 0.0, other = 0.0;  // motion of the node points out of and in the plane of rotation
@@ -208,9 +211,10 @@ TEST(Beam, ClampedFreeShaftTwistsAtItsClosedFormFrequencies) {
   // the data's polar moment: the floor of f m on every director did, and put the first torsion
   // mode at 124 rad/s.
   MultibodySystem sys = Build(Cantilever(10, 3, 1e7, 1.0));
-  const EquilibriumResult st = StaticEquilibrium(sys, sys.q0, SpinningFrame{}, EquilibriumOptions{});
+  SystemData data = MakeData(sys);
+  const EquilibriumResult st = StaticEquilibrium(sys, &data, sys.q0, SpinningFrame{}, EquilibriumOptions{});
   ASSERT_TRUE(st.converged);
-  const std::vector<Mode> modes = LinearModes(sys, st.q, st.lambda, 0.0, SpinningFrame{}, 40);
+  const std::vector<Mode> modes = LinearModes(sys, data, st.q, st.lambda, 0.0, SpinningFrame{}, 40);
   std::vector<double> torsion;
   for (const Mode& m : modes) {
     double bending = 0.0, twist = 0.0;  // points and d1 against d2 and d3
@@ -277,7 +281,8 @@ TEST(Beam, SectionForcesOfACantileverUnderItsWeight) {
   std::string text = Cantilever(8, 3, 1e7, 1.0);
   text.replace(text.find("model {"), 7, "model { gravity: [0, 0, -1e-3]");
   MultibodySystem sys = Build(text);
-  const EquilibriumResult r = StaticEquilibrium(sys, sys.q0, SpinningFrame{}, EquilibriumOptions{});
+  SystemData data = MakeData(sys);
+  const EquilibriumResult r = StaticEquilibrium(sys, &data, sys.q0, SpinningFrame{}, EquilibriumOptions{});
   ASSERT_TRUE(r.converged);
   const double q = 1e-3;
   for (double s : {0.0, 0.1, 0.25, 0.5, 0.8}) {

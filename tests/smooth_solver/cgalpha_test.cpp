@@ -77,7 +77,7 @@ TEST(Constraints, JacobianAndHessianMatchFiniteDifferences) {
   auto sim = Load(kFourBar, {});
   const MultibodySystem& sys = sim->system();
   const ConstraintSet& cs = sys.constraints;
-  const ImposedValues& imposed = sys.data().imposed;
+  const ImposedValues& imposed = sim->data().imposed;
   const int n = sys.coordinates, m = cs.size();
   Eigen::VectorXd q = sys.q0;
   for (int i = 0; i < n; ++i) q(i) += 0.01 * std::sin(1.7 * i + 0.3);
@@ -579,7 +579,7 @@ numerics { end_time: 0.5 step: 1e-3 smooth { rho_inf: 0.6 } }
   const double h = 1e-3;
   for (int k = 0; k < 500; ++k) sim.Step(k * h, h);
   const DaeState& s = sim.integrator().state();
-  const double push = sys.JointReactionForce(2, s.q, s.lambda, 0.5).y();
+  const double push = sys.JointReactionForce(2, s.q, s.lambda, 0.5, sim.data()).y();
   std::printf(
       "propped arm at 0.5 s: actuator extension %.3e m from the closure's, arm angle %.2e rad, push %.6f N "
       "(statics %.6f N)\n",

@@ -54,8 +54,8 @@ CoupledRun RunTiedDrop(interface::Relaxation::Method method, int steps, bool jac
   InitialConditionReport report;
   CgAlphaSettings cg;
   cg.tolerance = 1e-12;
-  CgAlpha integrator(sys, cg, ConsistentInitialState(sys, 0.0, &report));
-  integrator.AttachData(sys.mutable_data());
+  SystemData data = MakeData(sys);
+  CgAlpha integrator(sys, &data, cg, ConsistentInitialState(sys, data, 0.0, &report));
 
   zmq::context_t context;
   interface::Channel contact_end(&context, {"inproc://tied_drop", true, "contacts", "smooth", 5.0, 1.0});
@@ -75,7 +75,7 @@ CoupledRun RunTiedDrop(interface::Relaxation::Method method, int steps, bool jac
   settings.interface_jacobians = jacobians;
   settings.displacement_tolerance = 1e-12;
   settings.reaction_tolerance = 1e-9;
-  Coordinator coordinator(sys, sys.mutable_data(), &integrator, {{&smooth_end, {0}}}, settings);
+  Coordinator coordinator(sys, &data, &integrator, {{&smooth_end, {0}}}, settings);
   CoupledRun run;
   try {
     coordinator.Handshake("tied_drop", 0.0, 1e-3);
@@ -150,6 +150,12 @@ TEST(CoupledStep, IterationCountsOfTheRelaxationMethods) {
     } catch (const NumericalError& e) {
       std::printf("tied drop, %s: %s\n", name, e.what());
       EXPECT_EQ(method, interface::Relaxation::Method::kConstant) << e.what();
+      // The coordinator's Attempt (kNotConverged) in the run driver's words: the iterations, the
+      // step, the residuals, the coupling state and what to change.
+      const std::string why = e.what();
+      EXPECT_EQ(why.rfind("coupling: no convergence in 50 iterations at step ", 0), 0U) << why;
+      EXPECT_NE(why.find("interface nodes in contact: none"), std::string::npos) << why;
+      EXPECT_NE(why.find("choose another relaxation, or shorten the step"), std::string::npos) << why;
     }
   }
 }

@@ -145,13 +145,14 @@ FreeVibration RunFreeVibration(double rho_inf, bool gemm, double xi, double stre
     s.qdot(o + 3 * a + 2) = 4.0 * (X.x() / 0.5) * (X.x() / 0.5) + stretch_rate * X.z() * (X.x() / 0.5);
   }
   auto stretch = [&](const DaeState& state) { return state.qdot(o + 3 * top + 2) - state.qdot(o + 3 * bottom + 2); };
-  ConsistentAccelerations(sys, 0.0, &s);
+  SystemData data = MakeData(sys);
+  ConsistentAccelerations(sys, data, 0.0, &s);
   CgAlphaSettings settings;
   settings.rho_inf = rho_inf;
   settings.gemm = gemm;
   settings.tolerance = 1e-10;
   settings.max_iterations = 30;
-  CgAlpha integrator(sys, settings, s);
+  CgAlpha integrator(sys, &data, settings, s);
   auto energy = [&](const DaeState& state) { return sys.KineticEnergy(state.qdot) + sys.PotentialEnergy(state.q); };
   const double e0 = energy(s);
   FreeVibration result;
@@ -322,10 +323,11 @@ TEST(CgAlphaCheckpoint, ARestoredStepIsRepeatedBitForBit) {
       BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   InitialConditionReport report;
-  const DaeState initial = ConsistentInitialState(sys, 0.0, &report);
+  SystemData data = MakeData(sys), straight_data = MakeData(sys);
+  const DaeState initial = ConsistentInitialState(sys, data, 0.0, &report);
   CgAlphaSettings settings;
   settings.rho_inf = 0.8;
-  CgAlpha tried(sys, settings, initial), straight(sys, settings, initial);
+  CgAlpha tried(sys, &data, settings, initial), straight(sys, &straight_data, settings, initial);
   CgAlpha::Checkpoint start;
   const double h = 1e-3;
   for (int k = 0; k < 4; ++k) {

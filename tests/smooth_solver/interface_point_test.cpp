@@ -43,8 +43,9 @@ TEST(InterfacePoint, AHeldPointCarriesTheBodysWeight) {
   const MultibodySystem sys = BuildMultibodySystem(model);
   ASSERT_EQ(sys.interface_points.size(), 1u);
   InitialConditionReport report;
-  const DaeState initial = ConsistentInitialState(sys, 0.0, &report);
-  CgAlpha integrator(sys, CgAlphaSettings{}, initial);
+  SystemData data = MakeData(sys);
+  const DaeState initial = ConsistentInitialState(sys, data, 0.0, &report);
+  CgAlpha integrator(sys, &data, CgAlphaSettings{}, initial);
   for (int k = 0; k < 100; ++k) integrator.Step(k * 1e-3, 1e-3);
   const Eigen::Vector3d reaction = sys.InterfaceReaction(0, integrator.state().lambda);
   EXPECT_NEAR(reaction.z(), -9.81, 1e-9);
@@ -60,14 +61,15 @@ TEST(InterfacePoint, ImposedMotionIsFollowedAndRegularisationYields) {
   // compliant rows (ω = 1/√(c m) ≈ 32 rad/s) and ρ∞ = 0.9 damps that slowly: 3 s of 1 ms steps.
   for (double c : {0.0, 1e-3}) {
     const interface::ScenarioFile file = interface::ScenarioFile::Parse(TiedPendulum(c), "tied.pbtxt", {});
-    MultibodySystem sys = BuildMultibodySystem(BuildMultibodyModel(file));
+    const MultibodySystem sys = BuildMultibodySystem(BuildMultibodyModel(file));
+    SystemData data = MakeData(sys);
     InitialConditionReport report;
-    const DaeState initial = ConsistentInitialState(sys, 0.0, &report);
+    const DaeState initial = ConsistentInitialState(sys, data, 0.0, &report);
     CgAlphaSettings settings;
     settings.tolerance = 1e-12;
     settings.rho_inf = 0.5;
-    CgAlpha integrator(sys, settings, initial);
-    sys.mutable_data()->imposed[2].value = -0.01;  // z of the point
+    CgAlpha integrator(sys, &data, settings, initial);
+    data.imposed[2].value = -0.01;  // z of the point
     // Critically slow: many small steps with the lowered point held, until the rod is at rest.
     for (int k = 0; k < 3000; ++k) integrator.Step(k * 1e-3, 1e-3);
     const Eigen::Vector3d end = sys.interface_points[0].point.Value(integrator.state().q);

@@ -340,7 +340,7 @@ HEADER = (
 #   articulated hubs have such stops; their Puma values are not in the data;
 # - lag link (0.269 → 0.289 m): 0.526 kg at 0.2845 m; cuff (flap hinge → pitch bearing, does not
 #   pitch): """
-    + (f"7.25 kg at 0.3605 m (and the 0.1 kg contact node)" if COSIM else "7.35 kg at 0.3605 m")
+    + ("7.25 kg at 0.3605 m (and the 0.1 kg contact node)" if COSIM else "7.35 kg at 0.3605 m")
     + """; pitch fitting at the pitch bearing (the beam's clamp, carries the
 #   horn): 1 kg — together the tables' 8.35 kg over 0.289–0.432 m;
 # - pitch horn at (0.289, −0.181) m in blade coordinates (radial, counter-clockwise tangent): on

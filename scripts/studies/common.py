@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 import time
+from dataclasses import dataclass, field
 
 import numpy as np
 import matplotlib
@@ -33,6 +34,35 @@ class StudyError(Exception):
 
 def fail(message, code=2):
     raise StudyError(message, code)
+
+
+@dataclass(eq=False)  # (a run is itself: run_all tells kept runs by identity)
+class Run:
+    """One scenario run of a study: what to run (`scenario` with the overrides `sets`, into the
+    folder `out`), the study's own coordinates of it (`labels`: its step, method, envelope
+    point…), and once run (`record`) its outcome."""
+
+    id: str
+    scenario: str
+    sets: list
+    out: str
+    labels: dict = field(default_factory=dict)
+    reference: bool = False  # a study's reference run
+    contact_probes: list = field(default_factory=list)  # probes whose nonzero samples are contacts
+    # The outcome: the exit code (None: not run yet), the process's seconds, where it ran ("kept":
+    # a kept run, --reuse), its summary.json, what failed, the time in its steps.
+    code: int | None = None
+    seconds: float = float("nan")
+    host: str = ""
+    summary: dict | None = None
+    message: str = ""
+    wall: float = float("nan")
+    # What the study measured of it (errors, iterations, clearances…), by the study's names.
+    measured: dict = field(default_factory=dict)
+
+    @property
+    def ok(self):
+        return self.code == 0
 
 
 class Runner:
@@ -62,14 +92,14 @@ class Runner:
     def finished(self, run):
         """The run's folder holds a summary of this scenario with these overrides (the launcher's
         endpoints aside): the run as it was, its outputs read again."""
-        summary = read_json(os.path.join(run["out"], "summary.json"))
+        summary = read_json(os.path.join(run.out, "summary.json"))
         if not summary or "exit_code" not in summary and "status" not in summary:
             return False
         overrides = [o for o in summary.get("overrides", []) if ".endpoint=" not in o]
-        if not same_overrides(overrides, list(run["sets"]), os.path.join(run["out"], "summary.json")):
+        if not same_overrides(overrides, list(run.sets), os.path.join(run.out, "summary.json")):
             return False
         try:
-            name = self.scenario_json(run["scenario"], run["sets"]).get("name")
+            name = self.scenario_json(run.scenario, run.sets).get("name")
         except StudyError:
             return False
         if summary.get("scenario") != name:
@@ -92,7 +122,7 @@ class Runner:
         return json.loads(p.stdout)
 
     def run_all(self, runs):
-        """runs: list of dicts with id, scenario, sets, out. Adds code, wall, summary, seconds, host."""
+        """Runs every Run (on the cluster, or kept with --reuse) and records its outcome; returns `runs`."""
         from distributed import as_completed
 
         total, done = len(runs), 0
@@ -101,16 +131,16 @@ class Runner:
         kept = [r for r in runs if self.reuse and self.finished(r)]
         for run in kept:
             done += 1
-            print(f"cosim study: [{done}/{total}] {run['id']}: kept from {run['out']} (--reuse)", file=sys.stderr)
+            print(f"cosim study: [{done}/{total}] {run.id}: kept from {run.out} (--reuse)", file=sys.stderr)
         cluster = self.cluster() if len(kept) < len(runs) else None
         for run in runs:
             if run in kept:
                 continue
-            folder, name = os.path.split(os.path.abspath(run["scenario"]))
+            folder, name = os.path.split(os.path.abspath(run.scenario))
             job = {
                 "scenario": name,
-                "sets": list(run["sets"]),
-                "files": distributed_runs.file_sets(run["sets"]),
+                "sets": list(run.sets),
+                "files": distributed_runs.file_sets(run.sets),
                 "bin_dir": self.bin_dir,
             }
             try:
@@ -129,14 +159,14 @@ class Runner:
                     "outputs": None,
                     "stderr": f"the Dask task failed: {type(e).__name__}: {e}",
                 }
-            shutil.rmtree(run["out"], ignore_errors=True)
+            shutil.rmtree(run.out, ignore_errors=True)
             if result["outputs"] is not None:
-                distributed_runs.unpack(result["outputs"], run["out"])
+                distributed_runs.unpack(result["outputs"], run.out)
             record(run, result["code"], result["seconds"], result["host"], result["stderr"])
             done += 1
-            status = "ok" if run["code"] == 0 else f"FAILED (exit {run['code']}: {EXIT_MEANING.get(run['code'], '?')})"
+            status = "ok" if run.ok else f"FAILED (exit {run.code}: {EXIT_MEANING.get(run.code, '?')})"
             print(
-                f"cosim study: [{done}/{total}] {run['id']}: {status}; {total - done} left, "
+                f"cosim study: [{done}/{total}] {run.id}: {status}; {total - done} left, "
                 f"{time.time() - start:.1f} s so far",
                 file=sys.stderr,
             )
@@ -164,21 +194,22 @@ def same_overrides(recorded, wanted, summary_path):
 
 
 def record(run, code, seconds, host, stderr=""):
-    """A run's outcome into its dict, from its output folder: code, seconds (the process's),
-    host, summary, message and wall."""
-    run["code"], run["seconds"], run["host"] = code, seconds, host
-    run["summary"] = read_json(os.path.join(run["out"], "summary.json"))
-    summary = run["summary"] or {}
+    """A Run's outcome, from its output folder: code, seconds (the process's), host, summary,
+    message and wall."""
+    run.code, run.seconds, run.host = code, seconds, host
+    run.summary = read_json(os.path.join(run.out, "summary.json"))
+    summary = run.summary or {}
     # What failed: the run's own reason (the coordinator's), else its last word.
-    run["message"] = summary.get("reason", "") or (stderr.strip().splitlines() or [""])[-1]
+    run.message = summary.get("reason", "") or (stderr.strip().splitlines() or [""])[-1]
     # The time in the time steps (the method's cost, without process start and output), else
     # the process's.
-    run["wall"] = summary.get("step_wall_time") or summary.get("wall_time") or seconds
+    run.wall = summary.get("step_wall_time") or summary.get("wall_time") or seconds
 
 
-def run_scenario(scenario_path, run):
-    """The scenario file of a study's Run: its `scenario`, relative to the study's scene, else the scene."""
-    return os.path.join(os.path.dirname(scenario_path), run["scenario"]) if run.get("scenario") else scenario_path
+def run_scenario(scenario_path, spec):
+    """The scenario file of a study's run spec (study.compare[i], a method's reference…): its
+    `scenario`, relative to the study's scene, else the scene."""
+    return os.path.join(os.path.dirname(scenario_path), spec["scenario"]) if spec.get("scenario") else scenario_path
 
 
 def compare_run_scenario(scenario_path, spec, i):
@@ -305,21 +336,21 @@ def reference_run(scenario_path, scenario, study, finest, coarsest, out, sets):
     if study.get("reference_run"):
         r = study["reference_run"]
         path = run_scenario(scenario_path, r)
-        return {
-            "id": f"reference {r.get('name', '')}".strip(),
-            "scenario": path,
-            "sets": list(sets) + list(r.get("set", [])),
-            "out": os.path.join(out, "runs", "reference"),
-            "reference": True,
-        }
+        return Run(
+            id=f"reference {r.get('name', '')}".strip(),
+            scenario=path,
+            sets=list(sets) + list(r.get("set", [])),
+            out=os.path.join(out, "runs", "reference"),
+            reference=True,
+        )
     h = finest / int(study.get("reference_refinement", 4))
-    return {
-        "id": f"reference h={h:.3g}",
-        "scenario": scenario_path,
-        "sets": list(sets) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, coarsest)}"],
-        "out": os.path.join(out, "runs", "reference"),
-        "reference": True,
-    }
+    return Run(
+        id=f"reference h={h:.3g}",
+        scenario=scenario_path,
+        sets=list(sets) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, coarsest)}"],
+        out=os.path.join(out, "runs", "reference"),
+        reference=True,
+    )
 
 
 def run_with_reference(runner, runs, reference, study, label):
@@ -328,9 +359,9 @@ def run_with_reference(runner, runs, reference, study, label):
     runs, extra = done[: len(runs)], done[len(runs) :]
     if not extra:
         return runs, Reference(study), []
-    if extra[0]["code"] != 0:
-        fail(f"the {label} reference run failed (exit {extra[0]['code']}): {extra[0]['message']}", 3)
-    return runs, Reference(study, read_histories(extra[0]["out"])), extra
+    if not extra[0].ok:
+        fail(f"the {label} reference run failed (exit {extra[0].code}): {extra[0].message}", 3)
+    return runs, Reference(study, read_histories(extra[0].out)), extra
 
 
 def run_and_measure(runner, runs, scenario_path, scenario, study, steps, out, label, sets):
@@ -339,7 +370,7 @@ def run_and_measure(runner, runs, scenario_path, scenario, study, steps, out, la
     runs, reference, extra = run_with_reference(
         runner, runs, reference_run(scenario_path, scenario, study, steps[-1], steps[0], out, sets), study, label
     )
-    histories = [read_histories(r["out"]) if r["code"] == 0 else {} for r in runs]
+    histories = [read_histories(r.out) if r.ok else {} for r in runs]
     probes = measured_probes(study, reference, histories)
     if not probes:
         fail("no probe to measure: give study.references or study.probes, or probes shared with the reference run")
@@ -402,21 +433,21 @@ def settled_start(runner, scenario_path, study, sets, out, why="the errors are t
         return [], ""
     settle = runner.run_all(
         [
-            {
-                "id": f"settling to t = {restart:g} s",
-                "scenario": scenario_path,
-                "sets": list(sets) + [f"numerics.end_time={restart!r}", "output.every=1000000000"],
-                "out": os.path.join(out, "runs", "settle"),
-            }
+            Run(
+                id=f"settling to t = {restart:g} s",
+                scenario=scenario_path,
+                sets=list(sets) + [f"numerics.end_time={restart!r}", "output.every=1000000000"],
+                out=os.path.join(out, "runs", "settle"),
+            )
         ]
     )[0]
-    state = os.path.abspath(os.path.join(settle["out"], "final_state.pb"))
-    if settle["code"] != 0 or not os.path.isfile(state):
-        fail(f"the settling run to t = {restart:g} s failed (exit {settle['code']}): {settle['message']}", 3)
+    state = os.path.abspath(os.path.join(settle.out, "final_state.pb"))
+    if not settle.ok or not os.path.isfile(state):
+        fail(f"the settling run to t = {restart:g} s failed (exit {settle.code}): {settle.message}", 3)
     return (
         start_from(state, restart),
         f"Every run starts at t = {restart:g} s from the state of one settling run of the scene "
-        f"(its own step, {settle['wall']:.1f} s): {why}.",
+        f"(its own step, {settle.wall:.1f} s): {why}.",
     )
 
 
@@ -447,12 +478,12 @@ def study_peer(scenario_path, study):
 
 
 def failures_section(runs):
-    failed = [r for r in runs if r.get("code", 0) != 0]
+    failed = [r for r in runs if r.code not in (0, None)]
     if not failed:
         return "Every run completed."
     out = ["Failed runs (data points, not errors of the study):", ""]
     for r in failed:
-        out.append(f"- {r['id']}: exit {r['code']} ({EXIT_MEANING.get(r['code'], '?')}): {r['message']}")
+        out.append(f"- {r.id}: exit {r.code} ({EXIT_MEANING.get(r.code, '?')}): {r.message}")
     return "\n".join(out)
 
 

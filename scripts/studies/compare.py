@@ -12,6 +12,7 @@ from studies.common import (
     contact_episodes,
     fail,
     failures_section,
+    Run,
     fmt,
     history_table,
     read_histories,
@@ -44,38 +45,29 @@ def study_compare(runner, scenario_path, out, sets):
             fail(f"{where}.tolerance: {m.get('tolerance', 'missing')}; {m['kind']} needs a positive tolerance")
     runs, recorded = [], {}
     for i, spec in enumerate(specs):
-        run = {
-            "id": spec.get("name", f"run{i}"),
-            "sets": list(sets) + list(spec.get("set", [])),
-            "contact_probes": list(spec.get("contact_probes", [])),
-            "out": os.path.join(out, "runs", f"r{i}"),
-        }
+        run = Run(
+            id=spec.get("name", f"run{i}"),
+            scenario="",
+            sets=list(sets) + list(spec.get("set", [])),
+            contact_probes=list(spec.get("contact_probes", [])),
+            out=os.path.join(out, "runs", f"r{i}"),
+        )
         if spec.get("history_file"):  # another code's recorded history: read, not run
             recorded[i] = recorded_history(scenario_path, spec, i)
-            run.update(
-                {
-                    "scenario": spec["history_file"],
-                    "code": 0,
-                    "wall": float("nan"),
-                    "seconds": float("nan"),
-                    "summary": None,
-                    "message": "",
-                    "recorded": True,
-                }
-            )
+            run.scenario, run.code, run.labels["recorded"] = spec["history_file"], 0, True
         else:
-            run["scenario"] = compare_run_scenario(scenario_path, spec, i)
-            run["settle"] = bool(spec.get("settle_statically"))
+            run.scenario = compare_run_scenario(scenario_path, spec, i)
+            run.labels["settle"] = bool(spec.get("settle_statically"))
         runs.append(run)
-    to_run = [r for r in runs if not r.get("recorded")]
-    settle_statically(runner, [r for r in to_run if r["settle"]], out)
-    runner.run_all([r for r in to_run if r.get("code") is None])
-    histories = [recorded[i] if i in recorded else read_histories(r["out"]) for i, r in enumerate(runs)]
+    to_run = [r for r in runs if not r.labels.get("recorded")]
+    settle_statically(runner, [r for r in to_run if r.labels["settle"]], out)
+    runner.run_all([r for r in to_run if r.code is None])
+    histories = [recorded[i] if i in recorded else read_histories(r.out) for i, r in enumerate(runs)]
     for r, h in zip(runs, histories):
-        missing = [p for p in probes + r["contact_probes"] if p not in h]
-        if missing and r["code"] == 0:
+        missing = [p for p in probes + r.contact_probes if p not in h]
+        if missing and r.code == 0:
             fail(
-                f"run '{r['id']}' has no probe(s) {', '.join(missing)} (its history has {', '.join(sorted(h)) or 'none'})"
+                f"run '{r.id}' has no probe(s) {', '.join(missing)} (its history has {', '.join(sorted(h)) or 'none'})"
             )
     # Differences against the first run, on its output times within the common span.
     ref_hist = histories[0]
@@ -93,7 +85,7 @@ def study_compare(runner, scenario_path, out, sets):
             k = int(np.argmax(np.abs(d)))
             diff_rows.append(
                 [
-                    r["id"],
+                    r.id,
                     p,
                     float(np.sqrt(np.mean(d * d))),
                     float(abs(d[k])),
@@ -104,12 +96,12 @@ def study_compare(runner, scenario_path, out, sets):
     # Contacts.
     contact_rows = []
     for r, h in zip(runs, histories):
-        for cp in r["contact_probes"]:
+        for cp in r.contact_probes:
             if cp not in h:
                 continue
             t, v = h[cp]
             for n, (a, b, i0, i1) in enumerate(contact_episodes(t, v)):
-                row = [r["id"], cp, n + 1, float(a), float(b), float(np.max(np.abs(v[i0 : i1 + 1])))]
+                row = [r.id, cp, n + 1, float(a), float(b), float(np.max(np.abs(v[i0 : i1 + 1])))]
                 for p in probes:
                     if p in h:
                         tp, vp = h[p]
@@ -126,7 +118,7 @@ def study_compare(runner, scenario_path, out, sets):
         os.path.join(out, "differences.csv"), ["run", "probe", "rms", "peak", "peak_time", "reference_peak"], diff_rows
     )
     if measure_rows:
-        write_csv(os.path.join(out, "measures.csv"), ["measure"] + [r["id"] for r in runs], measure_rows)
+        write_csv(os.path.join(out, "measures.csv"), ["measure"] + [r.id for r in runs], measure_rows)
     write_csv(
         os.path.join(out, "contacts.csv"),
         ["run", "contact_probe", "contact", "start", "end", "peak_contact"] + [f"peak_{p}" for p in probes],
@@ -137,12 +129,12 @@ def study_compare(runner, scenario_path, out, sets):
         ["run", "exit", "wall_time", "process_seconds", "steps", "coupling_iterations_per_step"],
         [
             [
-                r["id"],
-                r["code"],
-                r["wall"],
-                r["seconds"],
-                (r["summary"] or {}).get("steps", ""),
-                ((r["summary"] or {}).get("coupling_iterations") or {}).get("mean_per_step", ""),
+                r.id,
+                r.code,
+                r.wall,
+                r.seconds,
+                (r.summary or {}).get("steps", ""),
+                ((r.summary or {}).get("coupling_iterations") or {}).get("mean_per_step", ""),
             ]
             for r in runs
         ],
@@ -154,10 +146,10 @@ def study_compare(runner, scenario_path, out, sets):
     for ax, p in zip(axes, probes):
         for i, (r, h) in enumerate(zip(runs, histories)):
             if p in h:
-                ax.plot(h[p][0], h[p][1], styles[i % len(styles)], lw=1.0, label=r["id"])
+                ax.plot(h[p][0], h[p][1], styles[i % len(styles)], lw=1.0, label=r.id)
         ax.set_ylabel(p, fontsize=8)
     axes[-1].set_xlabel("time [s]")
-    title = " against ".join(r["id"] for r in runs) if len(runs) <= 3 else f"{len(runs)} runs against '{runs[0]['id']}'"
+    title = " against ".join(r.id for r in runs) if len(runs) <= 3 else f"{len(runs)} runs against '{runs[0].id}'"
     axes[0].set_title(f"{scenario['name']}: {title}", fontsize=10)
     save_plot(fig, list(axes), os.path.join(out, "compare.png"))
     lines = [
@@ -168,25 +160,25 @@ def study_compare(runner, scenario_path, out, sets):
         "|---|---|---|---|---|---|",
     ]
     for r in runs:
-        s_ = r["summary"] or {}
-        if r.get("recorded"):
-            lines.append(f"| {r['id']} | recorded: {r['scenario']} | — | — | — | — |")
+        s_ = r.summary or {}
+        if r.labels.get("recorded"):
+            lines.append(f"| {r.id} | recorded: {r.scenario} | — | — | — | — |")
             continue
         lines.append(
-            f"| {r['id']} | {r['code']} | {r['wall']:.1f} | {r['seconds']:.1f} | {s_.get('steps', '—')} | "
+            f"| {r.id} | {r.code} | {r.wall:.1f} | {r.seconds:.1f} | {s_.get('steps', '—')} | "
             f"{fmt((s_.get('coupling_iterations') or {}).get('mean_per_step', float('nan')))} |"
         )
     lines += measures_table(runs, study.get("measures", []), measure_rows)
     lines += [
         "",
-        f"Differences from '{runs[0]['id']}' on its output times (RMS, largest and when; the reference's largest |value| for scale):",
+        f"Differences from '{runs[0].id}' on its output times (RMS, largest and when; the reference's largest |value| for scale):",
         "",
         "| run | probe | RMS | peak | at [s] | reference peak |",
         "|---|---|---|---|---|---|",
     ]
     for row in diff_rows:
         lines.append(f"| {row[0]} | {row[1]} | {fmt(row[2])} | {fmt(row[3])} | {row[4]:.3f} | {fmt(row[5])} |")
-    if any(r["contact_probes"] for r in runs):  # scenes without stops have no contact table
+    if any(r.contact_probes for r in runs):  # scenes without stops have no contact table
         lines += [
             "",
             "Stop contacts (samples where the contact probe is non-zero; the peaks of each probe within):",
@@ -239,32 +231,25 @@ def settle_statically(runner, runs, out):
         return
     statics = []
     for r in runs:
-        numerics = runner.scenario_json(r["scenario"], r["sets"]).get("numerics", {})
+        numerics = runner.scenario_json(r.scenario, r.sets).get("numerics", {})
         t1 = float(numerics.get("start_time", 0.0)) + float(numerics["step"])
-        r["settled_at"] = t1
+        r.labels["settled_at"] = t1
         statics.append(
-            {
-                "id": f"{r['id']}: static equilibrium at t = {t1:g} s",
-                "scenario": r["scenario"],
-                "sets": r["sets"] + ["numerics.smooth.analysis=STATIC", f"numerics.end_time={t1!r}"],
-                "out": r["out"] + "-static",
-            }
+            Run(
+                id=f"{r.id}: static equilibrium at t = {t1:g} s",
+                scenario=r.scenario,
+                sets=r.sets + ["numerics.smooth.analysis=STATIC", f"numerics.end_time={t1!r}"],
+                out=r.out + "-static",
+            )
         )
     for r, st in zip(runs, runner.run_all(statics)):
-        state = os.path.abspath(os.path.join(st["out"], "final_state.pb"))
-        if st["code"] != 0 or not os.path.isfile(state):
+        state = os.path.abspath(os.path.join(st.out, "final_state.pb"))
+        if not st.ok or not os.path.isfile(state):
             # The run is reported failed with the static step's reason; it is not started.
-            r.update(
-                {
-                    "code": st["code"] or 3,
-                    "wall": float("nan"),
-                    "seconds": float("nan"),
-                    "summary": st["summary"],
-                    "message": f"its static equilibrium failed: {st['message']}",
-                }
-            )
+            r.code, r.summary = st.code or 3, st.summary
+            r.message = f"its static equilibrium failed: {st.message}"
             continue
-        r["sets"] = r["sets"] + start_from(state, r["settled_at"])
+        r.sets = r.sets + start_from(state, r.labels["settled_at"])
 
 
 def compare_measure(history, m):
@@ -295,9 +280,9 @@ def measures_table(runs, measures, rows):
         return []
     lines = [
         "",
-        f"Measures (differences from '{runs[0]['id']}'; ✓ within the agreement asked, ✗ not):",
+        f"Measures (differences from '{runs[0].id}'; ✓ within the agreement asked, ✗ not):",
         "",
-        "| measure | " + " | ".join(r["id"] for r in runs) + " | agreement |",
+        "| measure | " + " | ".join(r.id for r in runs) + " | agreement |",
         "|---|" + "---|" * (len(runs) + 1),
     ]
     for m, row in zip(measures, rows):

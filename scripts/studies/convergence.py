@@ -15,6 +15,7 @@ from studies.common import (
     fmt,
     halving_steps,
     probe_error,
+    Run,
     run_and_measure,
     save_plot,
     settled_start,
@@ -30,13 +31,13 @@ def study_convergence(runner, scenario_path, out, sets):
     sets = list(sets) + restart_sets
     steps = halving_steps(scenario, study)
     runs = [
-        {
-            "id": f"h={h:.4g}",
-            "h": h,
-            "scenario": scenario_path,
-            "sets": list(sets) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, steps[0])}"],
-            "out": os.path.join(out, "runs", f"h{i}"),
-        }
+        Run(
+            id=f"h={h:.4g}",
+            labels={"h": h},
+            scenario=scenario_path,
+            sets=list(sets) + [f"numerics.step={h!r}", f"output.every={every_for(scenario, h, steps[0])}"],
+            out=os.path.join(out, "runs", f"h{i}"),
+        )
         for i, h in enumerate(steps)
     ]
     runs, reference, extra, histories, probes = run_and_measure(
@@ -49,7 +50,7 @@ def study_convergence(runner, scenario_path, out, sets):
     write_csv(
         os.path.join(out, "runs.csv"),
         ["run", "step", "exit", "wall_time"] + [f"error_{p}" for p in probes],
-        [[r["id"], r["h"], r["code"], r["wall"]] + [errors[p][i] for p in probes] for i, r in enumerate(runs)],
+        [[r.id, r.labels["h"], r.code, r.wall] + [errors[p][i] for p in probes] for i, r in enumerate(runs)],
     )
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     for p in probes:

@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     EXIT_MEANING,
+    Run,
     fail,
     failures_section,
     fmt,
@@ -47,38 +48,58 @@ def study_coupling(runner, scenario_path, out, sets):
         for tol in tolerances:
             for h in steps:
                 runs.append(
-                    {
-                        "id": f"{relax} tol={tol:g} h={h:g}",
-                        "relaxation": relax,
-                        "tol": tol,
-                        "h": h,
-                        "scenario": scenario_path,
-                        "sets": list(sets)
+                    Run(
+                        id=f"{relax} tol={tol:g} h={h:g}",
+                        labels={"relaxation": relax, "tol": tol, "h": h},
+                        scenario=scenario_path,
+                        sets=list(sets)
                         + relaxation_sets(relax)
                         + [f"coupling.iteration.reaction_tolerance={tol!r}", f"numerics.step={h!r}"],
-                        "out": os.path.join(
+                        out=os.path.join(
                             out, "runs", f"{relax}_{tol:g}_{h:g}".replace(".", "p").replace("(", "_").replace(")", "")
                         ),
-                    }
+                    )
                 )
     runs = runner.run_all(runs)
     for r in runs:
-        it = (r["summary"] or {}).get("coupling_iterations", {})
-        r["mean"], r["max"] = it.get("mean_per_step", float("nan")), it.get("max_per_step", float("nan"))
+        it = (r.summary or {}).get("coupling_iterations", {})
+        r.measured["mean"], r.measured["max"] = it.get("mean_per_step", float("nan")), it.get(
+            "max_per_step", float("nan")
+        )
     write_csv(
         os.path.join(out, "runs.csv"),
         ["run", "relaxation", "reaction_tolerance", "step", "exit", "mean_iterations", "max_iterations", "wall_time"],
-        [[r["id"], r["relaxation"], r["tol"], r["h"], r["code"], r["mean"], r["max"], r["wall"]] for r in runs],
+        [
+            [
+                r.id,
+                r.labels["relaxation"],
+                r.labels["tol"],
+                r.labels["h"],
+                r.code,
+                r.measured["mean"],
+                r.measured["max"],
+                r.wall,
+            ]
+            for r in runs
+        ],
     )
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for c, relax in enumerate(relaxations):
         for h, style in zip(steps, ("o-", "s--", "^:", "v-.")):
             kw = {"color": colours[c % len(colours)], "label": f"{relax}, h = {h:g} s"}
-            pts = [(r["tol"], r["mean"]) for r in runs if r["relaxation"] == relax and r["h"] == h and r["code"] == 0]
+            pts = [
+                (r.labels["tol"], r.measured["mean"])
+                for r in runs
+                if r.labels["relaxation"] == relax and r.labels["h"] == h and r.code == 0
+            ]
             if pts:
                 axes[0].semilogx(*zip(*sorted(pts)), style, **kw)
-            pts = [(r["tol"], r["wall"]) for r in runs if r["relaxation"] == relax and r["h"] == h and r["code"] == 0]
+            pts = [
+                (r.labels["tol"], r.wall)
+                for r in runs
+                if r.labels["relaxation"] == relax and r.labels["h"] == h and r.code == 0
+            ]
             if pts:
                 axes[1].loglog(*zip(*sorted(pts)), style, **kw)
     axes[0].set_xlabel("reaction tolerance (relative)")
@@ -90,8 +111,12 @@ def study_coupling(runner, scenario_path, out, sets):
     # Residual histories: the step with the most iterations, tightest tolerance, coarsest step.
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     for relax in relaxations:
-        match = [r for r in runs if r["relaxation"] == relax and r["tol"] == min(tolerances) and r["h"] == steps[0]]
-        path = os.path.join(match[0]["out"], "coupling.csv") if match else ""
+        match = [
+            r
+            for r in runs
+            if r.labels["relaxation"] == relax and r.labels["tol"] == min(tolerances) and r.labels["h"] == steps[0]
+        ]
+        path = os.path.join(match[0].out, "coupling.csv") if match else ""
         if not os.path.isfile(path):
             continue
         log = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
@@ -121,8 +146,8 @@ def study_coupling(runner, scenario_path, out, sets):
     ]
     for r in runs:
         lines.append(
-            f"| {r['relaxation']} | {r['tol']:g} | {r['h']:g} | {r['code']} ({EXIT_MEANING.get(r['code'], '?')}) | "
-            f"{fmt(r['mean'])} | {fmt(r['max'])} | {r['wall']:.3g} |"
+            f"| {r.labels['relaxation']} | {r.labels['tol']:g} | {r.labels['h']:g} | {r.code} ({EXIT_MEANING.get(r.code, '?')}) | "
+            f"{fmt(r.measured['mean'])} | {fmt(r.measured['max'])} | {r.wall:.3g} |"
         )
     lines += ["", failures_section(runs)]
     write_report(out, lines)

@@ -17,6 +17,7 @@ from studies.common import (
     failures_section,
     fmt,
     read_histories,
+    Run,
     settled_start,
     with_study_sets,
     write_csv,
@@ -149,38 +150,38 @@ def study_envelope(runner, scenario_path, out, sets):
         point_sets = [s_ for a, v in zip(axes, point) for s_ in axis_sets(a, v, f"{where}.axes[{axes.index(a)}]")]
         label = ", ".join(f"{n} = {v:g}" for n, v in zip(names, point))
         runs.append(
-            {
-                "id": label,
-                "point": point,
-                "scenario": scenario_path,
-                "sets": sets + point_sets,
-                "out": os.path.join(out, "runs", f"p{i}"),
-            }
+            Run(
+                id=label,
+                labels={"point": point},
+                scenario=scenario_path,
+                sets=sets + point_sets,
+                out=os.path.join(out, "runs", f"p{i}"),
+            )
         )
     # Every override checked before any run: a bad field path is the study's input error.
-    runner.scenario_json(scenario_path, runs[0]["sets"])
+    runner.scenario_json(scenario_path, runs[0].sets)
     runs = runner.run_all(runs)
     rows = []
     for r in runs:
-        summary = r["summary"] or {}
+        summary = r.summary or {}
         step = (summary.get("numerics") or {}).get("step") or scenario["numerics"].get("step", 1.0)
-        m = envelope_point(read_histories(r["out"]), spec, float(step))
-        r["measures"] = m
+        m = envelope_point(read_histories(r.out), spec, float(step))
+        r.measured.update(m)
         rows.append(
-            list(r["point"])
-            + [r["code"], r["wall"], summary.get("simulated_time", float("nan")), r.get("host", "")]
+            list(r.labels["point"])
+            + [r.code, r.wall, summary.get("simulated_time", float("nan")), r.host]
             + [m[k] for k in ENVELOPE_COLUMNS]
         )
     write_csv(
         os.path.join(out, "runs.csv"), names + ["exit", "wall_time", "simulated_time", "host"] + ENVELOPE_COLUMNS, rows
     )
-    measures = [(k, label) for k, label in ENVELOPE_MEASURES if any(np.isfinite(r["measures"][k]) for r in runs)]
+    measures = [(k, label) for k, label in ENVELOPE_MEASURES if any(np.isfinite(r.measured[k]) for r in runs)]
     plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])
     limits_note = plot_operating_limits(
         runs, axes, names, spec, os.path.join(out, "operating_limits.png"), scenario["name"]
     )
     elapsed = time.time() - started
-    cpu = sum(r["seconds"] for r in runs if r["seconds"] == r["seconds"])
+    cpu = sum(r.seconds for r in runs if r.seconds == r.seconds)
     lines = (
         [
             *report_head("Envelope", scenario),
@@ -190,7 +191,7 @@ def study_envelope(runner, scenario_path, out, sets):
                 f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
                 f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
                 f"one after the other (processes' wall time)."
-                if any(r.get("host") != "kept" for r in runs)
+                if any(r.host != "kept" for r in runs)
                 else f"; every run kept from an earlier study (--reuse): the runs took {cpu:.0f} s one after the other."
             ),
             "",
@@ -219,19 +220,17 @@ def study_envelope(runner, scenario_path, out, sets):
         ]
     )
     for r in runs:
-        m = r["measures"]
+        m = r.measured
         exit_text = (
-            "0"
-            if r["code"] == 0
-            else f"**{r['code']}** (t = {fmt((r['summary'] or {}).get('simulated_time', float('nan')))} s)"
+            "0" if r.code == 0 else f"**{r.code}** (t = {fmt((r.summary or {}).get('simulated_time', float('nan')))} s)"
         )
         lines.append(
-            "| " + " | ".join(f"{v:g}" for v in r["point"]) + f" | {exit_text} | {fmt(m['tip_lowest'])} "
+            "| " + " | ".join(f"{v:g}" for v in r.labels["point"]) + f" | {exit_text} | {fmt(m['tip_lowest'])} "
             f"({m['tip_lowest_probe']}, {fmt(m['tip_lowest_time'])}) | {fmt(m['tip_highest'])} | "
             f"{fmt(m['tip_down'])} / {fmt(m['tip_up'])} | {fmt(m['clearance'])} | {fmt(m['peak_stop_force'])} | "
-            f"{fmt(m['impacts'])} | {r['wall']:.1f} |"
+            f"{fmt(m['impacts'])} | {r.wall:.1f} |"
         )
-    ok = [r for r in runs if r["code"] == 0]
+    ok = [r for r in runs if r.code == 0]
     if ok:
         lines += ["", "Worst points (completed runs):", ""]
         for key, label, worst in (
@@ -240,10 +239,10 @@ def study_envelope(runner, scenario_path, out, sets):
             ("peak_stop_force", "largest stop force", max),
             ("impacts", "most impacts", max),
         ):
-            finite = [r for r in ok if np.isfinite(r["measures"][key])]
+            finite = [r for r in ok if np.isfinite(r.measured[key])]
             if finite:
-                r = worst(finite, key=lambda x: x["measures"][key])
-                lines.append(f"- {label}: {fmt(r['measures'][key])} at {r['id']}")
+                r = worst(finite, key=lambda x: x.measured[key])
+                lines.append(f"- {label}: {fmt(r.measured[key])} at {r.id}")
     lines += ["", failures_section(runs)]
     write_report(out, lines)
     return {"runs": runs}
@@ -260,18 +259,18 @@ def plot_envelope(runs, axes, names, measures, path, title):
         ax = fig.add_subplot(
             (len(measures) + 2) // 3, min(len(measures), 3), n + 1, projection="polar" if polar else None
         )
-        values = np.array([r["measures"][key] for r in runs], dtype=float)
-        failed = np.array([r["code"] != 0 for r in runs])
+        values = np.array([r.measured[key] for r in runs], dtype=float)
+        failed = np.array([r.code != 0 for r in runs])
         if len(axes) == 1:
-            x = np.array([r["point"][0] for r in runs])
+            x = np.array([r.labels["point"][0] for r in runs])
             order = np.argsort(x)
             ax.plot(x[order], values[order], "o-")
             ax.plot(x[failed], values[failed], "rx", ms=9, label="failed run")
             ax.set_xlabel(f"{names[0]} [{axes[0].get('unit', '')}]")
             ax.set_ylabel(label)
         else:
-            a0 = np.array([r["point"][0] for r in runs])
-            a1 = np.array([r["point"][1] for r in runs])
+            a0 = np.array([r.labels["point"][0] for r in runs])
+            a1 = np.array([r.labels["point"][1] for r in runs])
             if polar:
                 if axes[1].get("compass"):
                     ax.set_theta_zero_location("N")
@@ -314,8 +313,8 @@ def unsafe_points(runs, threshold):
     not counted safe), False where it completed above it, None without a clearance."""
     flags = []
     for r in runs:
-        c = r["measures"]["clearance"]
-        if r["code"] != 0:
+        c = r.measured["clearance"]
+        if r.code != 0:
             flags.append(True)
         elif np.isfinite(c):
             flags.append(bool(c < threshold))
@@ -343,7 +342,7 @@ def plot_operating_limits(runs, axes, names, spec, path, title):
     r_edges = edges(speeds, 0.0)
     step = (directions[1] - directions[0]) if len(directions) > 1 else 360.0
     flags = unsafe_points(runs, float(threshold))
-    clearances = np.array([r["measures"]["clearance"] for r in runs], dtype=float)
+    clearances = np.array([r.measured["clearance"] for r in runs], dtype=float)
     finite = clearances[np.isfinite(clearances)]
     norm = plt.Normalize(finite.min(), finite.max()) if len(finite) else plt.Normalize(0, 1)
     cmap = plt.get_cmap("viridis")
@@ -353,7 +352,7 @@ def plot_operating_limits(runs, axes, names, spec, path, title):
         ax.set_theta_zero_location("N")
         ax.set_theta_direction(-1)
     for r, unsafe, c in zip(runs, flags, clearances):
-        speed, direction = r["point"]
+        speed, direction = r.labels["point"]
         i = speeds.index(speed)
         # The point's cell: its direction's sector between its speed's ring edges.
         cell = dict(
@@ -363,12 +362,12 @@ def plot_operating_limits(runs, axes, names, spec, path, title):
         ax.bar(**cell, color=colour, edgecolor="white", linewidth=0.5)
         if unsafe:
             ax.bar(**cell, fill=False, hatch="///", edgecolor="red", linewidth=0.0)
-        if r["code"] != 0:
+        if r.code != 0:
             ax.plot(np.radians(direction), speed, "rx", ms=8, mew=2)
     # The boundary: per direction, the lowest unsafe speed's inner edge.
     boundary = []
     for d in directions:
-        at = [(r["point"][0], f) for r, f in zip(runs, flags) if r["point"][1] == d and f]
+        at = [(r.labels["point"][0], f) for r, f in zip(runs, flags) if r.labels["point"][1] == d and f]
         boundary.append(r_edges[speeds.index(min(at)[0])] if at else r_edges[-1])
     theta = np.radians(directions + [directions[0] + 360])
     ax.plot(theta, boundary + boundary[:1], "r-", lw=2, drawstyle="steps-mid")
@@ -385,7 +384,7 @@ def plot_operating_limits(runs, axes, names, spec, path, title):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     n_unsafe = sum(1 for f in flags if f)
-    failed = sum(1 for r in runs if r["code"] != 0)
+    failed = sum(1 for r in runs if r.code != 0)
     return (
         f"Operating limits: {n_unsafe} of {len(runs)} points unsafe (clearance below {threshold:g} m"
         + (f", or one of the {failed} failed runs" if failed else "")

@@ -6,7 +6,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from studies.common import fail
+from studies.common import Run, fail
 
 
 def study_modes(runner, scenario_path, out, sets):
@@ -14,16 +14,16 @@ def study_modes(runner, scenario_path, out, sets):
     numerics.start_time..end_time by step, the spin axis numerics.smooth.modes.axis, set in the
     file or with --set), frequencies against rotor speed with the per-revolution lines, each mode
     coloured by what its shape does most (flap, lag or radial motion of the nodes)."""
-    run = {
-        "id": "modes",
-        "scenario": scenario_path,
-        "sets": ["numerics.smooth.analysis=MODES"] + list(sets),
-        "out": os.path.join(out, "run"),
-    }
+    run = Run(
+        id="modes",
+        scenario=scenario_path,
+        sets=["numerics.smooth.analysis=MODES"] + list(sets),
+        out=os.path.join(out, "run"),
+    )
     run = runner.run_all([run])[0]
-    if run["code"] != 0:
-        fail(f"the MODES run failed (exit {run['code']}): {run['message']}", run["code"])
-    with open(os.path.join(run["out"], "modes.csv")) as f:
+    if run.code != 0:
+        fail(f"the MODES run failed (exit {run.code}): {run.message}", run.code)
+    with open(os.path.join(run.out, "modes.csv")) as f:
         rows = list(csv.DictReader(f))
     speeds = sorted({float(r["speed"]) for r in rows})
     fig, ax = plt.subplots(figsize=(6.4, 4.8))

@@ -2,7 +2,7 @@
 import os
 
 import numpy as np
-from studies.common import fail, fmt, read_histories, write_csv, write_report
+from studies.common import Run, fail, fmt, read_histories, write_csv, write_report
 
 
 def study_stability(runner, target, out, sets):
@@ -17,24 +17,24 @@ def study_stability(runner, target, out, sets):
         scenario = runner.scenario_json(path, sets)
         infos[path] = scenario
         runs.append(
-            {
-                "id": scenario["name"],
-                "scenario": path,
-                "sets": list(sets),
-                "out": os.path.join(out, "runs", scenario["name"]),
-            }
+            Run(
+                id=scenario["name"],
+                scenario=path,
+                sets=list(sets),
+                out=os.path.join(out, "runs", scenario["name"]),
+            )
         )
     runs = runner.run_all(runs)
     rows = []
     for r in runs:
-        scenario = infos[r["scenario"]]
-        s = r["summary"] or {}
+        scenario = infos[r.scenario]
+        s = r.summary or {}
         energy = [
             p["name"] for p in scenario.get("output", {}).get("probes", []) if p.get("quantity") == "TOTAL_ENERGY"
         ]
         drift = float("nan")
         if energy:
-            hist = read_histories(r["out"])
+            hist = read_histories(r.out)
             if energy[0] in hist and hist[energy[0]][1].size > 1:
                 e = hist[energy[0]][1]
                 drift = float(np.max(np.abs(e - e[0])))  # [J]: a scene may start at E = 0
@@ -50,14 +50,14 @@ def study_stability(runner, target, out, sets):
             {
                 "name": scenario["name"],
                 "reason": scenario.get("study", {}).get("reason") or scenario.get("description", ""),
-                "code": r["code"],
-                "completes": r["code"] == 0,
+                "code": r.code,
+                "completes": r.code == 0,
                 "violation": s.get("max_constraint_violation", float("nan")),
                 "drift": drift,
                 "iterations": ", ".join(iters) or "—",
-                "wall": r["wall"],
+                "wall": r.wall,
                 "steps": s.get("steps", 0),
-                "message": r["message"] if r["code"] != 0 else "",
+                "message": r.message if r.code != 0 else "",
             }
         )
     write_csv(

@@ -5,6 +5,7 @@ from studies.common import (
     compare_run_scenario,
     failures_section,
     fmt,
+    Run,
     study_peer,
     with_study_sets,
     write_csv,
@@ -25,42 +26,41 @@ def study_timing(runner, scenario_path, out, sets):
         for output in ("as written", "none"):
             extra = [] if output == "as written" else ["output.every=1000000000"]
             runs.append(
-                {
-                    "id": f"{spec.get('name', f'run{i}')}: output {output}",
-                    "name": spec.get("name", f"run{i}"),
-                    "output": output,
-                    "scenario": path,
-                    "sets": list(sets) + list(spec.get("set", [])) + extra,
-                    "out": os.path.join(out, "runs", f"r{i}_{'out' if output == 'as written' else 'none'}"),
-                }
+                Run(
+                    id=f"{spec.get('name', f'run{i}')}: output {output}",
+                    labels={"name": spec.get("name", f"run{i}"), "output": output},
+                    scenario=path,
+                    sets=list(sets) + list(spec.get("set", [])) + extra,
+                    out=os.path.join(out, "runs", f"r{i}_{'out' if output == 'as written' else 'none'}"),
+                )
             )
     jobs, runner.jobs = runner.jobs, 1  # timings: alone on the machine (as far as this study goes)
     try:
         for r in runs:
-            r["load_before"] = os.getloadavg()[0]
+            r.measured["load_before"] = os.getloadavg()[0]
             runner.run_all([r])
     finally:
         runner.jobs = jobs
     rows = []
     for r in runs:
-        s_ = r["summary"] or {}
+        s_ = r.summary or {}
         simulated = s_.get("simulated_time", float("nan"))
-        per_second = r["wall"] / simulated if simulated and simulated == simulated else float("nan")
+        per_second = r.wall / simulated if simulated and simulated == simulated else float("nan")
         ratio = (peer["wall_time"] / peer["simulated_time"]) / per_second if peer and per_second > 0 else float("nan")
         rows.append(
             [
-                r["id"],
-                r["code"],
+                r.id,
+                r.code,
                 s_.get("steps", ""),
                 simulated,
-                r["wall"],
-                r["seconds"],
+                r.wall,
+                r.seconds,
                 per_second,
                 ratio,
                 (s_.get("coupling_iterations") or {}).get("mean_per_step", float("nan")),
                 (s_.get("newton_iterations") or {}).get("mean_per_step", float("nan")),
                 (s_.get("counters") or {}).get("newton_factorizations", ""),
-                r["load_before"],
+                r.measured["load_before"],
             ]
         )
     header = [

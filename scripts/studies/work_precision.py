@@ -20,6 +20,7 @@ from studies.common import (
     halving_steps,
     probe_error,
     read_histories,
+    Run,
     run_and_measure,
     run_scenario,
     save_plot,
@@ -98,22 +99,22 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
         if key not in keys:
             keys[key] = len(references)
             references.append(
-                {
-                    "id": f"reference {spec.get('name', len(references))}",
-                    "reference": True,
-                    "scenario": run_scenario(scenario_path, spec),
-                    "sets": list(sets) + list(spec.get("set", [])),
-                    "contact_probes": list(spec.get("contact_probes", [])),
-                    "out": os.path.join(out, "runs", f"reference{len(references)}"),
-                }
+                Run(
+                    id=f"reference {spec.get('name', len(references))}",
+                    reference=True,
+                    scenario=run_scenario(scenario_path, spec),
+                    sets=list(sets) + list(spec.get("set", [])),
+                    contact_probes=list(spec.get("contact_probes", [])),
+                    out=os.path.join(out, "runs", f"reference{len(references)}"),
+                )
             )
         reference_of[method["name"]] = keys[key]
     done = runner.run_all(references + runs)  # (the references first: a study cut short can be resumed with --reuse)
     references, runs = done[: len(references)], done[len(references) :]
     for r in references:
-        if r["code"] != 0:
-            fail(f"the work-precision reference run '{r['id']}' failed (exit {r['code']}): {r['message']}", 3)
-    ref_histories = [read_histories(r["out"]) for r in references]
+        if r.code != 0:
+            fail(f"the work-precision reference run '{r.id}' failed (exit {r.code}): {r.message}", 3)
+    ref_histories = [read_histories(r.out) for r in references]
     ref_values = [Reference(study, h) for h in ref_histories]
     by_name = {method["name"]: method for method in methods}
     measures = (
@@ -122,25 +123,26 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
         + [f"peak {p}" for p in events.get("peak_probes", [])]
     )
     for r in runs:
-        k = reference_of[r["method"]]
+        k = reference_of[r.labels["method"]]
         reference, ref_run = ref_histories[k], references[k]
-        r["errors"], r["unpaired"] = {m: float("nan") for m in measures}, float("nan")
-        if r["code"] != 0:
+        r.measured["errors"], r.measured["unpaired"] = {m: float("nan") for m in measures}, float("nan")
+        if r.code != 0:
             continue
-        history = read_histories(r["out"])
+        history = read_histories(r.out)
         for p in events.get("history_probes", []):
-            r["errors"][f"history {p}"] = (
+            r.measured["errors"][f"history {p}"] = (
                 probe_error(history, ref_values[k], p, study) if p in reference else float("nan")
             )
-        found, r["unpaired"] = event_errors(
-            history, by_name[r["method"]].get("contact_probes", []), reference, ref_run["contact_probes"], events
+        found, r.measured["unpaired"] = event_errors(
+            history, by_name[r.labels["method"]].get("contact_probes", []), reference, ref_run.contact_probes, events
         )
-        r["errors"].update(found)
+        r.measured["errors"].update(found)
     write_csv(
         os.path.join(out, "runs.csv"),
         ["run", "method", "swept_value", "exit", "wall_time", "unpaired_contacts"] + [f"error {m}" for m in measures],
         [
-            [r["id"], r["method"], r["value"], r["code"], r["wall"], r["unpaired"]] + [r["errors"][m] for m in measures]
+            [r.id, r.labels["method"], r.labels["value"], r.code, r.wall, r.measured["unpaired"]]
+            + [r.measured["errors"][m] for m in measures]
             for r in runs
         ],
     )
@@ -155,11 +157,11 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     for ax, measure in zip(axes.flat, measures):
         for method in methods:
             pts = sorted(
-                (r["wall"], r["errors"][measure])
+                (r.wall, r.measured["errors"][measure])
                 for r in runs
-                if r["method"] == method["name"]
-                and r["errors"][measure] == r["errors"][measure]
-                and r["errors"][measure] > 0
+                if r.labels["method"] == method["name"]
+                and r.measured["errors"][measure] == r.measured["errors"][measure]
+                and r.measured["errors"][measure] > 0
             )
             if pts:
                 ax.loglog(*zip(*pts), "o-", label=method["name"])
@@ -196,8 +198,8 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     ]
     for r in runs:
         lines.append(
-            f"| {r['method']} | {r['value']:.3g} | {r['wall']:.3g} | {fmt(r['unpaired'])} | "
-            + " | ".join(fmt(r["errors"][m]) for m in measures)
+            f"| {r.labels['method']} | {r.labels['value']:.3g} | {r.wall:.3g} | {fmt(r.measured['unpaired'])} | "
+            + " | ".join(fmt(r.measured["errors"][m]) for m in measures)
             + " |"
         )
     lines += ["", failures_section(runs + references)]
@@ -228,14 +230,13 @@ def study_work_precision(runner, scenario_path, out, sets):
             else:  # output on the coarsest grid
                 extra += [f"numerics.step={steps[0]!r}"]
             runs.append(
-                {
-                    "id": f"{method['name']} {field.split('.')[-1]}={v:.3g}",
-                    "method": method["name"],
-                    "value": v,
-                    "scenario": path,
-                    "sets": list(sets) + list(method.get("set", [])) + extra,
-                    "out": os.path.join(out, "runs", f"m{m}_{i}"),
-                }
+                Run(
+                    id=f"{method['name']} {field.split('.')[-1]}={v:.3g}",
+                    labels={"method": method["name"], "value": v},
+                    scenario=path,
+                    sets=list(sets) + list(method.get("set", [])) + extra,
+                    out=os.path.join(out, "runs", f"m{m}_{i}"),
+                )
             )
     if study.get("events"):
         return study_work_precision_events(runner, scenario_path, scenario, study, sets, runs, methods, out)
@@ -244,18 +245,20 @@ def study_work_precision(runner, scenario_path, out, sets):
     )
     for r, hist in zip(runs, histories):
         errs = [probe_error(hist, reference, p, study) for p in probes] if hist else [float("nan")]
-        r["error"] = max(errs) if all(e == e for e in errs) else float("nan")
+        r.measured["error"] = max(errs) if all(e == e for e in errs) else float("nan")
     write_csv(
         os.path.join(out, "runs.csv"),
         ["run", "method", "swept_value", "exit", "wall_time", "error"],
-        [[r["id"], r["method"], r["value"], r["code"], r["wall"], r["error"]] for r in runs],
+        [[r.id, r.labels["method"], r.labels["value"], r.code, r.wall, r.measured["error"]] for r in runs],
     )
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     for method in methods:
         pts = sorted(
-            (r["wall"], r["error"])
+            (r.wall, r.measured["error"])
             for r in runs
-            if r["method"] == method["name"] and r["error"] == r["error"] and r["error"] > 0
+            if r.labels["method"] == method["name"]
+            and r.measured["error"] == r.measured["error"]
+            and r.measured["error"] > 0
         )
         if pts:
             ax.loglog(*zip(*pts), "o-", label=method["name"])
@@ -275,7 +278,7 @@ def study_work_precision(runner, scenario_path, out, sets):
         "|---|---|---|---|",
     ]
     for r in runs:
-        lines.append(f"| {r['method']} | {r['value']:.3g} | {r['wall']:.3g} | {fmt(r['error'])} |")
+        lines.append(f"| {r.labels['method']} | {r.labels['value']:.3g} | {r.wall:.3g} | {fmt(r.measured['error'])} |")
     lines += ["", failures_section(runs + extra_runs)]
     write_report(out, lines)
     return {"runs": runs, "probes": probes}

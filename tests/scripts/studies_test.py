@@ -14,20 +14,23 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from studies.common import (  # noqa: E402
     ROOT,
     Reference,
+    Run,
     StudyError,
     analytic,
     contact_episodes,
     every_for,
+    failures_section,
     fitted_order,
     fmt,
     halving_steps,
     probe_error,
+    record,
     same_overrides,
 )
 from studies.compare import compare_measure  # noqa: E402
 from studies.coupling import relaxation_sets  # noqa: E402
 from studies.envelope import axis_sets, unsafe_points  # noqa: E402
-from studies.results import envelope_headline  # noqa: E402
+from studies.results import envelope_headline, headline_rows  # noqa: E402
 
 
 class Common(unittest.TestCase):
@@ -131,12 +134,30 @@ class Studies(unittest.TestCase):
 
     def test_unsafe_points_count_failed_runs_as_unsafe(self):
         runs = [
-            {"code": 0, "measures": {"clearance": 0.5}},
-            {"code": 0, "measures": {"clearance": 0.1}},
-            {"code": 3, "measures": {"clearance": float("nan")}},
-            {"code": 0, "measures": {"clearance": float("nan")}},
+            Run(id=f"p{i}", scenario="s.pbtxt", sets=[], out="", code=code, measured={"clearance": c})
+            for i, (code, c) in enumerate([(0, 0.5), (0, 0.1), (3, float("nan")), (0, float("nan"))])
         ]
         self.assertEqual(unsafe_points(runs, 0.3), [False, True, True, None])
+
+    def test_a_run_records_its_outcome_from_its_summary(self):
+        # The time in the steps (step_wall_time) is the method's cost, not the process's seconds;
+        # what failed is the run's own reason, else the last line the process wrote.
+        with tempfile.TemporaryDirectory() as d:
+            with open(os.path.join(d, "summary.json"), "w") as f:
+                f.write('{"exit_code": 3, "reason": "Newton diverged", "step_wall_time": 1.5, "wall_time": 2.0}')
+            run = Run(id="h=0.1", scenario="s.pbtxt", sets=["numerics.step=0.1"], out=d, labels={"h": 0.1})
+            self.assertIsNone(run.code)  # not run yet
+            record(run, 3, 2.4, "worker-1", "warning\nlast words")
+            self.assertEqual((run.code, run.wall, run.seconds, run.host), (3, 1.5, 2.4, "worker-1"))
+            self.assertEqual(run.message, "Newton diverged")
+            self.assertFalse(run.ok)
+            self.assertEqual(
+                failures_section([run]).splitlines()[-1], "- h=0.1: exit 3 (numerical failure): Newton diverged"
+            )
+        lost = Run(id="lost", scenario="s.pbtxt", sets=[], out=os.path.join(ROOT, "no", "such", "folder"))
+        record(lost, 4, 0.5, "?", "the Dask task failed: KilledWorker")
+        self.assertEqual((lost.wall, lost.message, lost.summary), (0.5, "the Dask task failed: KilledWorker", None))
+        self.assertEqual(failures_section([Run(id="r", scenario="", sets=[], out="")]), "Every run completed.")
 
     def test_the_results_table_takes_the_envelope_figures_from_its_runs(self):
         # Counted from runs.csv (a failed run has no clearance to compare), not written by hand.
@@ -148,6 +169,21 @@ class Studies(unittest.TestCase):
             self.assertEqual(
                 envelope_headline(path, "kt"), "4 runs, 1 failed; the least clearance -0.15 m at 45 kt from 120°"
             )
+
+    def test_the_hand_written_rows_of_the_results_table_are_table_rows(self):
+        # The shipped reading's rows are the table's (four cells each); a stray line is refused.
+        rows = headline_rows(os.path.join(ROOT, "docs", "readings", "headline.md"))
+        self.assertGreaterEqual(len(rows), 10)
+        with open(os.path.join(ROOT, "docs", "results.md")) as f:
+            results = f.read()
+        for row in rows:
+            self.assertIn(row + "\n", results)  # results.md has them as the reading says
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "headline.md")
+            with open(path, "w") as f:
+                f.write("| a | b | c | d |\nnot a row\n")
+            with self.assertRaises(StudyError):
+                headline_rows(path)
 
     def test_compare_measures(self):
         # Means and extremes over a window; the first or last time a probe is back near its start.

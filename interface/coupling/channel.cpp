@@ -18,6 +18,10 @@ namespace {
 
 double Now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
+// A receive slice that overran its timeout by more than this [s] means this process was not
+// running (Channel::Wait).
+constexpr double kNotRunning = 0.5;
+
 // Seconds as ZeroMQ's int milliseconds, saturated (the scenario bounds the timeouts anyway).
 int Milliseconds(double seconds) {
   return static_cast<int>(std::clamp(1000.0 * seconds, 0.0, static_cast<double>(INT_MAX)));
@@ -286,12 +290,19 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting, double time
     {
       std::lock_guard<std::mutex> lock(socket_mutex_);
       HeartbeatIfDue();
-      socket_->set(zmq::sockopt::rcvtimeo, Milliseconds(std::min({left, 0.2, options_.heartbeat})) + 1);
+      const double slice = std::min({left, 0.2, options_.heartbeat});
+      socket_->set(zmq::sockopt::rcvtimeo, Milliseconds(slice) + 1);
+      const double begun = Now();
       try {
         received = socket_->recv(message, zmq::recv_flags::none).has_value();
       } catch (const zmq::error_t& e) {
         if (e.num() != EINTR) throw;  // a signal interrupted the wait: checked above
       }
+      // A slice that took far longer than it may: this process did not run (stopped by ^Z or
+      // SIGSTOP with its run, or starved). That time is not the peer's silence: the deadline
+      // moves by it (otherwise a run suspended for longer than coupling.timeout ends on resume).
+      const double away = Now() - begun - slice;
+      if (away > kNotRunning) deadline += away;
     }
     if (!received) continue;  // timed out or interrupted: checked above
     if (!incoming_.ParseFromArray(message.data(), static_cast<int>(message.size()))) {

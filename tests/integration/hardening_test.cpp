@@ -58,7 +58,10 @@ struct Background {
   }
 };
 
-Background Start(const std::string& program, const std::vector<std::string>& arguments, const fs::path& log) {
+// `own_group`: the process leads a process group of its own (as a shell job does), which a
+// signal to the group reaches with everything it starts.
+Background Start(const std::string& program, const std::vector<std::string>& arguments, const fs::path& log,
+                 bool own_group = false) {
   std::vector<std::string> storage{std::string(COSIM_BIN_DIR) + "/" + program};
   storage.insert(storage.end(), arguments.begin(), arguments.end());
   std::vector<char*> argv;
@@ -66,6 +69,7 @@ Background Start(const std::string& program, const std::vector<std::string>& arg
   argv.push_back(nullptr);
   const pid_t pid = fork();
   if (pid == 0) {
+    if (own_group) setpgid(0, 0);
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     dup2(fd, 1);
     dup2(fd, 2);
@@ -268,6 +272,27 @@ TEST(Hardening, StoppedContactProcessDoesNotHangTheRun) {
   EXPECT_EQ(killed.exit_code(), 4);
   EXPECT_NE(killed.reason().find("was killed by signal 9"), std::string::npos) << killed.reason();
   EXPECT_NE(killed.reason().find("after it ignored SIGTERM"), std::string::npos) << killed.reason();
+}
+
+TEST(Hardening, ARunSuspendedForLongerThanItsTimeoutGoesOnWhenResumed) {
+  // ^Z on a coupled run stops its whole process group (the launcher and every process it
+  // started) and fg continues it. Each side's wait counted the stopped time as its peer's
+  // silence: a run suspended for longer than coupling.timeout ended with exit 4 as soon as it was
+  // resumed. A receive slice that overran by the time its process did not run now moves the
+  // deadline by that time. Suspended here for 3 s with a 1 s timeout.
+  const fs::path out = TempDir("suspended_run");
+  Background run =
+      Start("cosim_launch",
+            {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=60", "--set", "coupling.timeout=1"},
+            out.string() + ".txt", /*own_group=*/true);
+  ASSERT_TRUE(WaitForHistoryRows(out, 2, 30.0)) << Slurp(out.string() + ".txt");
+  ASSERT_EQ(kill(-run.pid, SIGSTOP), 0);
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  ASSERT_EQ(kill(-run.pid, SIGCONT), 0);
+  EXPECT_EQ(run.Wait(60.0), 0) << Slurp(out.string() + ".txt");
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_EQ(s.status(), "ok") << s.reason();
+  EXPECT_DOUBLE_EQ(s.simulated_time(), 60.0);
 }
 
 TEST(Hardening, StoppedCoordinatorDoesNotHangTheRun) {

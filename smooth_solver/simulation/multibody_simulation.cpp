@@ -13,6 +13,7 @@
 #include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
 #include "smooth_solver/simulation/node_rest.h"
+#include "smooth_solver/simulation/saved_state.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "state.pb.h"
 
@@ -250,7 +251,12 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
   if (restart) {
     initial.q = Eigen::Map<const Eigen::VectorXd>(restart->q().data(), restart->q_size());
     initial.qdot = Eigen::Map<const Eigen::VectorXd>(restart->qdot().data(), restart->qdot_size());
-    system_->AcceptStep(initial.q, initial.qdot, time_, data_.get());
+    if (HasSavedData(*restart)) {  // the memories and inflow as the first run left them
+      const std::string mismatch = RestoreData(*restart, data_.get());
+      if (!mismatch.empty()) checks.Fail("numerics.initial_state", mismatch + ": expected a state of this scene");
+    } else {  // (a state saved before the data was): from the saved state
+      system_->AcceptStep(initial.q, initial.qdot, time_, data_.get());
+    }
     ConsistentAccelerations(*system_, *data_, time_, &initial);
   }
   if (ida_) {
@@ -259,7 +265,17 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
     integrator_ = std::make_unique<CgAlphaIndex2>(*system_, *data_, settings.cgalpha, initial);
   } else {
     // Its checkpoints (rejected steps, coupling iterations) save and restore the data too.
-    integrator_ = std::make_unique<CgAlpha>(*system_, data_.get(), settings.cgalpha, initial);
+    auto cg = std::make_unique<CgAlpha>(*system_, data_.get(), settings.cgalpha, initial);
+    // A restart of a CGα run continues its history (a_n, f̃_n, the step's accelerations and
+    // multipliers): the run goes on as if it had not stopped. (A coupled run's coordinator
+    // starts the coupling rows afresh at its handshake all the same.)
+    CgAlpha::Checkpoint history;
+    if (restart && RestoreHistory(*restart, system_->coordinates, system_->constraints.size(), &history)) {
+      history.data = *data_;
+      cg->Restore(history);
+      if (restart->has_next_step() && restart->next_step() > 0.0) h_next_ = restart->next_step();
+    }
+    integrator_ = std::move(cg);
   }
   WatchdogSettings watchdog = settings.watchdog;
   watchdog.energy = settings.energy_check == sc::Watchdog::ON ||
@@ -797,6 +813,13 @@ void MultibodySimulation::EndOutput() {
   saved.mutable_angle_offsets()->Add(angle_offset_.begin(), angle_offset_.end());
   saved.mutable_reference_q()->Add(reference_q_.data(), reference_q_.data() + reference_q_.size());
   saved.set_reference_time(reference_time_);
+  SaveData(*data_, &saved);
+  if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get()); cg != nullptr && !static_) {
+    CgAlpha::Checkpoint history;
+    cg->SaveTo(&history);
+    SaveHistory(history, &saved);
+    if (adaptive_.on) saved.set_next_step(h_next_);
+  }
   interface::WriteFinalState(output_folder_, saved);
 }
 

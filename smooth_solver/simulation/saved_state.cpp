@@ -1,0 +1,127 @@
+#include "smooth_solver/simulation/saved_state.h"
+
+#include <google/protobuf/repeated_field.h>
+
+namespace cosim::smooth {
+
+namespace {
+
+using Doubles = google::protobuf::RepeatedField<double>;
+
+void Add(const Eigen::Vector3d& v, Doubles* out) { out->Add(v.data(), v.data() + 3); }
+void Add(const Eigen::VectorXd& v, Doubles* out) { out->Add(v.data(), v.data() + v.size()); }
+
+// The three values of `in` (false if it has not three).
+bool Read(const Doubles& in, Eigen::Vector3d* v) {
+  if (in.size() != 3) return false;
+  *v = Eigen::Vector3d(in.Get(0), in.Get(1), in.Get(2));
+  return true;
+}
+
+bool Read(const Doubles& in, int size, Eigen::VectorXd* v) {
+  if (in.size() != size) return false;
+  *v = Eigen::Map<const Eigen::VectorXd>(in.data(), size);
+  return true;
+}
+
+}  // namespace
+
+void SaveData(const SystemData& data, state::SmoothState* saved) {
+  saved->mutable_impact_speed()->Add(data.impact_speed.begin(), data.impact_speed.end());
+  for (const RotorInflowState& r : data.rotors) {
+    state::SmoothState::Rotor* out = saved->add_rotors();
+    Add(r.centre, out->mutable_centre());
+    Add(r.n, out->mutable_n());
+    Add(r.x, out->mutable_x());
+    Add(r.y, out->mutable_y());
+    Add(r.downstream, out->mutable_downstream());
+    Add(r.nu, out->mutable_nu());
+    out->set_v_normal(r.v_normal);
+    out->set_v_parallel(r.v_parallel);
+    out->set_tip_speed(r.tip_speed);
+    out->set_fade(r.fade);
+    out->set_t(r.t);
+    out->set_started(r.started);
+  }
+  for (const ImposedCoordinate& x : data.imposed) {
+    state::SmoothState::Imposed* out = saved->add_imposed();
+    out->set_value(x.value);
+    out->set_rate(x.rate);
+    out->set_acceleration(x.acceleration);
+  }
+  for (const Eigen::Matrix3d& c : data.interface_compliance) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) saved->add_interface_compliance(c(i, j));
+    }
+  }
+}
+
+bool HasSavedData(const state::SmoothState& saved) {
+  // (A scene without memories, rotors or interface points saves nothing: its data is MakeData's.)
+  return saved.impact_speed_size() > 0 || saved.rotors_size() > 0 || saved.imposed_size() > 0;
+}
+
+std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
+  if (saved.impact_speed_size() != static_cast<int>(data->impact_speed.size()) ||
+      saved.rotors_size() != static_cast<int>(data->rotors.size()) ||
+      saved.imposed_size() != static_cast<int>(data->imposed.size()) ||
+      saved.interface_compliance_size() != 9 * static_cast<int>(data->interface_compliance.size())) {
+    return "its data (" + std::to_string(saved.impact_speed_size()) + " contact memories, " +
+           std::to_string(saved.rotors_size()) + " rotors, " + std::to_string(saved.imposed_size() / 3) +
+           " interface points) is not this scene's (" + std::to_string(data->impact_speed.size()) + ", " +
+           std::to_string(data->rotors.size()) + ", " + std::to_string(data->imposed.size() / 3) + ")";
+  }
+  SystemData restored = *data;
+  for (int i = 0; i < saved.impact_speed_size(); ++i) {
+    restored.impact_speed[static_cast<size_t>(i)] = saved.impact_speed(i);
+  }
+  for (int k = 0; k < saved.rotors_size(); ++k) {
+    const state::SmoothState::Rotor& in = saved.rotors(k);
+    RotorInflowState& r = restored.rotors[static_cast<size_t>(k)];
+    if (!Read(in.centre(), &r.centre) || !Read(in.n(), &r.n) || !Read(in.x(), &r.x) || !Read(in.y(), &r.y) ||
+        !Read(in.downstream(), &r.downstream) || !Read(in.nu(), &r.nu)) {
+      return "its rotor " + std::to_string(k) + " lacks a vector of three values";
+    }
+    r.v_normal = in.v_normal();
+    r.v_parallel = in.v_parallel();
+    r.tip_speed = in.tip_speed();
+    r.fade = in.fade();
+    r.t = in.t();
+    r.started = in.started();
+  }
+  for (int i = 0; i < saved.imposed_size(); ++i) {
+    ImposedCoordinate& x = restored.imposed[static_cast<size_t>(i)];
+    x.value = saved.imposed(i).value();
+    x.rate = saved.imposed(i).rate();
+    x.acceleration = saved.imposed(i).acceleration();
+  }
+  for (size_t k = 0; k < restored.interface_compliance.size(); ++k) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) {
+        restored.interface_compliance[k](i, j) = saved.interface_compliance(static_cast<int>(9 * k) + 3 * i + j);
+      }
+    }
+  }
+  data->CopyFrom(restored);
+  return {};
+}
+
+void SaveHistory(const CgAlpha::Checkpoint& history, state::SmoothState* saved) {
+  Add(history.state.qddot, saved->mutable_qddot());
+  Add(history.state.lambda, saved->mutable_lambda());
+  Add(history.a, saved->mutable_acceleration_variable());
+  Add(history.elastic, saved->mutable_elastic_force());
+}
+
+bool RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints, CgAlpha::Checkpoint* history) {
+  history->state.q = Eigen::Map<const Eigen::VectorXd>(saved.q().data(), saved.q_size());
+  history->state.qdot = Eigen::Map<const Eigen::VectorXd>(saved.qdot().data(), saved.qdot_size());
+  history->started = true;
+  return saved.q_size() == coordinates && saved.qdot_size() == coordinates &&
+         Read(saved.qddot(), coordinates, &history->state.qddot) &&
+         Read(saved.lambda(), constraints, &history->state.lambda) &&
+         Read(saved.acceleration_variable(), coordinates, &history->a) &&
+         Read(saved.elastic_force(), coordinates, &history->elastic);
+}
+
+}  // namespace cosim::smooth

@@ -1,0 +1,26 @@
+#pragma once
+// What a smooth run's final_state.pb (proto/state.proto, SmoothState) holds besides q and q̇, so
+// that a restart (numerics.initial_state) continues the run instead of starting it afresh: the
+// run's SystemData (contact memories, rotor inflow, imposed coordinates) and CGα's history
+// (accelerations, multipliers, a_n, the elastic midpoint force).
+#include <string>
+
+#include "smooth_solver/integrator/cgalpha.h"
+#include "state.pb.h"
+
+namespace cosim::smooth {
+
+void SaveData(const SystemData& data, state::SmoothState* saved);
+// Whether `saved` holds a SystemData (written by a run since the data was saved).
+bool HasSavedData(const state::SmoothState& saved);
+// The saved SystemData into `data` (made by MakeData for this scene). Returns an empty string,
+// or what does not match (the sizes of another scene's data): the caller's refusal.
+std::string RestoreData(const state::SmoothState& saved, SystemData* data);
+
+// CGα's history: the checkpoint's state (accelerations, multipliers) and a_n, f̃_n.
+void SaveHistory(const CgAlpha::Checkpoint& history, state::SmoothState* saved);
+// The saved history as a checkpoint of an integrator of `coordinates` and `constraints` (its
+// data left alone), if `saved` holds one of those sizes.
+bool RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints, CgAlpha::Checkpoint* history);
+
+}  // namespace cosim::smooth

@@ -270,7 +270,9 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
     // multipliers): the run goes on as if it had not stopped. (A coupled run's coordinator
     // starts the coupling rows afresh at its handshake all the same.)
     CgAlpha::Checkpoint history;
-    if (restart && RestoreHistory(*restart, system_->coordinates, system_->constraints.size(), &history)) {
+    if (restart && HasSavedHistory(*restart)) {
+      const std::string wrong = RestoreHistory(*restart, system_->coordinates, system_->constraints.size(), &history);
+      if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
       history.data = *data_;
       cg->Restore(history);
       if (restart->has_next_step() && restart->next_step() > 0.0) h_next_ = restart->next_step();

@@ -2,6 +2,11 @@
 
 #include <google/protobuf/repeated_field.h>
 
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+#include <utility>
+
 namespace cosim::smooth {
 
 namespace {
@@ -22,6 +27,17 @@ bool Read(const Doubles& in, int size, Eigen::VectorXd* v) {
   if (in.size() != size) return false;
   *v = Eigen::Map<const Eigen::VectorXd>(in.data(), size);
   return true;
+}
+
+// The first field of `fields` (name, values) with a non-finite value, as "its NAME[i]"; empty if none.
+std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles*>> fields) {
+  for (const auto& [name, values] : fields) {
+    for (int i = 0; i < values->size(); ++i) {
+      if (!std::isfinite(values->Get(i)))
+        return std::string("its ") + name + "[" + std::to_string(i) + "] is not finite";
+    }
+  }
+  return {};
 }
 
 }  // namespace
@@ -71,6 +87,11 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
            " interface points) is not this scene's (" + std::to_string(data->impact_speed.size()) + ", " +
            std::to_string(data->rotors.size()) + ", " + std::to_string(data->imposed.size() / 3) + ")";
   }
+  if (std::string bad =
+          NonFinite({{"impact_speed", &saved.impact_speed()}, {"interface_compliance", &saved.interface_compliance()}});
+      !bad.empty()) {
+    return bad;
+  }
   SystemData restored = *data;
   for (int i = 0; i < saved.impact_speed_size(); ++i) {
     restored.impact_speed[static_cast<size_t>(i)] = saved.impact_speed(i);
@@ -82,6 +103,17 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
         !Read(in.downstream(), &r.downstream) || !Read(in.nu(), &r.nu)) {
       return "its rotor " + std::to_string(k) + " lacks a vector of three values";
     }
+    const std::string bad = NonFinite({{"rotors.centre", &in.centre()},
+                                       {"rotors.n", &in.n()},
+                                       {"rotors.x", &in.x()},
+                                       {"rotors.y", &in.y()},
+                                       {"rotors.downstream", &in.downstream()},
+                                       {"rotors.nu", &in.nu()}});
+    const double scalars[] = {in.v_normal(), in.v_parallel(), in.tip_speed(), in.fade(), in.t()};
+    if (!bad.empty() ||
+        !std::all_of(std::begin(scalars), std::end(scalars), [](double x) { return std::isfinite(x); })) {
+      return "its rotor " + std::to_string(k) + " has a value that is not finite";
+    }
     r.v_normal = in.v_normal();
     r.v_parallel = in.v_parallel();
     r.tip_speed = in.tip_speed();
@@ -90,6 +122,10 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
     r.started = in.started();
   }
   for (int i = 0; i < saved.imposed_size(); ++i) {
+    const state::SmoothState::Imposed& in = saved.imposed(i);
+    if (!std::isfinite(in.value()) || !std::isfinite(in.rate()) || !std::isfinite(in.acceleration())) {
+      return "its imposed[" + std::to_string(i) + "] is not finite";
+    }
     ImposedCoordinate& x = restored.imposed[static_cast<size_t>(i)];
     x.value = saved.imposed(i).value();
     x.rate = saved.imposed(i).rate();
@@ -113,15 +149,26 @@ void SaveHistory(const CgAlpha::Checkpoint& history, state::SmoothState* saved) 
   Add(history.elastic, saved->mutable_elastic_force());
 }
 
-bool RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints, CgAlpha::Checkpoint* history) {
-  history->state.q = Eigen::Map<const Eigen::VectorXd>(saved.q().data(), saved.q_size());
-  history->state.qdot = Eigen::Map<const Eigen::VectorXd>(saved.qdot().data(), saved.qdot_size());
+bool HasSavedHistory(const state::SmoothState& saved) { return saved.acceleration_variable_size() > 0; }
+
+std::string RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints,
+                           CgAlpha::Checkpoint* history) {
   history->started = true;
-  return saved.q_size() == coordinates && saved.qdot_size() == coordinates &&
-         Read(saved.qddot(), coordinates, &history->state.qddot) &&
-         Read(saved.lambda(), constraints, &history->state.lambda) &&
-         Read(saved.acceleration_variable(), coordinates, &history->a) &&
-         Read(saved.elastic_force(), coordinates, &history->elastic);
+  if (!Read(saved.q(), coordinates, &history->state.q) || !Read(saved.qdot(), coordinates, &history->state.qdot) ||
+      !Read(saved.qddot(), coordinates, &history->state.qddot) ||
+      !Read(saved.lambda(), constraints, &history->state.lambda) ||
+      !Read(saved.acceleration_variable(), coordinates, &history->a) ||
+      !Read(saved.elastic_force(), coordinates, &history->elastic)) {
+    return "its CGα history (qddot, lambda, acceleration_variable, elastic_force: " +
+           std::to_string(saved.qddot_size()) + ", " + std::to_string(saved.lambda_size()) + ", " +
+           std::to_string(saved.acceleration_variable_size()) + ", " + std::to_string(saved.elastic_force_size()) +
+           " values) is not of this scene's " + std::to_string(coordinates) + " coordinates and " +
+           std::to_string(constraints) + " constraints";
+  }
+  return NonFinite({{"qddot", &saved.qddot()},
+                    {"lambda", &saved.lambda()},
+                    {"acceleration_variable", &saved.acceleration_variable()},
+                    {"elastic_force", &saved.elastic_force()}});
 }
 
 }  // namespace cosim::smooth

@@ -19,8 +19,11 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data);
 
 // CGα's history: the checkpoint's state (accelerations, multipliers) and a_n, f̃_n.
 void SaveHistory(const CgAlpha::Checkpoint& history, state::SmoothState* saved);
+// Whether `saved` holds a CGα history (a CGα run's state, saved since the history was).
+bool HasSavedHistory(const state::SmoothState& saved);
 // The saved history as a checkpoint of an integrator of `coordinates` and `constraints` (its
-// data left alone), if `saved` holds one of those sizes.
-bool RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints, CgAlpha::Checkpoint* history);
+// data left alone). Returns an empty string, or what is wrong with it (sizes, non-finite values).
+std::string RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints,
+                           CgAlpha::Checkpoint* history);
 
 }  // namespace cosim::smooth

@@ -9,8 +9,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "interface/run/errors.h"
@@ -135,10 +137,11 @@ TEST(Restart, ARestartedCgAlphaRunGoesOnAsTheRunMadeInOneGo) {
   }
 }
 
-TEST(Restart, ASavedStateWhoseDataIsNotTheScenesIsRefusedNamingTheField) {
-  // A state of the same scene name and sizes but another number of contact memories (a file
-  // edited, or written by another version of the scene): refused with exit 2, not read past
-  // its end.
+TEST(Restart, ASavedStateWhoseDataOrHistoryIsNotTheScenesIsRefusedNamingTheField) {
+  // A state of the same scene name and sizes but edited (or written by another version of the
+  // scene): another number of contact memories, a history of another size, a non-finite onset
+  // speed or a_n. Refused with exit 2 naming numerics.initial_state and what is wrong, not read
+  // past its end nor carried into the run as NaN (which the watchdog would report as exit 3).
   const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop_continuous.pbtxt";
   const std::string folder = ::testing::TempDir() + "restart_data_mismatch";
   std::filesystem::create_directories(folder);
@@ -146,26 +149,39 @@ TEST(Restart, ASavedStateWhoseDataIsNotTheScenesIsRefusedNamingTheField) {
   StepAndProbe(&part, 0.0, 5e-5, 10);
   part.BeginOutput(folder);
   part.EndOutput();
-  state::SmoothState s;
+  state::SmoothState saved;
   {
     std::ifstream in(folder + "/final_state.pb", std::ios::binary);
-    ASSERT_TRUE(s.ParseFromIstream(&in));
+    ASSERT_TRUE(saved.ParseFromIstream(&in));
   }
-  ASSERT_EQ(s.impact_speed_size(), 1);
-  s.add_impact_speed(0.5);
-  {
-    std::ofstream out(folder + "/edited.pb", std::ios::binary);
-    ASSERT_TRUE(s.SerializeToOstream(&out));
-  }
-  try {
-    MultibodySimulation sim(interface::ScenarioFile::Load(
-        path,
-        {"numerics.start_time=" + std::to_string(s.time()), "numerics.initial_state=\"" + folder + "/edited.pb\""}));
-    ADD_FAILURE() << "an edited state was accepted";
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("numerics.initial_state"), std::string::npos) << what;
-    EXPECT_NE(what.find("2 contact memories"), std::string::npos) << what;
+  ASSERT_EQ(saved.impact_speed_size(), 1);
+  ASSERT_GT(saved.acceleration_variable_size(), 0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<std::pair<std::function<void(state::SmoothState*)>, std::string>> edits{
+      {[](state::SmoothState* s) { s->add_impact_speed(0.5); }, "2 contact memories"},
+      {[](state::SmoothState* s) { s->mutable_lambda()->RemoveLast(); }, "is not of this scene's"},
+      {[nan](state::SmoothState* s) { s->set_impact_speed(0, nan); }, "impact_speed[0] is not finite"},
+      {[nan](state::SmoothState* s) { s->set_acceleration_variable(3, nan); },
+       "acceleration_variable[3] is not finite"},
+  };
+  for (const auto& [edit, expected] : edits) {
+    SCOPED_TRACE(expected);
+    state::SmoothState s = saved;
+    edit(&s);
+    {
+      std::ofstream out(folder + "/edited.pb", std::ios::binary);
+      ASSERT_TRUE(s.SerializeToOstream(&out));
+    }
+    try {
+      MultibodySimulation sim(interface::ScenarioFile::Load(
+          path,
+          {"numerics.start_time=" + std::to_string(s.time()), "numerics.initial_state=\"" + folder + "/edited.pb\""}));
+      ADD_FAILURE() << "an edited state was accepted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("numerics.initial_state"), std::string::npos) << what;
+      EXPECT_NE(what.find(expected), std::string::npos) << what;
+    }
   }
 }
 

@@ -270,12 +270,14 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
     // multipliers): the run goes on as if it had not stopped. (A coupled run's coordinator
     // starts the coupling rows afresh at its handshake all the same.)
     CgAlpha::Checkpoint history;
-    if (restart && HasSavedHistory(*restart)) {
+    if (restart && HistoryFits(*restart, HistoryOf{numerics_.step(), settings.cgalpha, adaptive_.on})) {
       const std::string wrong = RestoreHistory(*restart, system_->coordinates, system_->constraints.size(), &history);
       if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
       history.data = *data_;
       cg->Restore(history);
-      if (restart->has_next_step() && restart->next_step() > 0.0) h_next_ = restart->next_step();
+      if (restart->has_next_step() && restart->next_step() > 0.0) {
+        h_next_ = std::max(restart->next_step(), adaptive_.min_step);  // (a run may have ended below it)
+      }
     }
     integrator_ = std::move(cg);
   }
@@ -792,6 +794,7 @@ void MultibodySimulation::Record(double t1, int iterations) {
   } else {
     newton_.Add(iterations);
   }
+  last_step_ = t1 - time_;
   time_ = t1;
   probe_time_ = t1;  // the probes read the integrator's state (an adaptive step may interpolate after)
   interpolated_ = false;
@@ -819,7 +822,7 @@ void MultibodySimulation::EndOutput() {
   if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get()); cg != nullptr && !static_) {
     CgAlpha::Checkpoint history;
     cg->SaveTo(&history);
-    SaveHistory(history, &saved);
+    SaveHistory(history, HistoryOf{last_step_, cg->settings(), adaptive_.on}, &saved);
     if (adaptive_.on) saved.set_next_step(h_next_);
   }
   interface::WriteFinalState(output_folder_, saved);

@@ -119,6 +119,7 @@ class MultibodySimulation : public interface::Simulation {
   std::unique_ptr<Watchdog> watchdog_;
   long steps_ = 0;
   double time_ = 0.0;
+  double last_step_ = 0.0;  // the last accepted step's length (saved with CGα's history)
   double max_violation_ = 0.0;
   // numerics.adaptive (standalone CGα): the controller's settings and state. time_ is the
   // integrator's time, which may run ahead of the output grid; the probes then read shown_, the

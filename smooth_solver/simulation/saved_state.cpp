@@ -65,11 +65,7 @@ void SaveData(const SystemData& data, state::SmoothState* saved) {
     out->set_rate(x.rate);
     out->set_acceleration(x.acceleration);
   }
-  for (const Eigen::Matrix3d& c : data.interface_compliance) {
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) saved->add_interface_compliance(c(i, j));
-    }
-  }
+  // (Not the peers' interface compliance: the coordinator sets it from their answers.)
 }
 
 bool HasSavedData(const state::SmoothState& saved) {
@@ -80,18 +76,13 @@ bool HasSavedData(const state::SmoothState& saved) {
 std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
   if (saved.impact_speed_size() != static_cast<int>(data->impact_speed.size()) ||
       saved.rotors_size() != static_cast<int>(data->rotors.size()) ||
-      saved.imposed_size() != static_cast<int>(data->imposed.size()) ||
-      saved.interface_compliance_size() != 9 * static_cast<int>(data->interface_compliance.size())) {
+      saved.imposed_size() != static_cast<int>(data->imposed.size())) {
     return "its data (" + std::to_string(saved.impact_speed_size()) + " contact memories, " +
            std::to_string(saved.rotors_size()) + " rotors, " + std::to_string(saved.imposed_size() / 3) +
            " interface points) is not this scene's (" + std::to_string(data->impact_speed.size()) + ", " +
            std::to_string(data->rotors.size()) + ", " + std::to_string(data->imposed.size() / 3) + ")";
   }
-  if (std::string bad =
-          NonFinite({{"impact_speed", &saved.impact_speed()}, {"interface_compliance", &saved.interface_compliance()}});
-      !bad.empty()) {
-    return bad;
-  }
+  if (std::string bad = NonFinite({{"impact_speed", &saved.impact_speed()}}); !bad.empty()) return bad;
   SystemData restored = *data;
   for (int i = 0; i < saved.impact_speed_size(); ++i) {
     restored.impact_speed[static_cast<size_t>(i)] = saved.impact_speed(i);
@@ -131,25 +122,33 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
     x.rate = saved.imposed(i).rate();
     x.acceleration = saved.imposed(i).acceleration();
   }
-  for (size_t k = 0; k < restored.interface_compliance.size(); ++k) {
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) {
-        restored.interface_compliance[k](i, j) = saved.interface_compliance(static_cast<int>(9 * k) + 3 * i + j);
-      }
-    }
-  }
+  // (The interface compliance stays zero, MakeData's: the coordinator sets it from the peers' answers.)
   data->CopyFrom(restored);
   return {};
 }
 
-void SaveHistory(const CgAlpha::Checkpoint& history, state::SmoothState* saved) {
+void SaveHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state::SmoothState* saved) {
   Add(history.state.qddot, saved->mutable_qddot());
   Add(history.state.lambda, saved->mutable_lambda());
   Add(history.a, saved->mutable_acceleration_variable());
   Add(history.elastic, saved->mutable_elastic_force());
+  state::SmoothState::HistoryOf* out = saved->mutable_history_of();
+  out->set_step(of.step);
+  out->set_rho_inf(of.settings.rho_inf);
+  out->set_form(static_cast<int>(of.settings.form));
+  out->set_gemm(of.settings.gemm);
+  out->set_started(history.started);
+  out->set_adaptive(of.adaptive);
 }
 
-bool HasSavedHistory(const state::SmoothState& saved) { return saved.acceleration_variable_size() > 0; }
+bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now) {
+  if (!saved.has_history_of() || saved.acceleration_variable_size() == 0) return false;
+  const state::SmoothState::HistoryOf& of = saved.history_of();
+  const bool same_step =
+      now.adaptive ? of.adaptive() : !of.adaptive() && std::abs(of.step() - now.step) <= 1e-12 * now.step;
+  return of.started() && same_step && of.rho_inf() == now.settings.rho_inf &&
+         of.form() == static_cast<int>(now.settings.form) && of.gemm() == now.settings.gemm;
+}
 
 std::string RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints,
                            CgAlpha::Checkpoint* history) {

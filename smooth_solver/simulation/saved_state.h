@@ -17,10 +17,18 @@ bool HasSavedData(const state::SmoothState& saved);
 // or what does not match (the sizes of another scene's data): the caller's refusal.
 std::string RestoreData(const state::SmoothState& saved, SystemData* data);
 
-// CGα's history: the checkpoint's state (accelerations, multipliers) and a_n, f̃_n.
-void SaveHistory(const CgAlpha::Checkpoint& history, state::SmoothState* saved);
-// Whether `saved` holds a CGα history (a CGα run's state, saved since the history was).
-bool HasSavedHistory(const state::SmoothState& saved);
+// What a CGα history belongs to: the run's last accepted step, its settings, whether it is adaptive.
+struct HistoryOf {
+  double step = 0.0;
+  CgAlphaSettings settings;
+  bool adaptive = false;
+};
+// CGα's history: the checkpoint's state (accelerations, multipliers), a_n, f̃_n and what they
+// belong to.
+void SaveHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state::SmoothState* saved);
+// Whether `saved` holds a CGα history that a run of `now` continues: started, of the same ρ∞,
+// constraint form and GEMM choice, and of the same step unless both are adaptive.
+bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now);
 // The saved history as a checkpoint of an integrator of `coordinates` and `constraints` (its
 // data left alone). Returns an empty string, or what is wrong with it (sizes, non-finite values).
 std::string RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints,

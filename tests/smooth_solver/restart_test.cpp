@@ -185,5 +185,54 @@ TEST(Restart, ASavedStateWhoseDataOrHistoryIsNotTheScenesIsRefusedNamingTheField
   }
 }
 
+TEST(Restart, AHistoryOfAnotherStepOrRhoInfOrNotStartedIsNotContinued) {
+  // a_n approximates q̈ at t_n + (αm − αf) h: a run restarted with another step (a convergence
+  // study's runs all start from one settling run's state, saved at the scene's step) or another
+  // ρ∞ must start CGα afresh (consistent q̈ and λ, its start-up), as must a history whose start-up
+  // was never taken. Each such restart is the one from the same state without its history, bit
+  // for bit; the restart at the saved step and ρ∞ is not (it continues the history).
+  const std::string pendulum = std::string(COSIM_SOURCE_DIR) + "/tests/data/rigid_pendulum.pbtxt";
+  const std::string folder = ::testing::TempDir() + "restart_history_of";
+  std::filesystem::create_directories(folder);
+  const double h = 1e-3;
+  const std::string spin = "model.bodies[arm].angular_velocity=[0, 9, 0]";  // swinging over the top
+  MultibodySimulation part(interface::ScenarioFile::Load(pendulum, {spin}));
+  StepAndProbe(&part, 0.0, h, 300);
+  part.BeginOutput(folder);
+  part.EndOutput();
+  state::SmoothState saved;
+  {
+    std::ifstream in(folder + "/final_state.pb", std::ios::binary);
+    ASSERT_TRUE(saved.ParseFromIstream(&in));
+  }
+  ASSERT_TRUE(saved.has_history_of());
+  auto write = [&](const state::SmoothState& s, const std::string& name) {
+    std::ofstream out(folder + "/" + name, std::ios::binary);
+    ASSERT_TRUE(s.SerializeToOstream(&out));
+  };
+  state::SmoothState bare = saved, unstarted = saved;
+  for (int field : {10, 11, 12, 13, 18})
+    bare.GetReflection()->ClearField(&bare, bare.GetDescriptor()->FindFieldByNumber(field));
+  unstarted.mutable_history_of()->set_started(false);
+  write(bare, "bare.pb");
+  write(unstarted, "unstarted.pb");
+  auto run = [&](const std::string& state, double step, const std::string& rho_inf) {
+    std::vector<std::string> sets{spin, "numerics.start_time=0.3", "numerics.step=" + std::to_string(step),
+                                  "numerics.initial_state=\"" + folder + "/" + state + "\""};
+    if (!rho_inf.empty()) sets.push_back("numerics.smooth.rho_inf=" + rho_inf);
+    MultibodySimulation sim(interface::ScenarioFile::Load(pendulum, sets));
+    std::vector<double> angles;  // (the scene has no probes)
+    for (long k = 0; k < std::lround(0.2 / step); ++k) {
+      sim.Step(0.3 + static_cast<double>(k) * step, step);
+      angles.push_back(sim.system().JointCoordinate(0, sim.integrator().state().q));
+    }
+    return angles;
+  };
+  EXPECT_EQ(run("final_state.pb", h / 2, ""), run("bare.pb", h / 2, "")) << "another step";
+  EXPECT_EQ(run("final_state.pb", h, "0.5"), run("bare.pb", h, "0.5")) << "another ρ∞";
+  EXPECT_EQ(run("unstarted.pb", h, ""), run("bare.pb", h, "")) << "a history never started";
+  EXPECT_NE(run("final_state.pb", h, ""), run("bare.pb", h, "")) << "the history was not continued";
+}
+
 }  // namespace
 }  // namespace cosim::smooth

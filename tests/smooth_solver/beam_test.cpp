@@ -11,8 +11,10 @@
 #include <cstdio>
 #include <fstream>
 #include <numbers>
-#include <regex>
 #include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include "interface/run/errors.h"
 #include "smooth_solver/analysis/rotating_frame.h"
@@ -45,6 +47,22 @@ std::string Cantilever(int elements, int nodes, double ea, double ei, const std:
 MultibodySystem Build(const std::string& text, const std::vector<std::string>& sets = {}) {
   const MultibodyModel model = BuildMultibodyModel(interface::ScenarioFile::Parse(text, "beam.pbtxt", sets));
   return BuildMultibodySystem(model);
+}
+
+// `text` with the number after every "NAME: " of `names` (digits, signs, points, exponents)
+// replaced by 0. (Not std::regex: GCC 12's -Wmaybe-uninitialized fires inside it under the
+// sanitizers' -O2, and -Werror stopped the asan preset's unit tests.)
+std::string ZeroValues(std::string text, const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
+    const std::string key = name + ": ";
+    for (size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + 1)) {
+      const size_t begin = at + key.size();
+      size_t end = begin;
+      while (end < text.size() && std::string_view("-0123456789.e").find(text[end]) != std::string_view::npos) ++end;
+      if (end > begin) text.replace(begin, end - begin, "0");
+    }
+  }
+  return text;
 }
 
 TEST(Beam, TangentsMatchFiniteDifferences) {
@@ -372,7 +390,7 @@ TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
   std::stringstream file_text;
   file_text << in.rdbuf();
   const std::string scene = file_text.str();
-  const std::string uncoupled = std::regex_replace(scene, std::regex("(cg_chord|twist): [-0-9.e]+"), "$1: 0");
+  const std::string uncoupled = ZeroValues(scene, {"cg_chord", "twist"});
   const std::vector<std::string> speed = {"numerics.start_time=28", "numerics.end_time=28.1", "numerics.step=0.1"};
   const auto torsion_mode = [&](const std::string& text, int elements, double* share) {
     std::vector<std::string> sets = speed;

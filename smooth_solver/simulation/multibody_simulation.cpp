@@ -271,7 +271,7 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
     // starts the coupling rows afresh at its handshake all the same.)
     CgAlpha::Checkpoint history;
     if (restart && HistoryFits(*restart, HistoryOf{numerics_.step(), settings.cgalpha, adaptive_.on})) {
-      const std::string wrong = RestoreHistory(*restart, system_->coordinates, system_->constraints.size(), &history);
+      const std::string wrong = RestoreHistory(*restart, initial, system_->constraints.size(), &history);
       if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
       history.data = *data_;
       cg->Restore(history);

@@ -118,9 +118,9 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
       return "its imposed[" + std::to_string(i) + "] is not finite";
     }
     ImposedCoordinate& x = restored.imposed[static_cast<size_t>(i)];
-    x.value = saved.imposed(i).value();
-    x.rate = saved.imposed(i).rate();
-    x.acceleration = saved.imposed(i).acceleration();
+    x.value = in.value();
+    x.rate = in.rate();
+    x.acceleration = in.acceleration();
   }
   // (The interface compliance stays zero, MakeData's: the coordinator sets it from the peers' answers.)
   data->CopyFrom(restored);
@@ -150,11 +150,12 @@ bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now) {
          of.form() == static_cast<int>(now.settings.form) && of.gemm() == now.settings.gemm;
 }
 
-std::string RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints,
+std::string RestoreHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
                            CgAlpha::Checkpoint* history) {
+  const int coordinates = static_cast<int>(at.q.size());
+  history->state = at;  // (q and q̇ as the caller read and checked them)
   history->started = true;
-  if (!Read(saved.q(), coordinates, &history->state.q) || !Read(saved.qdot(), coordinates, &history->state.qdot) ||
-      !Read(saved.qddot(), coordinates, &history->state.qddot) ||
+  if (!Read(saved.qddot(), coordinates, &history->state.qddot) ||
       !Read(saved.lambda(), constraints, &history->state.lambda) ||
       !Read(saved.acceleration_variable(), coordinates, &history->a) ||
       !Read(saved.elastic_force(), coordinates, &history->elastic)) {

@@ -29,9 +29,10 @@ void SaveHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state:
 // Whether `saved` holds a CGα history that a run of `now` continues: started, of the same ρ∞,
 // constraint form and GEMM choice, and of the same step unless both are adaptive.
 bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now);
-// The saved history as a checkpoint of an integrator of `coordinates` and `constraints` (its
-// data left alone). Returns an empty string, or what is wrong with it (sizes, non-finite values).
-std::string RestoreHistory(const state::SmoothState& saved, int coordinates, int constraints,
+// The saved history as a checkpoint at the state `at` (the saved q and q̇, read and checked by the
+// caller) of an integrator of `constraints` rows (its data left alone). Returns an empty string,
+// or what is wrong with it (sizes, non-finite values).
+std::string RestoreHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
                            CgAlpha::Checkpoint* history);
 
 }  // namespace cosim::smooth

@@ -39,7 +39,7 @@ const std::string kTiedDrop = kScenarios + "/tied_drop.pbtxt";
 double SecondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // A process started in the background: `cosim_launch ARGUMENTS` (or another executable of the
-// build), its output to `log`.
+// build, or one named by its absolute path), its output to `log`.
 struct Background {
   pid_t pid = -1;
   // Waits at most `seconds`; the exit code, or -signal if it was killed, or 999 if it is still
@@ -62,7 +62,7 @@ struct Background {
 // signal to the group reaches with everything it starts.
 Background Start(const std::string& program, const std::vector<std::string>& arguments, const fs::path& log,
                  bool own_group = false) {
-  std::vector<std::string> storage{std::string(COSIM_BIN_DIR) + "/" + program};
+  std::vector<std::string> storage{program.front() == '/' ? program : std::string(COSIM_BIN_DIR) + "/" + program};
   storage.insert(storage.end(), arguments.begin(), arguments.end());
   std::vector<char*> argv;
   for (auto& a : storage) argv.push_back(a.data());
@@ -320,16 +320,29 @@ TEST(Hardening, ACoordinatorStoppedBeforeItsContactProcessHeardFromItDoesNotHang
   // Seen in CI: on a loaded machine the coordinator of the test above gave up on its Welcome
   // after coupling.timeout (1 s: the contact process had not started yet) and was stopped
   // (SIGSTOP) while its socket lingered. The contact process, which had never heard from it,
-  // waited for the Hello for ever and the launcher for the coordinator: the run hung. Replayed
-  // here by stopping the coordinator as soon as it runs. Now the launcher treats a process of
-  // the run stopped for twice coupling.timeout as hung: SIGTERM, SIGKILL 3 s later, the
-  // contact process stopped 2 s after that.
+  // waited for the Hello for ever and the launcher for the coordinator: the run hung. Now the
+  // launcher treats a process of the run stopped for twice coupling.timeout as hung: SIGTERM,
+  // SIGKILL 3 s later, the contact process stopped 2 s after that.
+  // Replayed by a coordinator that stops itself before its first instruction: a launcher copied
+  // into a folder of its own finds there a `smooth_solver` that raises SIGSTOP on itself (and
+  // would then exec the real one). The first replay stopped the coordinator from here once it
+  // was seen running; on a loaded CI machine it had shaken hands and taken two steps by then,
+  // its contact process timed out first, and the path under test was not taken.
   const fs::path out = TempDir("coordinator_stopped_early");
-  Background run = StartLongTiedDrop(out, {"coupling.timeout=1"});
-  const pid_t coordinator = WaitForProgram("smooth_solver", out);
-  ASSERT_NE(coordinator, -1);
+  const fs::path bin = TempDir("coordinator_stopped_early_bin");
+  fs::copy_file(std::string(COSIM_BIN_DIR) + "/cosim_launch", bin / "cosim_launch",
+                fs::copy_options::overwrite_existing);
+  fs::create_symlink(std::string(COSIM_BIN_DIR) + "/nonsmooth_solver", bin / "nonsmooth_solver");
+  {
+    std::ofstream wrapper(bin / "smooth_solver");
+    wrapper << "#!/bin/sh\nkill -STOP $$\nexec " << COSIM_BIN_DIR << "/smooth_solver \"$@\"\n";
+  }
+  fs::permissions(bin / "smooth_solver", fs::perms::owner_all);
   const auto t0 = Clock::now();
-  kill(coordinator, SIGSTOP);
+  Background run =
+      Start((bin / "cosim_launch").string(),
+            {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4", "--set", "coupling.timeout=1"},
+            out.string() + ".txt");
   EXPECT_EQ(run.Wait(20.0), 4) << Slurp(out.string() + ".txt");
   // 2 s stopped + 3 s of grace + 2 s for the contact process to follow + its SIGTERM.
   EXPECT_LT(SecondsSince(t0), 10.0);

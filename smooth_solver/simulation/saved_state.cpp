@@ -2,7 +2,6 @@
 
 #include <google/protobuf/repeated_field.h>
 
-#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 #include <utility>
@@ -29,12 +28,13 @@ bool Read(const Doubles& in, int size, Eigen::VectorXd* v) {
   return true;
 }
 
-// The first field of `fields` (name, values) with a non-finite value, as "its NAME[i]"; empty if none.
-std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles*>> fields) {
+// The first field of `fields` (name, values) with a non-finite value, as "its PREFIXNAME[i] is
+// not finite"; empty if none.
+std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles*>> fields,
+                      const std::string& prefix = "") {
   for (const auto& [name, values] : fields) {
     for (int i = 0; i < values->size(); ++i) {
-      if (!std::isfinite(values->Get(i)))
-        return std::string("its ") + name + "[" + std::to_string(i) + "] is not finite";
+      if (!std::isfinite(values->Get(i))) return "its " + prefix + name + "[" + std::to_string(i) + "] is not finite";
     }
   }
   return {};
@@ -94,17 +94,23 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
         !Read(in.downstream(), &r.downstream) || !Read(in.nu(), &r.nu)) {
       return "its rotor " + std::to_string(k) + " lacks a vector of three values";
     }
-    const std::string bad = NonFinite({{"rotors.centre", &in.centre()},
-                                       {"rotors.n", &in.n()},
-                                       {"rotors.x", &in.x()},
-                                       {"rotors.y", &in.y()},
-                                       {"rotors.downstream", &in.downstream()},
-                                       {"rotors.nu", &in.nu()}});
-    const double scalars[] = {in.v_normal(), in.v_parallel(), in.tip_speed(), in.fade(), in.t()};
-    if (!bad.empty() ||
-        !std::all_of(std::begin(scalars), std::end(scalars), [](double x) { return std::isfinite(x); })) {
-      return "its rotor " + std::to_string(k) + " has a value that is not finite";
+    const std::string rotor = "rotors[" + std::to_string(k) + "].";
+    std::string bad = NonFinite({{"centre", &in.centre()},
+                                 {"n", &in.n()},
+                                 {"x", &in.x()},
+                                 {"y", &in.y()},
+                                 {"downstream", &in.downstream()},
+                                 {"nu", &in.nu()}},
+                                rotor);
+    const std::pair<const char*, double> scalars[] = {{"v_normal", in.v_normal()},
+                                                      {"v_parallel", in.v_parallel()},
+                                                      {"tip_speed", in.tip_speed()},
+                                                      {"fade", in.fade()},
+                                                      {"t", in.t()}};
+    for (const auto& [name, value] : scalars) {
+      if (bad.empty() && !std::isfinite(value)) bad = "its " + rotor + name + " is not finite";
     }
+    if (!bad.empty()) return bad;
     r.v_normal = in.v_normal();
     r.v_parallel = in.v_parallel();
     r.tip_speed = in.tip_speed();

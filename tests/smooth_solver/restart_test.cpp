@@ -185,6 +185,51 @@ TEST(Restart, ASavedStateWhoseDataOrHistoryIsNotTheScenesIsRefusedNamingTheField
   }
 }
 
+TEST(Restart, ASavedRotorInflowThatIsNotFiniteIsRefusedNamingTheRotorAndField) {
+  // The rotors' saved frames and inflow were checked as a whole: a non-finite value was refused
+  // as "its rotor 0 has a value that is not finite", leaving the user to search 14 numbers. Now
+  // the message names the rotor and the field, for a vector and for a scalar alike.
+  const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/aero/hover_rotor.pbtxt";
+  const std::string folder = ::testing::TempDir() + "restart_rotor_not_finite";
+  std::filesystem::create_directories(folder);
+  MultibodySimulation part(interface::ScenarioFile::Load(path, {}));
+  const double h = interface::ScenarioFile::Load(path, {}).proto().numerics().step();
+  StepAndProbe(&part, 0.0, h, 5);
+  part.BeginOutput(folder);
+  part.EndOutput();
+  state::SmoothState saved;
+  {
+    std::ifstream in(folder + "/final_state.pb", std::ios::binary);
+    ASSERT_TRUE(saved.ParseFromIstream(&in));
+  }
+  ASSERT_EQ(saved.rotors_size(), 1);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<std::pair<std::function<void(state::SmoothState*)>, std::string>> edits{
+      {[nan](state::SmoothState* s) { s->mutable_rotors(0)->set_nu(1, nan); }, "its rotors[0].nu[1] is not finite"},
+      {[nan](state::SmoothState* s) { s->mutable_rotors(0)->set_v_normal(nan); },
+       "its rotors[0].v_normal is not finite"},
+  };
+  for (const auto& [edit, expected] : edits) {
+    SCOPED_TRACE(expected);
+    state::SmoothState s = saved;
+    edit(&s);
+    {
+      std::ofstream out(folder + "/edited.pb", std::ios::binary);
+      ASSERT_TRUE(s.SerializeToOstream(&out));
+    }
+    try {
+      MultibodySimulation sim(interface::ScenarioFile::Load(
+          path,
+          {"numerics.start_time=" + std::to_string(s.time()), "numerics.initial_state=\"" + folder + "/edited.pb\""}));
+      ADD_FAILURE() << "an edited state was accepted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("numerics.initial_state"), std::string::npos) << what;
+      EXPECT_NE(what.find(expected), std::string::npos) << what;
+    }
+  }
+}
+
 TEST(Restart, AHistoryOfAnotherStepOrRhoInfOrNotStartedIsNotContinued) {
   // a_n approximates q̈ at t_n + (αm − αf) h: a run restarted with another step (a convergence
   // study's runs all start from one settling run's state, saved at the scene's step) or another

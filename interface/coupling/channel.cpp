@@ -270,10 +270,23 @@ std::string Channel::Describe(const coupling::Envelope& e) const {
 }
 
 const coupling::Envelope& Channel::Wait(const std::string& awaiting, double timeout) {
-  double deadline = Now() + timeout;
+  const auto now = [this] { return options_.clock ? options_.clock() : Now(); };
+  double mark = now();  // the last reading of the clock
+  double deadline = mark + timeout;
+  double allowed = 0.0;  // how long the time since `mark` may have taken: the receive slice run since
   zmq::message_t message;
   while (true) {
-    const double left = deadline - Now();
+    // Time since the last reading beyond the receive slice run since: this process did not run
+    // (stopped by ^Z or SIGSTOP with its run, or starved), during a receive or between two.
+    // That time is not the peer's silence: the deadline moves by it (otherwise a run suspended
+    // for longer than coupling.timeout ends on resume). Measured from reading to reading, so that
+    // no moment of the wait escapes it.
+    const double t = now();
+    const double away = t - mark - allowed;
+    if (away > kNotRunning) deadline += away;
+    mark = t;
+    allowed = 0.0;
+    const double left = deadline - t;
     if (left <= 0.0) {
       throw PeerError("coupling: no message from '" + options_.peer + "' (" + options_.endpoint + ") for " +
                       FormatNumber(options_.timeout) + " s while waiting for " + awaiting +
@@ -292,17 +305,12 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting, double time
       HeartbeatIfDue();
       const double slice = std::min({left, 0.2, options_.heartbeat});
       socket_->set(zmq::sockopt::rcvtimeo, Milliseconds(slice) + 1);
-      const double begun = Now();
+      allowed = slice;
       try {
         received = socket_->recv(message, zmq::recv_flags::none).has_value();
       } catch (const zmq::error_t& e) {
         if (e.num() != EINTR) throw;  // a signal interrupted the wait: checked above
       }
-      // A slice that took far longer than it may: this process did not run (stopped by ^Z or
-      // SIGSTOP with its run, or starved). That time is not the peer's silence: the deadline
-      // moves by it (otherwise a run suspended for longer than coupling.timeout ends on resume).
-      const double away = Now() - begun - slice;
-      if (away > kNotRunning) deadline += away;
     }
     if (!received) continue;  // timed out or interrupted: checked above
     if (!incoming_.ParseFromArray(message.data(), static_cast<int>(message.size()))) {
@@ -315,8 +323,10 @@ const coupling::Envelope& Channel::Wait(const std::string& awaiting, double time
                        std::to_string(incoming_.protocol_version()) + ", this program speaks version " +
                        std::to_string(coupling::PROTOCOL_VERSION_CURRENT) + " (proto/coupling.proto)");
     }
-    if (incoming_.has_heartbeat()) {
-      deadline = Now() + options_.timeout;  // alive, busy
+    if (incoming_.has_heartbeat()) {  // alive, busy: the wait starts again
+      mark = now();
+      allowed = 0.0;
+      deadline = mark + options_.timeout;
       continue;
     }
     peer_stopped_ = peer_stopped_ || incoming_.has_shutdown();

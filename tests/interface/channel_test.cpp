@@ -85,6 +85,45 @@ TEST(Channel, SilentPeerEndsTheWaitWithExitCodeFourNamingIt) {
   EXPECT_LT(waited, 0.6);
 }
 
+TEST(Channel, AProcessStoppedBetweenTwoReceivesDoesNotCountThatTimeAsThePeersSilence) {
+  // A receive slice that overran (its process stopped by ^Z for longer than the timeout) moved
+  // the deadline, but a stop that fell between two slices (after the deadline was set, or
+  // after one slice ended and before the next began) was counted as the peer's silence: on
+  // resume the wait ended with exit 4 at once. Replayed with a clock that jumps 3 s at every
+  // reading, as a process stopped for 3 s between each two of its readings sees it (timeout
+  // 1 s): the reply sent 0.3 s later is received. (A bare socket as the peer: a Channel's
+  // heartbeats would reset the wait.)
+  zmq::context_t context;
+  zmq::socket_t peer(context, zmq::socket_type::dealer);
+  peer.bind("inproc://stopped_between");
+  const auto start = std::chrono::steady_clock::now();
+  int readings = 0;
+  ChannelOptions options{"inproc://stopped_between", false, "smooth", "contact", 1.0, 0.05};
+  options.clock = [&] {
+    ++readings;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() + 3.0 * readings;
+  };
+  Channel smooth(&context, options);
+  std::thread reply([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    Envelope kinematics;
+    kinematics.set_protocol_version(coupling::PROTOCOL_VERSION_CURRENT);
+    kinematics.set_sender("contact");
+    kinematics.set_step(7);
+    kinematics.mutable_kinematics()->add_position(0.5);
+    const std::string bytes = kinematics.SerializeAsString();
+    peer.send(zmq::buffer(bytes), zmq::send_flags::none);
+  });
+  try {
+    const Envelope& got = smooth.Receive(Envelope::kKinematics, 7, 0);
+    EXPECT_EQ(got.kinematics().position(0), 0.5);
+  } catch (const Error& e) {
+    ADD_FAILURE() << e.what();
+  }
+  reply.join();
+  EXPECT_GE(readings, 3);  // the clock was read between receives, and jumped there
+}
+
 TEST(Channel, HeartbeatsKeepASlowPeerAlive) {
   // The contact side is busy for three timeouts but sends heartbeats meanwhile: the wait goes
   // on, and the reply arrives.

@@ -1,18 +1,14 @@
 #pragma once
-// A beam as given in the scenario (model.beams), validated: its node bodies, elements and
-// section table. The nodes become bodies of the MultibodyModel ("<beam>.n<k>") before the joints
-// are read, so that joints, loads, probes and interface nodes can name them.
+// A beam of the model: its node bodies, elements and section table, as the scenario's
+// model.beams gives them once validated (smooth_solver/model/beam_input.h reads them).
 #include <Eigen/Core>
 #include <algorithm>
 #include <string>
 #include <vector>
 
-#include "interface/scenario/checks.h"
 #include "smooth_solver/beam/beam.h"
 
 namespace cosim::smooth {
-
-struct MultibodyModel;
 
 struct BeamModel {
   std::string name;
@@ -40,13 +36,5 @@ struct BeamModel {
     return kRotaryFloor * l * l;
   }
 };
-
-// Reads model.beams: appends their node bodies to model->bodies (declared in `body_names`) and
-// the beams to model->beams.
-void AddBeams(const interface::Checks& checks, interface::NameTable* body_names, MultibodyModel* model);
-// After the scenario's joints: the FIXED joints of the beams' root_body clamps, declared in
-// `joint_names`; root bodies looked up in `body_names`.
-void AddBeamClamps(const interface::Checks& checks, const interface::NameTable& body_names,
-                   interface::NameTable* joint_names, MultibodyModel* model);
 
 }  // namespace cosim::smooth

@@ -103,7 +103,7 @@ ElasticMesh ReadGeneralMesh(const Checks& checks, const sc::ElasticBody::General
 // The clamps of an elastic body: its nodes (a face of a beam mesh, or listed) tied to the ground
 // or a rigid body.
 void ReadClamps(const Checks& checks, const sc::ElasticBody& e, const std::string& path,
-                const std::vector<RigidBody>& bodies, ElasticBodySpec* spec) {
+                const std::vector<std::string>& rigid_bodies, ElasticBodySpec* spec) {
   const ElasticMesh& mesh = spec->body.mesh();
   for (int c = 0; c < e.clamps_size(); ++c) {
     const auto& cl = e.clamps(c);
@@ -112,8 +112,8 @@ void ReadClamps(const Checks& checks, const sc::ElasticBody& e, const std::strin
     checks.Require(cpath + ".body", cl.has_body(), "\"ground\" or the name of a rigid body");
     if (cl.body() != "ground") {
       int found = -1;
-      for (size_t b = 0; b < bodies.size(); ++b) {
-        if (bodies[b].name == cl.body()) found = static_cast<int>(b);
+      for (size_t b = 0; b < rigid_bodies.size(); ++b) {
+        if (rigid_bodies[b] == cl.body()) found = static_cast<int>(b);
       }
       if (found < 0) checks.Fail(cpath + ".body", "no rigid body named '" + cl.body() + "'");
       clamp.rigid_body = found;
@@ -168,10 +168,10 @@ void ReadLoads(const Checks& checks, const sc::ElasticBody& e, const std::string
 }  // namespace
 
 std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::Model& model,
-                                                const std::vector<RigidBody>& bodies) {
+                                                const std::vector<std::string>& rigid_bodies) {
   std::vector<ElasticBodySpec> out;
   interface::NameTable names(checks, "elastic body");
-  for (const RigidBody& b : bodies) names.Add("model.bodies", b.name);  // one name space with rigid bodies
+  for (const std::string& b : rigid_bodies) names.Add("model.bodies", b);  // one name space with rigid bodies
   for (int i = 0; i < model.elastic_bodies_size(); ++i) {
     const sc::ElasticBody& e = model.elastic_bodies(i);
     const std::string path = ElementPath("model.elastic_bodies", i);
@@ -205,7 +205,7 @@ std::vector<ElasticBodySpec> BuildElasticBodies(const Checks& checks, const sc::
                       "order (node = i + 3 j + 9 k over the reference grid) and coordinates");
     }
 
-    ReadClamps(checks, e, path, bodies, &spec);
+    ReadClamps(checks, e, path, rigid_bodies, &spec);
     ReadLoads(checks, e, path, &spec);
     out.push_back(std::move(spec));
   }

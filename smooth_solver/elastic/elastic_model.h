@@ -8,7 +8,6 @@
 #include "interface/scenario/checks.h"
 #include "interface/scenario/time_function.h"
 #include "smooth_solver/elastic/elastic_body.h"
-#include "smooth_solver/model/multibody_model.h"
 
 namespace cosim::smooth {
 
@@ -33,7 +32,9 @@ struct ElasticBodySpec {
   int FindPoint(const interface::Checks& checks, const std::string& path, const std::string& point) const;
 };
 
+// Reads model.elastic_bodies; `rigid_bodies`: the rigid bodies' names (clamps name them, and the
+// two kinds share one name space), by body index.
 std::vector<ElasticBodySpec> BuildElasticBodies(const interface::Checks& checks, const scenario::Model& model,
-                                                const std::vector<RigidBody>& bodies);
+                                                const std::vector<std::string>& rigid_bodies);
 
 }  // namespace cosim::smooth

@@ -14,7 +14,7 @@
 
 #include "interface/contact/hunt_crossley.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
-#include "smooth_solver/model/system_data.h"
+#include "smooth_solver/data/system_data.h"
 
 namespace cosim::smooth {
 

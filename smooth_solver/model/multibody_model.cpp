@@ -7,7 +7,8 @@
 #include <set>
 
 #include "interface/scenario/checks.h"
-#include "smooth_solver/aero/aero_model.h"
+#include "smooth_solver/model/aero_input.h"
+#include "smooth_solver/model/beam_input.h"
 
 namespace cosim::smooth {
 

@@ -96,6 +96,14 @@ struct MultibodyModel {
   std::vector<BeamModel> beams;
   // Air loads (model.air); empty: none.
   AeroModel aero;
+
+  // The rigid bodies' names, by body index.
+  std::vector<std::string> BodyNames() const {
+    std::vector<std::string> names;
+    names.reserve(bodies.size());
+    for (const RigidBody& b : bodies) names.push_back(b.name);
+    return names;
+  }
 };
 
 // Throws InputError naming the field for every inconsistency it finds.

@@ -13,11 +13,11 @@
 #include "smooth_solver/aero/air_loads.h"
 #include "smooth_solver/beam/beam.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
+#include "smooth_solver/data/system_data.h"
 #include "smooth_solver/elastic/elastic_force.h"
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/forces/force_elements.h"
 #include "smooth_solver/model/multibody_model.h"
-#include "smooth_solver/model/system_data.h"
 
 namespace cosim::smooth {
 

@@ -1,5 +1,7 @@
 #include "smooth_solver/simulation/elastic_static_simulation.h"
 
+#include <Eigen/Geometry>
+
 namespace cosim::smooth {
 
 using interface::Checks;

@@ -88,7 +88,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
 
 std::vector<ElasticBodySpec> MultibodySimulation::ElasticBodies(const Checks& checks,
                                                                 const interface::ScenarioFile& file) {
-  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.bodies);
+  std::vector<ElasticBodySpec> elastic = BuildElasticBodies(checks, file.proto().model(), model_.BodyNames());
   std::map<std::string, int> elastic_index;
   for (size_t e = 0; e < elastic.size(); ++e) elastic_index[elastic[e].name] = static_cast<int>(e);
   // Interface nodes on elastic bodies: which node.

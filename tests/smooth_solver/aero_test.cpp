@@ -323,7 +323,7 @@ TEST(AirLoads, Hex27ReferenceLineCarriesTheSameLoadsAsARigidWingAndExactTangents
   const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "aero.pbtxt", {});
   const MultibodyModel model = BuildMultibodyModel(file);
   std::vector<ElasticBodySpec> elastic =
-      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.BodyNames());
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   SystemData data = MakeData(sys);
   const AirLoads& air = *sys.air_loads;

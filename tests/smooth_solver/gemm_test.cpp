@@ -127,7 +127,7 @@ FreeVibration RunFreeVibration(double rho_inf, bool gemm, double xi, double stre
   const interface::ScenarioFile file = interface::ScenarioFile::Parse(text, "free_vibration.pbtxt", {});
   const MultibodyModel model = BuildMultibodyModel(file);
   std::vector<ElasticBodySpec> elastic =
-      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.BodyNames());
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   DaeState s;
   s.q = sys.q0;
@@ -320,7 +320,7 @@ TEST(CgAlphaCheckpoint, ARestoredStepIsRepeatedBitForBit) {
       interface::ScenarioFile::Load(std::string(COSIM_SOURCE_DIR) + "/tests/data/flexible_pendulum.pbtxt", {});
   const MultibodyModel model = BuildMultibodyModel(file);
   std::vector<ElasticBodySpec> elastic =
-      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.bodies);
+      BuildElasticBodies(interface::Checks(file), file.proto().model(), model.BodyNames());
   const MultibodySystem sys = BuildMultibodySystem(model, &elastic);
   InitialConditionReport report;
   SystemData data = MakeData(sys), straight_data = MakeData(sys);

@@ -1,4 +1,4 @@
-#include "smooth_solver/aero/aero_model.h"
+#include "smooth_solver/model/aero_input.h"
 
 #include <algorithm>
 #include <cmath>
@@ -239,7 +239,7 @@ void ReadElasticCarrier(const Checks& checks, const sc::AeroSurface& s, const st
                 "no elastic body named '" + s.elastic_body() + "'" + (known.empty() ? "" : "; known: " + known));
   }
   if (elastic_meshes->empty()) {
-    for (const ElasticBodySpec& spec : BuildElasticBodies(checks, m, model.bodies)) {
+    for (const ElasticBodySpec& spec : BuildElasticBodies(checks, m, model.BodyNames())) {
       elastic_meshes->push_back(spec.body.mesh());
     }
   }

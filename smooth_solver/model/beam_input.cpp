@@ -1,8 +1,6 @@
-#include "smooth_solver/beam/beam_model.h"
+#include "smooth_solver/model/beam_input.h"
 
 #include <cmath>
-
-#include "smooth_solver/model/multibody_model.h"
 
 namespace cosim::smooth {
 

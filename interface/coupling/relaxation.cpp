@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace cosim::interface {
 
@@ -27,6 +28,41 @@ void Relaxation::BeginStep() {
   ++step_;
   // Columns are newest first: keep those made in the last `reuse_steps_` steps.
   while (columns_ > 0 && stamp_[static_cast<size_t>(columns_ - 1)] < step_ - reuse_steps_) --columns_;
+}
+
+void Relaxation::Save(state::RelaxationMemory* out) const {
+  out->set_method(static_cast<int>(method_));
+  out->set_reuse_steps(reuse_steps_);
+  out->set_size(static_cast<int>(V_.rows()));
+  out->set_step(step_);
+  out->mutable_stamp()->Add(stamp_.begin(), stamp_.begin() + columns_);
+  const Eigen::Index values = V_.rows() * columns_;
+  out->mutable_v()->Add(V_.data(), V_.data() + values);  // column-major: the columns in use first
+  out->mutable_w()->Add(W_.data(), W_.data() + values);
+}
+
+std::string Relaxation::Restore(const state::RelaxationMemory& in, bool* restored) {
+  *restored = false;
+  if (in.method() != static_cast<int>(method_) || in.reuse_steps() != reuse_steps_) return {};
+  const int columns = in.stamp_size();
+  const int size = static_cast<int>(V_.rows());
+  if (in.size() != size || columns > max_columns_ || in.v_size() != size * columns || in.w_size() != size * columns) {
+    return "relaxation memory holds " + std::to_string(columns) + " columns of " + std::to_string(in.size()) +
+           " values (" + std::to_string(in.v_size()) + " and " + std::to_string(in.w_size()) +
+           " numbers); this coupling keeps at most " + std::to_string(max_columns_) + " of " + std::to_string(size);
+  }
+  for (int i = 0; i < in.v_size(); ++i) {
+    if (!std::isfinite(in.v(i)) || !std::isfinite(in.w(i))) {
+      return "relaxation memory's column values at " + std::to_string(i) + " are not finite";
+    }
+  }
+  step_ = in.step();
+  columns_ = columns;
+  std::copy(in.stamp().begin(), in.stamp().end(), stamp_.begin());
+  std::copy(in.v().begin(), in.v().end(), V_.data());
+  std::copy(in.w().begin(), in.w().end(), W_.data());
+  *restored = true;
+  return {};
 }
 
 void Relaxation::Forget() {

@@ -24,7 +24,10 @@
 // IQN-ILS least-squares fit allocates its small QR (size × columns) per iteration.
 #include <Eigen/Core>
 #include <Eigen/QR>
+#include <string>
 #include <vector>
+
+#include "state.pb.h"
 
 namespace cosim::interface {
 
@@ -43,6 +46,14 @@ class Relaxation {
 
   double last_factor() const { return omega_; }  // the ω of the last update (Aitken, constant)
   int columns() const { return columns_; }       // IQN-ILS columns in use
+
+  // What a later step starts from (IQN-ILS's columns kept by reuse_steps), for a restart.
+  void Save(state::RelaxationMemory* out) const;
+  // Restores a Save of a relaxation of this method, reuse_steps and size (`*restored`); another
+  // one is left (the restart's relaxation starts afresh: `*restored` false). A memory of this
+  // kind that cannot be one (more columns than kept, sizes that do not match, non-finite
+  // values) is refused: the reason, and nothing changed; empty if none.
+  std::string Restore(const state::RelaxationMemory& in, bool* restored);
 
  private:
   Method method_;

@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <utility>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
@@ -95,6 +97,115 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   StartReactionsFrom(state);
 }
 
+namespace {
+
+using Doubles = google::protobuf::RepeatedField<double>;
+
+void Save(const Eigen::VectorXd& v, Doubles* out) { out->Add(v.data(), v.data() + v.size()); }
+
+// `in` into `v` if it has v's size and finite values; the reason if not.
+std::string Read(const char* name, const Doubles& in, Eigen::VectorXd* v) {
+  if (in.size() != v->size()) {
+    return std::string("its coordinator's ") + name + " has " + std::to_string(in.size()) + " values, not " +
+           std::to_string(v->size());
+  }
+  for (int i = 0; i < in.size(); ++i) {
+    if (!std::isfinite(in.Get(i)))
+      return std::string("its coordinator's ") + name + "[" + std::to_string(i) + "] is not finite";
+  }
+  *v = Eigen::Map<const Eigen::VectorXd>(in.data(), in.size());
+  return {};
+}
+
+}  // namespace
+
+void Coordinator::SaveMemory(state::CoordinatorMemory* out) const {
+  out->set_points(static_cast<int>(system_.interface_points.size()));
+  Save(accepted_x_, out->mutable_accepted_x());
+  Save(previous_accepted_x_, out->mutable_previous_accepted_x());
+  out->set_accepted_steps(accepted_steps_);
+  out->set_accepted_h(accepted_h_);
+  out->set_previous_accepted_h(previous_accepted_h_);
+  Save(lambda_start_, out->mutable_lambda_start());
+  Save(filtered_start_, out->mutable_filtered_start());
+  Save(accepted_position_, out->mutable_accepted_position());
+  Save(accepted_velocity_, out->mutable_accepted_velocity());
+  Save(accepted_acceleration_, out->mutable_accepted_acceleration());
+  Save(previous_accepted_position_, out->mutable_previous_accepted_position());
+  Save(previous_accepted_velocity_, out->mutable_previous_accepted_velocity());
+  Save(accepted_offset_, out->mutable_accepted_offset());
+  for (const Eigen::Matrix3d& S : sensitivity_) {
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) out->add_sensitivity(S(i, j));
+    }
+  }
+  out->set_offset_known(offset_known_);
+  for (const bool c : was_contact_) out->add_was_contact(c);
+  relaxation_.Save(out->mutable_relaxation());
+}
+
+std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
+  const size_t points = system_.interface_points.size();
+  if (in.points() != static_cast<int>(points)) {
+    return "its coordinator's memory is of " + std::to_string(in.points()) + " interface points, not " +
+           std::to_string(points);
+  }
+  // Read into copies: a refused memory changes nothing.
+  constexpr int kFields = 11;
+  Eigen::VectorXd v[kFields];
+  for (Eigen::VectorXd& each : v) each.resize(n_);
+  const std::pair<const char*, const Doubles*> fields[kFields] = {
+      {"accepted_x", &in.accepted_x()},
+      {"previous_accepted_x", &in.previous_accepted_x()},
+      {"lambda_start", &in.lambda_start()},
+      {"filtered_start", &in.filtered_start()},
+      {"accepted_position", &in.accepted_position()},
+      {"accepted_velocity", &in.accepted_velocity()},
+      {"accepted_acceleration", &in.accepted_acceleration()},
+      {"previous_accepted_position", &in.previous_accepted_position()},
+      {"previous_accepted_velocity", &in.previous_accepted_velocity()},
+      {"accepted_offset", &in.accepted_offset()},
+      {"sensitivity", &in.sensitivity()}};
+  v[10].resize(9 * static_cast<Eigen::Index>(points));  // 3 × 3 per point
+  for (int f = 0; f < kFields; ++f) {
+    if (std::string wrong = Read(fields[f].first, *fields[f].second, &v[f]); !wrong.empty()) return wrong;
+  }
+  if (in.was_contact_size() != static_cast<int>(points)) {
+    return "its coordinator's was_contact has " + std::to_string(in.was_contact_size()) + " values, not " +
+           std::to_string(points);
+  }
+  if (!std::isfinite(in.accepted_h()) || !std::isfinite(in.previous_accepted_h()) || in.accepted_h() < 0.0 ||
+      in.previous_accepted_h() < 0.0 || in.accepted_steps() < 0) {
+    return "its coordinator's accepted_h, previous_accepted_h or accepted_steps is not a step length or count";
+  }
+  bool relaxation = false;
+  if (in.has_relaxation()) {
+    if (std::string wrong = relaxation_.Restore(in.relaxation(), &relaxation); !wrong.empty()) {
+      return "its coordinator's " + wrong;
+    }
+  }
+  accepted_x_ = v[0];
+  previous_accepted_x_ = v[1];
+  lambda_start_ = v[2];
+  filtered_start_ = v[3];
+  accepted_position_ = v[4];
+  accepted_velocity_ = v[5];
+  accepted_acceleration_ = v[6];
+  previous_accepted_position_ = v[7];
+  previous_accepted_velocity_ = v[8];
+  accepted_offset_ = v[9];
+  for (size_t k = 0; k < points; ++k) {
+    sensitivity_[k] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(v[10].data() + 9 * k);
+  }
+  accepted_steps_ = in.accepted_steps();
+  accepted_h_ = in.accepted_h();
+  previous_accepted_h_ = in.previous_accepted_h();
+  offset_known_ = in.offset_known();
+  for (size_t k = 0; k < points; ++k) was_contact_[k] = in.was_contact(static_cast<int>(k));
+  restored_ = true;
+  return {};
+}
+
 void Coordinator::StartReactionsFrom(const DaeState& state) {
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) =
@@ -109,7 +220,11 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
   // settled start knows the nodes' motion (at rest, or turning with the rotor): its state, the
   // rows held, stands, and its multipliers are the first reactions the peers hold (without
   // them the blades sank 0.006° in the first steps before the reactions caught up).
-  if (settings_.settled_start) {
+  if (restored_) {
+    // A restart that continues the run: CGα's history, the data (the imposed coordinates) and
+    // this memory are the run's own at the saved step.
+    x_ = applied_ = accepted_x_;
+  } else if (settings_.settled_start) {
     StartReactionsFrom(integrator_->state());
     x_ = accepted_x_ = applied_ = lambda_start_;
   } else {
@@ -117,7 +232,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     for (size_t k = 0; k < every_point.size(); ++k) every_point[k] = static_cast<int>(k);
     RestartWithCouplingRowsFree(integrator_->state(), start_time, every_point);
   }
-  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+  for (size_t k = 0; k < system_.interface_points.size() && !restored_; ++k) {
     const Eigen::Vector3d a = system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
     for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
   }

@@ -36,6 +36,7 @@
 #include "interface/coupling/channel.h"
 #include "interface/coupling/relaxation.h"
 #include "smooth_solver/integrator/cgalpha.h"
+#include "state.pb.h"
 
 namespace cosim::smooth {
 
@@ -96,8 +97,17 @@ class Coordinator {
   Coordinator(const MultibodySystem& system, SystemData* data, CgAlpha* integrator, std::vector<Peer> peers,
               const CouplingSettings& settings);
 
-  // Hello → Welcome with every peer.
+  // Hello → Welcome with every peer. A fresh start (or a restart whose CGα history starts
+  // afresh) starts the coupling with the interface rows free; after RestoreMemory the run goes on
+  // with them held, from the restored multipliers and memory.
   void Handshake(const std::string& scenario_name, double start_time, double step);
+  // What the next step starts from (state.proto's CoordinatorMemory), for a restart.
+  void SaveMemory(state::CoordinatorMemory* out) const;
+  // Restores a SaveMemory of this scene's coupling (before the handshake; the integrator and
+  // the data restored with it). The reason a memory is refused (another number of points, sizes
+  // that do not match, non-finite values), nothing changed; empty if none.
+  std::string RestoreMemory(const state::CoordinatorMemory& in);
+  bool restored() const { return restored_; }
   // One coupled step from t to t + h (fixed steps): Try, then Accept; a failed Newton solve or
   // (with stop_at_max_iterations) no convergence throws NumericalError. Returns the coupling
   // iterations used.
@@ -224,6 +234,7 @@ class Coordinator {
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
   bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
+  bool restored_ = false;                   // RestoreMemory: the handshake goes on with the rows held
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
   // Try's pieces.
   void BeginTry(double h);

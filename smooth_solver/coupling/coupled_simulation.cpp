@@ -167,6 +167,10 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   const CouplingSettings settings = ReadCouplingSettings(checks, file);
   coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(),
                                                std::move(peers), settings);
+  if (const state::CoordinatorMemory* saved = simulation_->saved_coordinator()) {
+    const std::string wrong = coordinator_->RestoreMemory(*saved);
+    if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
+  }
   start_time_ = file.proto().numerics().start_time();
   step_ = file.proto().numerics().step();
   span_ = interface::ValidateTimeSpan(file);
@@ -275,7 +279,8 @@ void CoupledSmoothSimulation::WriteIterations() {
 
 void CoupledSmoothSimulation::EndOutput() {
   if (iterations_ != nullptr && !iterations_->Flush()) throw InputError(iterations_->error() + " (is the disk full?)");
-  simulation_->EndOutput();
+  simulation_->WriteFinalState(
+      [this](state::SmoothState* saved) { coordinator_->SaveMemory(saved->mutable_coordinator()); });
 }
 
 }  // namespace cosim::smooth

@@ -267,8 +267,8 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
     // Its checkpoints (rejected steps, coupling iterations) save and restore the data too.
     auto cg = std::make_unique<CgAlpha>(*system_, data_.get(), settings.cgalpha, initial);
     // A restart of a CGα run continues its history (a_n, f̃_n, the step's accelerations and
-    // multipliers): the run goes on as if it had not stopped. (A coupled run's coordinator
-    // starts the coupling rows afresh at its handshake all the same.)
+    // multipliers): the run goes on as if it had not stopped; a coupled run's coordinator then
+    // restores its own memory saved with it (saved_coordinator).
     CgAlpha::Checkpoint history;
     if (restart && HistoryFits(*restart, HistoryOf{numerics_.step(), settings.cgalpha, adaptive_.on})) {
       const std::string wrong = RestoreHistory(*restart, initial, system_->constraints.size(), &history);
@@ -278,15 +278,14 @@ void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioF
       if (restart->has_next_step() && restart->next_step() > 0.0) {
         h_next_ = std::max(restart->next_step(), adaptive_.min_step);  // (a run may have ended below it)
       }
+      if (restart->has_coordinator()) saved_coordinator_ = restart->coordinator();
     }
     integrator_ = std::move(cg);
   }
   WatchdogSettings watchdog = settings.watchdog;
   watchdog.energy = settings.energy_check == sc::Watchdog::ON ||
                     (settings.energy_check == sc::Watchdog::AUTO && PassiveSystem(*system_));
-  std::vector<std::string> body_names;
-  for (const RigidBody& b : model_.bodies) body_names.push_back(b.name);
-  watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, std::move(body_names), initial);
+  watchdog_ = std::make_unique<Watchdog>(*system_, watchdog, model_.BodyNames(), initial);
   // Angles continue past ±π (whole turns counted), from each joint's initial coordinate.
   angle_offset_.assign(model_.joints.size(), 0.0);
   for (size_t j = 0; j < model_.joints.size(); ++j) {
@@ -805,7 +804,7 @@ void MultibodySimulation::Record(double t1, int iterations) {
 
 void MultibodySimulation::BeginOutput(const std::string& folder) { output_folder_ = folder; }
 
-void MultibodySimulation::EndOutput() {
+void MultibodySimulation::WriteFinalState(const std::function<void(state::SmoothState*)>& extend) {
   if (output_folder_.empty()) return;
   state::SmoothState saved;
   saved.set_scenario(scenario_name_);
@@ -825,6 +824,7 @@ void MultibodySimulation::EndOutput() {
     SaveHistory(history, HistoryOf{last_step_, cg->settings(), adaptive_.on}, &saved);
     if (adaptive_.on) saved.set_next_step(h_next_);
   }
+  if (extend) extend(&saved);
   interface::WriteFinalState(output_folder_, saved);
 }
 

@@ -4,6 +4,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "interface/run/run_driver.h"
@@ -15,6 +16,7 @@
 #include "smooth_solver/simulation/smooth_probes.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/simulation/watchdog.h"
+#include "state.pb.h"
 
 namespace cosim::smooth {
 
@@ -31,7 +33,14 @@ class MultibodySimulation : public interface::Simulation {
   // final_state.pb in the output folder at the end of the run (its last accepted state):
   // numerics.initial_state of a later run starts from it.
   void BeginOutput(const std::string& folder) override;
-  void EndOutput() override;
+  void EndOutput() override { WriteFinalState({}); }
+  // final_state.pb with what `extend` adds to it (a coupled run: its coordinator's memory).
+  void WriteFinalState(const std::function<void(state::SmoothState*)>& extend);
+  // A restart that continued CGα's history: the coordinator's memory saved with it (nullptr
+  // otherwise: the coupling starts afresh with CGα).
+  const state::CoordinatorMemory* saved_coordinator() const {
+    return saved_coordinator_ ? &*saved_coordinator_ : nullptr;
+  }
 
   const MultibodySystem& system() const { return *system_; }
   // The run's changing state (the coordinator of a coupled run writes the imposed coordinates).
@@ -135,6 +144,7 @@ class MultibodySimulation : public interface::Simulation {
   double Violation(const Eigen::VectorXd& q) const;  // |Φ|∞ of the state the probes read
   AdaptiveSettings adaptive_;
   double h_next_ = 0.0, previous_time_ = 0.0, probe_time_ = 0.0;
+  std::optional<state::CoordinatorMemory> saved_coordinator_;
   double peer_time_to_contact_ = std::numeric_limits<double>::infinity();
   double smallest_step_ = std::numeric_limits<double>::infinity(), largest_step_ = 0.0;
   long accepted_steps_ = 0, rejected_ = 0;

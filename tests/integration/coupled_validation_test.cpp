@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -361,41 +363,84 @@ std::pair<double, double> OscillatorError(const Table& history, const ExactOscil
 
 TEST(CoupledRestart, ARunRestartedFromItsSavedStatesContinuesItContactProcessIncluded) {
   // The spinning pendulum run to 0.3 s writes final_state.pb (smooth) and stops/final_state.pb
-  // (the contact process); a run restarted from them to 0.8 s follows the run made in one go:
-  // the flap within 1e-4 rad (observed 4.3e-5: the restart starts CGα's acceleration history and
-  // the coupling's reactions afresh — 1/30 of the step's own error against the exact flap,
-  // 1.6e-3), the node and its gap within 1e-4 m from the first row on, and the impact in the same
-  // step. By then the hub has turned 0.9 rad: the stop keeps the body-frame geometry its first
-  // run fixed (normal [1, 0, 0] in the hub's frame; fixing it again from the turned frame at the
-  // restart's Hello would turn the plane with it), and the first row's gap reads the hub's saved
-  // frame (before the fix it read an unturned hub: 0.84 m for 0.52 m).
+  // (the contact process); a run restarted from them to 0.8 s repeats the run made in one go:
+  // the flap and the node within 1e-9 (observed 3e-12: CGα's Newton tolerance is 1e-10), and the
+  // impact in the same step. The smooth state carries CGα's history and the coordinator's
+  // memory (the reactions the peers held in the last two steps, the interface rows' multipliers,
+  // the nodes' motion and the peers' last affine law for the predictors, IQN-ILS's columns kept
+  // by reuse_steps), so the restart goes on with the coupling rows held. Before, the handshake
+  // started the rows free and the coupling afresh: 4.3e-5 rad and m off, which a state saved
+  // without the memory still gives (it is read all the same). By then the hub has turned
+  // 0.9 rad: the stop keeps the body-frame geometry its first run fixed (normal [1, 0, 0] in the
+  // hub's frame; fixing it again from the turned frame at the restart's Hello would turn the
+  // plane with it), and the first row's gap reads the hub's saved frame (before that fix it read
+  // an unturned hub: 0.84 m for 0.52 m).
   const fs::path dir = TempDir("coupled_restart");
   const std::string scene = std::string(COSIM_SOURCE_DIR) + "/tests/data/spinning_pendulum.pbtxt";
   const Result whole = Launch(scene + " --out " + (dir / "whole").string() + " --set numerics.end_time=0.8");
   ASSERT_EQ(whole.code, 0) << whole.output;
   const Result first = Launch(scene + " --out " + (dir / "first").string() + " --set numerics.end_time=0.3");
   ASSERT_EQ(first.code, 0) << first.output;
-  const std::string restart = " --set numerics.initial_state=" + (dir / "first" / "final_state.pb").string();
-  const Result second = Launch(scene + " --out " + (dir / "second").string() + restart +
-                               " --set numerics.start_time=0.3 --set numerics.end_time=0.8");
-  ASSERT_EQ(second.code, 0) << second.output;
-  const Table a = ReadTable(dir / "whole" / "history.csv"), b = ReadTable(dir / "second" / "history.csv");
-  const Table ac = ReadTable(dir / "whole" / "stops" / "history.csv"),
-              bc = ReadTable(dir / "second" / "stops" / "history.csv");
-  ASSERT_EQ(b.size(), 1001u);
-  ASSERT_EQ(a.size(), 1601u);
-  double flap = 0.0, node = 0.0;
-  for (size_t k = 0; k < b.size(); ++k) {
-    const size_t j = k + 600;  // the same time in the run made in one go
-    ASSERT_NEAR(a.Column("time")[j], b.Column("time")[k], 1e-12);
-    flap = std::max(flap, std::abs(a.Column("flap")[j] - b.Column("flap")[k]));
-    for (const char* probe : {"tip_x", "tip_y", "tip_z", "gap"}) {
-      node = std::max(node, std::abs(ac.Column(probe)[j] - bc.Column(probe)[k]));
-    }
+  cosim::state::SmoothState saved_smooth;
+  {
+    std::ifstream in(dir / "first" / "final_state.pb", std::ios::binary);
+    ASSERT_TRUE(saved_smooth.ParseFromIstream(&in));
   }
-  std::printf("coupled restart at 0.3 s against the run in one go: flap %.2e rad, node %.2e m\n", flap, node);
-  EXPECT_LT(flap, 1e-4);
-  EXPECT_LT(node, 1e-4);
+  ASSERT_TRUE(saved_smooth.has_coordinator());
+  // The same states with the smooth one edited by `edit`, in a folder of their own.
+  auto edited = [&](const std::string& name, const std::function<void(cosim::state::SmoothState*)>& edit) {
+    fs::create_directories(dir / name / "stops");
+    fs::copy_file(dir / "first" / "stops" / "final_state.pb", dir / name / "stops" / "final_state.pb");
+    cosim::state::SmoothState s = saved_smooth;
+    edit(&s);
+    std::ofstream out(dir / name / "final_state.pb", std::ios::binary);
+    s.SerializeToOstream(&out);
+    return dir / name / "final_state.pb";
+  };
+  const fs::path without = edited("without_memory", [](cosim::state::SmoothState* s) { s->clear_coordinator(); });
+  const fs::path bad = edited("bad_memory", [](cosim::state::SmoothState* s) {
+    s->mutable_coordinator()->set_accepted_x(1, std::numeric_limits<double>::quiet_NaN());
+  });
+  auto restarted = [&](const std::string& out, const fs::path& state) {
+    return Launch(scene + " --out " + (dir / out).string() + " --set numerics.initial_state=" + state.string() +
+                  " --set numerics.start_time=0.3 --set numerics.end_time=0.8");
+  };
+  const Table a = ReadTable(dir / "whole" / "history.csv"), ac = ReadTable(dir / "whole" / "stops" / "history.csv");
+  // The largest difference of the flap and of the node from the run in one go.
+  auto differences = [&](const std::string& out) {
+    const Table b = ReadTable(dir / out / "history.csv"), bc = ReadTable(dir / out / "stops" / "history.csv");
+    EXPECT_EQ(b.size(), 1001u);
+    EXPECT_EQ(a.size(), 1601u);
+    double flap = 0.0, node = 0.0;
+    for (size_t k = 0; k < b.size() && k + 600 < a.size(); ++k) {
+      const size_t j = k + 600;  // the same time in the run made in one go
+      EXPECT_NEAR(a.Column("time")[j], b.Column("time")[k], 1e-12);
+      flap = std::max(flap, std::abs(a.Column("flap")[j] - b.Column("flap")[k]));
+      for (const char* probe : {"tip_x", "tip_y", "tip_z", "gap"}) {
+        node = std::max(node, std::abs(ac.Column(probe)[j] - bc.Column(probe)[k]));
+      }
+    }
+    return std::make_pair(flap, node);
+  };
+  const std::string restart = " --set numerics.initial_state=" + (dir / "first" / "final_state.pb").string();
+  const Result second = restarted("second", dir / "first" / "final_state.pb");
+  ASSERT_EQ(second.code, 0) << second.output;
+  const auto [flap, node] = differences("second");
+  const Result fresh = restarted("fresh", without);
+  ASSERT_EQ(fresh.code, 0) << fresh.output;
+  const auto [flap_fresh, node_fresh] = differences("fresh");
+  std::printf(
+      "coupled restart at 0.3 s against the run in one go: flap %.2e rad, node %.2e m (without the "
+      "coordinator's memory: %.2e rad, %.2e m)\n",
+      flap, node, flap_fresh, node_fresh);
+  EXPECT_LT(flap, 1e-9);
+  EXPECT_LT(node, 1e-9);
+  EXPECT_GT(flap_fresh, 1e-6);  // what the coupling started afresh costs
+  const Result refused = restarted("refused", bad);
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("numerics.initial_state"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find("its coordinator's accepted_x[1] is not finite"), std::string::npos) << refused.output;
+  const Table bc = ReadTable(dir / "second" / "stops" / "history.csv");
   auto first_impact = [](const Table& t) {
     const std::vector<double> impulse = t.Column("impulse"), time = t.Column("time");
     for (size_t k = 0; k < impulse.size(); ++k) {

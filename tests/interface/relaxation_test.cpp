@@ -90,5 +90,55 @@ TEST(Relaxation, ZeroAndStalledResidualsStayFinite) {
   }
 }
 
+TEST(Relaxation, AReusedIqnIlsMemorySavedAndRestoredGoesOnAsTheOriginal) {
+  // A restart of a coupled run with IQN-ILS(q) restores the columns of the earlier steps (the
+  // coordinator's memory in final_state.pb): the restored relaxation proposes the very x_{i+1} the
+  // original does, step after step. A memory of another method or reuse_steps is not restored
+  // (the restart's relaxation starts afresh, as its settings say), and one that cannot be a
+  // memory of this size is refused with the reason, nothing changed.
+  // A linear map x̃ = A x + b of 6 values, 2 sweeps a step: one new column each step.
+  Eigen::MatrixXd A(6, 6);
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) A(i, j) = 0.6 * std::sin(6.0 * i + j + 1.0);
+  }
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  auto b_of = [](int step) { return Vector6d::LinSpaced(1.0, 1.0 + step); };
+  auto sweep = [&](Relaxation* r, const Vector6d& b, Eigen::VectorXd x, int sweeps) {
+    Eigen::VectorXd next;
+    r->BeginStep();
+    for (int i = 0; i < sweeps; ++i) {
+      r->Next(x, A * x + b, &next);
+      x = next;
+    }
+    return x;
+  };
+  Relaxation original(Relaxation::Method::kIqnIls, 6, 0.5, -1, 3);
+  for (int step = 0; step < 3; ++step) sweep(&original, b_of(step), Vector6d::Zero(), 2);
+  ASSERT_EQ(original.columns(), 3);
+  state::RelaxationMemory memory;
+  original.Save(&memory);
+  Relaxation restored(Relaxation::Method::kIqnIls, 6, 0.5, -1, 3), fresh(Relaxation::Method::kIqnIls, 6, 0.5, -1, 3);
+  bool done = false;
+  EXPECT_EQ(restored.Restore(memory, &done), "");
+  EXPECT_TRUE(done);
+  EXPECT_EQ(restored.columns(), original.columns());
+  for (int step = 3; step < 5; ++step) {
+    const Eigen::VectorXd x = sweep(&original, b_of(step), Vector6d::Ones(), 2);
+    EXPECT_EQ((sweep(&restored, b_of(step), Vector6d::Ones(), 2) - x).norm(), 0.0) << "step " << step;
+    EXPECT_GT((sweep(&fresh, b_of(step), Vector6d::Ones(), 2) - x).norm(), 1e-6) << "step " << step;
+  }
+  Relaxation other(Relaxation::Method::kIqnIls, 6, 0.5, -1, 1);  // another reuse_steps
+  EXPECT_EQ(other.Restore(memory, &done), "");
+  EXPECT_FALSE(done);
+  EXPECT_EQ(other.columns(), 0);
+  state::RelaxationMemory truncated = memory;
+  truncated.mutable_v()->RemoveLast();
+  EXPECT_NE(restored.Restore(truncated, &done).find("relaxation memory holds"), std::string::npos);
+  state::RelaxationMemory not_finite = memory;
+  not_finite.set_w(0, std::nan(""));
+  EXPECT_NE(restored.Restore(not_finite, &done).find("not finite"), std::string::npos);
+  EXPECT_FALSE(done);
+}
+
 }  // namespace
 }  // namespace cosim::interface

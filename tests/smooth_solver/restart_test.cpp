@@ -62,6 +62,44 @@ void WriteWithoutDataAndHistory(const std::string& from, const std::string& to) 
   ASSERT_TRUE(s.SerializeToOstream(&out));
 }
 
+// The state `sim` saves in `folder` (final_state.pb), as read back.
+state::SmoothState SaveState(MultibodySimulation* sim, const std::string& folder) {
+  sim->BeginOutput(folder);
+  sim->EndOutput();
+  state::SmoothState saved;
+  std::ifstream in(folder + "/final_state.pb", std::ios::binary);
+  EXPECT_TRUE(saved.ParseFromIstream(&in)) << folder;
+  return saved;
+}
+
+// Edits of a saved state, each with what the refusal of the edited state must say.
+using Edits = std::vector<std::pair<std::function<void(state::SmoothState*)>, std::string>>;
+
+// Each edit of `saved`, given to a run of the scene at `path` as numerics.initial_state, is
+// refused with an InputError that names numerics.initial_state and says what the edit expects.
+void ExpectEachEditRefused(const std::string& path, const state::SmoothState& saved, const Edits& edits,
+                           const std::string& folder) {
+  for (const auto& [edit, expected] : edits) {
+    SCOPED_TRACE(expected);
+    state::SmoothState s = saved;
+    edit(&s);
+    {
+      std::ofstream out(folder + "/edited.pb", std::ios::binary);
+      ASSERT_TRUE(s.SerializeToOstream(&out));
+    }
+    try {
+      MultibodySimulation sim(interface::ScenarioFile::Load(
+          path,
+          {"numerics.start_time=" + std::to_string(s.time()), "numerics.initial_state=\"" + folder + "/edited.pb\""}));
+      ADD_FAILURE() << "an edited state was accepted";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("numerics.initial_state"), std::string::npos) << what;
+      EXPECT_NE(what.find(expected), std::string::npos) << what;
+    }
+  }
+}
+
 struct Case {
   std::string scene;  // under scenarios/
   int first;          // steps before the restart (-1: up to the first step in contact)
@@ -147,42 +185,18 @@ TEST(Restart, ASavedStateWhoseDataOrHistoryIsNotTheScenesIsRefusedNamingTheField
   std::filesystem::create_directories(folder);
   MultibodySimulation part(interface::ScenarioFile::Load(path, {}));
   StepAndProbe(&part, 0.0, 5e-5, 10);
-  part.BeginOutput(folder);
-  part.EndOutput();
-  state::SmoothState saved;
-  {
-    std::ifstream in(folder + "/final_state.pb", std::ios::binary);
-    ASSERT_TRUE(saved.ParseFromIstream(&in));
-  }
+  const state::SmoothState saved = SaveState(&part, folder);
   ASSERT_EQ(saved.impact_speed_size(), 1);
   ASSERT_GT(saved.acceleration_variable_size(), 0);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const std::vector<std::pair<std::function<void(state::SmoothState*)>, std::string>> edits{
+  const Edits edits{
       {[](state::SmoothState* s) { s->add_impact_speed(0.5); }, "2 contact memories"},
       {[](state::SmoothState* s) { s->mutable_lambda()->RemoveLast(); }, "is not of this scene's"},
       {[nan](state::SmoothState* s) { s->set_impact_speed(0, nan); }, "impact_speed[0] is not finite"},
       {[nan](state::SmoothState* s) { s->set_acceleration_variable(3, nan); },
        "acceleration_variable[3] is not finite"},
   };
-  for (const auto& [edit, expected] : edits) {
-    SCOPED_TRACE(expected);
-    state::SmoothState s = saved;
-    edit(&s);
-    {
-      std::ofstream out(folder + "/edited.pb", std::ios::binary);
-      ASSERT_TRUE(s.SerializeToOstream(&out));
-    }
-    try {
-      MultibodySimulation sim(interface::ScenarioFile::Load(
-          path,
-          {"numerics.start_time=" + std::to_string(s.time()), "numerics.initial_state=\"" + folder + "/edited.pb\""}));
-      ADD_FAILURE() << "an edited state was accepted";
-    } catch (const InputError& e) {
-      const std::string what = e.what();
-      EXPECT_NE(what.find("numerics.initial_state"), std::string::npos) << what;
-      EXPECT_NE(what.find(expected), std::string::npos) << what;
-    }
-  }
+  ExpectEachEditRefused(path, saved, edits, folder);
 }
 
 TEST(Restart, ASavedRotorInflowThatIsNotFiniteIsRefusedNamingTheRotorAndField) {
@@ -195,39 +209,15 @@ TEST(Restart, ASavedRotorInflowThatIsNotFiniteIsRefusedNamingTheRotorAndField) {
   MultibodySimulation part(interface::ScenarioFile::Load(path, {}));
   const double h = interface::ScenarioFile::Load(path, {}).proto().numerics().step();
   StepAndProbe(&part, 0.0, h, 5);
-  part.BeginOutput(folder);
-  part.EndOutput();
-  state::SmoothState saved;
-  {
-    std::ifstream in(folder + "/final_state.pb", std::ios::binary);
-    ASSERT_TRUE(saved.ParseFromIstream(&in));
-  }
+  const state::SmoothState saved = SaveState(&part, folder);
   ASSERT_EQ(saved.rotors_size(), 1);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const std::vector<std::pair<std::function<void(state::SmoothState*)>, std::string>> edits{
+  const Edits edits{
       {[nan](state::SmoothState* s) { s->mutable_rotors(0)->set_nu(1, nan); }, "its rotors[0].nu[1] is not finite"},
       {[nan](state::SmoothState* s) { s->mutable_rotors(0)->set_v_normal(nan); },
        "its rotors[0].v_normal is not finite"},
   };
-  for (const auto& [edit, expected] : edits) {
-    SCOPED_TRACE(expected);
-    state::SmoothState s = saved;
-    edit(&s);
-    {
-      std::ofstream out(folder + "/edited.pb", std::ios::binary);
-      ASSERT_TRUE(s.SerializeToOstream(&out));
-    }
-    try {
-      MultibodySimulation sim(interface::ScenarioFile::Load(
-          path,
-          {"numerics.start_time=" + std::to_string(s.time()), "numerics.initial_state=\"" + folder + "/edited.pb\""}));
-      ADD_FAILURE() << "an edited state was accepted";
-    } catch (const InputError& e) {
-      const std::string what = e.what();
-      EXPECT_NE(what.find("numerics.initial_state"), std::string::npos) << what;
-      EXPECT_NE(what.find(expected), std::string::npos) << what;
-    }
-  }
+  ExpectEachEditRefused(path, saved, edits, folder);
 }
 
 TEST(Restart, AHistoryOfAnotherStepOrRhoInfOrNotStartedIsNotContinued) {
@@ -243,13 +233,7 @@ TEST(Restart, AHistoryOfAnotherStepOrRhoInfOrNotStartedIsNotContinued) {
   const std::string spin = "model.bodies[arm].angular_velocity=[0, 9, 0]";  // swinging over the top
   MultibodySimulation part(interface::ScenarioFile::Load(pendulum, {spin}));
   StepAndProbe(&part, 0.0, h, 300);
-  part.BeginOutput(folder);
-  part.EndOutput();
-  state::SmoothState saved;
-  {
-    std::ifstream in(folder + "/final_state.pb", std::ios::binary);
-    ASSERT_TRUE(saved.ParseFromIstream(&in));
-  }
+  const state::SmoothState saved = SaveState(&part, folder);
   ASSERT_TRUE(saved.has_history_of());
   auto write = [&](const state::SmoothState& s, const std::string& name) {
     std::ofstream out(folder + "/" + name, std::ios::binary);

@@ -178,7 +178,7 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     lines = [
         *report_head("Work against precision", scenario),
         "Each method against its own reference run ("
-        + "; ".join(f"'{m['name']}': {references[reference_of[m['name']]]['id']}" for m in methods)
+        + "; ".join(f"'{m['name']}': {references[reference_of[m['name']]].id}" for m in methods)
         + "). Measures: "
         "the largest |value − reference| of each history probe over the output times; the largest error of a "
         "stop contact's start (re-contact) or end (lift-off) time; the largest error of the peak of each peak "

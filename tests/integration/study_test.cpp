@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include "tests/integration/launch.h"
 
@@ -38,6 +40,37 @@ TEST(Study, ConvergenceMeasuresOrderTwoOnTheOscillator) {
   const std::vector<double> error = runs.Column("error_z");
   for (size_t k = 1; k < error.size(); ++k) EXPECT_NEAR(error[k - 1] / error[k], 4.0, 0.4) << k;
   EXPECT_NE(Slurp(out / "log.txt").find("[5/5]"), std::string::npos);  // progress was shown
+}
+
+TEST(Study, WorkPrecisionMeasuresEachMethodAgainstItsOwnReferenceAndNamesIt) {
+  // The shipped pendulum's work-precision study (co-simulation and the monolithic twin, fixed
+  // and adaptive steps) to its report. Seen when docs/results.md was regenerated: the runs had
+  // become typed records but the report still read its reference runs as dicts, so the study
+  // ended with a TypeError after every run had finished (no study test ran this kind).
+  const fs::path out = TempDir("study_work_precision");
+  ASSERT_EQ(
+      Study("work-precision " + std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop.pbtxt --out " + out.string(),
+            out / "log.txt"),
+      0)
+      << Slurp(out / "log.txt");
+  const std::string report = Slurp(out / "report.md");
+  EXPECT_NE(report.find("'co-simulation (Moreau–Jean)': reference coupled, h = 1.5625e-5"), std::string::npos)
+      << report;
+  EXPECT_TRUE(fs::exists(out / "work_precision.png"));
+  // Every fixed-step co-simulated run completes (the monolithic twin's largest steps may not:
+  // exit 3). runs.csv: run,method,swept_value,exit,… (these rows' names have no comma).
+  std::istringstream runs(Slurp(out / "runs.csv"));
+  size_t cosimulated = 0;
+  for (std::string line; std::getline(runs, line);) {
+    if (line.rfind("co-simulation (Moreau–Jean) step=", 0) != 0) continue;
+    ++cosimulated;
+    std::vector<std::string> fields;
+    std::istringstream cells(line);
+    for (std::string cell; std::getline(cells, cell, ',');) fields.push_back(cell);
+    ASSERT_GE(fields.size(), 4u) << line;
+    EXPECT_EQ(fields[3], "0") << line;
+  }
+  EXPECT_GE(cosimulated, 5u);
 }
 
 TEST(Study, StabilityKeepsGoingPastAFailingScene) {

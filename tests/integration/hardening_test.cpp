@@ -338,11 +338,19 @@ TEST(Hardening, ACoordinatorStoppedBeforeItsContactProcessHeardFromItDoesNotHang
     wrapper << "#!/bin/sh\nkill -STOP $$\nexec " << COSIM_BIN_DIR << "/smooth_solver \"$@\"\n";
   }
   fs::permissions(bin / "smooth_solver", fs::perms::owner_all);
-  const auto t0 = Clock::now();
   Background run =
       Start((bin / "cosim_launch").string(),
             {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=1e4", "--set", "coupling.timeout=1"},
             out.string() + ".txt");
+  // Timed from the moment the coordinator is stopped (state T), not from the launcher's start,
+  // which a loaded machine may delay.
+  const pid_t coordinator = WaitForProcess((bin / "smooth_solver").string());
+  ASSERT_NE(coordinator, -1) << Slurp(out.string() + ".txt");
+  for (int i = 0; i < 500 && Slurp("/proc/" + std::to_string(coordinator) + "/stat").find(") T ") == std::string::npos;
+       ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const auto t0 = Clock::now();
   EXPECT_EQ(run.Wait(20.0), 4) << Slurp(out.string() + ".txt");
   // 2 s stopped + 3 s of grace + 2 s for the contact process to follow + its SIGTERM.
   EXPECT_LT(SecondsSince(t0), 10.0);

@@ -10,7 +10,7 @@ from studies.kinds import STUDIES
 def envelope_headline(runs_csv, speed_unit):
     """The envelope's figures for the results table, from its runs.csv: how many runs, how many
     failed, and the smallest clearance (where: the first two columns are the axes). Points within
-    a millimetre of the least are all named, in the file's order: a rotor's symmetric directions
+    a millimetre of the least are all named, by speed and direction: a rotor's symmetric directions
     reach the same clearance to round-off, and which of them is lowest by 1e-11 m is not a
     finding (it followed the order in which the runs finished)."""
     with open(runs_csv) as f:

@@ -9,6 +9,7 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/integrator/initial_conditions.h"
+#include "smooth_solver/simulation/saved_state.h"
 
 namespace cosim::smooth {
 
@@ -97,43 +98,21 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   StartReactionsFrom(state);
 }
 
-namespace {
-
-using Doubles = google::protobuf::RepeatedField<double>;
-
-void Save(const Eigen::VectorXd& v, Doubles* out) { out->Add(v.data(), v.data() + v.size()); }
-
-// `in` into `v` if it has v's size and finite values; the reason if not.
-std::string Read(const char* name, const Doubles& in, Eigen::VectorXd* v) {
-  if (in.size() != v->size()) {
-    return std::string("its coordinator's ") + name + " has " + std::to_string(in.size()) + " values, not " +
-           std::to_string(v->size());
-  }
-  for (int i = 0; i < in.size(); ++i) {
-    if (!std::isfinite(in.Get(i)))
-      return std::string("its coordinator's ") + name + "[" + std::to_string(i) + "] is not finite";
-  }
-  *v = Eigen::Map<const Eigen::VectorXd>(in.data(), in.size());
-  return {};
-}
-
-}  // namespace
-
 void Coordinator::SaveMemory(state::CoordinatorMemory* out) const {
   out->set_points(static_cast<int>(system_.interface_points.size()));
-  Save(accepted_x_, out->mutable_accepted_x());
-  Save(previous_accepted_x_, out->mutable_previous_accepted_x());
+  AddValues(accepted_x_, out->mutable_accepted_x());
+  AddValues(previous_accepted_x_, out->mutable_previous_accepted_x());
   out->set_accepted_steps(accepted_steps_);
   out->set_accepted_h(accepted_h_);
   out->set_previous_accepted_h(previous_accepted_h_);
-  Save(lambda_start_, out->mutable_lambda_start());
-  Save(filtered_start_, out->mutable_filtered_start());
-  Save(accepted_position_, out->mutable_accepted_position());
-  Save(accepted_velocity_, out->mutable_accepted_velocity());
-  Save(accepted_acceleration_, out->mutable_accepted_acceleration());
-  Save(previous_accepted_position_, out->mutable_previous_accepted_position());
-  Save(previous_accepted_velocity_, out->mutable_previous_accepted_velocity());
-  Save(accepted_offset_, out->mutable_accepted_offset());
+  AddValues(lambda_start_, out->mutable_lambda_start());
+  AddValues(filtered_start_, out->mutable_filtered_start());
+  AddValues(accepted_position_, out->mutable_accepted_position());
+  AddValues(accepted_velocity_, out->mutable_accepted_velocity());
+  AddValues(accepted_acceleration_, out->mutable_accepted_acceleration());
+  AddValues(previous_accepted_position_, out->mutable_previous_accepted_position());
+  AddValues(previous_accepted_velocity_, out->mutable_previous_accepted_velocity());
+  AddValues(accepted_offset_, out->mutable_accepted_offset());
   for (const Eigen::Matrix3d& S : sensitivity_) {
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) out->add_sensitivity(S(i, j));
@@ -152,9 +131,7 @@ std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
   }
   // Read into copies: a refused memory changes nothing.
   constexpr int kFields = 11;
-  Eigen::VectorXd v[kFields];
-  for (Eigen::VectorXd& each : v) each.resize(n_);
-  const std::pair<const char*, const Doubles*> fields[kFields] = {
+  const std::pair<const char*, const google::protobuf::RepeatedField<double>*> fields[kFields] = {
       {"accepted_x", &in.accepted_x()},
       {"previous_accepted_x", &in.previous_accepted_x()},
       {"lambda_start", &in.lambda_start()},
@@ -166,9 +143,14 @@ std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
       {"previous_accepted_velocity", &in.previous_accepted_velocity()},
       {"accepted_offset", &in.accepted_offset()},
       {"sensitivity", &in.sensitivity()}};
-  v[10].resize(9 * static_cast<Eigen::Index>(points));  // 3 × 3 per point
+  Eigen::VectorXd v[kFields];
   for (int f = 0; f < kFields; ++f) {
-    if (std::string wrong = Read(fields[f].first, *fields[f].second, &v[f]); !wrong.empty()) return wrong;
+    const int size = f == kFields - 1 ? 9 * static_cast<int>(points) : n_;  // sensitivity: 3 × 3 per point
+    if (!ReadValues(*fields[f].second, size, &v[f])) {
+      return std::string("its coordinator's ") + fields[f].first + " has " + std::to_string(fields[f].second->size()) +
+             " values, not " + std::to_string(size);
+    }
+    if (std::string bad = NonFinite({fields[f]}, "coordinator's "); !bad.empty()) return bad;
   }
   if (in.was_contact_size() != static_cast<int>(points)) {
     return "its coordinator's was_contact has " + std::to_string(in.was_contact_size()) + " values, not " +
@@ -178,7 +160,7 @@ std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
       in.previous_accepted_h() < 0.0 || in.accepted_steps() < 0) {
     return "its coordinator's accepted_h, previous_accepted_h or accepted_steps is not a step length or count";
   }
-  bool relaxation = false;
+  bool relaxation = false;  // (not restored if saved with other settings: it starts afresh, as they say)
   if (in.has_relaxation()) {
     if (std::string wrong = relaxation_.Restore(in.relaxation(), &relaxation); !wrong.empty()) {
       return "its coordinator's " + wrong;
@@ -232,9 +214,12 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     for (size_t k = 0; k < every_point.size(); ++k) every_point[k] = static_cast<int>(k);
     RestartWithCouplingRowsFree(integrator_->state(), start_time, every_point);
   }
-  for (size_t k = 0; k < system_.interface_points.size() && !restored_; ++k) {
-    const Eigen::Vector3d a = system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
-    for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
+  if (!restored_) {  // (a continued run's imposed coordinates are its own, restored with the data)
+    for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+      const Eigen::Vector3d a =
+          system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
+      for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
+    }
   }
   for (Peer& peer : peers_) {
     auto* hello = peer.channel->Outgoing(-1, 0).mutable_hello();

@@ -107,7 +107,6 @@ class Coordinator {
   // the data restored with it). The reason a memory is refused (another number of points, sizes
   // that do not match, non-finite values), nothing changed; empty if none.
   std::string RestoreMemory(const state::CoordinatorMemory& in);
-  bool restored() const { return restored_; }
   // One coupled step from t to t + h (fixed steps): Try, then Accept; a failed Newton solve or
   // (with stop_at_max_iterations) no convergence throws NumericalError. Returns the coupling
   // iterations used.

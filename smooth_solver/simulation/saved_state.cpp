@@ -13,7 +13,7 @@ namespace {
 using Doubles = google::protobuf::RepeatedField<double>;
 
 void Add(const Eigen::Vector3d& v, Doubles* out) { out->Add(v.data(), v.data() + 3); }
-void Add(const Eigen::VectorXd& v, Doubles* out) { out->Add(v.data(), v.data() + v.size()); }
+void Add(const Eigen::VectorXd& v, Doubles* out) { AddValues(v, out); }
 
 // The three values of `in` (false if it has not three).
 bool Read(const Doubles& in, Eigen::Vector3d* v) {
@@ -22,16 +22,19 @@ bool Read(const Doubles& in, Eigen::Vector3d* v) {
   return true;
 }
 
-bool Read(const Doubles& in, int size, Eigen::VectorXd* v) {
+bool Read(const Doubles& in, int size, Eigen::VectorXd* v) { return ReadValues(in, size, v); }
+
+}  // namespace
+
+void AddValues(const Eigen::VectorXd& v, Doubles* out) { out->Add(v.data(), v.data() + v.size()); }
+
+bool ReadValues(const Doubles& in, int size, Eigen::VectorXd* v) {
   if (in.size() != size) return false;
   *v = Eigen::Map<const Eigen::VectorXd>(in.data(), size);
   return true;
 }
 
-// The first field of `fields` (name, values) with a non-finite value, as "its PREFIXNAME[i] is
-// not finite"; empty if none.
-std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles*>> fields,
-                      const std::string& prefix = "") {
+std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles*>> fields, const std::string& prefix) {
   for (const auto& [name, values] : fields) {
     for (int i = 0; i < values->size(); ++i) {
       if (!std::isfinite(values->Get(i))) return "its " + prefix + name + "[" + std::to_string(i) + "] is not finite";
@@ -39,8 +42,6 @@ std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles
   }
   return {};
 }
-
-}  // namespace
 
 void SaveData(const SystemData& data, state::SmoothState* saved) {
   saved->mutable_impact_speed()->Add(data.impact_speed.begin(), data.impact_speed.end());

@@ -3,12 +3,26 @@
 // that a restart (numerics.initial_state) continues the run instead of starting it afresh: the
 // run's SystemData (contact memories, rotor inflow, imposed coordinates) and CGα's history
 // (accelerations, multipliers, a_n, the elastic midpoint force).
+#include <google/protobuf/repeated_field.h>
+
+#include <initializer_list>
 #include <string>
+#include <utility>
 
 #include "smooth_solver/integrator/cgalpha.h"
 #include "state.pb.h"
 
 namespace cosim::smooth {
+
+// The saved fields' values, for every part of the state that saves vectors (the data, CGα's
+// history, a coupled run's coordinator): `v` appended to `out`; `in` into `v` if it holds `size`
+// values (false if not); and the first field of `fields` (name, values) with a non-finite value,
+// as "its PREFIXNAME[i] is not finite" (empty if none).
+void AddValues(const Eigen::VectorXd& v, google::protobuf::RepeatedField<double>* out);
+bool ReadValues(const google::protobuf::RepeatedField<double>& in, int size, Eigen::VectorXd* v);
+std::string NonFinite(
+    std::initializer_list<std::pair<const char*, const google::protobuf::RepeatedField<double>*>> fields,
+    const std::string& prefix = "");
 
 void SaveData(const SystemData& data, state::SmoothState* saved);
 // Whether `saved` holds a SystemData (written by a run since the data was saved).

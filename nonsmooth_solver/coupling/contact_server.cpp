@@ -276,23 +276,28 @@ const Envelope& ContactServer::Next() {
 }
 
 void ContactServer::ServeStep(int64_t step, double t, double h) {
-  while (true) {
+  // The coordinator takes the grid step whole or, when its coupled solve cannot, rejects it and
+  // takes it as halves or quarters (Coordinator::StepOrSplit): served until the step's end is
+  // accepted. Each step begins where the last accepted one ended, h / 2^k long (k <= 2).
+  const double end = t + h, eps = 1e-9 * std::max(1.0, std::abs(end));
+  while (accepted_time_ < end - eps) {
     const Envelope& e = Next();
     // (A StepBegin that accepts the step under way is checked when it begins its own.)
-    if (e.has_step_begin() && step_ < 0 &&
-        (e.step() != step || !(std::abs(e.step_begin().time() - t) <= 1e-9 * std::max(1.0, std::abs(t))) ||
-         !(std::abs(e.step_begin().step() - h) <= 1e-12 * std::max(1.0, h)))) {  // (NaN fails)
-      throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) +
-                       " at t = " + interface::FormatNumber(e.step_begin().time()) + " s, h = " +
-                       interface::FormatNumber(e.step_begin().step()) + " s from '" + channel_->options().peer +
-                       "', expected step " + std::to_string(step) + " at t = " + interface::FormatNumber(t) +
-                       " s, h = " + interface::FormatNumber(h) + " s: both sides must read the same numerics");
+    if (e.has_step_begin() && step_ < 0) {
+      const double from = e.step_begin().time(), length = e.step_begin().step();
+      bool substep = false;
+      for (int k = 0; k <= 2 && !substep; ++k) {
+        substep = std::abs(length - h / (1 << k)) <= 1e-12 * std::max(1.0, h);  // (NaN fails)
+      }
+      if (!substep || !(std::abs(from - accepted_time_) <= eps) || !(from + length <= end + eps)) {
+        throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) +
+                         " at t = " + interface::FormatNumber(from) + " s, h = " + interface::FormatNumber(length) +
+                         " s from '" + channel_->options().peer + "', expected step " + std::to_string(step) +
+                         " at t = " + interface::FormatNumber(t) + " s, h = " + interface::FormatNumber(h) +
+                         " s (or its halves or quarters): both sides must read the same numerics");
+      }
     }
-    const Outcome outcome = Handle(e);
-    if (outcome == Outcome::kAccepted && last_accepted_ == step) return;
-    if (outcome == Outcome::kShutdown) {
-      ThrowStopped("step " + std::to_string(step));
-    }
+    if (Handle(e) == Outcome::kShutdown) ThrowStopped("step " + std::to_string(step));
   }
 }
 

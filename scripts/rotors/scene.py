@@ -332,7 +332,7 @@ class Writer:
         r = self.r
         my = 0.15 * r.blade_mass() + (2 * r.node_mass if twin else 0.0)
         out = [
-            f'  bodies {{ name: "yoke" reference: "hub" mass: {num(my)} inertia: [{num(my * r.pad_arm**2)}, {num(my * r.pad_arm**2)}, {num(2 * my * r.pad_arm**2)}]'
+            f'  bodies {{ name: "yoke" reference: "hub" mass: {num(my)} inertia: [{num(0.6 * my * r.pad_arm**2)}, {num(my * r.pad_arm**2)}, {num(1.5 * my * r.pad_arm**2)}]'
             " position: [0, 0, ${-u}] angular_velocity: [0, 0, ${Omega0}] }",
             '  joints { name: "teeter" reference: "hub" type: REVOLUTE body1: "hub" body2: "yoke" point: [0, 0, 0] axis: [0, -1, 0] }',
         ]

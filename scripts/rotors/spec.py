@@ -214,7 +214,9 @@ def draw(seed, topology=None):
         r.antiflap = math.radians(rng.uniform(3, 12))
     r.hingeless_gap_up = rng.uniform(0.01, 0.04) * r.radius
     r.node_mass = _log_uniform(rng, 0.05, 10.0)
-    r.regularization = rng.choice((0.0, _log_uniform(rng, 1e-9, 2e-8)))
+    # Regularised ties only: a stop pad's body is hinged (or a beam's node), and a rigid tie on it
+    # closes a loop (refused: singular constraints) or cannot pass an impact into a beam (refused).
+    r.regularization = _log_uniform(rng, 1e-9, 2e-8)
     r.processes = rng.choice(("blade", "rotor"))
     r.restitution = round(rng.uniform(0.0, 0.8), 3)
     r.collective = math.radians(rng.uniform(4, 12))

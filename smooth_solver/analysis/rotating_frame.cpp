@@ -144,9 +144,21 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
     system.constraints.Jacobian(data->imposed, r.q, options.t, &sink, n, 1.0);
     system.constraints.AddReleasedDiagonal(options.t, &sink, n);
     system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
-    const Eigen::SparseMatrix<double> A = sink.Build(N);
+    Eigen::SparseMatrix<double> A = sink.Build(N);
     Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
-    if (lu.info() != Eigen::Success) break;
+    if (lu.info() != Eigen::Success) {
+      // A mechanism at the guess: a coordinate that nothing stiff holds there, as a blade drawn
+      // exactly on a Hunt–Crossley stop, whose tangent k n δ^(n−1) vanishes at δ = 0 (generated
+      // articulated rotors' continuous twins, settled on their droop stops: LU failed before the
+      // first iteration). That step is taken with a pseudo-mass added, K + μ M (pseudo-transient
+      // continuation): the load moves the free coordinate (capped at max_step below) into the
+      // contact, whose tangent then holds it; later iterations are plain Newton again.
+      constexpr double kPseudoMass = 1.0;  // μ [1/s²]: 0.16 Hz, below any structural mode
+      AddSparse(Eigen::SparseMatrix<double>(kPseudoMass * system.mass), 1.0, &sink);
+      A = sink.Build(N);
+      lu.compute(A);
+      if (lu.info() != Eigen::Success) break;
+    }
     Eigen::VectorXd delta = lu.solve(-R);
     // Steps in q capped at options.max_step (metres, or director components): the first steps
     // from a flat start can be metres long where a soft mode meets a large load (a twisted

@@ -107,10 +107,12 @@ class Coordinator {
   // the data restored with it). The reason a memory is refused (another number of points, sizes
   // that do not match, non-finite values), nothing changed; empty if none.
   std::string RestoreMemory(const state::CoordinatorMemory& in);
-  // One coupled step from t to t + h (fixed steps): Try, then Accept; a failed Newton solve or
-  // (with stop_at_max_iterations) no convergence throws NumericalError. Returns the coupling
+  // One coupled step from t to t + h (fixed steps): Try, then Accept. A failed Newton solve or
+  // (with stop_at_max_iterations) no convergence rejects the step and retries it as two halves,
+  // then quarters (StepOrSplit); if a quarter fails too, NumericalError. Returns the coupling
   // iterations used.
   int Step(double t, double h);
+  static constexpr int kMaxSplits = 2;  // retries at h/2 and h/4
 
   // The adaptive step's pieces. Try: the coupling iterations of the step from t to t + h,
   // committed to nothing: the integrator holds the last iteration's end state, every peer its
@@ -163,6 +165,7 @@ class Coordinator {
   const std::vector<CouplingIterationRecord>& log() const { return log_; }
   int last_newton_iterations() const { return newton_; }  // CGα iterations of the last step, all tries
   long long marked_steps() const { return marked_; }
+  long long retried_steps() const { return retried_; }  // fixed steps redone as halves (or quarters)
   // Steps accepted with the reaction residual at round-off but above the tolerance.
   long long roundoff_steps() const { return at_roundoff_; }
 
@@ -259,6 +262,8 @@ class Coordinator {
   std::vector<int> coupling_rows_;           // the interface points' constraint rows
   std::vector<CouplingIterationRecord> log_;
   long long marked_ = 0;
+  long long retried_ = 0;
+  int StepOrSplit(double t, double h, int depth);
   long long at_roundoff_ = 0;
   Eigen::VectorXd previous_x_tilde_;  // x̃ of the previous iteration
   int newton_ = 0;

@@ -237,6 +237,93 @@ void ProjectVelocities(const MultibodySystem& system, const SystemData& data, do
   }
 }
 
+namespace {
+
+// Rows R with R q̇ = 0 for every rigid motion of each beam with its root node (body m): node s's
+// 12 coordinates [x, u, v, w] follow m's as x_s = x_m + A_m c, a_s = A_m D_a with c = A_mᵀ(x_s − x_m)
+// and D_a = A_mᵀ a_s frozen at q, so ẋ_s − ẋ_m − Ȧ_m c = 0 and ȧ_s − Ȧ_m D_a = 0.
+std::vector<Eigen::Triplet<double>> BeamRigidityRows(const MultibodySystem& system, const Eigen::VectorXd& q,
+                                                     int* rows) {
+  std::vector<Eigen::Triplet<double>> t;
+  *rows = 0;
+  const auto axes = [&](int b) {
+    Eigen::Matrix3d a;
+    for (int j = 0; j < 3; ++j) a.col(j) = q.segment<3>(kCoordinatesPerBody * b + 3 * (j + 1));
+    return a;
+  };
+  for (const std::vector<int>& nodes : system.beam_node_bodies) {
+    if (nodes.size() < 2) continue;
+    const int m = nodes[0], om = kCoordinatesPerBody * m;
+    const Eigen::Matrix3d am = axes(m);
+    const Eigen::Vector3d xm = q.segment<3>(om);
+    for (size_t i = 1; i < nodes.size(); ++i) {
+      const int os = kCoordinatesPerBody * nodes[i];
+      Eigen::Matrix<double, 3, 4> local;  // columns: c, D_u, D_v, D_w
+      local.col(0) = am.transpose() * (q.segment<3>(os) - xm);
+      for (int a = 0; a < 3; ++a) local.col(a + 1) = am.transpose() * q.segment<3>(os + 3 * (a + 1));
+      for (int part = 0; part < 4; ++part) {  // x, u, v, w of node s
+        for (int k = 0; k < 3; ++k) {      // component
+          const int row = (*rows)++;
+          t.emplace_back(row, os + 3 * part + k, 1.0);
+          if (part == 0) t.emplace_back(row, om + k, -1.0);
+          for (int j = 0; j < 3; ++j) t.emplace_back(row, om + 3 * (j + 1) + k, -local(j, part));
+        }
+      }
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state) {
+  int mr = 0;
+  const std::vector<Eigen::Triplet<double>> rigid = BeamRigidityRows(system, state->q, &mr);
+  if (mr == 0) {
+    ProjectVelocities(system, data, t, state);
+    return;
+  }
+  // min ½ Δq̇ᵀ M Δq̇ subject to the constraints' velocity rows and R Δq̇ = 0. The beams' own rows
+  // (their nodes' frames) are then implied by their root's: every row gets a compliance of 1e-10
+  // (an impulse of 1 kN s meets its row to 1e-7 m/s), so the redundant ones cost nothing.
+  const int n = system.coordinates, mc = system.constraints.size(), N = n + mc + mr;
+  constexpr double kRedundancy = 1e-10;
+  PatternSink pattern;
+  for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+  AddSparse(system.mass, 1.0, &pattern);
+  system.constraints.Jacobian(data.imposed, state->q, t, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, state->q, t, &pattern, n, 1.0);
+  for (const auto& e : rigid) {
+    pattern.Add(n + mc + e.row(), e.col(), 0.0);
+    pattern.Add(e.col(), n + mc + e.row(), 0.0);
+  }
+  Eigen::SparseMatrix<double> A = pattern.Build(N, N);
+  MatrixSink sink(&A);
+  AddSparse(system.mass, 1.0, &sink);
+  system.constraints.Jacobian(data.imposed, state->q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, state->q, t, &sink, n, 1.0);
+  system.constraints.AddReleasedDiagonal(t, &sink, n);
+  system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
+  for (const auto& e : rigid) {
+    sink.Add(n + mc + e.row(), e.col(), e.value());
+    sink.Add(e.col(), n + mc + e.row(), e.value());
+  }
+  for (int i = n; i < N; ++i) sink.Add(i, i, -kRedundancy);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
+  rhs.head(n) = system.mass * state->qdot;
+  system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));
+  rhs.segment(n, mc) *= -1.0;
+  Eigen::SparseMatrix<double> R(mr, n);
+  R.setFromTriplets(rigid.begin(), rigid.end());
+  rhs.tail(mr) = R * state->qdot;  // the deformation rates as they were
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
+  if (lu.info() != Eigen::Success) {
+    throw NumericalError("the velocity constraints are singular at t = " + interface::FormatNumber(t) +
+                         " s (an impact's velocity jump with the beams held rigid)");
+  }
+  state->qdot = lu.solve(rhs).head(n);
+}
+
 void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eigen::VectorXd& q, double t0) {
   ConstraintSet& cs = system->constraints;
   const ImposedValues& imposed = data.imposed;

@@ -30,5 +30,12 @@ void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eige
 // outside (a contact node's impact in a coupled run). Throws NumericalError for redundant rows
 // that are not regularised.
 void ProjectVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state);
+// The velocity jump of an impact (a coupled run's restart, the interface points taking their
+// nodes' velocities): ProjectVelocities with every beam's deformation rates held, each beam's
+// nodes moving with its root node as one rigid body through the impulse. An impulse shorter than
+// a step does not bend a blade whose lowest modes take many steps; projected in the full mass
+// metric, a jump of the body a beam is clamped to bends the beam's root within the step.
+// Throws NumericalError when the constraints (with those rows) are singular.
+void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state);
 
 }  // namespace cosim::smooth

@@ -453,6 +453,7 @@ void AddInterfacePoints(const MultibodyModel& model, MultibodySystem* sys) {
       ip.first_row = cs.size();
       ip.elastic = spec.elastic >= 0;
       ip.body = spec.elastic >= 0 ? -1 : spec.body;
+      ip.regularization = spec.regularization;
       for (const BeamModel& beam : model.beams) {  // a beam's node is a body of the model too
         for (int b : beam.node_bodies) ip.elastic = ip.elastic || (spec.elastic < 0 && b == spec.body);
       }
@@ -516,6 +517,7 @@ MultibodySystem BuildMultibodySystem(const MultibodyModel& model, std::vector<El
   AddRigidBodies(model, &sys, &mass);
   AddElasticBodies(model, &sys, &mass);
   AddBeams(model, &sys, &mass);
+  for (const BeamModel& beam : model.beams) sys.beam_node_bodies.push_back(beam.node_bodies);
   sys.mass.resize(n, n);
   sys.mass.setFromTriplets(mass.begin(), mass.end());
   if (!model.aero.empty()) {

@@ -43,6 +43,7 @@ struct InterfacePoint {
   LinearVector point;    // p(q)
   bool elastic = false;  // a node of an elastic (hex27) body or of a beam
   int body = -1;         // the rigid body (a beam's node included) it is a point of; -1: an elastic node
+  double regularization = 0.0;  // the tie's Tikhonov compliance c [m/N]; 0: a rigid tie
 };
 
 struct MultibodySystem {
@@ -86,6 +87,9 @@ struct MultibodySystem {
   Eigen::Vector3d InterfaceReaction(int k, const Eigen::VectorXd& lambda) const {
     return lambda.segment<3>(interface_points[static_cast<size_t>(k)].first_row);
   }
+  // The beams' node bodies, root first, in model.beams' order (an impact's restart holds each
+  // beam's deformation rates: ProjectImpactVelocities).
+  std::vector<std::vector<int>> beam_node_bodies;
   // The beams' internal forces, in model.beams' order (also in `forces`).
   std::vector<const BeamForce*> beam_forces;
   // Per model force element (model.forces' order): its continuous contacts or joint stops (also

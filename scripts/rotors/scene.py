@@ -382,7 +382,8 @@ class Writer:
         j, s = self.pad_node()
         L, x = r.radius - r.blade_root(), s - r.blade_root()
         sag = r.mass_per_length * G * x * x * (6 * L * L - 4 * L * x + x * x) / (24 * r.ei_flap * r.root_stiffness_factor)
-        return max(r.hingeless_gap_up * sag / (0.025 * r.radius), 1e-3)
+        # 2–6 times the sag: a gust of one to a few g lifts the pad onto it; never under 5 mm.
+        return max(sag * (2 + 4 * (r.hingeless_gap_up / r.radius - 0.01) / 0.03), 5e-3)
 
     def hingeless_stops(self, twin):
         r = self.r

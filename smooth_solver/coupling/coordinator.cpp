@@ -41,7 +41,7 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
     for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
   }
   const size_t points = system.interface_points.size();
-  for (auto* blocks : {&sensitivity_, &stiffness_, &response_, &response_axes_}) {
+  for (auto* blocks : {&sensitivity_, &stiffness_, &response_, &response_axes_, &accepted_sensitivity_}) {
     blocks->assign(points, Eigen::Matrix3d::Zero());
   }
   applied_ = sent_position_ = accepted_position_ = accepted_velocity_ = accepted_acceleration_ = x_;
@@ -179,6 +179,7 @@ std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
   for (size_t k = 0; k < points; ++k) {
     sensitivity_[k] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(v[10].data() + 9 * k);
   }
+  accepted_sensitivity_ = sensitivity_;
   accepted_steps_ = in.accepted_steps();
   accepted_h_ = in.accepted_h();
   previous_accepted_h_ = in.previous_accepted_h();
@@ -889,6 +890,9 @@ void Coordinator::Accept(double t, double h) {
   accepted_position_ = position_;
   accepted_velocity_ = velocity_;
   accepted_h_ = h;
+  accepted_sensitivity_ = sensitivity_;
+  accepted_in_contact_ = in_contact_;
+  accepted_time_to_contact_ = time_to_contact_;
   ++accepted_steps_;
   lambda_start_ = lambda_end_;
   filtered_start_ = filtered_end_;
@@ -917,7 +921,7 @@ void Coordinator::Accept(double t, double h) {
   }
   if (!restarted.empty() && settings_.restart_at_impact) {
     DaeState after = integrator_->state();
-    ProjectImpactVelocities(system_, *data_, t + h, &after);  // the points move with their nodes
+    ProjectImpactVelocities(system_, *data_, t + h, restarted, &after);  // the points move with their nodes
     RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
     for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
     accepted_steps_ = 0;
@@ -941,6 +945,12 @@ std::vector<int> Coordinator::Impacts() const {
 
 void Coordinator::Reject() {
   integrator_->Restore(start_);
+  // The rejected step's answers are not the accepted state's: its sensitivities (h²θ/m of a
+  // free node: a step twice as long) made the first retry of a hingeless rotor's first step, at
+  // h/2, fail where a run at h/2 from the start passes (generated hingeless rotors at speed).
+  sensitivity_ = accepted_sensitivity_;
+  in_contact_ = accepted_in_contact_;
+  time_to_contact_ = accepted_time_to_contact_;
   relaxation_.Forget();  // secants of a step of another length
   EndStep(false, false);
   ++rejected_;

@@ -275,6 +275,11 @@ class Coordinator {
   // response_: the point's own stiffness D from the last factorisation, response_axes_: its body's
   // axes then.
   std::vector<Eigen::Matrix3d> sensitivity_, stiffness_, response_, response_axes_;
+  // What the peers said at the last accepted step (their sensitivities, contact, time to contact):
+  // Reject puts them back, so that a rejected step leaves no trace in the next try.
+  std::vector<Eigen::Matrix3d> accepted_sensitivity_;
+  bool accepted_in_contact_ = false;
+  double accepted_time_to_contact_ = 0.0;
   Eigen::VectorXd applied_, sent_position_;
   Eigen::VectorXd accepted_position_, accepted_velocity_, accepted_acceleration_;
   // The peers' affine law at the last accepted step, k = a + S x (a: accepted_offset_), and the

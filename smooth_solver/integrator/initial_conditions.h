@@ -35,7 +35,10 @@ void ProjectVelocities(const MultibodySystem& system, const SystemData& data, do
 // nodes moving with its root node as one rigid body through the impulse. An impulse shorter than
 // a step does not bend a blade whose lowest modes take many steps; projected in the full mass
 // metric, a jump of the body a beam is clamped to bends the beam's root within the step.
+// Only the coupling rows of the `impacting` interface points are imposed (their nodes' new
+// velocities); the other points' rows are left out, their ties following over the next steps.
 // Throws NumericalError when the constraints (with those rows) are singular.
-void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state);
+void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
+                             const std::vector<int>& impacting, DaeState* state);
 
 }  // namespace cosim::smooth

@@ -537,8 +537,16 @@ SystemData MakeData(const MultibodySystem& system) {
   data.imposed.resize(3 * system.interface_points.size());  // (never resized again)
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
     const Eigen::Vector3d at = system.interface_points[k].point.Value(system.q0);
-    // Until the peer says otherwise: where the point is.
-    for (int j = 0; j < 3; ++j) data.imposed[3 * k + static_cast<size_t>(j)].value = at(j);
+    // Until the peer says otherwise: where the point is, moving as the initial guess moves it. A
+    // rate of 0 held the point still while the initial velocities were made consistent: a beam
+    // node tied to a stop pad on a spinning hingeless rotor started at rest while its beam turned
+    // (accelerations of 1e6 m/s², and the first coupled step failed at every step length;
+    // generated hingeless rotors started at speed).
+    const Eigen::Vector3d rate = system.interface_points[k].point.Rate(system.qdot0);
+    for (int j = 0; j < 3; ++j) {
+      data.imposed[3 * k + static_cast<size_t>(j)].value = at(j);
+      data.imposed[3 * k + static_cast<size_t>(j)].rate = rate(j);
+    }
   }
   data.interface_compliance.assign(system.interface_points.size(), Eigen::Matrix3d::Zero());
   data.impact_speed.assign(static_cast<size_t>(system.impact_slots), 0.0);

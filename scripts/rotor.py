@@ -8,7 +8,7 @@
         fields you leave out keep Rotor's defaults (a 4-blade articulated rotor, R = 5 m)
   rotor draw --seed S [--count N] --out DIR
         N rotors drawn from physical ranges (seeds S, S+1, …), each in DIR/rotor_SEED/
-  rotor sample [--count N] [--seed S] [--out DIR] [--jobs J] [--restart-every K]
+  rotor sample [--count N] [--seed S] [--out DIR] [--jobs J] [--restart-every K] [--window T] [--topology T]
         draws N rotors, runs each co-simulated and continuous with default numerics, judges the
         pair (rotors/check.py) and writes DIR/runs.csv and DIR/report.md: pass rate by topology,
         blade model and stop model, wall time per rotor, each failure with its scene (a failing
@@ -42,12 +42,24 @@ def new(argv):
     for name, f in fields.items():
         kind = {bool: lambda v: v.lower() in ("1", "true", "yes"), int: int, float: float}.get(type(f.default), str)
         parser.add_argument(f"--{name.replace('_', '-')}", dest=name, type=kind)
+    parser.add_argument("--droop-deg", type=float, help="the droop stop [deg] (instead of --droop in rad)")
+    parser.add_argument("--antiflap-deg", type=float, help="the anti-flap stop [deg]")
     args = parser.parse_args(argv)
     rotor = spec.Rotor()
+    if args.sections_csv:
+        args.sections_csv = os.path.abspath(args.sections_csv)
+        if args.blade_model is None:
+            args.blade_model = "beam"
     for name in fields:
         value = getattr(args, name)
         if value is not None:
             setattr(rotor, name, value)
+    import math
+
+    if args.droop_deg is not None:
+        rotor.droop = math.radians(args.droop_deg)
+    if args.antiflap_deg is not None:
+        rotor.antiflap = math.radians(args.antiflap_deg)
     if args.name is None:
         rotor.name = os.path.basename(os.path.normpath(args.out)) or "rotor"
     problems = rotor.check()
@@ -76,6 +88,8 @@ def sample(argv):
     parser.add_argument("--out", default=os.path.join(ROOT, "runs", "rotors"))
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--restart-every", type=int, default=10)
+    parser.add_argument("--window", type=float, help="cap each rotor's simulated time [s] (a short sample)")
+    parser.add_argument("--topology", choices=spec.TOPOLOGIES, help="draw rotors of this topology only")
     parser.add_argument("--bin", default=os.environ.get("COSIM_BIN_DIR", os.path.join(ROOT, "build", "release", "bin")))
     args = parser.parse_args(argv)
     if args.count < 1 or args.jobs < 1:
@@ -83,13 +97,17 @@ def sample(argv):
     os.makedirs(args.out, exist_ok=True)
     folders = []
     for seed in range(args.seed, args.seed + args.count):
-        rotor = spec.draw(seed)
+        rotor = spec.draw(seed, args.topology)
+        if args.window:
+            rotor.end_time = min(rotor.end_time, args.window)
         scene.write(rotor, os.path.join(args.out, rotor.name))
         folders.append((seed, os.path.join(args.out, rotor.name)))
     results, t0 = [], time.time()
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
         futures = {
-            pool.submit(check.judge, folder, args.bin, args.restart_every > 0 and (seed % args.restart_every) == 0): seed
+            pool.submit(
+                check.judge, folder, args.bin, args.restart_every > 0 and (seed % args.restart_every) == 0
+            ): seed
             for seed, folder in folders
         }
         for n, fut in enumerate(concurrent.futures.as_completed(futures), 1):
@@ -98,7 +116,10 @@ def sample(argv):
             results.append(res)
             left = (time.time() - t0) / n * (len(folders) - n)
             status = "ok" if res["ok"] else "FAILED: " + res["why"]
-            print(f"[{n}/{len(folders)}, ~{left / 60:.0f} min left] {res['name']} {res['topology']} {res['blade_model']} {res['excitation']}: {status}", flush=True)
+            print(
+                f"[{n}/{len(folders)}, ~{left / 60:.0f} min left] {res['name']} {res['topology']} {res['blade_model']} {res['excitation']}: {status}",
+                flush=True,
+            )
     results.sort(key=lambda r: r["seed"])
     write_report(args.out, results)
     sys.exit(0 if all(r["ok"] for r in results) else 1)
@@ -116,7 +137,12 @@ def write_report(out, results):
     lines.append("")
 
     def table(label, key):
-        lines.extend([f"| {label} | rotors | passed | mean wall co-simulated [s] | mean wall continuous [s] |", "|---|---|---|---|---|"])
+        lines.extend(
+            [
+                f"| {label} | rotors | passed | mean wall co-simulated [s] | mean wall continuous [s] |",
+                "|---|---|---|---|---|",
+            ]
+        )
         for value in sorted({key(r) for r in results}):
             group = [r for r in results if key(r) == value]
             ok = sum(r["ok"] for r in group)

@@ -2,15 +2,21 @@
 the pair: both end with exit 0, no coupled step accepted unconverged, the stops' contacts start
 and end at the same times in both models, and the flap (teeter, pad) histories agree.
 
-Tolerances, from the two stop models' own differences:
-- a contact's start: the twin's Hunt–Crossley law touches when the gap closes, the co-simulated
-  pad when its node (on a tie of compliance c) reaches the plane; the two differ by the law's
-  contact time at most (the twin's contact lasts ~contact_duration, Moreau–Jean's is instantaneous)
-  plus a few steps of the tie's transient: |Δt| <= contact_duration + 5 h;
-- the flap angle: the co-simulated blade is lighter by the pad's mass (carried by the tie) and
-  its stops act through a compliant tie, the twin's through a compliant law, so the flap histories
-  agree to a share of the motion: RMS difference <= 0.5° + 10 % of the flap angle's range (a
-  hingeless pad's height: 2 mm + 10 % of its range)."""
+The two models differ where the stops act: the co-simulated pad meets its plane in a Newton
+impact (instantaneous, restitution e) through a tie of compliance c; the twin's Hunt–Crossley law
+is a compliant contact lasting about T_c = contact_duration (20 ms) with the same effective e.
+Hence the tolerances:
+- contacts: every contact of one model has the other in contact within tol = T_c + 5 h of its
+  start and end (the law's duration, a few steps of the tie's transient), plus T_c for each impact
+  of that pad before it (each contact the law resolves over T_c shifts the flight after it by up
+  to T_c: bounce series drift apart), unless the other model's blade is on its stop then anyway
+  (within 5 % of the stops' span: a load in balance, a bounce series the law merges);
+- flap histories before the first impact of any blade (lift-offs, free flight, the gust or the
+  run-up): RMS difference <= 0.1° + 2 % of the range (a hingeless pad's height: 0.5 mm + 2 %):
+  the models differ there only by where the pad's mass sits and the stops' static compliance;
+- the extremes of each blade's flap over the whole run (what a blade-sailing study reports: the
+  highest and the lowest tip): within 0.5° + 10 % of the range (2 mm + 10 %).
+"""
 import csv
 import json
 import math
@@ -98,7 +104,10 @@ def stop_positions(rotor):
     if rotor["topology"] == "teetering":
         return {"pad1": ("teeter", [rotor["droop"] * deg]), "pad2": ("teeter", [rotor["antiflap"] * deg])}
     if rotor["topology"] == "articulated":
-        return {f"pad{k}": (f"flap{k}", [rotor["droop"] * deg, rotor["antiflap"] * deg]) for k in range(1, rotor["blades"] + 1)}
+        return {
+            f"pad{k}": (f"flap{k}", [rotor["droop"] * deg, rotor["antiflap"] * deg])
+            for k in range(1, rotor["blades"] + 1)
+        }
     from rotors import scene, spec  # (the gap is the writer's)
 
     gap = scene.Writer(spec.Rotor(**rotor)).hingeless_gap()
@@ -125,9 +134,18 @@ def compare_contacts(rotor, ha, ea, hb, eb, tol):
     times = ha["time"]
     n = min(len(times), len(hb["time"]))
     step = rotor["step"]
-    reach = int(round(tol / step))
     out = []
     for key, eps in ea.items():
+        # Impacts of this pad so far (contacts closing after the start), in either model.
+        closings = sorted(s for s, _ in eps + eb.get(key, []) if s > times[0] + 0.5 * step)
+        drift = [0] * n
+        j = 0
+        for i in range(n):
+            while j < len(closings) and closings[j] < times[i] - tol:
+                j += 1
+            drift[i] = j
+        reach_at = [int(round((tol + drift[i] * rotor["contact_duration"]) / step)) for i in range(n)]
+        reach = max(reach_at) if reach_at else 0
         col, where = stops[key]
         span = max(where) - min(where) if len(where) > 1 else 2 * abs(where[0])
         base = hb[col][0] if rotor["topology"] == "hingeless" else 0.0
@@ -140,12 +158,12 @@ def compare_contacts(rotor, ha, ea, hb, eb, tol):
         for i in range(n):
             if b_on[i]:
                 last = i
-            near[i] = i - last <= reach
+            near[i] = i - last <= reach_at[i]
         nxt = 10**9
         for i in range(n - 1, -1, -1):
             if b_on[i]:
                 nxt = i
-            near[i] = near[i] or nxt - i <= reach
+            near[i] = near[i] or nxt - i <= reach_at[i]
         bad = None
         for i in range(n):
             off = min(abs(hb[col][i] - base - w) for w in where) > band
@@ -171,7 +189,9 @@ def judge(folder, bin_dir, restart=False):
     with open(os.path.join(folder, "rotor.json")) as f:
         rotor = json.load(f)
     res = {"name": rotor["name"], "topology": rotor["topology"], "blade_model": rotor["blade_model"]}
-    res.update({k: rotor[k] for k in ("excitation", "blades", "node_mass", "regularization", "processes", "restitution")})
+    res.update(
+        {k: rotor[k] for k in ("excitation", "blades", "node_mass", "regularization", "processes", "restitution")}
+    )
     co = launch(bin_dir, os.path.join(folder, "rotor.pbtxt"), os.path.join(folder, "cosim"))
     tw = launch(bin_dir, os.path.join(folder, "rotor_continuous.pbtxt"), os.path.join(folder, "twin"))
     res["cosim_code"], res["twin_code"] = co["code"], tw["code"]
@@ -203,27 +223,51 @@ def judge(folder, bin_dir, restart=False):
                 f"{len(un) + len(un2)} stop contacts without a partner within {tol:.3g} s in the other model "
                 f"(first: {key} {a:.3f}-{b:.3f} s in the {'co-simulated' if un else 'continuous'} model only)"
             )
-        worst = 0.0
-        for col in flap_columns(rotor):
-            a, b = hc.get(col), ht.get(col)
-            if not a or not b:
-                continue
-            n = min(len(a), len(b))
-            rms = math.sqrt(sum((a[i] - b[i]) ** 2 for i in range(n)) / n)
-            span = max(b[:n]) - min(b[:n])
-            floor = 2e-3 if rotor["topology"] == "hingeless" else 0.5
-            allowed = floor + 0.1 * span
-            worst = max(worst, rms / allowed)
-            res.setdefault("flap_rms", 0.0)
-            res["flap_rms"] = max(res["flap_rms"], round(rms, 4))
-        res["flap_rms_share"] = round(worst, 3)
-        if worst > 1:
-            why.append(f"flap histories differ by {res['flap_rms']} RMS ({worst:.2f} of the tolerance)")
+        why += compare_flaps(rotor, hc, ht, ca, ct, res)
         if restart and res["contacts_cosim"]:
             why += check_restart(folder, bin_dir, rotor, ca, hc, res)
     res["ok"] = not why
     res["why"] = "; ".join(why)
     return res
+
+
+def compare_flaps(rotor, hc, ht, ca, ct, res):
+    """The flap histories before the first impact (RMS) and their extremes over the run."""
+    times = hc["time"]
+    step = rotor["step"]
+    closings = [s for eps in list(ca.values()) + list(ct.values()) for s, _ in eps if s > times[0] + 0.5 * step]
+    first = min(closings) if closings else times[-1] + step
+    hingeless = rotor["topology"] == "hingeless"
+    why = []
+    worst_rms = worst_peak = 0.0
+    for col in flap_columns(rotor):
+        a, b = hc.get(col), ht.get(col)
+        if not a or not b:
+            continue
+        n = min(len(a), len(b))
+        span = max(b[:n]) - min(b[:n])
+        before = [i for i in range(n) if times[i] < first]
+        if before:
+            rms = math.sqrt(sum((a[i] - b[i]) ** 2 for i in before) / len(before))
+            worst_rms = max(worst_rms, rms / ((5e-4 if hingeless else 0.1) + 0.02 * span))
+            res["flap_rms_before_impact"] = max(res.get("flap_rms_before_impact", 0.0), rms)
+        allowed = (2e-3 if hingeless else 0.5) + 0.1 * span
+        peak = max(abs(max(a[:n]) - max(b[:n])), abs(min(a[:n]) - min(b[:n])))
+        worst_peak = max(worst_peak, peak / allowed)
+        res["flap_peak_difference"] = max(res.get("flap_peak_difference", 0.0), peak)
+    res["first_impact"] = round(first, 4)
+    res["flap_rms_share"], res["flap_peak_share"] = round(worst_rms, 3), round(worst_peak, 3)
+    unit = "m" if hingeless else "deg"
+    if worst_rms > 1:
+        why.append(
+            f"flap histories before the first impact ({first:.3f} s) differ by "
+            f"{res['flap_rms_before_impact']:.3g} {unit} RMS ({worst_rms:.2f} of the tolerance)"
+        )
+    if worst_peak > 1:
+        why.append(
+            f"flap extremes differ by {res['flap_peak_difference']:.3g} {unit} ({worst_peak:.2f} of the tolerance)"
+        )
+    return why
 
 
 def check_restart(folder, bin_dir, rotor, contacts, hist, res):
@@ -261,4 +305,10 @@ def check_restart(folder, bin_dir, rotor, contacts, hist, res):
                 worst = max(worst, abs(v - hist[col][i]))
     res["restart_time"] = t_mid
     res["restart_difference"] = worst
-    return [f"restart at {t_mid:.6g} s departs from the run made in one go by {worst:.3g}"] if worst > 1e-6 else []
+    # The restarted run repeats the run made in one go to the coupling's own tolerance
+    # (reaction_tolerance, 1e-6 relative): its first step's impulse within ~1e-7 relative, a
+    # difference that free flight then carries on linearly. Held to 1e-5 of the flap's range.
+    span = max(max(hist[c]) - min(hist[c]) for c in flap_columns(rotor))
+    allowed = 1e-5 * span
+    res["restart_allowed"] = allowed
+    return [f"restart at {t_mid:.6g} s departs from the run made in one go by {worst:.3g}"] if worst > allowed else []

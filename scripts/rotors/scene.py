@@ -159,6 +159,9 @@ class Writer:
 
     def sections_csv(self):
         r = self.r
+        if r.sections_csv:
+            with open(r.sections_csv) as f:
+                return f.read()
         r0, R = r.blade_root(), r.radius
         root_end = r0 + r.root_fraction * (R - r0)
         tip_start = R - 0.05 * (R - r0)
@@ -175,7 +178,10 @@ class Writer:
         r = self.r
         start = 0.2 * r.radius
         offset = 0.0 if r.blade_model == "beam" else r.blade_root()  # a rigid blade's s runs from its root
-        rows = ["# Aerodynamic stations: s [m] (a beam's radius, a rigid blade's distance from its root),", "s,chord,twist,airfoil"]
+        rows = [
+            "# Aerodynamic stations: s [m] (a beam's radius, a rigid blade's distance from its root),",
+            "s,chord,twist,airfoil",
+        ]
         for f in (0.0, 0.5, 1.0):
             s = start + f * (r.radius - start)
             rows.append(f"{num(s - offset)},{num(r.chord)},{num(r.collective + r.twist * f)},naca0012")
@@ -190,7 +196,9 @@ class Writer:
         rad = lambda x, z=0.0: f"${{Omega0 * (h0 + d{radial(x, z)})}}"  # noqa: E731
         w = "[${-Omega0 * sin(-beta0)}, 0, ${Omega0 * cos(-beta0)}]"
         out = ['references { name: "root{k}" reference: "hub" position: [${h0}, 0, 0] }']
-        out.append(f'  references {{ name: "flap{{k}}" reference: "root{{k}}" position: [${{d}}, 0, 0] rotation: [0, {th}, 0] }}')
+        out.append(
+            f'  references {{ name: "flap{{k}}" reference: "root{{k}}" position: [${{d}}, 0, 0] rotation: [0, {th}, 0] }}'
+        )
         parent = "hub"
         if r.has_lag():
             parent = "lag{k}"
@@ -316,7 +324,7 @@ class Writer:
                 f'  bodies {{ name: "blade{{k}}" reference: "root{{k}}" mass: {num(m)} inertia: [{num(m * r.chord**2 / 60)}, {num(iyy)}, {num(iyy)}]'
                 f" position: [{num(r0 + xg)}, 0, 0] velocity: [0, ${{Omega0 * {num(r0 + xg)} * cos(precone)}}, 0] angular_velocity: {w} }}"
             )
-            lock = ' locked: true' if r.pitch == "locked" else ""
+            lock = " locked: true" if r.pitch == "locked" else ""
             kind = "REVOLUTE" if lock else "FIXED"
             out.append(
                 f'  joints {{ name: "pitch{{k}}_bearing" reference: "root{{k}}" type: {kind} body1: "yoke" body2: "blade{{k}}" point: [{num(r0)}, 0, 0] axis: [1, 0, 0]{lock} }}'
@@ -381,7 +389,9 @@ class Writer:
         r = self.r
         j, s = self.pad_node()
         L, x = r.radius - r.blade_root(), s - r.blade_root()
-        sag = r.mass_per_length * G * x * x * (6 * L * L - 4 * L * x + x * x) / (24 * r.ei_flap * r.root_stiffness_factor)
+        sag = (
+            r.mass_per_length * G * x * x * (6 * L * L - 4 * L * x + x * x) / (24 * r.ei_flap * r.root_stiffness_factor)
+        )
         # 2–6 times the sag: a gust of one to a few g lifts the pad onto it; never under 5 mm.
         return max(sag * (2 + 4 * (r.hingeless_gap_up / r.radius - 0.01) / 0.03), 5e-3)
 
@@ -398,7 +408,8 @@ class Writer:
             k = self.stop_stiffness(0.25 * r.blade_mass())
             law = f"law {{ stiffness: {num(k)} exponent: 1.5 restitution: {num(max(r.restitution, 0.05))} effective_restitution: true }}"
             return (
-                planes + f'  bodies {{ name: "pad{{k}}" reference: "root{{k}}" mass: {num(r.node_mass)} inertia: [1e-4, 1e-4, 1e-4]'
+                planes
+                + f'  bodies {{ name: "pad{{k}}" reference: "root{{k}}" mass: {num(r.node_mass)} inertia: [1e-4, 1e-4, 1e-4]'
                 f" position: [{num(x)}, 0, 0] velocity: [0, ${{Omega0 * (R0 + {num(x)})}}, 0] angular_velocity: [0, 0, ${{Omega0}}] }}\n"
                 f'  joints {{ name: "pad{{k}}_mount" reference: "root{{k}}" type: FIXED body1: "blade{{k}}.n{j}" body2: "pad{{k}}" point: [{num(x)}, 0, 0] }}\n'
                 f'  forces {{ name: "stops{{k}}_droop" continuous_contact {{ body: "pad{{k}}" point: [0, 0, 0] obstacle: "droop{{k}}" {law} }} }}\n'
@@ -406,7 +417,8 @@ class Writer:
                 "",
             )
         return (
-            planes + f'  contact_nodes {{ name: "pad{{k}}" reference: "root{{k}}" mass: ${{node_mass}} position: [{num(x)}, 0, 0]'
+            planes
+            + f'  contact_nodes {{ name: "pad{{k}}" reference: "root{{k}}" mass: ${{node_mass}} position: [{num(x)}, 0, 0]'
             f" velocity: [0, ${{Omega0 * (R0 + {num(x)})}}, 0]\n"
             '                  contacts { obstacle: "droop{k}" restitution: ${restitution} } contacts { obstacle: "antiflap{k}" restitution: ${restitution} } }\n',
             f'  interface_nodes {{ contact_node: "pad{{k}}" body: "blade{{k}}.n{j}" point: [0, 0, 0] regularization: ${{c_tie}} }}\n',
@@ -433,7 +445,9 @@ class Writer:
                     out.append('probes { name: "stop{k}" quantity: CONTACT_FORCE entity: "stops{k}" }')
                 else:
                     out.append('probes { name: "stop{k}_droop" quantity: CONTACT_FORCE entity: "stops{k}_droop" }')
-                    out.append('probes { name: "stop{k}_antiflap" quantity: CONTACT_FORCE entity: "stops{k}_antiflap" }')
+                    out.append(
+                        'probes { name: "stop{k}_antiflap" quantity: CONTACT_FORCE entity: "stops{k}_antiflap" }'
+                    )
             else:
                 out.append('probes { name: "stop{k}_droop" quantity: IMPULSE entity: "pad{k}/droop{k}" }')
                 out.append('probes { name: "stop{k}_antiflap" quantity: IMPULSE entity: "pad{k}/antiflap{k}" }')
@@ -466,7 +480,9 @@ class Writer:
             head.append(f'parameters {{ name: "u" value: {num(r.undersling)} unit: "m" description: "undersling" }}')
             head.append(f'parameters {{ name: "precone" value: {num(r.precone)} unit: "rad" }}')
         if r.topology == "hingeless":
-            head.append(f'parameters {{ name: "R0" value: {num(r.root_radius)} unit: "m" description: "blade root (clamp) radius" }}')
+            head.append(
+                f'parameters {{ name: "R0" value: {num(r.root_radius)} unit: "m" description: "blade root (clamp) radius" }}'
+            )
         model = [
             "model {",
             "  gravity: [0, 0, -9.81]",
@@ -486,8 +502,21 @@ class Writer:
         each = ["    model {", *[f'      include: "{f}"' for f in model_files], "    }"]
         if not twin and r.topology != "teetering":
             each += ["    coupling {", '      include: "blade_coupling.pbtxt"', "    }"]
-        each += ["    output {", f'      include: "{"blade_probes_twin.pbtxt" if twin else "blade_probes.pbtxt"}"', "    }"]
-        pattern = ["patterns {", '  name: "blades"', "  count: ${blades}", "  axis: [0, 0, 1]", "  each {", *each, "  }", "}"]
+        each += [
+            "    output {",
+            f'      include: "{"blade_probes_twin.pbtxt" if twin else "blade_probes.pbtxt"}"',
+            "    }",
+        ]
+        pattern = [
+            "patterns {",
+            '  name: "blades"',
+            "  count: ${blades}",
+            "  axis: [0, 0, 1]",
+            "  each {",
+            *each,
+            "  }",
+            "}",
+        ]
         tail = []
         if not twin:
             processes = []

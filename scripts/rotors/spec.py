@@ -30,6 +30,9 @@ class Rotor:
     root_mass_factor: float = 2.0
     root_stiffness_factor: float = 3.0
     tip_mass_factor: float = 1.0  # a tip weight over the last 5 % (1: none)
+    # A user's section table (CSV with BeamStation's columns, s in radius from the blade root on)
+    # used as it is instead of the steps above; its mass column gives the blade's mass.
+    sections_csv: str = ""
     elements: int = 4
     nodes_per_element: int = 3
     retardation_time: float = 2e-4  # Kelvin–Voigt β [s]
@@ -111,8 +114,43 @@ class Rotor:
             self.ea * k,
         )
 
+    def table(self):
+        """(s, mass per length) of the user's table, or None."""
+        if not self.sections_csv:
+            return None
+        import csv
+
+        with open(self.sections_csv) as f:
+            rows = [r for r in csv.DictReader(line for line in f if not line.startswith("#"))]
+        return [(float(r["s"]), float(r["mass"])) for r in rows]
+
+    def table_moments(self):
+        """Mass and first and second moments about the blade root of the user's table (linear
+        between stations, constant beyond them, from blade_root to radius)."""
+        pts = self.table()
+        r0, R = self.blade_root(), self.radius
+        xs = [r0 + (R - r0) * i / 400 for i in range(401)]
+
+        def m_at(x):
+            if x <= pts[0][0]:
+                return pts[0][1]
+            for (a, ma), (b, mb) in zip(pts, pts[1:]):
+                if a <= x <= b:
+                    return ma if b == a else ma + (mb - ma) * (x - a) / (b - a)
+            return pts[-1][1]
+
+        dx = (R - r0) / 400
+        m = s1 = s2 = 0.0
+        for a, b in zip(xs, xs[1:]):
+            mid = 0.5 * (a + b)
+            w = m_at(mid) * dx
+            m, s1, s2 = m + w, s1 + w * (mid - r0), s2 + w * (mid - r0) ** 2
+        return m, s1, s2
+
     def blade_mass(self):
         """Mass from the blade root to the tip, with the steps."""
+        if self.sections_csv:
+            return self.table_moments()[0]
         r0, R = self.blade_root(), self.radius
         root_end = r0 + self.root_fraction * (R - r0)
         tip_start = R - 0.05 * (R - r0)
@@ -122,10 +160,16 @@ class Rotor:
 
     def blade_moments(self):
         """First and second mass moments of the blade about its root (along the span)."""
+        if self.sections_csv:
+            return self.table_moments()[1:]
         r0, R = self.blade_root(), self.radius
         root_end = r0 + self.root_fraction * (R - r0)
         tip_start = R - 0.05 * (R - r0)
-        parts = [(r0, root_end, self.root_mass_factor), (root_end, tip_start, 1.0), (tip_start, R, self.tip_mass_factor)]
+        parts = [
+            (r0, root_end, self.root_mass_factor),
+            (root_end, tip_start, 1.0),
+            (tip_start, R, self.tip_mass_factor),
+        ]
         s1 = sum(self.mass_per_length * f * ((b - r0) ** 2 - (a - r0) ** 2) / 2 for a, b, f in parts)
         s2 = sum(self.mass_per_length * f * ((b - r0) ** 3 - (a - r0) ** 3) / 3 for a, b, f in parts)
         return s1, s2
@@ -158,6 +202,13 @@ class Rotor:
         need(self.mass_per_length > 0, "mass_per_length", "> 0 kg/m")
         need(self.end_time > 0 and self.step > 0, "end_time", "> 0 s (and step > 0)")
         need(self.topology != "hingeless" or self.blade_model == "beam", "blade_model", "beam for a hingeless rotor")
+        if self.sections_csv:
+            try:
+                pts = self.table()
+                ok = len(pts) >= 1 and all(m > 0 for _, m in pts)
+            except (OSError, KeyError, ValueError) as e:
+                ok, pts = False, str(e)
+            need(ok, "sections_csv", "a readable CSV with columns s and mass (BeamStation's names), masses > 0")
         return problems
 
 
@@ -176,7 +227,9 @@ def draw(seed, topology=None):
     r.name = f"rotor_{seed}"
     r.topology = topology or TOPOLOGIES[seed % 3]
     r.radius = rng.uniform(1.5, 8.0) if r.topology != "teetering" else rng.uniform(3.0, 7.5)
-    r.blades = 2 if r.topology == "teetering" else rng.randint(2, 7) if r.topology == "articulated" else rng.randint(3, 5)
+    r.blades = (
+        2 if r.topology == "teetering" else rng.randint(2, 7) if r.topology == "articulated" else rng.randint(3, 5)
+    )
     r.chord = r.radius / rng.uniform(12, 20)
     r.blade_model = "beam" if r.topology == "hingeless" else rng.choice(("rigid", "beam"))
     r.mass_per_length = r.radius * rng.uniform(0.8, 1.5)
@@ -248,6 +301,8 @@ def liftoff_speed(r):
     normal force of a flat section at the gust's angle to the chord (≈ 2 sin α, at least the
     collective's lift), over the span, against the blade's weight moment."""
     gust_angle = math.atan2(r.gust_upwash, math.sqrt(max(1e-9, 1 - r.gust_upwash**2)))
-    cn = max(0.3, 2 * math.sin(abs(r.collective + r.twist / 2 + gust_angle)), 2 * math.pi * math.sin(r.collective) * 0.5)
+    cn = max(
+        0.3, 2 * math.sin(abs(r.collective + r.twist / 2 + gust_angle)), 2 * math.pi * math.sin(r.collective) * 0.5
+    )
     # Horizontal gusts lift blades that lie across them only: |sin| of the blade's azimuth, ~2/π on average.
     return math.sqrt(r.mass_per_length * 9.81 / (0.5 * 1.225 * r.chord * min(cn, 1.2) * 0.64))

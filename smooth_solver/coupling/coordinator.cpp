@@ -423,8 +423,11 @@ std::string Coordinator::CouplingState() const {
   std::string contacts;
   for (size_t k = 0; k < contact_.size(); ++k) {
     if (!contact_[k] && !was_contact_[k]) continue;
-    const char* what = !contact_[k] ? " (opening in this step)" : was_contact_[k] ? " (resting)" : " (closing in this step)";
-    contacts += (contacts.empty() ? "" : ", ") + std::string("'") + system_.interface_points[k].contact_node + "'" + what;
+    const char* what = !contact_[k]      ? " (opening in this step)"
+                       : was_contact_[k] ? " (resting)"
+                                         : " (closing in this step)";
+    contacts +=
+        (contacts.empty() ? "" : ", ") + std::string("'") + system_.interface_points[k].contact_node + "'" + what;
   }
   std::string worst;
   double largest = -1.0;
@@ -439,7 +442,8 @@ std::string Coordinator::CouplingState() const {
               interface::FormatNumber(position_(o + 2)) + "] m)";
     }
   }
-  return "interface nodes in contact: " + (contacts.empty() ? std::string("none, in this step and the last") : contacts) +
+  return "interface nodes in contact: " +
+         (contacts.empty() ? std::string("none, in this step and the last") : contacts) +
          (worst.empty() ? "" : "; largest force mismatch " + interface::FormatNumber(largest) + " N at " + worst);
 }
 

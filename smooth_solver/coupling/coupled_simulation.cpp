@@ -129,8 +129,8 @@ void RequireCompliantTiesOnElasticNodesThatTouch(const interface::Checks& checks
     for (const auto& node : file.proto().model().contact_nodes()) {
       if (node.name() != p.contact_node || node.contacts_size() == 0) continue;
       checks.Fail(interface::ElementPath("coupling.interface_nodes", i) + ".regularization",
-                  "0 (a rigid tie) on an elastic node ('" + nodes[i].body() +
-                      "'), whose contact node '" + p.contact_node +
+                  "0 (a rigid tie) on an elastic node ('" + nodes[i].body() + "'), whose contact node '" +
+                      p.contact_node +
                       "' meets obstacles: a rigid tie cannot pass an impact's velocity jump into an elastic "
                       "body; give a compliance c > 0 (the Puma scenes' 5e-9 m/N)");
     }
@@ -260,8 +260,7 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
   simulation_->FillSummary(summary);
   coupling_.Fill(summary->mutable_coupling_iterations());
   summary->mutable_counters()->insert({"coupling_steps_marked", static_cast<double>(coordinator_->marked_steps())});
-  summary->mutable_counters()->insert(
-      {"coupling_steps_retried", static_cast<double>(coordinator_->retried_steps())});
+  summary->mutable_counters()->insert({"coupling_steps_retried", static_cast<double>(coordinator_->retried_steps())});
   summary->mutable_counters()->insert(
       {"coupling_steps_at_roundoff", static_cast<double>(coordinator_->roundoff_steps())});
   summary->mutable_counters()->insert(

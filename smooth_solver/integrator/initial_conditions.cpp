@@ -262,7 +262,7 @@ std::vector<Eigen::Triplet<double>> BeamRigidityRows(const MultibodySystem& syst
       local.col(0) = am.transpose() * (q.segment<3>(os) - xm);
       for (int a = 0; a < 3; ++a) local.col(a + 1) = am.transpose() * q.segment<3>(os + 3 * (a + 1));
       for (int part = 0; part < 4; ++part) {  // x, u, v, w of node s
-        for (int k = 0; k < 3; ++k) {      // component
+        for (int k = 0; k < 3; ++k) {         // component
           const int row = (*rows)++;
           t.emplace_back(row, os + 3 * part + k, 1.0);
           if (part == 0) t.emplace_back(row, om + k, -1.0);

@@ -39,10 +39,10 @@ struct JointMeasure {
 // peer. The multipliers of those rows are the force the smooth model exerts on the node.
 struct InterfacePoint {
   std::string contact_node;
-  int first_row = 0;     // its three rows (x, y, z)
-  LinearVector point;    // p(q)
-  bool elastic = false;  // a node of an elastic (hex27) body or of a beam
-  int body = -1;         // the rigid body (a beam's node included) it is a point of; -1: an elastic node
+  int first_row = 0;            // its three rows (x, y, z)
+  LinearVector point;           // p(q)
+  bool elastic = false;         // a node of an elastic (hex27) body or of a beam
+  int body = -1;                // the rigid body (a beam's node included) it is a point of; -1: an elastic node
   double regularization = 0.0;  // the tie's Tikhonov compliance c [m/N]; 0: a rigid tie
 };
 

@@ -26,8 +26,8 @@ constexpr double kDeg = 57.29577951308232;
 // stays between its stops but for the pads' and ties' compliance (a few hundredths of a degree).
 TEST(GeneratedRotors, BeamBladesMeetTheirStopsWithDefaultNumerics) {
   const fs::path out = TempDir("rotor_beam_gust");
-  const Result r = Launch(kRotors + "/articulated_beam_gust/rotor.pbtxt --out " + out.string() +
-                          " --set numerics.end_time=1.1");
+  const Result r =
+      Launch(kRotors + "/articulated_beam_gust/rotor.pbtxt --out " + out.string() + " --set numerics.end_time=1.1");
   ASSERT_EQ(r.code, 0) << r.output;
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(s.counters().at("coupling_steps_marked"), 0.0);
@@ -51,8 +51,8 @@ TEST(GeneratedRotors, BeamBladesMeetTheirStopsWithDefaultNumerics) {
 // start moving as the initial guess moves them.
 TEST(GeneratedRotors, AHingelessRotorStartedAtSpeedTakesItsFirstSteps) {
   const fs::path out = TempDir("rotor_hingeless_speed");
-  const Result r = Launch(kRotors + "/hingeless_shutdown/rotor.pbtxt --out " + out.string() +
-                          " --set numerics.end_time=0.05");
+  const Result r =
+      Launch(kRotors + "/hingeless_shutdown/rotor.pbtxt --out " + out.string() + " --set numerics.end_time=0.05");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(ReadSummary(out).counters().at("coupling_steps_retried"), 0.0);
 }
@@ -62,8 +62,8 @@ TEST(GeneratedRotors, AHingelessRotorStartedAtSpeedTakesItsFirstSteps) {
 // diverged; refused before the run, naming the tie.
 TEST(GeneratedRotors, ARigidTieOnABeamNodeThatMeetsAStopIsRefused) {
   const fs::path out = TempDir("rotor_rigid_tie");
-  const Result r = Launch(kRotors + "/hingeless_shutdown/rotor.pbtxt --out " + out.string() +
-                          " --set parameters[c_tie].value=0");
+  const Result r =
+      Launch(kRotors + "/hingeless_shutdown/rotor.pbtxt --out " + out.string() + " --set parameters[c_tie].value=0");
   EXPECT_EQ(r.code, 2) << r.output;
   const std::string reason = ReadSummary(out).reason();
   EXPECT_NE(reason.find("coupling.interface_nodes[0].regularization"), std::string::npos) << reason;

@@ -377,6 +377,13 @@ int Coordinator::StepOrSplit(double t, double h, int depth) {
   if (depth >= kMaxSplits) {
     std::string why = Describe(attempt);
     if (depth > 0) {
+      // Smaller steps were tried: CGα's own advice to reduce the step is dropped.
+      const auto replace = [&why](const std::string& from, const std::string& to) {
+        const size_t at = why.find(from);
+        if (at != std::string::npos) why.replace(at, from.size(), to);
+      };
+      replace("; reduce the step or raise", "; raise");
+      replace("; reduce the step", "");
       why += " (retried as " + std::to_string(1 << depth) + " steps of " + interface::FormatNumber(h) +
              " s from t = " + interface::FormatNumber(t) + " s: the smaller steps failed too)";
     }

@@ -281,8 +281,9 @@ void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& da
   int mr = 0;
   const std::vector<Eigen::Triplet<double>> rigid = BeamRigidityRows(system, state->q, &mr);
   // min ½ Δq̇ᵀ M Δq̇ subject to the constraints' velocity rows and R Δq̇ = 0. The beams' own rows
-  // (their nodes' frames) are then implied by their root's: every row gets a compliance of 1e-10
-  // (an impulse of 1 kN s meets its row to 1e-7 m/s), so the redundant ones cost nothing.
+  // (their nodes' frames) are then implied by their root's: with beams, every row gets a
+  // compliance of 1e-10 (an impulse of 1 kN s meets its row to 1e-7 m/s), so the redundant ones
+  // cost nothing; without, the rows are exact (a tied drop's restart, as before).
   const int n = system.coordinates, mc = system.constraints.size(), N = n + mc + mr;
   constexpr double kRedundancy = 1e-10;
   // The coupling rows of the points whose contact did not close: left out. Another pad on the
@@ -314,7 +315,9 @@ void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& da
     sink.Add(n + mc + e.row(), e.col(), e.value());
     sink.Add(e.col(), n + mc + e.row(), e.value());
   }
-  for (int i = n; i < N; ++i) sink.Add(i, i, -kRedundancy);
+  if (mr > 0) {
+    for (int i = n; i < N; ++i) sink.Add(i, i, -kRedundancy);
+  }
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
   rhs.head(n) = system.mass * state->qdot;
   system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));

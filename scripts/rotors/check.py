@@ -80,11 +80,11 @@ def contact_lists(rotor, hist, twin):
     out = {}
     if rotor["topology"] == "teetering":
         if twin:
-            f = hist.get("stop", [])
-            out["pad1"] = episodes(t, [max(0.0, v) if True else v for v in f], 1e-9) if f else []
-            # The teeter stop's moment: one sign per side; split them.
-            out["pad1"] = episodes(t, [v if v < 0 else 0.0 for v in f], 1e-9)
-            out["pad2"] = episodes(t, [v if v > 0 else 0.0 for v in f], 1e-9)
+            f, teeter = hist.get("stop", []), hist.get("teeter", [])
+            # The teeter stop's law force (a magnitude): at the lower stop (teeter < 0) pad 1, on
+            # the +x side of the yoke, meets its mast plane as blade 1 goes down; at the upper, pad 2.
+            out["pad1"] = episodes(t, [v if b < 0 else 0.0 for v, b in zip(f, teeter)], 1e-9)
+            out["pad2"] = episodes(t, [v if b > 0 else 0.0 for v, b in zip(f, teeter)], 1e-9)
         else:
             for k in (1, 2):
                 out[f"pad{k}"] = episodes(t, hist.get(f"stop{k}_mast", []), 1e-12)

@@ -104,6 +104,9 @@ class MultibodySimulation : public interface::Simulation {
   SpinningFrame SpinAtStart(const interface::Checks& checks, const MultibodySystem& system,
                             const DaeState& initial) const;
   int settle_iterations_ = 0;
+  long long retried_steps_ = 0;  // fixed CGα steps redone as halves (or quarters): StepOrSplit
+  int StepOrSplit(CgAlpha& cg, double t, double h, int depth);
+  const CgAlpha* cgalpha_const() const { return dynamic_cast<const CgAlpha*>(integrator_.get()); }
   void UnwrapAngles(const Eigen::VectorXd& q);
   bool static_ = false;
   // A body's vector quantity (kind), in the probe's frame.

@@ -239,71 +239,42 @@ void ProjectVelocities(const MultibodySystem& system, const SystemData& data, do
 
 namespace {
 
-// Rows R with R q̇ = 0 for every rigid motion of each beam with its root node (body m): node s's
-// 12 coordinates [x, u, v, w] follow m's as x_s = x_m + A_m c, a_s = A_m D_a with c = A_mᵀ(x_s − x_m)
-// and D_a = A_mᵀ a_s frozen at q, so ẋ_s − ẋ_m − Ȧ_m c = 0 and ȧ_s − Ȧ_m D_a = 0.
-std::vector<Eigen::Triplet<double>> BeamRigidityRows(const MultibodySystem& system, const Eigen::VectorXd& q,
-                                                     int* rows) {
-  std::vector<Eigen::Triplet<double>> t;
-  *rows = 0;
-  const auto axes = [&](int b) {
-    Eigen::Matrix3d a;
-    for (int j = 0; j < 3; ++j) a.col(j) = q.segment<3>(kCoordinatesPerBody * b + 3 * (j + 1));
-    return a;
-  };
+// The coordinates an impact's restart leaves as they are: every beam node's and every elastic
+// (hex27) body's.
+std::vector<bool> ElasticCoordinates(const MultibodySystem& system) {
+  std::vector<bool> held(static_cast<size_t>(system.coordinates), false);
   for (const std::vector<int>& nodes : system.beam_node_bodies) {
-    if (nodes.size() < 2) continue;
-    const int m = nodes[0], om = kCoordinatesPerBody * m;
-    const Eigen::Matrix3d am = axes(m);
-    const Eigen::Vector3d xm = q.segment<3>(om);
-    for (size_t i = 1; i < nodes.size(); ++i) {
-      const int os = kCoordinatesPerBody * nodes[i];
-      Eigen::Matrix<double, 3, 4> local;  // columns: c, D_u, D_v, D_w
-      local.col(0) = am.transpose() * (q.segment<3>(os) - xm);
-      for (int a = 0; a < 3; ++a) local.col(a + 1) = am.transpose() * q.segment<3>(os + 3 * (a + 1));
-      for (int part = 0; part < 4; ++part) {  // x, u, v, w of node s
-        for (int k = 0; k < 3; ++k) {         // component
-          const int row = (*rows)++;
-          t.emplace_back(row, os + 3 * part + k, 1.0);
-          if (part == 0) t.emplace_back(row, om + k, -1.0);
-          for (int j = 0; j < 3; ++j) t.emplace_back(row, om + 3 * (j + 1) + k, -local(j, part));
-        }
-      }
+    for (int b : nodes) {
+      for (int j = 0; j < kCoordinatesPerBody; ++j) held[static_cast<size_t>(kCoordinatesPerBody * b + j)] = true;
     }
   }
-  return t;
+  for (size_t e = 0; e < system.elastic.size(); ++e) {
+    const int first = system.elastic_offset[e], count = 3 * system.elastic[e]->body.node_count();
+    for (int j = 0; j < count; ++j) held[static_cast<size_t>(first + j)] = true;
+  }
+  return held;
 }
 
-}  // namespace
-
-void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
-                             const std::vector<int>& impacting, DaeState* state) {
-  int mr = 0;
-  const std::vector<Eigen::Triplet<double>> rigid = BeamRigidityRows(system, state->q, &mr);
-  // min ½ Δq̇ᵀ M Δq̇ subject to the constraints' velocity rows and R Δq̇ = 0. The beams' own rows
-  // (their nodes' frames) are then implied by their root's: with beams, every row gets a
-  // compliance of 1e-10 (an impulse of 1 kN s meets its row to 1e-7 m/s), so the redundant ones
-  // cost nothing; without, the rows are exact (a tied drop's restart, as before).
-  const int n = system.coordinates, mc = system.constraints.size(), N = n + mc + mr;
+// min ½ Δq̇ᵀ M Δq̇ over the rigid bodies' velocities, the elastic coordinates' held, subject to the
+// constraints' velocity rows with the coupling rows of `points` only. Rows that only held
+// coordinates enter (a beam's own frames) are then empty: every row gets a compliance of 1e-10
+// (an impulse of 1 kN s meets its row to 1e-7 m/s) where anything is held; without, the rows are
+// exact (a tied drop's restart, as before).
+bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data, double t,
+                          const std::vector<bool>& held, const std::vector<int>& points, DaeState* state) {
+  const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
   constexpr double kRedundancy = 1e-10;
-  // The coupling rows of the points whose contact did not close: left out. Another pad on the
-  // same body (a teetering yoke's other pad, in another contact process) would otherwise hold the
-  // body to its node's old velocity: the yoke took half the impact's jump (e ≈ 0.23 for 0.63;
-  // generated teetering rotors). Its tie follows the body over the next steps, as any tie does.
-  std::vector<bool> dropped(static_cast<size_t>(mc), false);
+  std::vector<bool> dropped(static_cast<size_t>(mc), false);  // the other points' coupling rows
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
-    if (std::find(impacting.begin(), impacting.end(), static_cast<int>(k)) != impacting.end()) continue;
+    if (std::find(points.begin(), points.end(), static_cast<int>(k)) != points.end()) continue;
     for (int j = 0; j < 3; ++j) dropped[static_cast<size_t>(system.interface_points[k].first_row + j)] = true;
   }
+  const bool any_held = std::find(held.begin(), held.end(), true) != held.end();
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
   AddSparse(system.mass, 1.0, &pattern);
   system.constraints.Jacobian(data.imposed, state->q, t, &pattern, n, 1.0);
   system.constraints.JacobianTranspose(data.imposed, state->q, t, &pattern, n, 1.0);
-  for (const auto& e : rigid) {
-    pattern.Add(n + mc + e.row(), e.col(), 0.0);
-    pattern.Add(e.col(), n + mc + e.row(), 0.0);
-  }
   Eigen::SparseMatrix<double> A = pattern.Build(N, N);
   MatrixSink sink(&A);
   AddSparse(system.mass, 1.0, &sink);
@@ -311,38 +282,62 @@ void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& da
   system.constraints.JacobianTranspose(data.imposed, state->q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
   system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
-  for (const auto& e : rigid) {
-    sink.Add(n + mc + e.row(), e.col(), e.value());
-    sink.Add(e.col(), n + mc + e.row(), e.value());
-  }
-  if (mr > 0) {
+  if (any_held) {
     for (int i = n; i < N; ++i) sink.Add(i, i, -kRedundancy);
   }
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
   rhs.head(n) = system.mass * state->qdot;
   system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));
   rhs.segment(n, mc) *= -1.0;
-  if (mr > 0) {
-    Eigen::SparseMatrix<double> R(mr, n);
-    R.setFromTriplets(rigid.begin(), rigid.end());
-    rhs.tail(mr) = R * state->qdot;  // the deformation rates as they were
+  // Held coordinates: their columns move to the right-hand side at their present rates, their
+  // rows say q̇_j = its rate. A dropped row: its multiplier alone, μ = 0.
+  Eigen::VectorXd fixed = Eigen::VectorXd::Zero(N);
+  for (int j = 0; j < n; ++j) {
+    if (held[static_cast<size_t>(j)]) fixed(j) = state->qdot(j);
   }
-  // A dropped row: its multiplier alone, μ = 0.
-  A.prune([&](Eigen::Index row, Eigen::Index col, double) {
-    const auto out = [&](Eigen::Index i) { return i >= n && i < n + mc && dropped[static_cast<size_t>(i - n)]; };
-    return !(out(row) || out(col)) || row == col;
-  });
-  for (int i = 0; i < mc; ++i) {
-    if (!dropped[static_cast<size_t>(i)]) continue;
-    A.coeffRef(n + i, n + i) = 1.0;
-    rhs(n + i) = 0.0;
+  rhs -= A * fixed;
+  const auto out = [&](Eigen::Index i) {
+    return (i < n && held[static_cast<size_t>(i)]) || (i >= n && dropped[static_cast<size_t>(i - n)]);
+  };
+  A.prune([&](Eigen::Index row, Eigen::Index col, double) { return !(out(row) || out(col)) || row == col; });
+  for (int i = 0; i < N; ++i) {
+    if (!out(i)) continue;
+    A.coeffRef(i, i) = 1.0;
+    rhs(i) = i < n ? state->qdot(i) : 0.0;
   }
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
-  if (lu.info() != Eigen::Success) {
-    throw NumericalError("the velocity constraints are singular at t = " + interface::FormatNumber(t) +
-                         " s (an impact's velocity jump with the beams held rigid)");
-  }
+  if (lu.info() != Eigen::Success) return false;
   state->qdot = lu.solve(rhs).head(n);
+  return state->qdot.allFinite();
+}
+
+}  // namespace
+
+std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
+                                         const std::vector<int>& impacting, DaeState* state) {
+  const std::vector<bool> held = ElasticCoordinates(system);
+  std::vector<int> points = impacting;
+  for (int pass = 0; pass < 2 && !points.empty(); ++pass) {
+    DaeState trial = *state;
+    if (!SmallestImpactChange(system, data, t, held, points, &trial)) return {};
+    // A point whose node's velocity the rigid bodies could not take (its body clamped to a
+    // beam, or joined to one: the jump would have to bend the beam within the step) is left to
+    // its tie; the others are projected again without it.
+    std::vector<int> taken;
+    for (int k : points) {
+      const InterfacePoint& p = system.interface_points[static_cast<size_t>(k)];
+      Eigen::Vector3d wanted;
+      for (int j = 0; j < 3; ++j) wanted(j) = data.imposed[static_cast<size_t>(3 * k + j)].rate;
+      const double jump = (wanted - p.point.Rate(state->qdot)).norm();
+      if ((wanted - p.point.Rate(trial.qdot)).norm() <= 0.1 * jump + 1e-9) taken.push_back(k);
+    }
+    if (taken.size() == points.size()) {
+      *state = trial;
+      return points;
+    }
+    points = taken;
+  }
+  return {};
 }
 
 void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eigen::VectorXd& q, double t0) {

@@ -30,15 +30,14 @@ void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eige
 // outside (a contact node's impact in a coupled run). Throws NumericalError for redundant rows
 // that are not regularised.
 void ProjectVelocities(const MultibodySystem& system, const SystemData& data, double t, DaeState* state);
-// The velocity jump of an impact (a coupled run's restart, the interface points taking their
-// nodes' velocities): ProjectVelocities with every beam's deformation rates held, each beam's
-// nodes moving with its root node as one rigid body through the impulse. An impulse shorter than
-// a step does not bend a blade whose lowest modes take many steps; projected in the full mass
-// metric, a jump of the body a beam is clamped to bends the beam's root within the step.
-// Only the coupling rows of the `impacting` interface points are imposed (their nodes' new
-// velocities); the other points' rows are left out, their ties following over the next steps.
-// Throws NumericalError when the constraints (with those rows) are singular.
-void ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
-                             const std::vector<int>& impacting, DaeState* state);
+// The velocity jump of an impact (a coupled run's restart): the `impacting` interface points take
+// their nodes' new velocities (the imposed rates) by the smallest change of the rigid bodies'
+// velocities in the kinetic-energy metric, the elastic coordinates (beams' nodes, hex27 bodies)
+// left as they are and the other points' coupling rows left out (their ties follow). A point
+// whose jump the rigid bodies cannot take to 10 % (its body clamped to a beam: the jump would
+// have to bend the beam within the step) is left to its tie. Returns the points that took their
+// jump (state changed), or none (state unchanged).
+std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
+                                         const std::vector<int>& impacting, DaeState* state);
 
 }  // namespace cosim::smooth

@@ -121,11 +121,10 @@ class Sample(unittest.TestCase):
                     self.assertTrue(reason.startswith("flap extremes differ"), reason)
             else:
                 self.assertEqual(r["ok"], "True", r["why"])
-        restarted = [r for r in rows if r.get("restart_difference")]
-        # Each rotor with a contact longer than two steps is restarted from its middle and must
-        # repeat the run made in one go (rotors/check.py: to 1e-5 of the flap's range; its 'why'
-        # would say otherwise, checked above).
-        self.assertTrue(restarted, "a rotor of the sample is restarted from the middle of a contact")
+        # A rotor with a contact longer than two steps is also restarted from its middle and must
+        # repeat the run made in one go (its 'why' would say otherwise, checked above); seeds 0-2
+        # on 1.5 s windows have none (the hingeless pads' contacts are single-step impacts), so
+        # the restart is tested on a replayed rotor (GeneratedRotors.ARestartFromTheMiddleOf…).
 
 
 if __name__ == "__main__":

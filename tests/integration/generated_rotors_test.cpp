@@ -163,3 +163,21 @@ TEST(GeneratedRotors, ARestartFromTheMiddleOfAContactContinuesTheRunMadeInOneGo)
 }
 
 }  // namespace
+
+namespace {
+
+// A two-blade teetering rotor with beam blades in a gust: one coupled step that the coupled solve
+// could not take at h = 1 ms (its retry counted) is taken as two halves (the contact process
+// serving the grid step's substeps), and the run goes on to the end; before the retries it ended
+// there with exit 3.
+TEST(GeneratedRotors, ACoupledStepThatFailsIsRetriedAsHalves) {
+  const fs::path out = TempDir("rotor_coupled_retry");
+  const Result r = Launch(kRotors + "/teetering_beam_gust/rotor.pbtxt --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const cosim::run::RunSummary s = ReadSummary(out);
+  EXPECT_GE(s.counters().at("coupling_steps_retried"), 1.0);
+  EXPECT_EQ(s.counters().at("coupling_steps_marked"), 0.0);
+  EXPECT_EQ(ReadTable(out / "history.csv").size(), 2301u) << "the rows stay on the 1 ms grid";
+}
+
+}  // namespace

@@ -365,7 +365,7 @@ int Coordinator::Step(double t, double h) { return StepOrSplit(t, h, 0); }
 
 // A step the coupled solve cannot take (a CGα solve failed, or no convergence with
 // stop_at_max_iterations) is rejected at every peer and redone as two halves, a half that fails
-// as two quarters (kMaxSplits); only then does the run end, its message saying that smaller steps
+// as two quarters (StepStatus::kRetrySplits); only then does the run end, its message saying that smaller steps
 // were tried. A fixed-step run's rows stay on its grid: the substeps end where the step ends.
 int Coordinator::StepOrSplit(double t, double h, int depth) {
   const Attempt attempt = Try(t, h);
@@ -374,19 +374,9 @@ int Coordinator::StepOrSplit(double t, double h, int depth) {
     Accept(t, h);
     return attempt.iterations;
   }
-  if (depth >= kMaxSplits) {
+  if (depth >= StepStatus::kRetrySplits) {
     std::string why = Describe(attempt);
-    if (depth > 0) {
-      // Smaller steps were tried: CGα's own advice to reduce the step is dropped.
-      const auto replace = [&why](const std::string& from, const std::string& to) {
-        const size_t at = why.find(from);
-        if (at != std::string::npos) why.replace(at, from.size(), to);
-      };
-      replace("; reduce the step or raise", "; raise");
-      replace("; reduce the step", "");
-      why += " (retried as " + std::to_string(1 << depth) + " steps of " + interface::FormatNumber(h) +
-             " s from t = " + interface::FormatNumber(t) + " s: the smaller steps failed too)";
-    }
+    if (depth > 0) why = StepStatus::AfterRetries(why, 1 << depth, h, t);
     integrator_->Restore(start_);
     throw NumericalError(why);
   }

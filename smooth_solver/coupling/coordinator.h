@@ -112,7 +112,6 @@ class Coordinator {
   // then quarters (StepOrSplit); if a quarter fails too, NumericalError. Returns the coupling
   // iterations used.
   int Step(double t, double h);
-  static constexpr int kMaxSplits = 2;  // retries at h/2 and h/4
 
   // The adaptive step's pieces. Try: the coupling iterations of the step from t to t + h,
   // committed to nothing: the integrator holds the last iteration's end state, every peer its

@@ -342,6 +342,17 @@ std::string StepStatus::Describe(const CgAlphaSettings& settings) const {
   return "CGα: unknown outcome";
 }
 
+std::string StepStatus::AfterRetries(std::string why, int pieces, double h, double t) {
+  const auto replace = [&why](const std::string& from, const std::string& to) {
+    const size_t at = why.find(from);
+    if (at != std::string::npos) why.replace(at, from.size(), to);
+  };
+  replace("; reduce the step or raise", "; raise");
+  replace("; reduce the step", "");
+  return why + " (retried as " + std::to_string(pieces) + " steps of " + interface::FormatNumber(h) +
+         " s from t = " + interface::FormatNumber(t) + " s: the smaller steps failed too)";
+}
+
 int CgAlpha::Step(double t, double h, const DaeState* guess) {
   const StepStatus status = TryStep(t, h, guess);
   if (!status.ok()) throw NumericalError(status.Describe(settings_));

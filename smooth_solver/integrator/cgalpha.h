@@ -126,6 +126,10 @@ struct StepStatus {
   int solves = 0;            // kProjectionFailed: projection solves done
   bool ok() const { return outcome == Outcome::kConverged; }
   std::string Describe(const CgAlphaSettings& settings) const;
+  // The words of a step that still failed as `pieces` steps of h from t (a fixed step retried as
+  // halves and quarters, coupled or not): `why` without its advice to reduce the step.
+  static std::string AfterRetries(std::string why, int pieces, double h, double t);
+  static constexpr int kRetrySplits = 2;  // a failed fixed step is retried as halves, then quarters
 };
 
 class CgAlpha : public SmoothIntegrator {

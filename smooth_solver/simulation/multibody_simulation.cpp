@@ -548,18 +548,9 @@ void MultibodySimulation::Step(double t, double h) {
 int MultibodySimulation::StepOrSplit(CgAlpha& cg, double t, double h, int depth) {
   const StepStatus status = cg.TryStep(t, h);  // (a failed try leaves the integrator as it was)
   if (status.ok()) return status.iterations;
-  if (depth >= 2) {
+  if (depth >= StepStatus::kRetrySplits) {
     std::string why = status.Describe(cg.settings());
-    if (depth > 0) {
-      const auto replace = [&why](const std::string& from, const std::string& to) {
-        const size_t at = why.find(from);
-        if (at != std::string::npos) why.replace(at, from.size(), to);
-      };
-      replace("; reduce the step or raise", "; raise");
-      replace("; reduce the step", "");
-      why += " (retried as " + std::to_string(1 << depth) + " steps of " + interface::FormatNumber(h) +
-             " s from t = " + interface::FormatNumber(t) + " s: the smaller steps failed too)";
-    }
+    if (depth > 0) why = StepStatus::AfterRetries(why, 1 << depth, h, t);
     throw NumericalError(why);
   }
   ++retried_steps_;

@@ -923,17 +923,16 @@ void Coordinator::Accept(double t, double h) {
   for (int k : impacts) {
     if (!system_.interface_points[static_cast<size_t>(k)].elastic) restarted.push_back(k);
   }
-  DaeState after;
-  if (!restarted.empty() && settings_.restart_at_impact) {
-    after = integrator_->state();
+  if (settings_.restart_at_impact && !restarted.empty()) {
+    DaeState after = integrator_->state();
     restarted = ProjectImpactVelocities(system_, *data_, t + h, restarted, &after);  // the points move with their nodes
-  }
-  if (!restarted.empty() && settings_.restart_at_impact) {
-    RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
-    for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
-    accepted_steps_ = 0;
-    offset_known_ = false;
-    relaxation_.Forget();  // nor do the secants of the interface map before it
+    if (!restarted.empty()) {
+      RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
+      for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
+      accepted_steps_ = 0;
+      offset_known_ = false;
+      relaxation_.Forget();  // nor do the secants of the interface map before it
+    }
   }
   was_contact_ = contact_;
   // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
@@ -952,9 +951,9 @@ std::vector<int> Coordinator::Impacts() const {
 
 void Coordinator::Reject() {
   integrator_->Restore(start_);
-  // The rejected step's answers are not the accepted state's: its sensitivities (h²θ/m of a
-  // free node: a step twice as long) made the first retry of a hingeless rotor's first step, at
-  // h/2, fail where a run at h/2 from the start passes (generated hingeless rotors at speed).
+  // A rejected step leaves no trace: its answers (the sensitivities of a step of another length,
+  // h²θ/m for a free node; its contact flags) are not the accepted state's, and the next try
+  // starts from the accepted ones, as a run taking that step from the start would.
   sensitivity_ = accepted_sensitivity_;
   in_contact_ = accepted_in_contact_;
   time_to_contact_ = accepted_time_to_contact_;

@@ -229,14 +229,7 @@ class Writer:
         )
         carrier = "blade{k}" if r.blade_model == "rigid" else "pitch{k}"
         if r.blade_model == "rigid":
-            m = r.blade_mass()
-            s1, s2 = r.blade_moments()
-            xg = s1 / m
-            iyy = s2 - m * xg * xg
-            out.append(
-                f'  bodies {{ name: "blade{{k}}" reference: "flap{{k}}" mass: {num(m)} inertia: [{num(m * r.chord**2 / 60)}, {num(iyy)}, {num(iyy)}]'
-                f" position: [{num(L + xg)}, 0, 0] velocity: [0, {rad(L + xg)}, 0] angular_velocity: {w} }}"
-            )
+            out.append(self.rigid_blade("flap{k}", L, rad, w))
         else:
             out.append(
                 f'  bodies {{ name: "pitch{{k}}" reference: "flap{{k}}" mass: {num(self.fitting_mass)} inertia: [1e-3, 1e-3, 1e-3]'
@@ -265,6 +258,19 @@ class Writer:
             )
         out.append(self.surface("flap{k}", L))
         return "\n".join(out) + "\n"
+
+    def rigid_blade(self, frame, x0, speed, w):
+        """A rigid blade from x0 along its frame's x: its mass, centre and inertia from the sections;
+        speed(x) is the expression of the speed of its frame's point x."""
+        r = self.r
+        m = r.blade_mass()
+        s1, s2 = r.blade_moments()
+        xg = s1 / m
+        iyy = s2 - m * xg * xg
+        return (
+            f'  bodies {{ name: "blade{{k}}" reference: "{frame}" mass: {num(m)} inertia: [{num(m * r.chord**2 / 60)}, {num(iyy)}, {num(iyy)}]'
+            f" position: [{num(x0 + xg)}, 0, 0] velocity: [0, {speed(x0 + xg)}, 0] angular_velocity: {w} }}"
+        )
 
     def beam(self, frame, x0, root_body, root_speed, w):
         r = self.r
@@ -316,14 +322,7 @@ class Writer:
         w = "[${Omega0 * sin(precone)}, 0, ${Omega0 * cos(precone)}]"
         out = ['references { name: "root{k}" reference: "hub" position: [0, 0, ${-u}] rotation: [0, ${-precone}, 0] }']
         if r.blade_model == "rigid":
-            m = r.blade_mass()
-            s1, s2 = r.blade_moments()
-            xg = s1 / m
-            iyy = s2 - m * xg * xg
-            out.append(
-                f'  bodies {{ name: "blade{{k}}" reference: "root{{k}}" mass: {num(m)} inertia: [{num(m * r.chord**2 / 60)}, {num(iyy)}, {num(iyy)}]'
-                f" position: [{num(r0 + xg)}, 0, 0] velocity: [0, ${{Omega0 * {num(r0 + xg)} * cos(precone)}}, 0] angular_velocity: {w} }}"
-            )
+            out.append(self.rigid_blade("root{k}", r0, lambda x: f"${{Omega0 * {num(x)} * cos(precone)}}", w))
             lock = " locked: true" if r.pitch == "locked" else ""
             kind = "REVOLUTE" if lock else "FIXED"
             out.append(

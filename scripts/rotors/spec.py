@@ -147,31 +147,26 @@ class Rotor:
             m, s1, s2 = m + w, s1 + w * (mid - r0), s2 + w * (mid - r0) ** 2
         return m, s1, s2
 
+    def parts(self):
+        """The blade's spans (from, to, mass factor): the root step, the middle, the tip weight."""
+        r0, R = self.blade_root(), self.radius
+        root_end = r0 + self.root_fraction * (R - r0)
+        tip_start = R - 0.05 * (R - r0)
+        return [(r0, root_end, self.root_mass_factor), (root_end, tip_start, 1.0), (tip_start, R, self.tip_mass_factor)]
+
     def blade_mass(self):
         """Mass from the blade root to the tip, with the steps."""
         if self.sections_csv:
             return self.table_moments()[0]
-        r0, R = self.blade_root(), self.radius
-        root_end = r0 + self.root_fraction * (R - r0)
-        tip_start = R - 0.05 * (R - r0)
-        return self.mass_per_length * (
-            self.root_mass_factor * (root_end - r0) + (tip_start - root_end) + self.tip_mass_factor * (R - tip_start)
-        )
+        return self.mass_per_length * sum(f * (b - a) for a, b, f in self.parts())
 
     def blade_moments(self):
         """First and second mass moments of the blade about its root (along the span)."""
         if self.sections_csv:
             return self.table_moments()[1:]
-        r0, R = self.blade_root(), self.radius
-        root_end = r0 + self.root_fraction * (R - r0)
-        tip_start = R - 0.05 * (R - r0)
-        parts = [
-            (r0, root_end, self.root_mass_factor),
-            (root_end, tip_start, 1.0),
-            (tip_start, R, self.tip_mass_factor),
-        ]
-        s1 = sum(self.mass_per_length * f * ((b - r0) ** 2 - (a - r0) ** 2) / 2 for a, b, f in parts)
-        s2 = sum(self.mass_per_length * f * ((b - r0) ** 3 - (a - r0) ** 3) / 3 for a, b, f in parts)
+        r0, m = self.blade_root(), self.mass_per_length
+        s1 = sum(m * f * ((b - r0) ** 2 - (a - r0) ** 2) / 2 for a, b, f in self.parts())
+        s2 = sum(m * f * ((b - r0) ** 3 - (a - r0) ** 3) / 3 for a, b, f in self.parts())
         return s1, s2
 
     def check(self):

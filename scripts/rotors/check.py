@@ -4,7 +4,8 @@ and end at the same times in both models, and the flap (teeter, pad) histories a
 
 The two models differ where the stops act: the co-simulated pad meets its plane in a Newton
 impact (instantaneous, restitution e) through a tie of compliance c; the twin's Hunt–Crossley law
-is a compliant contact lasting about T_c = contact_duration (20 ms) with the same effective e.
+is a compliant contact lasting about T_c = contact_duration (20 ms on a flap or teeter hinge, 5 ms
+on a hingeless pad: spec.twin_contact_duration) with the same effective e.
 Hence the tolerances:
 - contacts: every contact of one model has the other in contact within tol = T_c + 5 h of its
   start and end (the law's duration, a few steps of the tie's transient), plus T_c for each impact

@@ -93,12 +93,10 @@ class UserNumbers(unittest.TestCase):
 class Sample(unittest.TestCase):
     def test_a_seeded_sample_of_each_topology_runs_with_default_numerics(self):
         # Seeds 0, 1, 2: an articulated, a teetering and a hingeless rotor (draw's seed % 3), on
-        # 1.5 s windows. Every run must end with exit 0 and no step accepted unconverged, and the
-        # articulated and teetering pairs must pass every criterion of rotors/check.py. The
-        # hingeless pair is held to all but one: its pads sit on beam nodes, where the impact's
-        # restart cannot act (an elastic node), so Newton's restitution acts on the pad node only
-        # and the blade rebounds off its tie: its flap extremes exceed the twin's by 2.4 times the
-        # tolerance (seed 2), a known gap (the issue stays open on it), checked to be the only one.
+        # 1.5 s windows. Every run must end with exit 0 and no step accepted unconverged, and every
+        # pair must pass every criterion of rotors/check.py. The hingeless pair (seed 2) failed its
+        # flap extremes by 2.4 times the tolerance while the twin's pad law was sized for a 20 ms
+        # contact (spec.twin_contact_duration): the twin's stop gave way, not the co-simulation.
         import csv
 
         out = os.path.join(WORK, "sample")
@@ -116,11 +114,7 @@ class Sample(unittest.TestCase):
         for r in rows:
             self.assertEqual((r["cosim_code"], r["twin_code"]), ("0", "0"), r["why"])
             self.assertEqual(float(r["marked"]), 0.0)
-            if r["topology"] == "hingeless":
-                for reason in filter(None, r["why"].split("; ")):
-                    self.assertTrue(reason.startswith("flap extremes differ"), reason)
-            else:
-                self.assertEqual(r["ok"], "True", r["why"])
+            self.assertEqual(r["ok"], "True", r["why"])
         # A rotor with a contact longer than two steps is also restarted from its middle and must
         # repeat the run made in one go (its 'why' would say otherwise, checked above); seeds 0-2
         # on 1.5 s windows have none (the hingeless pads' contacts are single-step impacts), so

@@ -284,7 +284,6 @@ def draw(seed, topology=None):
     r.regularization = _log_uniform(rng, 1e-9, 2e-8)
     r.processes = rng.choice(("blade", "rotor"))
     r.restitution = round(rng.uniform(0.0, 0.8), 3)
-    r.contact_duration = twin_contact_duration(r.topology)
     r.collective = math.radians(rng.uniform(4, 12))
     r.twist = -math.radians(rng.uniform(0, 12))
     r.excitation = rng.choice(EXCITATIONS)

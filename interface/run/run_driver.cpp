@@ -254,6 +254,7 @@ StepsOutcome Steps(const RunSetup& run, int every, int visual_every, ProbeRow* r
   };
   StepsOutcome out;
   try {
+    run.simulation->Start();
     run.output->WriteRow(span.start, row->Read());
     if (visual_every > 0) {
       visual = std::make_unique<VisualSeries>(run.output->folder());

@@ -45,6 +45,9 @@ class Simulation {
   // Advances the state from t to t + h. Throws NumericalError (exit 3) or PeerError (exit 4)
   // leaving the last accepted state in place.
   virtual void Step(double t, double h) = 0;
+  // Once before the first row, with the same failure contract as Step: a coupled process's
+  // handshake, which may set the state the first row shows (a settled start's contact nodes).
+  virtual void Start() {}
   // Statistics and the settings used (defaults filled in).
   virtual void FillSummary(run::RunSummary* summary) const = 0;
   // The run is over (normally, or with `code` and `reason`): tell the peers. Errors here are

@@ -97,6 +97,31 @@ void ContactServer::Answer(const Envelope& e) {
     throw InputError("coupling: Hello from '" + peer + "' gives no frame for obstacle '" + needed.begin()->first +
                      "', attached to body '" + needed.begin()->second->driven_body + "'");
   }
+  // A settled start's nodes, where the smooth side's settle left them.
+  if (hello.node_positions_size() != 0 || hello.node_velocities_size() != 0) {
+    const int expected = 3 * hello.interface_nodes_size();
+    if (hello.node_positions_size() != expected || hello.node_velocities_size() != expected) {
+      throw InputError("coupling: Hello from '" + peer + "' gives " + std::to_string(hello.node_positions_size()) +
+                       " node positions and " + std::to_string(hello.node_velocities_size()) +
+                       " node velocities; expected " + std::to_string(expected) +
+                       " of each (3 per interface node) or none");
+    }
+    for (int i = 0; i < expected; ++i) {
+      if (!std::isfinite(hello.node_positions(i)) || !std::isfinite(hello.node_velocities(i))) {
+        throw InputError("coupling: Hello from '" + peer + "' gives a non-finite start for node '" +
+                         hello.interface_nodes(i / 3) + "' (node_positions[" + std::to_string(i) + "] = " +
+                         interface::FormatNumber(hello.node_positions(i)) + ", node_velocities[" + std::to_string(i) +
+                         "] = " + interface::FormatNumber(hello.node_velocities(i)) + "); expected finite numbers");
+      }
+    }
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const int at = 3 * static_cast<int>(k);
+      simulation_->StartNodeAt(
+          nodes_[k],
+          Eigen::Vector3d(hello.node_positions(at), hello.node_positions(at + 1), hello.node_positions(at + 2)),
+          Eigen::Vector3d(hello.node_velocities(at), hello.node_velocities(at + 1), hello.node_velocities(at + 2)));
+    }
+  }
   accepted_time_ = hello.start_time();
   frame_ends_.resize(moving_.size());
   for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;

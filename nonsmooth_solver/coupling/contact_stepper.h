@@ -34,6 +34,9 @@ class ContactStepper : public interface::Simulation {
   virtual double time() const = 0;  // of the state [s]
   // Force per node [N] (3 × nodes, model order), constant over the next steps.
   virtual void SetExternalForces(const Eigen::VectorXd& forces) = 0;
+  // Starts node `node` (model order) at x [m] with velocity v [m/s] instead of the scenario's
+  // (a settled start's Hello.node_positions); before the start checkpoint.
+  virtual void StartNodeAt(int node, const Eigen::Vector3d& x, const Eigen::Vector3d& v) = 0;
   virtual const Eigen::VectorXd& positions() const = 0;   // 3 per node
   virtual const Eigen::VectorXd& velocities() const = 0;  // 3 per node
   // Whether `node`'s velocity jumped in the last step (an impulsive contact reaction: an impact

@@ -44,11 +44,13 @@ ServedContactSimulation::ServedContactSimulation(const interface::ScenarioFile& 
 
 ServedContactSimulation::~ServedContactSimulation() = default;
 
+void ServedContactSimulation::Start() {
+  server_->Handshake();
+  handshaken_ = true;
+}
+
 void ServedContactSimulation::Step(double t, double h) {
-  if (!handshaken_) {
-    server_->Handshake();
-    handshaken_ = true;
-  }
+  if (!handshaken_) Start();
   if (adaptive_) {
     // The coordinator's steps: error controlled, landing on every output time (the history's
     // rows), rejected and redone at will; this run's grid step only says how far to serve.

@@ -31,6 +31,9 @@ class ServedContactSimulation : public interface::Simulation {
   std::vector<std::string> ProbeNames() const override { return simulation_->ProbeNames(); }
   void Probe(std::vector<double>* values) const override { simulation_->Probe(values); }
   void Visual(interface::VisualFrame* frame) const override { simulation_->Visual(frame); }
+  // The handshake, before the first row: the Hello may move the nodes (a settled start) and
+  // sets the attached obstacles' frames, which the first row's gaps need.
+  void Start() override;
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
   void Finish(ExitCode code, const std::string& reason) override;

@@ -85,6 +85,11 @@ class MoreauJean {
   // last step's contact set, without the interface stiffness (see the top).
   const Eigen::VectorXd& velocity_sensitivity() const { return velocity_sensitivity_; }
 
+  // Puts node `node` (model order) at x [m] with velocity v [m/s] (a settled start's nodes).
+  void SetNodeState(int node, const Eigen::Vector3d& x, const Eigen::Vector3d& v) {
+    q_.segment<3>(3 * static_cast<Eigen::Index>(node)) = x;
+    v_.segment<3>(3 * static_cast<Eigen::Index>(node)) = v;
+  }
   const Eigen::VectorXd& positions() const { return q_; }   // 3 per node, model order
   const Eigen::VectorXd& velocities() const { return v_; }  // 3 per node
   // Normal impulse [N s] of each contact in the last step (0 if it was not active).

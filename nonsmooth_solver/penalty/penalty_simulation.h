@@ -49,6 +49,10 @@ class PenaltySimulation : public ContactStepper {
   ContactData* mutable_data() override { return &state_.data; }
   const ContactData& data() const override { return state_.data; }
   double time() const override { return state_.time; }
+  void StartNodeAt(int node, const Eigen::Vector3d& x, const Eigen::Vector3d& v) override {
+    state_.q.segment<3>(3 * static_cast<Eigen::Index>(node)) = x;
+    state_.v.segment<3>(3 * static_cast<Eigen::Index>(node)) = v;
+  }
   const Eigen::VectorXd& positions() const override { return state_.q; }
   const Eigen::VectorXd& velocities() const override { return state_.v; }
   bool Impact(int node) const override;

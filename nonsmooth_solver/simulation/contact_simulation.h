@@ -30,6 +30,9 @@ class ContactSimulation : public ContactStepper {
   ContactData* mutable_data() override { return integrator_->mutable_data(); }
   const ContactData& data() const override { return integrator_->data(); }
   double time() const override { return integrator_->time(); }
+  void StartNodeAt(int node, const Eigen::Vector3d& x, const Eigen::Vector3d& v) override {
+    integrator_->SetNodeState(node, x, v);
+  }
   const Eigen::VectorXd& positions() const override { return integrator_->positions(); }
   const Eigen::VectorXd& velocities() const override { return integrator_->velocities(); }
   bool Impact(int node) const override;

@@ -77,6 +77,136 @@ Eigen::VectorXd WithoutOrigin(const MultibodySystem& system, const Eigen::Vector
   return qh;
 }
 
+// The Newton matrix of the static residual at (q, λ) in the spinning frame: −∂f/∂q with the
+// air's share at the frame's velocities W q̂, M W², the constraints' Hessian, Jacobian and
+// compliance (StaticEquilibrium's residual, below).
+void StaticTangent(const MultibodySystem& system, const SystemData& data, const Eigen::VectorXd& q,
+                   const Eigen::VectorXd& lambda, const SpinningFrame& frame, double t,
+                   const Eigen::SparseMatrix<double>& MW2, TripletSink* sink) {
+  const int n = system.coordinates;
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  system.AddForceTangent(q, zero, t, data, 1.0, 0.0, sink);
+  if (system.air_loads != nullptr) {
+    const Eigen::VectorXd v = SpinningVelocity(system, q, frame);
+    TripletSink damping;
+    system.air_loads->AddTangent(q, v, t, data, 1.0, 0.0, sink);
+    system.air_loads->AddTangent(q, zero, t, data, -1.0, 0.0, sink);
+    system.air_loads->AddTangent(q, v, t, data, 0.0, 1.0, &damping);
+    const Eigen::SparseMatrix<double> W = PerTriple(n, Skew(frame.omega));
+    AddSparse(Eigen::SparseMatrix<double>(damping.Build(n) * W), 1.0, sink);  // −∂f/∂q̇ · ∂(W q̂)/∂q
+  }
+  AddSparse(MW2, 1.0, sink);
+  system.constraints.HessianTimesLambda(data.imposed, t, lambda, sink, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, q, t, sink, n, 1.0);
+  system.constraints.Jacobian(data.imposed, q, t, sink, n, 1.0);
+  system.constraints.AddReleasedDiagonal(t, sink, n);
+  system.constraints.AddComplianceDiagonal(sink, n, 1.0);
+}
+
+// The sliding nodes' unknowns s (EquilibriumOptions::sliding), after q and λ from `first` on:
+// node k at x_k = base_k + T_k s_k, the imposed value of its tie's rows Φ = p(q) − x − cλ
+// (∂Φ/∂s = −T_k), with its balance along T_k as rows of their own.
+//
+// A proximal spring on each, kSlideStiffness (s − s_anchor): a node may slide along a direction
+// nothing else stiffens, with the body it is tied to (a rigid blade's free lag hinge at rest:
+// blade and pad turn together, a singular matrix without it; observed on generated rotor 312).
+// Each time Newton converges, the anchor moves to the solution, until the spring's force is below
+// 1e-4 of the node's load and reactions (+ 1e-7 N): a node on a stiff tie (1/c ~ 1e8 N/m) needs
+// one more solve; along a neutral direction it moves by the stray force over kSlideStiffness and
+// stays where that force is within the tolerance (an equilibrium where the rest check,
+// node_rest.h, holds), or drifts until max_iterations where a real force pushes it along (no
+// equilibrium).
+class SlidingUnknowns {
+ public:
+  static constexpr double kSlideStiffness = 1.0;  // [N/m]
+
+  SlidingUnknowns(const MultibodySystem& system, const std::vector<SlidingNode>& nodes, int first)
+      : system_(system), nodes_(nodes) {
+    for (const SlidingNode& node : nodes) {
+      at_.push_back(size_);
+      size_ += static_cast<int>(node.directions.cols());
+    }
+    first_ = first;
+    anchor_ = Eigen::VectorXd::Zero(size_);
+  }
+  int size() const { return size_; }
+  Eigen::Vector3d Position(size_t k, const Eigen::VectorXd& s) const {
+    return nodes_[k].base + nodes_[k].directions * s.segment(at_[k], nodes_[k].directions.cols());
+  }
+  // The tie rows' imposed values at s.
+  void Place(const Eigen::VectorXd& s, SystemData* data) const {
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const Eigen::Vector3d x = Position(k, s);
+      for (size_t j = 0; j < 3; ++j)
+        data->imposed[3 * static_cast<size_t>(nodes_[k].point) + j].value = x(static_cast<Eigen::Index>(j));
+    }
+  }
+  // Each node's balance along its directions, Tᵀ(λ_k + load(x)), and its proximal spring.
+  void Residual(const Eigen::VectorXd& lambda, const Eigen::VectorXd& s, Eigen::Ref<Eigen::VectorXd> out) const {
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const SlidingNode& node = nodes_[k];
+      const Eigen::Vector3d force =
+          system_.InterfaceReaction(node.point, lambda) + node.load + node.stiffness * (Position(k, s) - node.base);
+      const Eigen::Index d = node.directions.cols();
+      out.segment(at_[k], d) =
+          node.directions.transpose() * force + kSlideStiffness * (s.segment(at_[k], d) - anchor_.segment(at_[k], d));
+    }
+  }
+  // Their rows and columns of the Newton matrix (`n` coordinates before the constraint rows).
+  void Tangent(int n, SparseSink* sink) const {
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const SlidingNode& node = nodes_[k];
+      const int tie = n + system_.interface_points[static_cast<size_t>(node.point)].first_row;
+      const Eigen::MatrixXd& T = node.directions;
+      const Eigen::MatrixXd TKT = T.transpose() * node.stiffness * T;
+      for (Eigen::Index i = 0; i < T.cols(); ++i) {
+        const int row = first_ + at_[k] + static_cast<int>(i);
+        for (int j = 0; j < 3; ++j) {
+          sink->Add(tie + j, row, -T(j, i));  // ∂Φ/∂s
+          sink->Add(row, tie + j, T(j, i));   // ∂(Tᵀλ_k)/∂λ
+        }
+        for (Eigen::Index l = 0; l < T.cols(); ++l) sink->Add(row, first_ + at_[k] + static_cast<int>(l), TKT(i, l));
+        sink->Add(row, row, kSlideStiffness);
+      }
+    }
+  }
+  // The share of the step ds that takes every node at most onto the first guard plane in its
+  // way (1: none), and which node and guard that is (left as they were if none).
+  double GuardFraction(const Eigen::VectorXd& s, const Eigen::VectorXd& ds, int* node, int* guard) const {
+    double fraction = 1.0;
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const Eigen::Vector3d from = Position(k, s), to = Position(k, s + ds);
+      for (size_t g = 0; g < nodes_[k].guards.size(); ++g) {
+        const auto& [point, normal] = nodes_[k].guards[g];
+        const double before = std::max(normal.dot(from - point), 0.0), after = normal.dot(to - point);
+        if (after >= 0.0 || before / (before - after) >= fraction) continue;
+        fraction = before / (before - after);
+        *node = static_cast<int>(k);
+        *guard = static_cast<int>(g);
+      }
+    }
+    return fraction;
+  }
+  // Whether every proximal spring's force is within its tolerance.
+  bool Anchored(const Eigen::VectorXd& lambda, const Eigen::VectorXd& s) const {
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const Eigen::Index d = nodes_[k].directions.cols();
+      const double load = (system_.InterfaceReaction(nodes_[k].point, lambda) + nodes_[k].load).norm();
+      if (kSlideStiffness * (s.segment(at_[k], d) - anchor_.segment(at_[k], d)).norm() > 1e-4 * load + 1e-7)
+        return false;
+    }
+    return true;
+  }
+  void Anchor(const Eigen::VectorXd& s) { anchor_ = s; }
+
+ private:
+  const MultibodySystem& system_;
+  const std::vector<SlidingNode>& nodes_;
+  std::vector<int> at_;  // node k's first entry in s
+  int size_ = 0, first_ = 0;
+  Eigen::VectorXd anchor_;
+};
+
 }  // namespace
 
 Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame) {
@@ -90,10 +220,11 @@ Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::Vec
 
 EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* data, const Eigen::VectorXd& q_guess,
                                     const SpinningFrame& frame, const EquilibriumOptions& options) {
-  const int n = system.coordinates, m = system.constraints.size(), N = n + m;
-  const Eigen::Matrix3d O = Skew(frame.omega);
-  const Eigen::SparseMatrix<double> MW2 = system.mass * PerTriple(n, O * O);
-  const Eigen::SparseMatrix<double> W = PerTriple(n, O);
+  const int n = system.coordinates, m = system.constraints.size();
+  SlidingUnknowns sliding(system, options.sliding, n + m);
+  const int N = n + m + sliding.size();
+  Eigen::VectorXd s = Eigen::VectorXd::Zero(sliding.size());
+  const Eigen::SparseMatrix<double> MW2 = system.mass * PerTriple(n, Skew(frame.omega) * Skew(frame.omega));
   EquilibriumResult r;
   r.q = q_guess;
   r.lambda = Eigen::VectorXd::Zero(m);
@@ -106,6 +237,7 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   const AirLoads* air = system.air_loads;
   auto residual = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& lambda, Eigen::VectorXd* R) {
     R->resize(N);
+    sliding.Place(s, data);
     Eigen::VectorXd f(n);
     system.Force(q, zero, options.t, *data, f);
     if (air != nullptr) {  // the air's share at W q̂ instead of at rest
@@ -116,34 +248,22 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
     }
     R->head(n) = -f + MW2 * WithoutOrigin(system, q, frame.origin);
     system.constraints.AddJacobianTransposeTimes(data->imposed, q, options.t, lambda, R->head(n));
-    system.constraints.Evaluate(data->imposed, q, options.t, R->tail(m));
+    system.constraints.Evaluate(data->imposed, q, options.t, R->segment(n, m));
     for (int i = 0; i < m; ++i) {
       if (!system.constraints.Active(static_cast<size_t>(i), options.t))
         (*R)(n + i) = lambda(i);
       else
         (*R)(n + i) -= system.constraints.Compliance(static_cast<size_t>(i)) * lambda(i);
     }
+    sliding.Residual(lambda, s, R->tail(sliding.size()));
   };
   Eigen::VectorXd R;
   system.AcceptStep(r.q, velocity(r.q), options.t, data);  // the rotors' inflow at the guess
   residual(r.q, r.lambda, &R);
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;
-    system.AddForceTangent(r.q, zero, options.t, *data, 1.0, 0.0, &sink);
-    if (air != nullptr) {
-      const Eigen::VectorXd v = velocity(r.q);
-      TripletSink damping;
-      air->AddTangent(r.q, v, options.t, *data, 1.0, 0.0, &sink);
-      air->AddTangent(r.q, zero, options.t, *data, -1.0, 0.0, &sink);
-      air->AddTangent(r.q, v, options.t, *data, 0.0, 1.0, &damping);
-      AddSparse(Eigen::SparseMatrix<double>(damping.Build(n) * W), 1.0, &sink);  // −∂f/∂q̇ · ∂(W q̂)/∂q
-    }
-    AddSparse(MW2, 1.0, &sink);
-    system.constraints.HessianTimesLambda(data->imposed, options.t, r.lambda, &sink, 1.0);
-    system.constraints.JacobianTranspose(data->imposed, r.q, options.t, &sink, n, 1.0);
-    system.constraints.Jacobian(data->imposed, r.q, options.t, &sink, n, 1.0);
-    system.constraints.AddReleasedDiagonal(options.t, &sink, n);
-    system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
+    StaticTangent(system, *data, r.q, r.lambda, frame, options.t, MW2, &sink);
+    sliding.Tangent(n, &sink);
     Eigen::SparseMatrix<double> A = sink.Build(N);
     Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
     if (lu.info() != Eigen::Success) {
@@ -160,27 +280,43 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
       if (lu.info() != Eigen::Success) break;
     }
     Eigen::VectorXd delta = lu.solve(-R);
-    // Steps in q capped at options.max_step (metres, or director components): the first steps
-    // from a flat start can be metres long where a soft mode meets a large load (a twisted
+    // Steps in q and s capped at options.max_step (metres, or director components): the first
+    // steps from a flat start can be metres long where a soft mode meets a large load (a twisted
     // Puma blade in air: 13.8 m at the tip, then divergence); capped, Newton walks there. The
     // multipliers take their full step (linear in the residual: capping them too let a blade
     // drift under unbalanced centrifugal force to an unstable equilibrium).
-    const double longest = delta.head(n).lpNorm<Eigen::Infinity>();
-    if (longest > options.max_step) delta.head(n) *= options.max_step / longest;
+    const auto moves = [&] {
+      return std::max(delta.head(n).lpNorm<Eigen::Infinity>(), delta.tail(sliding.size()).lpNorm<Eigen::Infinity>());
+    };
+    const double longest = moves();
+    if (longest > options.max_step) {
+      delta.head(n) *= options.max_step / longest;
+      delta.tail(sliding.size()) *= options.max_step / longest;
+    }
+    // A sliding node's step through one of its guard planes is cut where it meets the first
+    // (the whole step, scaled), and the solve stops there for the caller.
+    delta *= sliding.GuardFraction(s, delta.tail(sliding.size()), &r.blocked_node, &r.blocked_guard);
     // Full Newton steps: a residual merit (forces in N beside constraint rows, an axial
     // stiffness 1e7 times the directors' second-order stretch) rejects the steps that converge.
     r.q += delta.head(n);
-    r.lambda += delta.tail(m);
+    r.lambda += delta.segment(n, m);
+    s += delta.tail(sliding.size());
     system.AcceptStep(r.q, velocity(r.q), options.t, data);  // inflow of the new state, held in Newton
     residual(r.q, r.lambda, &R);
-    if (!R.allFinite()) break;
-    if (delta.head(n).lpNorm<Eigen::Infinity>() <= options.tolerance * (1.0 + r.q.lpNorm<Eigen::Infinity>())) {
-      r.converged = true;
-      ++r.iterations;
-      break;
+    if (!R.allFinite() || r.blocked_node >= 0) break;
+    const double scale = 1.0 + std::max(r.q.lpNorm<Eigen::Infinity>(), s.lpNorm<Eigen::Infinity>());
+    if (moves() > options.tolerance * scale) continue;
+    if (!sliding.Anchored(r.lambda, s)) {  // converged with the proximal springs pulling: again from here
+      sliding.Anchor(s);
+      residual(r.q, r.lambda, &R);
+      continue;
     }
+    r.converged = true;
+    ++r.iterations;
+    break;
   }
   r.residual = R.lpNorm<Eigen::Infinity>();
+  for (size_t k = 0; k < options.sliding.size(); ++k) r.node_positions.push_back(sliding.Position(k, s));
   return r;
 }
 

@@ -26,15 +26,38 @@ struct SpinningFrame {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // a point of the spin axis [m]
 };
 
+// A coupling interface node whose position the equilibrium finds (a settled start's node that
+// slides on frictionless planes, or hangs in mid-air on its tie) instead of holding it where
+// the imposed values put it: x = base + T s over the directions T it may move in, with the
+// node's own balance along them, Tᵀ(λ_k + load(x)) = 0 (λ_k: the force the smooth model exerts
+// on it through its tie, MultibodySystem::InterfaceReaction).
+struct SlidingNode {
+  int point = 0;                                        // its interface point (system.interface_points)
+  Eigen::Vector3d base = Eigen::Vector3d::Zero();       // a position it may take [m]
+  Eigen::MatrixXd directions;                           // 3 × d, orthonormal columns (d = 1..3)
+  Eigen::Vector3d load = Eigen::Vector3d::Zero();       // its own load at `base` [N]
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();  // ∂load/∂x [N/m] (anchor spring, spin)
+  // Planes it must not pass (point, unit normal into the allowed side): a Newton step that would
+  // take it through one is cut short where it meets the first, and the solve stops there
+  // (EquilibriumResult::blocked), for the caller to let that plane carry it.
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> guards;
+};
+
 struct EquilibriumOptions {
   double t = 0.0;            // time at which loads and drives are taken
   double tolerance = 1e-10;  // on |Δq|∞ relative to 1 + |q|∞
   int max_iterations = 50;
   double max_step = 0.1;  // longest Newton step in q (|Δq|∞): metres or director components
+  // Interface nodes whose positions are unknowns too (their imposed values in `data` are set to
+  // the solution; the other nodes stay where the imposed values hold them).
+  std::vector<SlidingNode> sliding;
 };
 
 struct EquilibriumResult {
   Eigen::VectorXd q, lambda;
+  std::vector<Eigen::Vector3d> node_positions;  // of options.sliding, in its order [m]
+  // A sliding node stopped at one of its guards: (index into options.sliding, guard); −1: none.
+  int blocked_node = -1, blocked_guard = -1;
   int iterations = 0;
   bool converged = false;
   double residual = 0.0;  // max norm of the force and constraint residual at the end
@@ -44,8 +67,9 @@ struct EquilibriumResult {
 // origin, Ω × every direction): a state at rest in the spinning frame.
 Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame);
 
-// Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t)] = 0 from `q_guess` (full steps: ramp large
-// loads, e.g. through the loads' time functions). The rotors' inflow is updated at the
+// Newton on [−f(q, 0, t) + M W² q̂ + Φ_qᵀλ; Φ(q, t); Tᵀ(λ_k + load_k)] = 0 from `q_guess`, the
+// last rows and the unknowns s of x_k = base + T s for options.sliding only (full steps: ramp
+// large loads, e.g. through the loads' time functions). The rotors' inflow is updated at the
 // iterates (AcceptStep: `data`, the run's changing state, changes).
 EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* data, const Eigen::VectorXd& q_guess,
                                     const SpinningFrame& frame, const EquilibriumOptions& options);

@@ -229,6 +229,15 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     for (int p : peer.points) hello->add_interface_nodes(system_.interface_points[static_cast<size_t>(p)].contact_node);
     hello->set_start_time(start_time);
     hello->set_step(step);
+    if (settings_.settled_start && !restored_) {  // where the settle left the nodes (it may move them)
+      for (int p : peer.points) {
+        for (size_t j = 0; j < 3; ++j) {
+          const ImposedCoordinate& x = data_->imposed[3 * static_cast<size_t>(p) + j];
+          hello->add_node_positions(x.value);
+          hello->add_node_velocities(x.rate);
+        }
+      }
+    }
     for (const MovingObstacle& o : peer.obstacles) {
       hello->add_moving_obstacles(o.name);
       FillFrame(o.body, integrator_->state(), 0.0, hello->add_obstacle_frames());

@@ -695,20 +695,24 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   options.t = time_;
   options.tolerance = numerics_.smooth().newton_tolerance();
   options.max_iterations = std::max(50, numerics_.smooth().newton_max_iterations());
-  const EquilibriumResult r = StaticEquilibrium(*system, data_.get(), initial->q, spin, options);
-  if (!r.converged) {
-    throw NumericalError("numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) +
-                         " s" + (spin.omega.isZero() ? std::string() : " in the frame spinning with the rotor") +
-                         " (residual " + interface::FormatNumber(r.residual) + " after " +
-                         std::to_string(r.iterations) +
-                         " Newton iterations); the scene may have no equilibrium at rest (a free body, a load no "
-                         "stop holds): remove settle, or raise numerics.smooth.newton_max_iterations");
-  }
+  EquilibriumResult r = SettleSolve(*system, initial->q, spin, options);
   settle_iterations_ = r.iterations;
   if (coupled) {
+    SettleNodes(*system, spin, options, &nodes, &r);
     std::vector<Eigen::Vector3d> forces;
-    for (size_t k = 0; k < nodes.size(); ++k)
+    for (size_t k = 0; k < nodes.size(); ++k) {
       forces.push_back(system->InterfaceReaction(static_cast<int>(k), r.lambda));
+      // The node's start, where it rests: the imposed values (the coordinator tells the contact
+      // processes, Hello.node_positions), turning with the frame.
+      const Eigen::Vector3d rate = spin.omega.cross(nodes[k].position - spin.origin);
+      const Eigen::Vector3d acceleration = spin.omega.cross(rate);
+      for (size_t j = 0; j < 3; ++j) {
+        ImposedCoordinate& x = data_->imposed[3 * k + j];
+        x.value = nodes[k].position(static_cast<Eigen::Index>(j));
+        x.rate = rate(static_cast<Eigen::Index>(j));
+        x.acceleration = acceleration(static_cast<Eigen::Index>(j));
+      }
+    }
     CheckNodesRest(checks, nodes, forces);
   }
   // The settled configuration as the start, as solved: a position projection would close the
@@ -726,6 +730,107 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   ProjectVelocities(*system, *data_, time_, &settled);
   ConsistentAccelerations(*system, *data_, time_, &settled);
   *initial = settled;
+}
+
+void MultibodySimulation::SettleNodes(const MultibodySystem& system, const SpinningFrame& spin,
+                                      EquilibriumOptions options, std::vector<RestingNode>* nodes,
+                                      EquilibriumResult* r) {
+  // A node that cannot rest where it starts moves: along the frictionless planes that carry it
+  // (a pad pulled along its stop by its own weight or spin, by its tie's stretch), or anywhere
+  // off the planes that would have to pull it (a pad in mid-air hangs on its tie). Its position
+  // becomes an unknown of the equilibrium with its balance along those directions; a plane it
+  // would pass through carries it from then on. Rounds until the planes each node rests on
+  // stop changing (each round changes one node's planes at least, so a few suffice).
+  std::vector<RestingNode>& all = *nodes;
+  std::vector<std::vector<int>> sliding_on(nodes->size());  // planes carrying a moving node
+  std::vector<char> moving(nodes->size(), 0);
+  std::vector<std::vector<int>> guard_plane;  // per entry of options.sliding: its guards' planes
+  const int rounds = 4 * static_cast<int>(nodes->size()) + 4;
+  for (int round = 0; round <= rounds; ++round) {
+    bool changed = false;
+    if (r->blocked_node >= 0) {  // stopped where a moving node met a plane: that plane carries it
+      const size_t k = static_cast<size_t>(options.sliding[static_cast<size_t>(r->blocked_node)].point);
+      sliding_on[k].push_back(guard_plane[static_cast<size_t>(r->blocked_node)][static_cast<size_t>(r->blocked_guard)]);
+      std::sort(sliding_on[k].begin(), sliding_on[k].end());
+      changed = true;
+    }
+    for (size_t k = 0; k < nodes->size() && r->blocked_node < 0; ++k) {
+      const Eigen::Vector3d force = system.InterfaceReaction(static_cast<int>(k), r->lambda);
+      std::vector<int> carrying;
+      Eigen::VectorXd push;
+      const std::string why = WhyNotResting(all[k], force, 1e-6, &carrying, &push);
+      bool frictionless = true;
+      for (int i : carrying) frictionless = frictionless && all[k].planes[static_cast<size_t>(i)].friction == 0.0;
+      const bool starts = !moving[k];
+      if (starts && (why.empty() || !frictionless)) continue;  // rests, or sticks or slips on friction: judged below
+      // The planes that push it keep carrying it; those that would pull let it go; the
+      // deepest it passed through takes it.
+      std::vector<int> keep;
+      const double tolerance = 1e-3 * (force + all[k].load).norm() + 1e-6;
+      for (size_t i = 0; i < carrying.size(); ++i) {
+        if (push(static_cast<Eigen::Index>(i)) >= -tolerance) keep.push_back(carrying[i]);
+      }
+      int deepest = -1;
+      for (size_t i = 0; i < all[k].planes.size(); ++i) {
+        const double gap = all[k].planes[i].gap;
+        if (gap < -1e-6 && (deepest < 0 || gap < all[k].planes[static_cast<size_t>(deepest)].gap))
+          deepest = static_cast<int>(i);
+      }
+      if (deepest >= 0 && std::find(keep.begin(), keep.end(), deepest) == keep.end()) keep.push_back(deepest);
+      std::sort(keep.begin(), keep.end());
+      if (!starts && keep == sliding_on[k]) continue;
+      moving[k] = 1;
+      sliding_on[k] = keep;
+      changed = true;
+    }
+    if (!changed) break;
+    options.sliding.clear();
+    guard_plane.clear();
+    for (size_t k = 0; k < nodes->size(); ++k) {
+      if (!moving[k]) continue;
+      SlidingNode s;
+      s.point = static_cast<int>(k);
+      all[k].MoveTo(OnPlanes(all[k], sliding_on[k]));
+      s.base = all[k].position;
+      s.directions = FreeDirections(all[k], sliding_on[k]);
+      s.load = all[k].load;
+      s.stiffness = all[k].stiffness;
+      guard_plane.emplace_back();
+      for (size_t i = 0; i < all[k].planes.size(); ++i) {  // the planes it is free of guard it
+        if (std::find(sliding_on[k].begin(), sliding_on[k].end(), static_cast<int>(i)) != sliding_on[k].end()) continue;
+        s.guards.emplace_back(all[k].planes[i].point, all[k].planes[i].normal);
+        guard_plane.back().push_back(static_cast<int>(i));
+      }
+      options.sliding.push_back(s);
+      for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].value = s.base(j);
+    }
+    *r = SettleSolve(system, r->q, spin, options);
+    settle_iterations_ += r->iterations;
+    for (size_t i = 0; i < options.sliding.size(); ++i) {
+      all[static_cast<size_t>(options.sliding[i].point)].MoveTo(r->node_positions[i]);
+    }
+  }
+  if (r->blocked_node >= 0) {
+    throw NumericalError("numerics.smooth.settle: the contact nodes found no planes to rest on after " +
+                         std::to_string(rounds) + " rounds of the settle (each meeting another plane): remove settle");
+  }
+}
+
+EquilibriumResult MultibodySimulation::SettleSolve(const MultibodySystem& system, const Eigen::VectorXd& q_guess,
+                                                   const SpinningFrame& spin, const EquilibriumOptions& options) {
+  EquilibriumResult r = StaticEquilibrium(system, data_.get(), q_guess, spin, options);
+  if (r.converged || r.blocked_node >= 0) return r;
+  std::string moving;
+  for (const SlidingNode& node : options.sliding)
+    moving += (moving.empty() ? "" : ", ") +
+              ("'" + system.interface_points[static_cast<size_t>(node.point)].contact_node + "'");
+  throw NumericalError(
+      "numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) + " s" +
+      (spin.omega.isZero() ? std::string() : " in the frame spinning with the rotor") +
+      (moving.empty() ? std::string() : " with contact nodes " + moving + " free to move off their start") +
+      " (residual " + interface::FormatNumber(r.residual) + " after " + std::to_string(r.iterations) +
+      " Newton iterations); the scene may have no equilibrium at rest (a free body, a load no stop holds): remove "
+      "settle, or raise numerics.smooth.newton_max_iterations");
 }
 
 SpinningFrame MultibodySimulation::SpinAtStart(const Checks& checks, const MultibodySystem& system,

@@ -13,6 +13,7 @@
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
+#include "smooth_solver/simulation/node_rest.h"
 #include "smooth_solver/simulation/smooth_probes.h"
 #include "smooth_solver/simulation/visual_scene.h"
 #include "smooth_solver/simulation/watchdog.h"
@@ -101,6 +102,14 @@ class MultibodySimulation : public interface::Simulation {
   // velocities and accelerations made consistent there. InputError for a run it does not fit,
   // NumericalError if there is no equilibrium.
   void Settle(const interface::Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial);
+  // The settle's rounds for the contact nodes of a coupled run, from the pinned solution `r`:
+  // nodes that cannot rest where they start move (Settle, docs/design.md "Start, restart and
+  // settled start of a coupled run"); `r` and `nodes` end where they rest.
+  void SettleNodes(const MultibodySystem& system, const SpinningFrame& spin, EquilibriumOptions options,
+                   std::vector<RestingNode>* nodes, EquilibriumResult* r);
+  // StaticEquilibrium at the start time, or NumericalError naming the nodes it let move.
+  EquilibriumResult SettleSolve(const MultibodySystem& system, const Eigen::VectorXd& q_guess,
+                                const SpinningFrame& spin, const EquilibriumOptions& options);
   SpinningFrame SpinAtStart(const interface::Checks& checks, const MultibodySystem& system,
                             const DaeState& initial) const;
   int settle_iterations_ = 0;

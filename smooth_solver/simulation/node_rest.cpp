@@ -71,6 +71,10 @@ std::vector<RestingNode> ReadRestingNodes(const interface::Checks& checks, const
     const Eigen::Vector3d arm = r.position - spin.origin;
     r.load = mass * gravity + checks.Vector3(r.path + ".force", n.force(), Eigen::Vector3d::Zero()) -
              mass * spin.omega.cross(spin.omega.cross(arm));
+    Eigen::Matrix3d spin_skew;
+    spin_skew << 0, -spin.omega.z(), spin.omega.y(), spin.omega.z(), 0, -spin.omega.x(), -spin.omega.y(),
+        spin.omega.x(), 0;
+    r.stiffness = -mass * spin_skew * spin_skew;
     const Eigen::Vector3d velocity = checks.Vector3(r.path + ".velocity", n.velocity(), Eigen::Vector3d::Zero());
     const Eigen::Vector3d frame_velocity = spin.omega.cross(arm);
     if ((velocity - frame_velocity).norm() > 1e-9 * (1.0 + frame_velocity.norm())) {
@@ -90,7 +94,9 @@ std::vector<RestingNode> ReadRestingNodes(const interface::Checks& checks, const
     }
     if (n.has_anchor()) {
       const Eigen::Vector3d anchor = checks.Vector3(r.path + ".anchor.point", n.anchor().point(), std::nullopt);
-      r.load -= checks.NonNegative(r.path + ".anchor.stiffness", n.anchor().stiffness(), "N/m") * (r.position - anchor);
+      const double k = checks.NonNegative(r.path + ".anchor.stiffness", n.anchor().stiffness(), "N/m");
+      r.load -= k * (r.position - anchor);
+      r.stiffness -= k * Eigen::Matrix3d::Identity();
     }
     for (int c = 0; c < n.contacts_size(); ++c) {
       const auto o = obstacle_index.find(n.contacts(c).obstacle());
@@ -101,9 +107,8 @@ std::vector<RestingNode> ReadRestingNodes(const interface::Checks& checks, const
       RestingNode::Plane plane;
       plane.obstacle = n.contacts(c).obstacle();
       plane.friction = n.contacts(c).friction();
-      Eigen::Vector3d p;
-      PlaneAt(checks, model, o->second, t, &p, &plane.normal);
-      plane.gap = plane.normal.dot(r.position - p);
+      PlaneAt(checks, model, o->second, t, &plane.point, &plane.normal);
+      plane.gap = plane.normal.dot(r.position - plane.point);
       r.planes.push_back(plane);
     }
     out.push_back(r);
@@ -111,56 +116,102 @@ std::vector<RestingNode> ReadRestingNodes(const interface::Checks& checks, const
   return out;
 }
 
+void RestingNode::MoveTo(const Eigen::Vector3d& x) {
+  load += stiffness * (x - position);
+  position = x;
+  for (Plane& p : planes) p.gap = p.normal.dot(x - p.point);
+  moved = true;
+}
+
+std::string WhyNotResting(const RestingNode& node, const Eigen::Vector3d& force, double touch,
+                          std::vector<int>* carrying, Eigen::VectorXd* push) {
+  // F + Σ R_i n_i = 0 with R_i >= 0 over the touching planes (least squares in R).
+  const Eigen::Vector3d f = force + node.load;
+  carrying->clear();
+  for (size_t i = 0; i < node.planes.size(); ++i) {
+    if (node.planes[i].gap <= touch) carrying->push_back(static_cast<int>(i));
+  }
+  *push = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(carrying->size()));
+  if (!carrying->empty()) {
+    Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying->size()));
+    for (size_t i = 0; i < carrying->size(); ++i)
+      normals.col(static_cast<Eigen::Index>(i)) = node.planes[static_cast<size_t>((*carrying)[i])].normal;
+    *push = normals.colPivHouseholderQr().solve(-f);
+  }
+  Eigen::Vector3d rest = f;
+  double cone = 0.0, least = 0.0;
+  for (size_t i = 0; i < carrying->size(); ++i) {
+    const RestingNode::Plane& p = node.planes[static_cast<size_t>((*carrying)[i])];
+    const double r = (*push)(static_cast<Eigen::Index>(i));
+    rest += r * p.normal;
+    cone += p.friction * std::max(r, 0.0);
+    least = std::min(least, r);
+  }
+  const double tolerance = 1e-3 * f.norm() + 1e-6;
+  if (least < -tolerance) {
+    return "its planes would have to pull it (normal reaction " + FormatNumber(least) +
+           " N): the smooth model lifts it off";
+  }
+  if (rest.norm() > cone + tolerance) {
+    return (carrying->empty() ? std::string("that force would move it")
+                              : "the part of it along no plane's normal, " + Format(rest) + " N, would move it") +
+           (cone > 0.0 ? " (more than friction holds, " + FormatNumber(cone) + " N)" : std::string());
+  }
+  return {};
+}
+
+Eigen::MatrixXd FreeDirections(const RestingNode& node, const std::vector<int>& carrying) {
+  if (carrying.empty()) return Eigen::Matrix3d::Identity();
+  Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying.size()));
+  for (size_t i = 0; i < carrying.size(); ++i)
+    normals.col(static_cast<Eigen::Index>(i)) = node.planes[static_cast<size_t>(carrying[i])].normal;
+  // The left singular vectors beyond the normals' rank span the directions along every plane.
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(normals, Eigen::ComputeFullU);
+  Eigen::Index rank = 0;
+  for (Eigen::Index i = 0; i < svd.singularValues().size(); ++i) {
+    if (svd.singularValues()(i) > 1e-9 * svd.singularValues()(0)) ++rank;
+  }
+  return svd.matrixU().rightCols(3 - rank);
+}
+
+Eigen::Vector3d OnPlanes(const RestingNode& node, const std::vector<int>& carrying) {
+  // The least change δ with n_iᵀ(x + δ − p_i) = 0 for every plane: δ = −N⁺ g.
+  if (carrying.empty()) return node.position;
+  Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying.size()));
+  Eigen::VectorXd gaps(static_cast<Eigen::Index>(carrying.size()));
+  for (size_t i = 0; i < carrying.size(); ++i) {
+    const RestingNode::Plane& p = node.planes[static_cast<size_t>(carrying[i])];
+    normals.col(static_cast<Eigen::Index>(i)) = p.normal;
+    gaps(static_cast<Eigen::Index>(i)) = p.gap;
+  }
+  return node.position - normals.transpose().completeOrthogonalDecomposition().solve(gaps);
+}
+
 void CheckNodesRest(const interface::Checks& checks, const std::vector<RestingNode>& nodes,
                     const std::vector<Eigen::Vector3d>& forces, double touch) {
   const std::string place = "numerics.smooth.settle";
   for (size_t k = 0; k < nodes.size(); ++k) {
     const RestingNode& node = nodes[k];
-    // F + Σ R_i n_i = 0 with R_i >= 0 over the touching planes (least squares in R).
-    const Eigen::Vector3d f = forces[k] + node.load;
-    std::vector<const RestingNode::Plane*> touching;
-    std::string names;
     for (const RestingNode::Plane& p : node.planes) {
-      if (p.gap < -touch) {
-        checks.Fail(node.path + ".position", "contact node '" + node.node + "' starts " + FormatNumber(-p.gap) +
-                                                 " m inside obstacle '" + p.obstacle +
-                                                 "'; a settled start needs it on or above its planes");
-      }
-      if (p.gap > touch) continue;
-      touching.push_back(&p);
-      names += (names.empty() ? "'" : ", '") + p.obstacle + "'";
+      if (p.gap >= -touch) continue;
+      checks.Fail(node.moved ? place : node.path + ".position",
+                  "contact node '" + node.node + "' " + (node.moved ? "settles " : "starts ") + FormatNumber(-p.gap) +
+                      " m inside obstacle '" + p.obstacle + "'; a settled start needs it on or above its planes");
     }
-    Eigen::VectorXd push = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(touching.size()));
-    if (!touching.empty()) {
-      Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(touching.size()));
-      for (size_t i = 0; i < touching.size(); ++i) normals.col(static_cast<Eigen::Index>(i)) = touching[i]->normal;
-      push = normals.colPivHouseholderQr().solve(-f);
-    }
-    Eigen::Vector3d rest = f;
-    double cone = 0.0, least = 0.0;
-    for (size_t i = 0; i < touching.size(); ++i) {
-      const double r = push(static_cast<Eigen::Index>(i));
-      rest += r * touching[i]->normal;
-      cone += touching[i]->friction * std::max(r, 0.0);
-      least = std::min(least, r);
-    }
-    const double tolerance = 1e-3 * f.norm() + 1e-6;
-    std::string why;
-    if (least < -tolerance) {
-      why = "its planes would have to pull it (normal reaction " + FormatNumber(least) +
-            " N): the smooth model lifts it off";
-    } else if (rest.norm() > cone + tolerance) {
-      why = "the part of it along no plane's normal, " + Format(rest) + " N, would move it" +
-            (cone > 0.0 ? " (more than friction holds, " + FormatNumber(cone) + " N)" : std::string());
-    }
+    std::vector<int> carrying;
+    Eigen::VectorXd push;
+    const std::string why = WhyNotResting(node, forces[k], touch, &carrying, &push);
     if (why.empty()) continue;
+    std::string names;
+    for (int i : carrying) names += (names.empty() ? "'" : ", '") + node.planes[static_cast<size_t>(i)].obstacle + "'";
     checks.Fail(place,
-                "contact node '" + node.node + "' (" + node.path + ") cannot rest where it starts, " +
-                    Format(node.position) + " m: the settled smooth model and its own load push it with " + Format(f) +
+                "contact node '" + node.node + "' (" + node.path + ") cannot rest " +
+                    (node.moved ? "where the settle moved it, " : "where it starts, ") + Format(node.position) +
+                    " m: the settled smooth model and its own load push it with " + Format(forces[k] + node.load) +
                     " N, and " +
-                    (touching.empty() ? std::string("it touches no plane") : "the planes it touches (" + names + ")") +
-                    " hold only pushes along their normals; " + why +
-                    ". Start the node where a plane carries it, or remove settle");
+                    (carrying.empty() ? std::string("it touches no plane to hold it")
+                                      : "the planes it touches (" + names + ") hold only pushes along their normals") +
+                    ": " + why + ". Start the node where a plane carries it, or remove settle");
   }
 }
 

@@ -25,13 +25,19 @@ struct RestingNode {
   // Its own load at rest at the start time [N]: weight, constant and prescribed forces, anchor
   // spring (no velocity, so no damping).
   Eigen::Vector3d load = Eigen::Vector3d::Zero();
+  // ∂load/∂position [N/m]: the anchor spring's −k I and, in a spinning frame, −m Ω̃Ω̃.
+  Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
   struct Plane {
     std::string obstacle;
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();    // a point of it [m]
     Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit, into the allowed side
-    double gap = 0.0;                                   // [m]
+    double gap = 0.0;                                   // [m], at `position`
     double friction = 0.0;                              // Coulomb μ
   };
-  std::vector<Plane> planes;  // every plane it has a contact with, its gap at the start
+  std::vector<Plane> planes;  // every plane it has a contact with
+  bool moved = false;         // the settle moved it from where the scenario starts it
+  // Moves it to x [m]: its load and its planes' gaps follow.
+  void MoveTo(const Eigen::Vector3d& x);
 };
 
 // One per interface point of `system`, in its order: the node the point is tied to, read from
@@ -42,6 +48,18 @@ struct RestingNode {
 // (its rest depends on other nodes the settle does not move) or moving otherwise.
 std::vector<RestingNode> ReadRestingNodes(const interface::Checks& checks, const MultibodySystem& system, double t,
                                           const SpinningFrame& spin);
+
+// Whether a node rests under `force` (the smooth model's, beside its own load): empty if it
+// does, else why not, in the words of the settle's refusal. `carrying`: the planes within
+// `touch` of it (indices into node.planes); `push`: their normal reactions [N] (least squares).
+std::string WhyNotResting(const RestingNode& node, const Eigen::Vector3d& force, double touch,
+                          std::vector<int>* carrying, Eigen::VectorXd* push);
+
+// The directions a node may move in on the planes `carrying` (indices into node.planes):
+// an orthonormal basis of the complement of their normals (3 × 0..3); and the point of their
+// intersection nearest its position (the node put back on them).
+Eigen::MatrixXd FreeDirections(const RestingNode& node, const std::vector<int>& carrying);
+Eigen::Vector3d OnPlanes(const RestingNode& node, const std::vector<int>& carrying);
 
 // Planes within `touch` [m] of a node carry it. Fails (InputError naming the node's path, the
 // force and the planes) unless, for every node, the smooth model's force on it plus its load

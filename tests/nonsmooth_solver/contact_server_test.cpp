@@ -267,6 +267,43 @@ TEST(ContactServer, AHelloNamingANodeTwiceOrNoneIsRefused) {
             std::string::npos);
 }
 
+TEST(ContactServer, ASettledStartsNodePositionsMoveTheNodeOrAreRefused) {
+  // A settled start's Hello puts each node where the smooth side's settle left it: the ball at
+  // z = 0.4 m, moving up at 2 m/s, instead of the scenario's 1 m at rest; the first step starts
+  // there (held by +m g: it moves by h v).
+  {
+    Harness h;
+    auto* hello = h.smooth.Outgoing(-1, 0).mutable_hello();
+    hello->set_scenario_name("bouncing_ball");
+    hello->add_interface_nodes("ball");
+    hello->set_step(0.005);
+    for (double x : {0.0, 0.0, 0.4}) hello->add_node_positions(x);
+    for (double v : {0.0, 0.0, 2.0}) hello->add_node_velocities(v);
+    h.smooth.Send();
+    h.smooth.Receive(Envelope::kWelcome, -1, -1);
+    auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
+    begin->set_time(0.0);
+    begin->set_step(0.005);
+    h.smooth.Send();
+    h.smooth.Receive(Envelope::kKinematics, 0, 0);
+    const coupling::Kinematics held = h.Iterate(0, 1, 9.81);
+    EXPECT_NEAR(held.position(2), 0.4 + 0.005 * 2.0, 1e-14);
+    EXPECT_NEAR(held.velocity(2), 2.0, 1e-14);
+    h.Finish();
+  }
+  // Not 3 per node, or not finite: refused naming the node and the value.
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              m->add_node_positions(0.0);
+              m->add_node_velocities(0.0);
+            }).find("gives 1 node positions and 1 node velocities; expected 3 of each"),
+            std::string::npos);
+  EXPECT_NE(RefusalOfHello([](coupling::Hello* m) {
+              for (double x : {0.0, std::nan(""), 0.4}) m->add_node_positions(x);
+              for (int i = 0; i < 3; ++i) m->add_node_velocities(0.0);
+            }).find("a non-finite start for node 'ball' (node_positions[1] = nan"),
+            std::string::npos);
+}
+
 TEST(ContactServer, APeersLongTextIsEchoedCut) {
   // A 20 MB scenario name made a 20 MB summary.json and log.txt: the refusal quotes 200 bytes
   // and says how long the name was.

@@ -81,5 +81,34 @@ TEST(NodeRest, APushAlongTheNormalRestsAPullOrASlideDoesNot) {
   EXPECT_EQ(Refusal(air, Eigen::Vector3d(0, 0, 9.81)), "");
 }
 
+TEST(NodeRest, ANodeThatMustMoveSlidesAlongItsPlanesOrHangsFree) {
+  // A node the settle lets move (it cannot rest where it starts) moves in the directions its
+  // planes leave free: two on the floor, one along the edge of floor and wall, three in mid-air.
+  RestingNode node = NodeOnFloor();
+  node.position = Eigen::Vector3d(0.01, 0.0, 0.0);  // on the floor, 1 cm from the wall (gap as drawn)
+  node.planes[1].point = Eigen::Vector3d::Zero();
+  const Eigen::MatrixXd floor = FreeDirections(node, {0});
+  ASSERT_EQ(floor.cols(), 2);
+  EXPECT_NEAR((floor.transpose() * Eigen::Vector3d::UnitZ()).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((floor.transpose() * floor - Eigen::Matrix2d::Identity()).norm(), 0.0, 1e-15);
+  const Eigen::MatrixXd edge = FreeDirections(node, {0, 1});
+  ASSERT_EQ(edge.cols(), 1);
+  EXPECT_NEAR(std::abs(edge(1, 0)), 1.0, 1e-15);  // along y, the edge
+  EXPECT_EQ(FreeDirections(node, {}).cols(), 3);
+  // Put on both planes it goes to the edge, the nearest point of both; its gaps follow a move,
+  // and its load follows through its stiffness (an anchor spring of 100 N/m here).
+  EXPECT_NEAR((OnPlanes(node, {0, 1}) - Eigen::Vector3d::Zero()).norm(), 0.0, 1e-15);
+  node.stiffness = -100.0 * Eigen::Matrix3d::Identity();
+  node.MoveTo(Eigen::Vector3d(0.02, 0.0, 0.005));
+  EXPECT_TRUE(node.moved);
+  EXPECT_NEAR(node.planes[0].gap, 0.005, 1e-15);
+  EXPECT_NEAR(node.planes[1].gap, 0.02, 1e-15);
+  EXPECT_NEAR((node.load - Eigen::Vector3d(-1.0, 0.0, -9.81 - 0.5)).norm(), 0.0, 1e-12);
+  // A moved node that cannot rest is refused where the settle put it, not where it started.
+  const std::string refusal = Refusal(node, Eigen::Vector3d(0, 0, -100));
+  EXPECT_NE(refusal.find("cannot rest where the settle moved it"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("it touches no plane to hold it: that force would move it"), std::string::npos) << refusal;
+}
+
 }  // namespace
 }  // namespace cosim::smooth

@@ -296,7 +296,7 @@ def draw(seed, topology=None):
         r.gust_length = rng.uniform(30, 60)
         r.gust_peak = min(45.0, liftoff_speed(r) * rng.uniform(1.2, 2.2))
         r.end_time = round((2 * r.radius + 6 + r.gust_length) / r.gust_front_speed + 0.5, 1)
-        r.settle = r.topology == "articulated" and r.idle_fraction == 0 and rng.random() < 0.4
+        r.settle = r.idle_fraction == 0 and rng.random() < 0.4
     else:
         r.wind = rng.uniform(5, 20)
         r.wind_azimuth = rng.uniform(0, 2 * math.pi)

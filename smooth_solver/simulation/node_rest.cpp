@@ -211,7 +211,8 @@ void CheckNodesRest(const interface::Checks& checks, const std::vector<RestingNo
                     " N, and " +
                     (carrying.empty() ? std::string("it touches no plane to hold it")
                                       : "the planes it touches (" + names + ") hold only pushes along their normals") +
-                    ": " + why + ". Start the node where a plane carries it, or remove settle");
+                    ": " + why +
+                    (node.moved ? ". Remove settle" : ". Start the node where a plane carries it, or remove settle"));
   }
 }
 

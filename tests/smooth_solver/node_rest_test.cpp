@@ -108,6 +108,7 @@ TEST(NodeRest, ANodeThatMustMoveSlidesAlongItsPlanesOrHangsFree) {
   const std::string refusal = Refusal(node, Eigen::Vector3d(0, 0, -100));
   EXPECT_NE(refusal.find("cannot rest where the settle moved it"), std::string::npos) << refusal;
   EXPECT_NE(refusal.find("it touches no plane to hold it: that force would move it"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("would move it. Remove settle"), std::string::npos) << refusal;
 }
 
 }  // namespace

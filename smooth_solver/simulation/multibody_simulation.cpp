@@ -680,16 +680,7 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   std::vector<RestingNode> nodes;
   if (coupled) {
     nodes = ReadRestingNodes(checks, *system, time_, spin);
-    for (size_t k = 0; k < nodes.size(); ++k) {
-      const Eigen::Vector3d rate = spin.omega.cross(nodes[k].position - spin.origin);
-      const Eigen::Vector3d acceleration = spin.omega.cross(rate);
-      for (size_t j = 0; j < 3; ++j) {
-        ImposedCoordinate& x = data_->imposed[3 * k + j];
-        x.value = nodes[k].position(static_cast<Eigen::Index>(j));
-        x.rate = rate(static_cast<Eigen::Index>(j));
-        x.acceleration = acceleration(static_cast<Eigen::Index>(j));
-      }
-    }
+    ImposeNodes(nodes, spin);
   }
   EquilibriumOptions options;
   options.t = time_;
@@ -699,20 +690,12 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   settle_iterations_ = r.iterations;
   if (coupled) {
     SettleNodes(*system, spin, options, &nodes, &r);
+    // The nodes' start, where they rest: the imposed values (the coordinator tells the contact
+    // processes, Hello.node_positions), turning with the frame.
+    ImposeNodes(nodes, spin);
     std::vector<Eigen::Vector3d> forces;
-    for (size_t k = 0; k < nodes.size(); ++k) {
+    for (size_t k = 0; k < nodes.size(); ++k)
       forces.push_back(system->InterfaceReaction(static_cast<int>(k), r.lambda));
-      // The node's start, where it rests: the imposed values (the coordinator tells the contact
-      // processes, Hello.node_positions), turning with the frame.
-      const Eigen::Vector3d rate = spin.omega.cross(nodes[k].position - spin.origin);
-      const Eigen::Vector3d acceleration = spin.omega.cross(rate);
-      for (size_t j = 0; j < 3; ++j) {
-        ImposedCoordinate& x = data_->imposed[3 * k + j];
-        x.value = nodes[k].position(static_cast<Eigen::Index>(j));
-        x.rate = rate(static_cast<Eigen::Index>(j));
-        x.acceleration = acceleration(static_cast<Eigen::Index>(j));
-      }
-    }
     CheckNodesRest(checks, nodes, forces);
   }
   // The settled configuration as the start, as solved: a position projection would close the
@@ -730,6 +713,19 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   ProjectVelocities(*system, *data_, time_, &settled);
   ConsistentAccelerations(*system, *data_, time_, &settled);
   *initial = settled;
+}
+
+void MultibodySimulation::ImposeNodes(const std::vector<RestingNode>& nodes, const SpinningFrame& spin) {
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    const Eigen::Vector3d rate = spin.omega.cross(nodes[k].position - spin.origin);
+    const Eigen::Vector3d acceleration = spin.omega.cross(rate);
+    for (size_t j = 0; j < 3; ++j) {
+      ImposedCoordinate& x = data_->imposed[3 * k + j];
+      x.value = nodes[k].position(static_cast<Eigen::Index>(j));
+      x.rate = rate(static_cast<Eigen::Index>(j));
+      x.acceleration = acceleration(static_cast<Eigen::Index>(j));
+    }
+  }
 }
 
 void MultibodySimulation::SettleNodes(const MultibodySystem& system, const SpinningFrame& spin,

@@ -102,6 +102,9 @@ class MultibodySimulation : public interface::Simulation {
   // velocities and accelerations made consistent there. InputError for a run it does not fit,
   // NumericalError if there is no equilibrium.
   void Settle(const interface::Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial);
+  // Each interface point's imposed value where its node is, with the frame's rate and
+  // acceleration there (at rest in the spinning frame).
+  void ImposeNodes(const std::vector<RestingNode>& nodes, const SpinningFrame& spin);
   // The settle's rounds for the contact nodes of a coupled run, from the pinned solution `r`:
   // nodes that cannot rest where they start move (Settle, docs/design.md "Start, restart and
   // settled start of a coupled run"); `r` and `nodes` end where they rest.

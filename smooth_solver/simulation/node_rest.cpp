@@ -116,6 +116,18 @@ std::vector<RestingNode> ReadRestingNodes(const interface::Checks& checks, const
   return out;
 }
 
+namespace {
+
+// The normals of the planes `carrying` (indices into node.planes), as columns.
+Eigen::MatrixXd Normals(const RestingNode& node, const std::vector<int>& carrying) {
+  Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying.size()));
+  for (size_t i = 0; i < carrying.size(); ++i)
+    normals.col(static_cast<Eigen::Index>(i)) = node.planes[static_cast<size_t>(carrying[i])].normal;
+  return normals;
+}
+
+}  // namespace
+
 void RestingNode::MoveTo(const Eigen::Vector3d& x) {
   load += stiffness * (x - position);
   position = x;
@@ -132,12 +144,7 @@ std::string WhyNotResting(const RestingNode& node, const Eigen::Vector3d& force,
     if (node.planes[i].gap <= touch) carrying->push_back(static_cast<int>(i));
   }
   *push = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(carrying->size()));
-  if (!carrying->empty()) {
-    Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying->size()));
-    for (size_t i = 0; i < carrying->size(); ++i)
-      normals.col(static_cast<Eigen::Index>(i)) = node.planes[static_cast<size_t>((*carrying)[i])].normal;
-    *push = normals.colPivHouseholderQr().solve(-f);
-  }
+  if (!carrying->empty()) *push = Normals(node, *carrying).colPivHouseholderQr().solve(-f);
   Eigen::Vector3d rest = f;
   double cone = 0.0, least = 0.0;
   for (size_t i = 0; i < carrying->size(); ++i) {
@@ -162,9 +169,7 @@ std::string WhyNotResting(const RestingNode& node, const Eigen::Vector3d& force,
 
 Eigen::MatrixXd FreeDirections(const RestingNode& node, const std::vector<int>& carrying) {
   if (carrying.empty()) return Eigen::Matrix3d::Identity();
-  Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying.size()));
-  for (size_t i = 0; i < carrying.size(); ++i)
-    normals.col(static_cast<Eigen::Index>(i)) = node.planes[static_cast<size_t>(carrying[i])].normal;
+  const Eigen::MatrixXd normals = Normals(node, carrying);
   // The left singular vectors beyond the normals' rank span the directions along every plane.
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(normals, Eigen::ComputeFullU);
   Eigen::Index rank = 0;
@@ -177,14 +182,10 @@ Eigen::MatrixXd FreeDirections(const RestingNode& node, const std::vector<int>& 
 Eigen::Vector3d OnPlanes(const RestingNode& node, const std::vector<int>& carrying) {
   // The least change δ with n_iᵀ(x + δ − p_i) = 0 for every plane: δ = −N⁺ g.
   if (carrying.empty()) return node.position;
-  Eigen::MatrixXd normals(3, static_cast<Eigen::Index>(carrying.size()));
   Eigen::VectorXd gaps(static_cast<Eigen::Index>(carrying.size()));
-  for (size_t i = 0; i < carrying.size(); ++i) {
-    const RestingNode::Plane& p = node.planes[static_cast<size_t>(carrying[i])];
-    normals.col(static_cast<Eigen::Index>(i)) = p.normal;
-    gaps(static_cast<Eigen::Index>(i)) = p.gap;
-  }
-  return node.position - normals.transpose().completeOrthogonalDecomposition().solve(gaps);
+  for (size_t i = 0; i < carrying.size(); ++i)
+    gaps(static_cast<Eigen::Index>(i)) = node.planes[static_cast<size_t>(carrying[i])].gap;
+  return node.position - Normals(node, carrying).transpose().completeOrthogonalDecomposition().solve(gaps);
 }
 
 void CheckNodesRest(const interface::Checks& checks, const std::vector<RestingNode>& nodes,

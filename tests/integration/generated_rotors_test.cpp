@@ -18,6 +18,20 @@ using namespace cosim::test;
 const std::string kRotors = std::string(COSIM_SOURCE_DIR) + "/tests/data/rotors";
 constexpr double kDeg = 57.29577951308232;
 
+// A generated rotor of tests/data/rotors/ run co-simulated (rotor.pbtxt, into `out`) and as its
+// continuous twin (rotor_continuous.pbtxt, into `twin`) to `end_time` [s].
+struct PairRun {
+  fs::path out, twin;
+  Result cosim, continuous;
+};
+PairRun RunPair(const std::string& rotor, const std::string& name, const std::string& end_time) {
+  PairRun p{TempDir(name), TempDir(name + "_twin"), {}, {}};
+  const std::string folder = kRotors + "/" + rotor + "/", end = " --set numerics.end_time=" + end_time;
+  p.cosim = Launch(folder + "rotor.pbtxt --out " + p.out.string() + end);
+  p.continuous = Launch(folder + "rotor_continuous.pbtxt --out " + p.twin.string() + end);
+  return p;
+}
+
 // A six-blade articulated rotor with beam blades clamped to the pitch fitting, pads on the cuffs
 // (5.3 kg nodes on ties of 8.5e-9 m/N), thrown onto its anti-flap stops by a 45 m/s gust and
 // dropped back onto its droop stops. The impact's restart moved the cuff and fitting and bent
@@ -27,11 +41,10 @@ constexpr double kDeg = 57.29577951308232;
 // lowest flap angle is its continuous twin's (Hunt–Crossley stops on the flap hinges) within
 // 0.2° (measured 0.1°: the pads' ties and the law's compliance).
 TEST(GeneratedRotors, BeamBladesMeetTheirStopsWithDefaultNumerics) {
-  const fs::path out = TempDir("rotor_beam_gust"), twin = TempDir("rotor_beam_gust_twin");
-  const std::string folder = kRotors + "/articulated_beam_gust/";
-  const Result r = Launch(folder + "rotor.pbtxt --out " + out.string() + " --set numerics.end_time=1.1");
-  ASSERT_EQ(r.code, 0) << r.output;
-  ASSERT_EQ(Launch(folder + "rotor_continuous.pbtxt --out " + twin.string() + " --set numerics.end_time=1.1").code, 0);
+  const PairRun p = RunPair("articulated_beam_gust", "rotor_beam_gust", "1.1");
+  ASSERT_EQ(p.cosim.code, 0) << p.cosim.output;
+  ASSERT_EQ(p.continuous.code, 0) << p.continuous.output;
+  const fs::path &out = p.out, &twin = p.twin;
   EXPECT_EQ(ReadSummary(out).counters().at("coupling_steps_marked"), 0.0);
   const Table h = ReadTable(out / "history_joined.csv"), c = ReadTable(twin / "history.csv");
   int antiflap_hits = 0;
@@ -94,11 +107,10 @@ TEST(GeneratedRotors, AContinuousTwinSettlesOnItsHertzianStops) {
 // frictionless plane in the settle until its tie holds it (c × 38.5 N = 0.46 µm), and the contact
 // processes start it there: each blade rests on its stop as its continuous twin does.
 TEST(GeneratedRotors, ASettledPadSlidesAlongItsStopUntilItsTieHoldsIt) {
-  const fs::path out = TempDir("rotor_settled_slide"), twin = TempDir("rotor_settled_slide_twin");
-  const std::string folder = kRotors + "/articulated_rigid_settled_gust/";
-  const Result r = Launch(folder + "rotor.pbtxt --out " + out.string() + " --set numerics.end_time=0.1");
-  ASSERT_EQ(r.code, 0) << r.output;
-  ASSERT_EQ(Launch(folder + "rotor_continuous.pbtxt --out " + twin.string() + " --set numerics.end_time=0.1").code, 0);
+  const PairRun p = RunPair("articulated_rigid_settled_gust", "rotor_settled_slide", "0.1");
+  ASSERT_EQ(p.cosim.code, 0) << p.cosim.output;
+  ASSERT_EQ(p.continuous.code, 0) << p.continuous.output;
+  const fs::path &out = p.out, &twin = p.twin;
   const Table h = ReadTable(out / "history.csv"), c = ReadTable(twin / "history.csv");
   for (int k = 1; k <= 7; ++k) {
     const std::vector<double> a = h.Column("flap" + std::to_string(k)), b = c.Column("flap" + std::to_string(k));
@@ -119,11 +131,10 @@ TEST(GeneratedRotors, ASettledPadSlidesAlongItsStopUntilItsTieHoldsIt) {
 // process starts it there. The rotor then rests: its teeter angle is its continuous twin's and
 // stays put.
 TEST(GeneratedRotors, ATeeteringRotorAtRestSettlesWithItsPadsInMidAir) {
-  const fs::path out = TempDir("rotor_teeter_settled"), twin = TempDir("rotor_teeter_settled_twin");
-  const std::string folder = kRotors + "/teetering_rigid_settled_gust/";
-  const Result r = Launch(folder + "rotor.pbtxt --out " + out.string() + " --set numerics.end_time=0.2");
-  ASSERT_EQ(r.code, 0) << r.output;
-  ASSERT_EQ(Launch(folder + "rotor_continuous.pbtxt --out " + twin.string() + " --set numerics.end_time=0.2").code, 0);
+  const PairRun p = RunPair("teetering_rigid_settled_gust", "rotor_teeter_settled", "0.2");
+  ASSERT_EQ(p.cosim.code, 0) << p.cosim.output;
+  ASSERT_EQ(p.continuous.code, 0) << p.continuous.output;
+  const fs::path &out = p.out, &twin = p.twin;
   const std::vector<double> a = ReadTable(out / "history.csv").Column("teeter");
   const std::vector<double> b = ReadTable(twin / "history.csv").Column("teeter");
   EXPECT_NEAR(a[0], b[0], 1e-6);

@@ -50,12 +50,22 @@ struct Harness {
   ~Harness() {
     if (thread.joinable()) thread.join();
   }
-  void Hello(const std::string& node) {
+  // The Hello for `node`, changed by `edit` before it is sent.
+  void Hello(const std::string& node, const std::function<void(coupling::Hello*)>& edit = {}) {
     auto* hello = smooth.Outgoing(-1, 0).mutable_hello();
     hello->set_scenario_name("bouncing_ball");
     hello->add_interface_nodes(node);
     hello->set_step(0.005);
+    if (edit) edit(hello);
     smooth.Send();
+  }
+  // A StepBegin without a predictor, and the Kinematics the process answers it with.
+  const coupling::Kinematics& Begin(int64_t step, double t, double dt) {
+    auto* begin = smooth.Outgoing(step, 0).mutable_step_begin();
+    begin->set_time(t);
+    begin->set_step(dt);
+    smooth.Send();
+    return smooth.Receive(Envelope::kKinematics, step, 0).kinematics();
   }
   // The refusal the server ended with (empty if none).
   std::string Refusal() {
@@ -93,11 +103,7 @@ TEST(ContactServer, IterationsRestartFromTheStepStartAndOnlyAcceptedStepsCount) 
   EXPECT_EQ(h.smooth.Receive(Envelope::kWelcome, -1, -1).welcome().interface_nodes(0), "ball");
   const double g = 9.81, dt = 0.005;
   for (int64_t step = 0; step < 2; ++step) {
-    auto* begin = h.smooth.Outgoing(step, 0).mutable_step_begin();
-    begin->set_time(static_cast<double>(step) * dt);
-    begin->set_step(dt);
-    h.smooth.Send();
-    h.smooth.Receive(Envelope::kKinematics, step, 0);  // predictor: the last accepted reactions
+    h.Begin(step, static_cast<double>(step) * dt, dt);  // predictor: the last accepted reactions
     const coupling::Kinematics falling = h.Iterate(step, 1, 0.0);
     EXPECT_NEAR(falling.position(2), 1.0 - 0.5 * g * dt * dt, 1e-14);
     EXPECT_NEAR(falling.velocity(2), -g * dt, 1e-14);
@@ -191,11 +197,7 @@ TEST(ContactServer, ARejectedStepIsRedoneWithAnotherLengthFromTheSameStart) {
   h.smooth.Receive(Envelope::kWelcome, -1, -1);
   const double g = 9.81, dt = 0.005;
   for (const double step : {dt, 0.5 * dt}) {
-    auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
-    begin->set_time(0.0);
-    begin->set_step(step);
-    h.smooth.Send();
-    const coupling::Kinematics& k = h.smooth.Receive(Envelope::kKinematics, 0, 0).kinematics();
+    const coupling::Kinematics& k = h.Begin(0, 0.0, step);
     EXPECT_NEAR(k.position(2), 1.0 - 0.5 * g * step * step, 1e-14);
     ASSERT_TRUE(k.has_time_to_contact());
     EXPECT_NEAR(k.time_to_contact(), (1.0 - 0.5 * g * step * step) / (g * step), 1e-9);
@@ -232,12 +234,7 @@ TEST(ContactServer, UnknownInterfaceNodeIsRefusedNamingIt) {
 // Hello below is played as it was sent and must be refused naming the field and the value.
 std::string RefusalOfHello(const std::function<void(coupling::Hello*)>& edit) {
   Harness h;
-  auto* hello = h.smooth.Outgoing(-1, 0).mutable_hello();
-  hello->set_scenario_name("bouncing_ball");
-  hello->add_interface_nodes("ball");
-  hello->set_step(0.005);
-  edit(hello);
-  h.smooth.Send();
+  h.Hello("ball", edit);
   return h.Refusal();
 }
 
@@ -273,19 +270,12 @@ TEST(ContactServer, ASettledStartsNodePositionsMoveTheNodeOrAreRefused) {
   // there (held by +m g: it moves by h v).
   {
     Harness h;
-    auto* hello = h.smooth.Outgoing(-1, 0).mutable_hello();
-    hello->set_scenario_name("bouncing_ball");
-    hello->add_interface_nodes("ball");
-    hello->set_step(0.005);
-    for (double x : {0.0, 0.0, 0.4}) hello->add_node_positions(x);
-    for (double v : {0.0, 0.0, 2.0}) hello->add_node_velocities(v);
-    h.smooth.Send();
+    h.Hello("ball", [](coupling::Hello* hello) {
+      for (double x : {0.0, 0.0, 0.4}) hello->add_node_positions(x);
+      for (double v : {0.0, 0.0, 2.0}) hello->add_node_velocities(v);
+    });
     h.smooth.Receive(Envelope::kWelcome, -1, -1);
-    auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
-    begin->set_time(0.0);
-    begin->set_step(0.005);
-    h.smooth.Send();
-    h.smooth.Receive(Envelope::kKinematics, 0, 0);
+    h.Begin(0, 0.0, 0.005);
     const coupling::Kinematics held = h.Iterate(0, 1, 9.81);
     EXPECT_NEAR(held.position(2), 0.4 + 0.005 * 2.0, 1e-14);
     EXPECT_NEAR(held.velocity(2), 2.0, 1e-14);
@@ -340,11 +330,7 @@ TEST(ContactServer, ReactionsOfTheWrongSizeAreRefused) {
   Harness h;
   h.Hello("ball");
   h.smooth.Receive(Envelope::kWelcome, -1, -1);
-  auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
-  begin->set_time(0.0);
-  begin->set_step(0.005);
-  h.smooth.Send();
-  h.smooth.Receive(Envelope::kKinematics, 0, 0);
+  h.Begin(0, 0.0, 0.005);
   h.smooth.Outgoing(0, 1).mutable_reactions()->add_force(1.0);
   h.smooth.Send();
   h.thread.join();

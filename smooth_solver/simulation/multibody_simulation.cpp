@@ -83,7 +83,7 @@ MultibodySimulation::MultibodySimulation(const interface::ScenarioFile& file, bo
   std::vector<ElasticBodySpec> elastic = ElasticBodies(checks, file);
   const StepSettings settings = ReadStepSettings(checks, file, coupled);
   probes_ = ReadSmoothProbes(checks, file, coupled, model_, elastic);
-  Start(checks, file, coupled, settings, &elastic);
+  BuildSystemAndState(checks, file, coupled, settings, &elastic);
 }
 
 std::vector<ElasticBodySpec> MultibodySimulation::ElasticBodies(const Checks& checks,
@@ -219,8 +219,8 @@ void MultibodySimulation::ReadAdaptive(const Checks& checks, bool coupled) {
   }
 }
 
-void MultibodySimulation::Start(const Checks& checks, const interface::ScenarioFile& file, bool coupled,
-                                const StepSettings& settings, std::vector<ElasticBodySpec>* elastic) {
+void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interface::ScenarioFile& file, bool coupled,
+                                              const StepSettings& settings, std::vector<ElasticBodySpec>* elastic) {
   auto system = std::make_unique<MultibodySystem>(BuildMultibodySystem(model_, elastic));
   data_ = std::make_unique<SystemData>(MakeData(*system));
   time_ = numerics_.start_time();

@@ -93,8 +93,8 @@ class MultibodySimulation : public interface::Simulation {
   std::vector<ElasticBodySpec> ElasticBodies(const interface::Checks& checks, const interface::ScenarioFile& file);
   StepSettings ReadStepSettings(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled);
   void ReadAdaptive(const interface::Checks& checks, bool coupled);
-  void Start(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled,
-             const StepSettings& settings, std::vector<ElasticBodySpec>* elastic);
+  void BuildSystemAndState(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled,
+                           const StepSettings& settings, std::vector<ElasticBodySpec>* elastic);
   void SetProbeReferences(const Eigen::VectorXd& q);
   // numerics.smooth.analysis STATIC: the equilibrium at t1 in place of a time step.
   void StaticStep(double t1);

@@ -260,6 +260,7 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   Eigen::VectorXd R;
   system.AcceptStep(r.q, velocity(r.q), options.t, data);  // the rotors' inflow at the guess
   residual(r.q, r.lambda, &R);
+  r.initial_residual = R.lpNorm<Eigen::Infinity>();
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;
     StaticTangent(system, *data, r.q, r.lambda, frame, options.t, MW2, &sink);

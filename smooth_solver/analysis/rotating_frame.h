@@ -60,7 +60,8 @@ struct EquilibriumResult {
   int blocked_node = -1, blocked_guard = -1;
   int iterations = 0;
   bool converged = false;
-  double residual = 0.0;  // max norm of the force and constraint residual at the end
+  double residual = 0.0;          // max norm of the force and constraint residual at the end
+  double initial_residual = 0.0;  // the same at the guess
 };
 
 // The velocities of a rigid rotation with the frame, q̇ = W q̂ (Ω × every point taken from the

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 
 namespace cosim::smooth {
@@ -319,6 +320,11 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   r.residual = R.lpNorm<Eigen::Infinity>();
   for (size_t k = 0; k < options.sliding.size(); ++k) r.node_positions.push_back(sliding.Position(k, s));
   return r;
+}
+
+std::string ResidualsText(const EquilibriumResult& r) {
+  return "(residual " + interface::FormatNumber(r.residual) + " after " + std::to_string(r.iterations) +
+         " Newton iterations, " + interface::FormatNumber(r.initial_residual) + " at the start)";
 }
 
 std::vector<Mode> LinearModes(const MultibodySystem& system, const SystemData& data, const Eigen::VectorXd& q,

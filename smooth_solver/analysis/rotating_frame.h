@@ -64,6 +64,9 @@ struct EquilibriumResult {
   double initial_residual = 0.0;  // the same at the guess
 };
 
+// For a solve that did not converge: "(residual R after N Newton iterations, R0 at the start)".
+std::string ResidualsText(const EquilibriumResult& r);
+
 // The velocities of a rigid rotation with the frame, q̇ = W q̂ (Ω × every point taken from the
 // origin, Ω × every direction): a state at rest in the spinning frame.
 Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame);

@@ -62,9 +62,9 @@ void ModalSimulation::Solve(double omega) {
   newton_total_ += r.iterations;
   ++solves_;
   if (!r.converged) {
-    throw NumericalError("MODES: no steady state found at Ω = " + interface::FormatNumber(omega) + " rad/s (residual " +
-                         interface::FormatNumber(r.residual) + " after " + std::to_string(r.iterations) +
-                         " Newton iterations); smaller speed steps, or modes.ramp_steps, or a scene with a static "
+    throw NumericalError("MODES: no steady state found at Ω = " + interface::FormatNumber(omega) + " rad/s " +
+                         ResidualsText(r) +
+                         "; smaller speed steps, or modes.ramp_steps, or a scene with a static "
                          "equilibrium (an articulated blade with gravity has none at rest)");
   }
   q_ = r.q;

@@ -64,15 +64,10 @@ Eigen::Vector3d InFrame(int frame, const Eigen::VectorXd& q, const Eigen::Vector
   return BodyAxes(q, frame).transpose() * v;
 }
 
-// A static solve that did not converge: its residuals at the guess and at the end, and the advice
-// to raise the iteration limit only where the residual came down. More iterations help only
-// iterates that were closing in: a generated teetering rotor's twin
-// (tests/data/rotors/teetering_beam_settled_gust) went from 196 N at the guess to 787 N after 50
-// iterations and 80 kN after 200.
-std::string NoEquilibriumResiduals(const EquilibriumResult& r) {
-  return "(residual " + interface::FormatNumber(r.residual) + " after " + std::to_string(r.iterations) +
-         " Newton iterations, " + interface::FormatNumber(r.initial_residual) + " at the start)";
-}
+// For a static solve that did not converge: the advice to raise the iteration limit, only where
+// the residual came down. More iterations help only iterates that were closing in: a generated
+// teetering rotor's twin (tests/data/rotors/teetering_beam_settled_gust) went from 196 N at the
+// guess to 787 N after 50 iterations and 80 kN after 200.
 std::string MoreIterationsAdvice(const EquilibriumResult& r) {
   return r.residual < r.initial_residual ? ", or raise numerics.smooth.newton_max_iterations" : "";
 }
@@ -837,7 +832,7 @@ EquilibriumResult MultibodySimulation::SettleSolve(const MultibodySystem& system
       "numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) + " s" +
       (spin.omega.isZero() ? std::string() : " in the frame spinning with the rotor") +
       (moving.empty() ? std::string() : " with contact nodes " + moving + " free to move off their start") + " " +
-      NoEquilibriumResiduals(r) +
+      ResidualsText(r) +
       "; the scene may have no equilibrium at rest (a free body, a load no stop holds): remove settle" +
       MoreIterationsAdvice(r));
 }
@@ -889,9 +884,8 @@ void MultibodySimulation::StaticStep(double t1) {
   options.max_iterations = numerics_.smooth().newton_max_iterations();
   const EquilibriumResult r = StaticEquilibrium(*system_, data_.get(), from.q, SpinningFrame{}, options);
   if (!r.converged) {
-    throw NumericalError("STATIC: no equilibrium at t = " + interface::FormatNumber(t1) + " s " +
-                         NoEquilibriumResiduals(r) + "; ramp the loads over more steps with their time functions" +
-                         MoreIterationsAdvice(r));
+    throw NumericalError("STATIC: no equilibrium at t = " + interface::FormatNumber(t1) + " s " + ResidualsText(r) +
+                         "; ramp the loads over more steps with their time functions" + MoreIterationsAdvice(r));
   }
   shown_.q = r.q;
   shown_.qdot = Eigen::VectorXd::Zero(r.q.size());

@@ -695,10 +695,11 @@ TEST(RunContract, AStaticEquilibriumIsASettledStartForADynamicRun) {
   const Table rotor = ReadTable(dir / "coupled" / "history.csv");
   for (int k = 1; k <= 3; ++k) {
     const std::string blade = "blade" + std::to_string(k);
-    const std::vector<double> flap = rotor.Column(blade + "_flap");
-    EXPECT_LT(flap[0], -5.0) << blade;
-    EXPECT_NEAR(flap[0], -5.002, 5e-4) << blade;
-    for (size_t i = 0; i < flap.size(); ++i) EXPECT_NEAR(flap[i], flap[0], 2e-4) << blade << " row " << i;
+    const std::vector<double> blade_flap = rotor.Column(blade + "_flap");
+    EXPECT_LT(blade_flap[0], -5.0) << blade;
+    EXPECT_NEAR(blade_flap[0], -5.002, 5e-4) << blade;
+    for (size_t i = 0; i < blade_flap.size(); ++i)
+      EXPECT_NEAR(blade_flap[i], blade_flap[0], 2e-4) << blade << " row " << i;
     const Table stops = ReadTable(dir / "coupled" / ("stops" + std::to_string(k)) / "history.csv");
     EXPECT_NEAR(stops.Column(blade + "_droop_gap")[0], 0.0, 1e-9) << blade;
   }

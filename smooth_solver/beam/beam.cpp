@@ -136,14 +136,20 @@ void BeamForce::Strains(const BeamElement& e, const Local& ql, int g, Vector6d* 
       dp[a] += dN[I] * ql.segment<3>(Slot(I, a + 1));
     }
   }
-  // Γ_a = d_a · r′ (axial, shears).
-  for (int a = 0; a < 3; ++a) (*eps)(a) = d[a].dot(rp);
+  // Γ_1 = ½ r′·r′: the reference line's own stretch (its Green strain once Γ⁰_1 = ½ r′₀·r′₀ is
+  // taken off). Measured along d_1 instead (d_1 · r′), a stretch of the reference line hides
+  // where the interpolated d_1 is shorter than 1, between nodes whose sections turn: under a
+  // spinning blade's tension that is a mode of negative stiffness (beam.h).
+  (*eps)(0) = 0.5 * rp.dot(rp);
+  // Γ_a = d_a · r′ (shears).
+  for (int a = 1; a < 3; ++a) (*eps)(a) = d[a].dot(rp);
   // κ = ½ (d_b · d_c′ − d_c · d_b′) for (b, c) = (3, 2), (1, 3), (2, 1): torsion, flap, lag.
   static constexpr int kB[3] = {2, 0, 1}, kC[3] = {1, 2, 0};
   for (int k = 0; k < 3; ++k) (*eps)(3 + k) = 0.5 * (d[kB[k]].dot(dp[kC[k]]) - d[kC[k]].dot(dp[kB[k]]));
   B->setZero();
   for (int I = 0; I < n_; ++I) {
-    for (int a = 0; a < 3; ++a) {
+    B->block<1, 3>(0, Slot(I, 0)) = dN[I] * rp.transpose();
+    for (int a = 1; a < 3; ++a) {
       B->block<1, 3>(a, Slot(I, 0)) = dN[I] * d[a].transpose();
       B->block<1, 3>(a, Slot(I, a + 1)) += N[I] * rp.transpose();
     }
@@ -194,7 +200,8 @@ void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, 
       if (C != nullptr) C->noalias() += (wJ * retardation_) * (B.transpose() * DB);
     }
     // Geometric part Σ_k σ_k H_k (constant Hessians, scalar on slots ⊗ I3): with P_IJ = N_I N_J′,
-    // Γ_a = Σ P_IJ d_aI · x_J and κ = Σ ½(P_IJ − P_JI) d_bI · d_cJ.
+    // Γ_1 = ½ Σ N_I′ N_J′ x_I · x_J, Γ_a = Σ P_IJ d_aI · x_J (a = 2, 3) and
+    // κ = Σ ½(P_IJ − P_JI) d_bI · d_cJ.
     const double* N = shape_[gi].data();
     double dN[3];
     for (int I = 0; I < n_; ++I) dN[I] = shape_xi_[gi][static_cast<size_t>(I)] * 2.0 / e.length;
@@ -205,7 +212,8 @@ void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, 
     for (int I = 0; I < n_; ++I) {
       for (int J = 0; J < n_; ++J) {
         const double P = wJ * N[I] * dN[J], A = 0.5 * wJ * (N[I] * dN[J] - N[J] * dN[I]);
-        for (int a = 0; a < 3; ++a) {
+        add(Slot(I, 0), Slot(J, 0), sigma(0) * wJ * dN[I] * dN[J]);  // Γ_1 = ½ Σ N_I′ N_J′ x_I · x_J
+        for (int a = 1; a < 3; ++a) {
           add(Slot(I, a + 1), Slot(J, 0), sigma(a) * P);
           add(Slot(J, 0), Slot(I, a + 1), sigma(a) * P);
         }

@@ -304,8 +304,8 @@ TEST(Beam, CoarseBladesSpinningUnderTheirTensionKeepTheirLength) {
   const std::string table = std::string(COSIM_SOURCE_DIR) + "/tests/data/rotors/teetering_beam_lag/blade_sections.csv";
   auto blade = [&](int k, double sign) {
     const std::string x = std::to_string(sign * 0.2305871882), v = std::to_string(sign * 0.2305871882 * 54.74186195);
-    return "beams { name: \"blade" + std::to_string(k) + "\" root: [" + x + ", 0, 0] axis: [" +
-           std::to_string(sign) + ", 0, 0] chord: [0, " + std::to_string(sign) +
+    return "beams { name: \"blade" + std::to_string(k) + "\" root: [" + x + ", 0, 0] axis: [" + std::to_string(sign) +
+           ", 0, 0] chord: [0, " + std::to_string(sign) +
            ", 0] span_start: 0.2305871882 span_end: 3.543001995 elements: 3 nodes_per_element: 3 "
            "root_body: \"hub\" stations_file: \"" +
            table + "\" velocity: [0, " + v + ", 0] angular_velocity: [0, 0, 54.74186195] } ";

@@ -112,10 +112,11 @@ class Writer:
                 ("e", r.flap_offset, "m", "flap hinge offset"),
                 ("h0", r.hinge_radius(), "m", "the blade's first hinge from the shaft"),
                 ("d", self.hinge_d, "m", "lag hinge to flap hinge"),
-                ("cuff_mass", self.cuff_mass + (r.node_mass if twin else 0.0), "kg", "flap hinge to pitch bearing"),
+                ("cuff_mass", self.cuff_mass, "kg", "flap hinge to pitch bearing"),
             ]
+        p += [("node_mass", r.node_mass, "kg", "stop pad (contact node)")]
         if not twin:
-            p += [("node_mass", r.node_mass, "kg", "stop pad (contact node)"), ("c_tie", r.regularization, "m/N", "")]
+            p += [("c_tie", r.regularization, "m/N", "")]
         return "\n".join(
             f'parameters {{ name: "{n}" value: {num(v)}'
             + (f' unit: "{u}"' if u else "")
@@ -298,8 +299,16 @@ class Writer:
         x0, z0 = self.pad
         L = self.cuff_length
         if twin:
+            # The pad's mass where the co-simulated model has it, on the cuff at the pad (folded
+            # into the cuff's mass at the cuff's centre, on the blade axis, it lacked the pad's
+            # centrifugal moment about the flap hinge, 0.034 m below it: rotor 582's 7 kg pads
+            # flapped 0.8° RMS apart in the two models before any contact).
             k = self.stop_stiffness(self.flap_inertia())
+            w = "[${-Omega0 * sin(-beta0)}, 0, ${Omega0 * cos(-beta0)}]"
             return (
+                f'  bodies {{ name: "pad{{k}}" reference: "flap{{k}}" mass: ${{node_mass}} inertia: [1e-4, 1e-4, 1e-4] position: [{num(x0)}, 0, {num(z0)}]\n'
+                f"          velocity: [0, ${{Omega0 * (h0 + d{radial(x0, z0)})}}, 0] angular_velocity: {w} }}\n"
+                f'  joints {{ name: "pad{{k}}_mount" reference: "flap{{k}}" type: FIXED body1: "cuff{{k}}" body2: "pad{{k}}" point: [{num(x0)}, 0, {num(z0)}] }}\n'
                 '  forces { name: "stops{k}" joint_stop { joint: "flap{k}_hinge" lower: ${droop} upper: ${antiflap}\n'
                 f"           law {{ stiffness: {num(k)} exponent: 1.5 restitution: {num(max(r.restitution, 0.05))} effective_restitution: true }} }} }}\n",
                 "",
@@ -337,20 +346,31 @@ class Writer:
         """The yoke, the teeter hinge and (co-simulated) the two pads with their mast planes, or
         (twin) the teeter stops: outside the pattern (one yoke carries both pads)."""
         r = self.r
-        my = 0.15 * r.blade_mass() + (2 * r.node_mass if twin else 0.0)
+        my = 0.15 * r.blade_mass()
         out = [
             f'  bodies {{ name: "yoke" reference: "hub" mass: {num(my)} inertia: [{num(0.6 * my * r.pad_arm**2)}, {num(my * r.pad_arm**2)}, {num(1.5 * my * r.pad_arm**2)}]'
             " position: [0, 0, ${-u}] angular_velocity: [0, 0, ${Omega0}] }",
             '  joints { name: "teeter" reference: "hub" type: REVOLUTE body1: "hub" body2: "yoke" point: [0, 0, 0] axis: [0, -1, 0] }',
         ]
+        zp = -(r.undersling + 0.01 * r.radius)  # pads below the yoke, relative to the teeter hinge
         if twin:
+            # The pads' masses where the co-simulated model has them (they were folded into the
+            # yoke's mass at its centre, 0.01 R above them and without their teeter inertia).
+            for k, sign in ((1, 1.0), (2, -1.0)):
+                x = sign * r.pad_arm
+                out.append(
+                    f'  bodies {{ name: "pad{k}" reference: "hub" mass: ${{node_mass}} inertia: [1e-4, 1e-4, 1e-4] position: [{num(x)}, 0, {num(zp)}]'
+                    f" velocity: [0, ${{Omega0 * {num(x)}}}, 0] angular_velocity: [0, 0, ${{Omega0}}] }}"
+                )
+                out.append(
+                    f'  joints {{ name: "pad{k}_mount" reference: "hub" type: FIXED body1: "yoke" body2: "pad{k}" point: [{num(x)}, 0, {num(zp)}] }}'
+                )
             k = self.stop_stiffness(2 * self.flap_inertia())
             out.append(
                 '  forces { name: "stops" joint_stop { joint: "teeter" lower: ${droop} upper: ${antiflap}\n'
                 f"           law {{ stiffness: {num(k)} exponent: 1.5 restitution: {num(max(r.restitution, 0.05))} effective_restitution: true }} }} }}"
             )
             return "\n".join(out), ""
-        zp = -(r.undersling + 0.01 * r.radius)  # pads below the yoke, relative to the teeter hinge
         dn, _ = plane_normals(r.pad_arm, zp, r.droop, r.antiflap)
         coupling = []
         for k, sign in ((1, 1.0), (2, -1.0)):

@@ -21,8 +21,9 @@
 // than 1 at the Gauss points, and a stretch of the reference line hid there without energy. A
 // spinning blade's tension pays for that stretch, so it was a mode of negative stiffness: two
 // teetering blades of 3 quadratic elements at 54.7 rad/s bent 8 m in lag within 0.1 s, in
-// vacuum, in CGα and IDA alike (generated rotor 589). Every strain is a quadratic form in q, so its gradient B is
-// linear in q, its Hessian is constant, and the tangent is exact in closed form:
+// vacuum, in CGα and IDA alike (generated rotor 589).
+// Every strain is a quadratic form in q, so its gradient B is linear in q, its Hessian is
+// constant, and the tangent is exact in closed form:
 //   V = Σ_g w_g J ½ εᵀ C ε,   f = −Σ_g w_g J Bᵀ C ε,   K = Σ_g w_g J (Bᵀ C B + Σ_k σ_k H_k).
 // The reference strains Γ⁰, κ⁰ are those of the initial (pre-twisted) configuration, so the
 // beam is stress-free there. Shear locking: reduced integration (n − 1 Gauss points for an

@@ -256,10 +256,11 @@ def draw(seed, topology=None):
     # Coarse meshes too (2 linear elements, 2 quadratic): blades of 2 and of 4 linear elements
     # spinning with a tip weight diverged in flap in both stop models (seeds 6 and 300 of the first
     # draws, at 24 and 38.6 rad/s; in vacuum, with 2 elements both reached ±38°, and seed 300 with
-    # 4 ended with exit 3 at ±19°), and blades of 3 quadratic elements in lag (seed 589). The beam's axial strain, measured along the interpolated
-    # director, let the blade stretch at no cost under its tension (docs/design.md, "Beam blades");
-    # measured along the reference line, the same blades stay on their stops. Until that fix the
-    # generator drew at least 8 linear elements.
+    # 4 ended with exit 3 at ±19°), and blades of 3 quadratic elements in lag (seed 589). The
+    # beam's axial strain, measured along the interpolated director, let the blade stretch at no
+    # cost under its tension (docs/design.md, "Beam blades"); measured along the reference line,
+    # the same blades stay on their stops. Until that fix the generator drew at least 8 linear
+    # elements.
     r.nodes_per_element = rng.choice((2, 3))
     r.elements = rng.randint(2, 12) if r.nodes_per_element == 2 else rng.randint(2, 5)
     r.retardation_time = _log_uniform(rng, 5e-5, 1e-3)

@@ -5,10 +5,8 @@
 // defect it guards against.
 #include <fcntl.h>
 #include <gtest/gtest.h>
-#include <poll.h>
-#include <sched.h>
 #include <signal.h>
-#include <sys/inotify.h>
+#include <sys/ptrace.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -16,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -715,58 +714,58 @@ TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
   EXPECT_EQ(Slurp(out.string() + ".txt").find("outcome is lost"), std::string::npos);
 }
 
+// Runs the traced process `pid` (attached with PTRACE_SEIZE and PTRACE_O_TRACESYSGOOD) from
+// system call to system call until `file` exists, and leaves it stopped there: true. False if it
+// ended first.
+bool StopOnceFileExists(pid_t pid, const fs::path& file) {
+  while (true) {
+    if (fs::exists(file)) return true;
+    if (ptrace(PTRACE_SYSCALL, pid, nullptr, nullptr) != 0) return false;
+    int status = 0;
+    while (true) {
+      if (waitpid(pid, &status, __WALL) != pid) return false;
+      if (WIFEXITED(status) || WIFSIGNALED(status)) return false;
+      if (WSTOPSIG(status) == (SIGTRAP | 0x80)) break;  // a system call's entry or exit
+      // A signal on its way to the process: let it have it.
+      if (ptrace(PTRACE_SYSCALL, pid, nullptr, reinterpret_cast<void*>(static_cast<long>(WSTOPSIG(status)))) != 0) {
+        return false;
+      }
+    }
+  }
+}
+
 TEST(Hardening, AContactProcessKilledInItsTeardownKeepsItsOwnSummary) {
   // A contact process killed after its complete run had written its summary
   // (exit 0, every step), while it tore down, turned the run into exit 4 and the launcher wrote
-  // "killed by signal 9 … steps 0" over that summary. Played exactly: the contact process is
-  // stopped (SIGSTOP) the moment its summary appears, then killed. Its own summary stands and
-  // the run's exit code agrees with OUT/summary.json. The moment is caught without racing the
-  // machine's load: the contact process runs at SCHED_IDLE, and this test waits for the summary's
-  // rename in a blocking inotify read, so its wake-up preempts the process before it can exit.
-  // (An attempt whose process had already ended anyway is repeated.)
-  bool played = false;
-  for (int attempt = 0; attempt < 8 && !played; ++attempt) {
-    const fs::path out = TempDir("killed_in_teardown_" + std::to_string(attempt));
-    Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=0.2"},
-                           out.string() + ".txt");
-    const pid_t contact = WaitForProgram("nonsmooth_solver", out);
-    ASSERT_NE(contact, -1);
-    const sched_param idle{};
-    sched_setscheduler(contact, SCHED_IDLE, &idle);  // (best effort: the retries cover a refusal)
-    const fs::path folder = out / "contacts";
-    const auto t0 = Clock::now();
-    while (!fs::exists(folder) && SecondsSince(t0) < 20.0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    const int watch = inotify_init1(IN_CLOEXEC);
-    ASSERT_GE(watch, 0);
-    inotify_add_watch(watch, folder.c_str(), IN_MOVED_TO);
-    bool appeared = fs::exists(folder / "summary.json");
-    while (!appeared && SecondsSince(t0) < 20.0) {
-      pollfd ready{watch, POLLIN, 0};
-      if (poll(&ready, 1, 1000) <= 0) continue;
-      alignas(inotify_event) char buffer[4096];
-      const ssize_t n = read(watch, buffer, sizeof(buffer));
-      for (ssize_t at = 0; at < n;) {
-        const auto* event = reinterpret_cast<const inotify_event*>(buffer + at);
-        if (event->len > 0 && std::string(event->name) == "summary.json") appeared = true;
-        at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
-      }
-    }
-    kill(contact, SIGSTOP);
-    close(watch);
-    // Still there (stopped), not yet a zombie: the exact state of the report.
-    const std::string stat = Slurp("/proc/" + std::to_string(contact) + "/stat");
-    const size_t paren = stat.rfind(')');
-    played = paren != std::string::npos && paren + 2 < stat.size() && stat[paren + 2] == 'T';
-    kill(contact, SIGKILL);
-    const int code = run.Wait(20.0);
-    if (!played) continue;
-    const cosim::run::RunSummary mine = ReadSummary(out / "contacts");
-    EXPECT_EQ(mine.exit_code(), 0) << mine.reason();
-    EXPECT_GT(mine.steps(), 0);
-    EXPECT_EQ(code, 0) << Slurp(out.string() + ".txt");
-    EXPECT_EQ(ReadSummary(out).exit_code(), code);
-  }
-  EXPECT_TRUE(played) << "the contact process always ended before it could be stopped";
+  // "killed by signal 9 … steps 0" over that summary. Played exactly: the test traces the
+  // contact process's main thread from system call to system call, stops it at the first one
+  // after its summary appears (the rename that publishes it), and kills it there. Its own summary
+  // stands and the run's exit code agrees with OUT/summary.json. (Before, the test raced the
+  // process to that moment from an inotify wake-up and, under load, lost 8 times in a row in one
+  // run of four; traced, there is no race.)
+  const fs::path out = TempDir("killed_in_teardown");
+  Background run = Start("cosim_launch", {kTiedDrop, "--out", out.string(), "--set", "numerics.end_time=0.2"},
+                         out.string() + ".txt");
+  const pid_t contact = WaitForProgram("nonsmooth_solver", out);
+  ASSERT_NE(contact, -1);
+  ASSERT_EQ(ptrace(PTRACE_SEIZE, contact, nullptr, reinterpret_cast<void*>(PTRACE_O_TRACESYSGOOD)), 0)
+      << "the test traces the contact process (ptrace): " << std::strerror(errno);
+  // Stop it first (PTRACE_INTERRUPT), so that the system-call stepping starts from a stop.
+  ASSERT_EQ(ptrace(PTRACE_INTERRUPT, contact, nullptr, nullptr), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(contact, &status, __WALL), contact);
+  const bool stopped = StopOnceFileExists(contact, out / "contacts" / "summary.json");
+  ASSERT_TRUE(stopped) << "the contact process ended before its summary appeared";
+  kill(contact, SIGKILL);
+  // The tracer is told first; then its parent, the launcher, learns of it.
+  ASSERT_EQ(waitpid(contact, &status, __WALL), contact);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "killed, after its summary: status " << status;
+  const int code = run.Wait(20.0);
+  const cosim::run::RunSummary mine = ReadSummary(out / "contacts");
+  EXPECT_EQ(mine.exit_code(), 0) << mine.reason();
+  EXPECT_GT(mine.steps(), 0);
+  EXPECT_EQ(code, 0) << Slurp(out.string() + ".txt");
+  EXPECT_EQ(ReadSummary(out).exit_code(), code);
 }
 
 }  // namespace

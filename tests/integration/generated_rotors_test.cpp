@@ -223,9 +223,9 @@ TEST(GeneratedRotors, ATeeteringYokeReboundsFromItsStopWithTheStopsRestitution) 
 // Two continuous twins of generated rotors whose settle found no equilibrium in 50 Newton
 // iterations: a teetering rotor with beam blades (seed 472) went from 196 N at the guess to 787 N
 // after 50 iterations and 80 kN after 200; an articulated one (seed 549) came down to 1.2e-3 N
-// after 50. Both had beam blades whose axial strain was measured along the interpolated director
-// (beam.h): a stretch that costs no energy is a direction the static Newton cannot pin. Measured
-// along the reference line, both settle (in 34 and 16 iterations). The message's advice to raise
+// after 50. Both have beam blades, whose axial strain was measured along the interpolated director
+// (beam.h); with that strain alone changed to the reference line's, both settle (in 34 and 16
+// iterations). The message's advice to raise
 // numerics.smooth.newton_max_iterations comes only where the residual came down, shown on 549's
 // twin with its droop stops moved: at −0.15 rad (the blades drawn 2.5° above them) 50 iterations
 // leave 0.057 N of 245 N and 200 settle it; at −0.6 rad the residual grows to 357 kN, and to

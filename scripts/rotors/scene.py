@@ -51,6 +51,15 @@ def radial(x, z):
     return out
 
 
+# The drooped flap frame's angular velocity, and the speed of its point (x, 0, z) (radial(x, z)):
+# the initial velocities of everything an articulated blade's flap hinge carries.
+FLAP_SPIN = "[${-Omega0 * sin(-beta0)}, 0, ${Omega0 * cos(-beta0)}]"
+
+
+def flap_speed(x, z=0.0):
+    return f"${{Omega0 * (h0 + d{radial(x, z)})}}"
+
+
 def plane_normals(x0, z0, lower, upper):
     """Normals of the two planes through the hinge's axis that the point (x0, z0) meets at the
     angles lower (< 0, droop) and upper (> 0, anti-flap); the point lies on their positive sides
@@ -193,9 +202,6 @@ class Writer:
         r = self.r
         L = self.cuff_length
         th = "${-beta0}"  # the drooped frame's rotation about y
-        # Radial distance of a point at x along the drooped blade (flap frame), for velocities.
-        rad = lambda x, z=0.0: f"${{Omega0 * (h0 + d{radial(x, z)})}}"  # noqa: E731
-        w = "[${-Omega0 * sin(-beta0)}, 0, ${Omega0 * cos(-beta0)}]"
         out = ['references { name: "root{k}" reference: "hub" position: [${h0}, 0, 0] }']
         out.append(
             f'  references {{ name: "flap{{k}}" reference: "root{{k}}" position: [${{d}}, 0, 0] rotation: [0, {th}, 0] }}'
@@ -222,7 +228,7 @@ class Writer:
         cuff_i = self.cuff_mass * L * L / 12 + 1e-3
         out.append(
             f'  bodies {{ name: "cuff{{k}}" reference: "flap{{k}}" mass: ${{cuff_mass}} inertia: [1e-3, {num(cuff_i)}, {num(cuff_i)}]'
-            f" position: [{num(L / 2)}, 0, 0] velocity: [0, {rad(L / 2)}, 0] angular_velocity: {w} }}"
+            f" position: [{num(L / 2)}, 0, 0] velocity: [0, {flap_speed(L / 2)}, 0] angular_velocity: {FLAP_SPIN} }}"
         )
         out.append(
             f'  joints {{ name: "flap{{k}}_hinge" reference: "root{{k}}" type: REVOLUTE body1: "{parent}" body2: "cuff{{k}}"'
@@ -230,13 +236,13 @@ class Writer:
         )
         carrier = "blade{k}" if r.blade_model == "rigid" else "pitch{k}"
         if r.blade_model == "rigid":
-            out.append(self.rigid_blade("flap{k}", L, rad, w))
+            out.append(self.rigid_blade("flap{k}", L, flap_speed, FLAP_SPIN))
         else:
             out.append(
                 f'  bodies {{ name: "pitch{{k}}" reference: "flap{{k}}" mass: {num(self.fitting_mass)} inertia: [1e-3, 1e-3, 1e-3]'
-                f" position: [{num(L)}, 0, 0] velocity: [0, {rad(L)}, 0] angular_velocity: {w} }}"
+                f" position: [{num(L)}, 0, 0] velocity: [0, {flap_speed(L)}, 0] angular_velocity: {FLAP_SPIN} }}"
             )
-            out.append(self.beam("flap{k}", L, "pitch{k}", rad(L), w))
+            out.append(self.beam("flap{k}", L, "pitch{k}", flap_speed(L), FLAP_SPIN))
         locked = " locked: true" if r.pitch == "locked" else ""
         out.append(
             f'  joints {{ name: "pitch{{k}}_bearing" reference: "flap{{k}}" type: REVOLUTE body1: "cuff{{k}}" body2: "{carrier}"'
@@ -304,10 +310,9 @@ class Writer:
             # centrifugal moment about the flap hinge, 0.034 m below it: rotor 582's 7 kg pads
             # flapped 0.8° RMS apart in the two models before any contact).
             k = self.stop_stiffness(self.flap_inertia())
-            w = "[${-Omega0 * sin(-beta0)}, 0, ${Omega0 * cos(-beta0)}]"
             return (
                 f'  bodies {{ name: "pad{{k}}" reference: "flap{{k}}" mass: ${{node_mass}} inertia: [1e-4, 1e-4, 1e-4] position: [{num(x0)}, 0, {num(z0)}]\n'
-                f"          velocity: [0, ${{Omega0 * (h0 + d{radial(x0, z0)})}}, 0] angular_velocity: {w} }}\n"
+                f"          velocity: [0, {flap_speed(x0, z0)}, 0] angular_velocity: {FLAP_SPIN} }}\n"
                 f'  joints {{ name: "pad{{k}}_mount" reference: "flap{{k}}" type: FIXED body1: "cuff{{k}}" body2: "pad{{k}}" point: [{num(x0)}, 0, {num(z0)}] }}\n'
                 '  forces { name: "stops{k}" joint_stop { joint: "flap{k}_hinge" lower: ${droop} upper: ${antiflap}\n'
                 f"           law {{ stiffness: {num(k)} exponent: 1.5 restitution: {num(max(r.restitution, 0.05))} effective_restitution: true }} }} }}\n",
@@ -317,7 +322,7 @@ class Writer:
         carrier = "lag{k}" if r.has_lag() else "hub"
         return (
             f'  contact_nodes {{ name: "pad{{k}}" reference: "flap{{k}}" mass: ${{node_mass}} position: [{num(x0)}, 0, {num(z0)}]\n'
-            f"                  velocity: [0, ${{Omega0 * (h0 + d{radial(x0, z0)})}}, 0]\n"
+            f"                  velocity: [0, {flap_speed(x0, z0)}, 0]\n"
             '                  contacts { obstacle: "droop{k}" restitution: ${restitution} } contacts { obstacle: "antiflap{k}" restitution: ${restitution} } }\n'
             f'  obstacles {{ name: "droop{{k}}" reference: "root{{k}}" point: [${{d}}, 0, 0] normal: {vec(*dn)} attached_to_body: "{carrier}" }}\n'
             f'  obstacles {{ name: "antiflap{{k}}" reference: "root{{k}}" point: [${{d}}, 0, 0] normal: {vec(*un)} attached_to_body: "{carrier}" }}\n',

@@ -60,7 +60,7 @@ void Substitute(pb::Message* m, const std::string& k) {
 
 // Appends the lists of `from` to those of `to`, recording where each element came from.
 void Append(const pb::Message& from, pb::Message* to, const std::string& source, const std::string& target,
-            const std::string& pattern, int copy, const Pose& turn, std::vector<PatternOrigin>* origins) {
+            const std::string& pattern, int copy, const CopyTurn& turn, std::vector<PatternOrigin>* origins) {
   const pb::Reflection* rf = from.GetReflection();
   const pb::Reflection* rt = to->GetReflection();
   std::vector<const pb::FieldDescriptor*> fields;
@@ -144,6 +144,8 @@ std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
     const Eigen::Vector3d axis = vector3(pat.axis(), "axis", Eigen::Vector3d::UnitZ());
     if (axis.norm() == 0.0) fail(path + ".axis", "is zero; expected the direction of the pattern's axis");
     const Eigen::Vector3d origin = vector3(pat.origin(), "origin", Eigen::Vector3d::Zero());
+    if (pat.has_reference() && pat.reference().empty())
+      fail(path + ".reference", "is empty; name the frame (model.references) the axis is written in, or leave it out");
     if (!pat.has_each()) fail(path + ".each", "missing; give the elements to repeat");
     CheckOnlyLists(pat.each(), path + ".each", fail);
     counts[pat.name()] = pat.count();
@@ -151,9 +153,11 @@ std::vector<PatternOrigin> ExpandPatterns(scenario::Scenario* proto,
       scenario::Scenario copy = pat.each();
       Substitute(&copy, std::to_string(k));
       const double psi = pat.first_azimuth() + (k - 1) * 2.0 * std::numbers::pi / pat.count();
-      // Elements written in a frame stay as they are: the frame turns (reference_frames.h).
-      const Pose turn = RotationAbout(psi * axis.normalized(), origin);
-      TransformGeometry(&copy, turn, true);
+      // Elements written in a frame stay as they are: the frame turns (reference_frames.h). In a
+      // pattern with a frame, nothing is turned yet: the frame's pose is known once every
+      // override is applied (ResolveReferences turns the copy then).
+      CopyTurn turn{RotationAbout(psi * axis.normalized(), origin), pat.reference(), axis.normalized(), origin, path};
+      if (turn.frame.empty()) TransformGeometry(&copy, turn.turn, true);
       Append(copy, proto, path + ".each", "", pat.name(), k, turn, &origins);
     }
   }

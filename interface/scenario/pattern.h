@@ -18,7 +18,7 @@ struct PatternOrigin {
   std::string source;    // e.g. "patterns[0].each.model.bodies[1]"
   std::string pattern;   // the pattern's name
   int copy = 0;          // k, 1-based
-  Pose turn;             // the copy's rotation about the pattern's axis
+  CopyTurn turn;         // the copy's rotation about the pattern's axis (in its frame, if it names one)
 };
 
 // Expands and clears proto->patterns. `fail(path, message)` must throw (InputError with the

@@ -1,9 +1,11 @@
 #include "interface/scenario/reference_frames.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <map>
 #include <vector>
 
+#include "interface/scenario/checks.h"
 #include "interface/scenario/message_tree.h"
 
 namespace cosim::interface {
@@ -33,11 +35,39 @@ bool SetsReference(const pb::Message& m) {
   return f != nullptr && m.GetReflection()->HasField(m, f);
 }
 
+// The message at field path `path` ("model.bodies[5]", "coupling.processes[0]") below `root`,
+// or nullptr.
+pb::Message* FindMessage(pb::Message* root, const std::string& path) {
+  pb::Message* m = root;
+  size_t at = 0;
+  while (m != nullptr && at < path.size()) {
+    const size_t end = std::min(path.find('.', at), path.size());
+    std::string part = path.substr(at, end - at);
+    int index = -1;
+    if (const size_t open = part.find('['); open != std::string::npos) {
+      index = std::stoi(part.substr(open + 1));
+      part = part.substr(0, open);
+    }
+    const pb::FieldDescriptor* f = m->GetDescriptor()->FindFieldByName(part);
+    if (f == nullptr || f->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) return nullptr;
+    const pb::Reflection* r = m->GetReflection();
+    if (f->is_repeated()) {
+      if (index < 0 || index >= r->FieldSize(*m, f)) return nullptr;
+      m = r->MutableRepeatedMessage(m, f, index);
+    } else {
+      m = r->MutableMessage(m, f);
+    }
+    at = end + 1;
+  }
+  return m;
+}
+
 class Resolver {
  public:
-  Resolver(scenario::Scenario* proto, const std::function<std::optional<Pose>(const std::string&)>& copy_pose,
+  Resolver(scenario::Scenario* proto, const std::function<std::optional<CopyTurn>(const std::string&)>& copy_pose,
+           const std::vector<std::pair<std::string, CopyTurn>>& deferred,
            const std::function<void(const std::string&, const std::string&)>& fail)
-      : proto_(proto), copy_pose_(copy_pose), fail_(fail) {}
+      : proto_(proto), copy_pose_(copy_pose), deferred_(deferred), fail_(fail) {}
 
   void Run() {
     scenario::Model* model = proto_->mutable_model();
@@ -53,6 +83,14 @@ class Resolver {
     global_.resize(model->references_size());
     state_.assign(model->references_size(), kUnvisited);
     for (int i = 0; i < model->references_size(); ++i) Resolve(i);
+    // The copies of patterns with a frame: their elements not written in a frame, turned about
+    // the frame's axis now that it is known (their frames were placed by Resolve, the elements
+    // written in one are by Place).
+    for (const auto& [path, turn] : deferred_) {
+      if (path.rfind("model.references[", 0) == 0) continue;
+      pb::Message* element = FindMessage(proto_, path);
+      if (element != nullptr && !SetsReference(*element)) TransformGeometry(element, GlobalTurn(turn), true);
+    }
     // Every frame now global: its parent is dropped so that reading the result again is the same.
     for (int i = 0; i < model->references_size(); ++i) {
       scenario::Reference* r = model->mutable_references(i);
@@ -84,13 +122,51 @@ class Resolver {
     return it->second;
   }
 
+  // A copy's turn in global axes: F ∘ turn ∘ F⁻¹ for a pattern written in frame F (outside the
+  // patterns, resolved first), the turn itself for one in global axes.
+  Pose GlobalTurn(const CopyTurn& turn) {
+    if (turn.frame.empty()) return turn.turn;
+    const int frame = Find(turn.frame, turn.pattern + ".reference");
+    if (copy_pose_(ElementPath("model.references", frame))) {
+      fail_(turn.pattern + ".reference", "'" + turn.frame +
+                                             "' is a frame of a pattern's copy; a pattern turns its copies about "
+                                             "a frame outside the patterns (the hub's, a yoke's)");
+    }
+    Resolve(frame);
+    return global_[frame] * turn.turn * global_[frame].Inverse();
+  }
+
   // The map from P's frame to the global one for an element M at `path` written in P
   // (reference_frames.h): global(P), turned from the template's view if M is in a copy.
-  Pose FrameFor(const std::string& path, int parent) const {
-    const std::optional<Pose> turn = copy_pose_(path);
+  Pose FrameFor(const std::string& path, int parent) {
+    const std::optional<CopyTurn> turn = copy_pose_(path);
     if (!turn) return global_[parent];
-    const Pose parent_turn = copy_pose_(ElementPath("model.references", parent)).value_or(Pose{});
-    return *turn * parent_turn.Inverse() * global_[parent];
+    const std::optional<CopyTurn> parent_turn = copy_pose_(ElementPath("model.references", parent));
+    if (!parent_turn && turn->frame.empty()) RequireTurnsWithCopies(path, parent, *turn);
+    const Pose parent_inverse = parent_turn ? GlobalTurn(*parent_turn).Inverse() : Pose{};
+    return GlobalTurn(*turn) * parent_inverse * global_[parent];
+  }
+
+  // A copy turned about a global axis that hangs on a frame P outside it: only right if P turns
+  // with the copies, its axes keeping the pattern's axis and its origin on it (a hub frame at the
+  // shaft, untilted). A tilted hub or a yoke at a teeter angle would give a cone or a V.
+  void RequireTurnsWithCopies(const std::string& path, int parent, const CopyTurn& turn) const {
+    const Pose& P = global_[parent];
+    const double scale = std::max(1.0, (P.translation - turn.origin).norm());
+    const bool axis_kept = (P.rotation * turn.axis - turn.axis).norm() <= 1e-9;
+    const bool on_axis = (P.translation - turn.origin).cross(turn.axis).norm() <= 1e-9 * scale;
+    if (axis_kept && on_axis) return;
+    const std::string name = proto_->model().references(parent).name();
+    auto vec = [](const Eigen::Vector3d& x) {
+      return "[" + FormatNumber(x(0)) + ", " + FormatNumber(x(1)) + ", " + FormatNumber(x(2)) + "]";
+    };
+    fail_(path + ".reference",
+          "frame '" + name + "' (rotation " + vec(RotationVector(P.rotation)) + " rad, origin " + vec(P.translation) +
+              " m) lies outside pattern " + turn.pattern + ", which turns its copies about the global axis " +
+              vec(turn.axis) + "; the frame's " +
+              (axis_kept ? "origin is off that axis" : "axes do not keep that axis") +
+              ", so the copies would come out coned or bent instead of turned about the frame's own axis. Give the " +
+              "pattern `reference: \"" + name + "\"` and write its axis in that frame");
   }
 
   void Resolve(int i) {
@@ -112,6 +188,8 @@ class Resolver {
       const int parent = Find(r.reference(), path + ".reference");
       Resolve(parent);
       global_[i] = FrameFor(path, parent) * local;
+    } else if (const std::optional<CopyTurn> turn = copy_pose_(path); turn && !turn->frame.empty()) {
+      global_[i] = GlobalTurn(*turn) * local;  // global, in a copy of a pattern with a frame
     } else {
       global_[i] = local;  // global; a pattern has turned it with its copy already
     }
@@ -142,7 +220,8 @@ class Resolver {
   }
 
   scenario::Scenario* proto_;
-  const std::function<std::optional<Pose>(const std::string&)>& copy_pose_;
+  const std::function<std::optional<CopyTurn>(const std::string&)>& copy_pose_;
+  const std::vector<std::pair<std::string, CopyTurn>>& deferred_;
   const std::function<void(const std::string&, const std::string&)>& fail_;
   std::map<std::string, int> index_;
   std::string names_;  // in definition order, "hub, hinge1, …"
@@ -192,10 +271,11 @@ void TransformGeometry(pb::Message* message, const Pose& pose, bool skip_referen
 }
 
 void ResolveReferences(scenario::Scenario* proto,
-                       const std::function<std::optional<Pose>(const std::string&)>& copy_pose,
+                       const std::function<std::optional<CopyTurn>(const std::string&)>& copy_pose,
+                       const std::vector<std::pair<std::string, CopyTurn>>& deferred,
                        const std::function<void(const std::string&, const std::string&)>& fail) {
   if (!proto->has_model()) return;
-  Resolver(proto, copy_pose, fail).Run();
+  Resolver(proto, copy_pose, deferred, fail).Run();
 }
 
 }  // namespace cosim::interface

@@ -9,6 +9,8 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "scenario.pb.h"
 
@@ -21,6 +23,18 @@ struct Pose {
 
   Pose operator*(const Pose& inner) const;  // this ∘ inner
   Pose Inverse() const;
+};
+
+// How a pattern turned copy k: by `turn` in the axes of frame `frame` (a pattern's reference:
+// the global turn is then F ∘ turn ∘ F⁻¹ with F the frame's global pose, known only once the
+// frames are resolved), or in global axes if `frame` is empty. `axis` and `origin`: the turn's
+// axis and a point on it, in the same axes; `pattern`: the pattern's field path, for errors.
+struct CopyTurn {
+  Pose turn;
+  std::string frame;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  std::string pattern;
 };
 
 // The pose of a rotation vector v (axis times angle) about the point `origin`.
@@ -43,8 +57,16 @@ void TransformGeometry(google::protobuf::Message* message, const Pose& pose, boo
 // message)` must throw (InputError naming the place). Refused: a frame without a name, two with
 // one name, an unknown frame (the defined ones are listed), frames that refer to each other in a
 // cycle, a position or rotation that is not [x, y, z].
+//
+// A copy of a pattern with a `reference` frame F was left unturned by ExpandPatterns: its
+// elements not written in a frame (`deferred`: each copied list element's path and turn) are
+// turned here by F ∘ turn ∘ F⁻¹ once F is known, and those written in a frame through
+// copy_pose. A copy of a pattern without one that hangs a frame or an element on a frame P
+// outside the copy whose axes or origin do not turn with the copies (R_P a ≠ a, or P's origin off
+// the axis) is refused: turned about the global axis it would come out coned or bent, not tilted.
 void ResolveReferences(scenario::Scenario* proto,
-                       const std::function<std::optional<Pose>(const std::string&)>& copy_pose,
+                       const std::function<std::optional<CopyTurn>(const std::string&)>& copy_pose,
+                       const std::vector<std::pair<std::string, CopyTurn>>& deferred,
                        const std::function<void(const std::string&, const std::string&)>& fail);
 
 }  // namespace cosim::interface

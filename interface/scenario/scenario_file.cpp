@@ -428,13 +428,17 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
       &file.proto_, [&file](const std::string& given) { return file.PathBeside(given); },
       [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   // Frames last, so that every override of a frame or of an element written in one counts.
+  std::vector<std::pair<std::string, CopyTurn>> deferred;
+  for (const PatternOrigin& o : file.pattern_origins_) {
+    if (!o.turn.frame.empty()) deferred.emplace_back(o.expanded, o.turn);
+  }
   ResolveReferences(
       &file.proto_,
-      [&file](const std::string& path) -> std::optional<Pose> {
+      [&file](const std::string& path) -> std::optional<CopyTurn> {
         const PatternOrigin* o = file.CopyOf(path);
-        return o != nullptr ? std::optional<Pose>(o->turn) : std::nullopt;
+        return o != nullptr ? std::optional<CopyTurn>(o->turn) : std::nullopt;
       },
-      [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
+      deferred, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   // Bad definitions are refused even where no ${…} uses them; and every ${…} was replaced with
   // the values the parameters have here. A definition holding a ${…} itself (`value: ${b}`)
   // was read as 0 when the ${…} were replaced: it is refused, not used with two values.

@@ -163,7 +163,8 @@ class Writer:
                 f"wind_y {{ constant: {num(r.wind * math.sin(r.wind_azimuth))} }}"
             )
         lines.append(
-            '    rotors { name: "rotor" hub: "hub" axis: [0, 0, 1] radius: ${R} inflow: UNIFORM surfaces: ["blade{blades}"] }'
+            '    rotors { name: "rotor" reference: "hub" hub: "hub" axis: [0, 0, 1] radius: ${R} inflow: UNIFORM'
+            ' surfaces: ["blade{blades}"] }'
         )
         return "  air {\n" + "\n".join(lines) + "\n  }"
 
@@ -535,6 +536,7 @@ class Writer:
             "patterns {",
             '  name: "blades"',
             "  count: ${blades}",
+            '  reference: "hub"  # the copies turn about the hub frame\'s z axis: tilt the frame, tilt the rotor',
             "  axis: [0, 0, 1]",
             "  each {",
             *each,

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Plot every probe of a run's history.csv against time, one panel per probe.
 
     scripts/plot_history.py RUN_FOLDER [--out FILE.png]

@@ -318,6 +318,13 @@ void ScenarioFile::ParseText(const std::string& text) {
   parser.WriteLocationsTo(tree_.get());
   if (!parser.ParseFromString(text, &proto_) || errors.has_error()) {
     const std::string where = errors.line() >= 0 ? Place(errors.line() + 1, errors.column() + 1) : path_;
+    // An include that did not stand on a line of its own reached the parser as a field.
+    if (errors.message().find("has no field named \"include\"") != std::string::npos) {
+      throw InputError(where +
+                       ": `include: \"FILE\"` is read only on a line of its own (the file's lines replace that "
+                       "line before the scenario is parsed); put it on its own line inside the block, e.g. "
+                       "`each {` / `include: \"blade.pbtxt\"` / `}` on three lines");
+    }
     throw InputError(where + ": " + errors.message() +
                      " (scenario files are protobuf text format; schema: proto/scenario.proto)");
   }

@@ -1,6 +1,6 @@
 #pragma once
 // Visual output (scenario `output { visual { every: N } }`): a time series that ParaView opens
-// as it is — one VTK XML UnstructuredGrid file (.vtu, raw binary appended data) per frame in the run's `visual/`
+// as it is — one VTK XML UnstructuredGrid file (.vtu, inline base64 binary arrays) per frame in the run's `visual/`
 // folder and a ParaView data collection (`visual.pvd`) indexing them by time, rewritten after
 // every frame so that a failed run keeps every frame up to its last accepted step.
 //

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes the research Puma's blade section tables (docs/reference/puma.md, from Bousman et
 al., NASA TM 110421, as in MBDyn's Puma example) as `stations { ... }` blocks of a scenario's
 beam (proto/scenario.proto, BeamStation), so that the tables are typed once, here.

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes scenarios/puma/rotor_no_air.pbtxt: the research Puma's articulated four-blade rotor
 (docs/reference/puma.md) with beam blades, lag dampers and gravity, no air, spinning
 steadily at Ω100% — the scene of the speed benchmark. The blade written once here, placed at

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes the SA330 Puma rotor-sailing scenes (docs/reference/puma.md) as
 scenario files with one blade written once (a `patterns` entry placed at four azimuths).
 Usage: puma_scenes.py engage_continuous > scenarios/puma/engage_disengage_continuous.pbtxt

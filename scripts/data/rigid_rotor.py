@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes the rigid-blade rotor scenes of the blade aerodynamics under scenarios/aero/:
 four rigid, flapping blades with the research Puma's mass moments (puma.md: m = 91.6 kg, S_β =
 247.6 kg m, I_β = 1179 kg m² about the flap hinge at 0.289 m), chord 0.537 m, NACA 0012 from

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes the SHARCS-like articulated hub of the CGα paper (Section 6; docs/reference/sharcs.md)
 as a scenario file: the hub chain of Table 7 with the hinge values of Table 8, the pitch-link loop
 closed at the pitch horn by the initial-condition solver, one elastic blade.

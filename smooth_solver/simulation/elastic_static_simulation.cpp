@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 
+#include "smooth_solver/simulation/visual_scene.h"
+
 namespace cosim::smooth {
 
 using interface::Checks;
@@ -153,6 +155,12 @@ void ElasticStaticSimulation::FillSummary(run::RunSummary* summary) const {
   counters["nodes"] = nodes;
   counters["elements"] = elements;
   counters["max_static_residual_N"] = max_residual_;
+}
+
+void ElasticStaticSimulation::Visual(interface::VisualFrame* frame) const {
+  for (size_t b = 0; b < bodies_.size(); ++b) {
+    DrawHex27Body(bodies_[b].body, bodies_[b].name, static_cast<int>(b), positions_[b], frame);
+  }
 }
 
 }  // namespace cosim::smooth

@@ -18,6 +18,9 @@ class ElasticStaticSimulation : public interface::Simulation {
   void Probe(std::vector<double>* values) const override;
   void Step(double t, double h) override;
   void FillSummary(run::RunSummary* summary) const override;
+  // Each body at its last equilibrium (as the dynamic run draws hex27 bodies; the frames were
+  // empty, so a STATIC run's visual output showed nothing).
+  void Visual(interface::VisualFrame* frame) const override;
 
  private:
   struct ProbeSpec {

@@ -36,6 +36,12 @@ ModalSimulation::ModalSimulation(const interface::ScenarioFile& file) : model_(B
   if (file.proto().output().probes_size() > 0) {
     checks.Fail("output.probes", "a MODES analysis writes the modes' frequencies as its columns; leave probes out");
   }
+  if (file.proto().output().visual().every() > 0) {
+    // (Its frames were written empty, which meshio 5 cannot open.)
+    checks.Fail("output.visual.every",
+                "a MODES analysis sweeps the spin speed and has no motion to draw; leave "
+                "visual output out (0)");
+  }
   if (numerics_.start_time() < 0.0) {
     checks.Fail("numerics.start_time", "is the first spin speed in a MODES analysis; expected >= 0 rad/s, got " +
                                            interface::FormatNumber(numerics_.start_time()));

@@ -95,6 +95,26 @@ void DrawRigidBodies(const MultibodyModel& model, const Eigen::VectorXd& q, cons
   }
 }
 
+}  // namespace
+
+void DrawHex27Body(const ElasticBody& body, const std::string& name, int index,
+                   const Eigen::Ref<const Eigen::Matrix3Xd>& x, VisualFrame* frame) {
+  const int first = frame->points();
+  for (int a = 0; a < body.node_count(); ++a) frame->AddPoint(x.col(a), x.col(a) - body.mesh().nodes.col(a));
+  const std::vector<double> stress = body.VonMisesStress(x);
+  std::vector<int> cell(27);
+  for (size_t el = 0; el < body.mesh().elements.size(); ++el) {
+    for (int k = 0; k < 27; ++k) {
+      cell[static_cast<size_t>(k)] =
+          first + body.mesh().elements[el][static_cast<size_t>(VtkHex27Order()[static_cast<size_t>(k)])];
+    }
+    frame->AddCell(VisualFrame::kTriQuadraticHexahedron, cell, VisualFrame::Kind::kSolid, index, 0, stress[el]);
+  }
+  frame->Name(VisualFrame::Kind::kSolid, index, name);
+}
+
+namespace {
+
 void DrawBeams(const MultibodyModel& model, const Eigen::VectorXd& q, VisualFrame* frame) {
   // Beams: lines between the nodes; each node's section frame as a line along its chordwise
   // director d2 (a fourteenth of the span: about a rotor blade's chord) and a quarter as long
@@ -130,21 +150,8 @@ void DrawBeams(const MultibodyModel& model, const Eigen::VectorXd& q, VisualFram
 void DrawHex27Bodies(const MultibodySystem& system, const Eigen::VectorXd& q, VisualFrame* frame) {
   for (size_t e = 0; e < system.elastic.size(); ++e) {
     const ElasticBody& body = system.elastic[e]->body;
-    const int offset = system.elastic_offset[e], nodes = body.node_count();
-    const Eigen::Map<const Eigen::Matrix3Xd> x(q.data() + offset, 3, nodes);
-    const int first = frame->points();
-    for (int a = 0; a < nodes; ++a) frame->AddPoint(x.col(a), x.col(a) - body.mesh().nodes.col(a));
-    const std::vector<double> stress = body.VonMisesStress(x);
-    std::vector<int> cell(27);
-    for (size_t el = 0; el < body.mesh().elements.size(); ++el) {
-      for (int k = 0; k < 27; ++k) {
-        cell[static_cast<size_t>(k)] =
-            first + body.mesh().elements[el][static_cast<size_t>(VtkHex27Order()[static_cast<size_t>(k)])];
-      }
-      frame->AddCell(VisualFrame::kTriQuadraticHexahedron, cell, VisualFrame::Kind::kSolid, static_cast<int>(e), 0,
-                     stress[el]);
-    }
-    frame->Name(VisualFrame::Kind::kSolid, static_cast<int>(e), system.elastic[e]->name);
+    const Eigen::Map<const Eigen::Matrix3Xd> x(q.data() + system.elastic_offset[e], 3, body.node_count());
+    DrawHex27Body(body, system.elastic[e]->name, static_cast<int>(e), x, frame);
   }
 }
 

@@ -214,6 +214,10 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
                parts + "/more.pbtxt:1: include: '" + main + "' is already being included (a cycle)");
   expect_error("include: \"nowhere.pbtxt\"\n",
                parts + "/more.pbtxt:1: include: cannot read the included file '" + parts + "/nowhere.pbtxt'");
+  // An include inside a one-line block (as the README's example once wrote it) reached the parser
+  // as a field, "has no field named include": the message says where an include may stand.
+  expect_error("bodies { name: \"b\" mass: 1 inertia: [1, 1, 1] }\nair { include: \"air.pbtxt\" }\n",
+               parts + "/more.pbtxt:2:14: `include: \"FILE\"` is read only on a line of its own");
   std::filesystem::remove_all(dir);
 }
 

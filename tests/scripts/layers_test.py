@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """The libraries and their folders include only what lies below them.
 
 `interface` is the layer both solvers stand on and includes neither; neither solver includes the

@@ -413,6 +413,21 @@ TEST(Beam, PumaBladeFlapsAt1030PerRevInItsFanPlot) {
   EXPECT_NEAR(lag, 0.241, 5e-3);
 }
 
+TEST(Beam, AModesAnalysisRefusesVisualOutputItWouldWriteEmpty) {
+  // A MODES analysis sweeps the spin speed: there is no motion to draw, and its frames were
+  // written with no points, which meshio 5 cannot open (Visual.ReadBackWithMeshio reads a frame of
+  // every shipped scene). Refused before the sweep, naming the field.
+  const std::string scene = std::string(COSIM_SOURCE_DIR) + "/scenarios/puma/blade_fan_plot.pbtxt";
+  try {
+    ModalSimulation sim(interface::ScenarioFile::Load(scene, {"output.visual.every=1"}));
+    FAIL() << "accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("output.visual.every"), std::string::npos) << what;
+    EXPECT_NE(what.find("has no motion to draw; leave visual output out (0)"), std::string::npos) << what;
+  }
+}
+
 TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {
   // The oracle: the tables' torsion alone, −(GJ θ')' + Ω² (J22 − J33) θ = ω² (J22 + J33) θ on the
   // beam's span (pitch bearing 0.432 m, held by the rigid pitch link: θ = 0; free tip), J the

@@ -82,6 +82,15 @@ CouplingSettings ReadCouplingSettings(const interface::Checks& checks, const int
     checks.Fail("coupling.iteration.reaction", "expected END_OF_STEP or STEP_AVERAGE");
   }
   settings.step_average_reaction = it.reaction() == sc::Coupling::CouplingIteration::STEP_AVERAGE;
+  // Unset, the reaction is the contact program's: STEP_AVERAGE when every process is a compliant
+  // penalty_solver (END_OF_STEP lags its contact force and gains energy: scenario.proto), so
+  // that swapping the contact solver is the program's field and its contact stiffness.
+  const auto& processes = file.proto().coupling().processes();
+  if (!it.has_reaction() && !processes.empty() &&
+      std::all_of(processes.begin(), processes.end(),
+                  [](const sc::Coupling::ContactProcess& p) { return p.program() == "penalty_solver"; })) {
+    settings.step_average_reaction = true;
+  }
   if (it.on_max_iterations() != sc::Coupling::CouplingIteration::STOP &&
       it.on_max_iterations() != sc::Coupling::CouplingIteration::ACCEPT_AND_MARK) {
     checks.Fail("coupling.iteration.on_max_iterations", "expected STOP or ACCEPT_AND_MARK");

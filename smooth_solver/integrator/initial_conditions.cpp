@@ -200,12 +200,23 @@ DaeState ConsistentInitialState(const MultibodySystem& system, const SystemData&
   N_VDestroy(scale);
   SUNContext_Free(&ctx);
   if (flag == KIN_LSETUP_FAIL || flag == KIN_LSOLVE_FAIL) {
+    // Rigid coupling ties are named: two of them on one body that has a single degree of freedom
+    // (the pads of a teetering yoke) are the usual loop, and a compliance lets the rotor run.
+    std::string ties;
+    for (const InterfacePoint& p : system.interface_points) {
+      if (p.regularization == 0.0) ties += (ties.empty() ? "'" : ", '") + p.contact_node + "'";
+    }
     throw InputError(
         "model: the constraint equations are redundant: the loop-closure matrix is singular at the "
         "given poses (KINSOL flag " +
-        std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) +
-        "), e.g. a planar loop of revolute joints in 3D; make one joint less constraining (spherical, "
-        "universal) or regularise the coupling rows that close a loop");
+        std::to_string(flag) + ", residual " + interface::FormatNumber(fnorm) + ")" +
+        (ties.empty() ? std::string()
+                      : "; the rigid coupling ties (regularization 0) of contact nodes " + ties +
+                            " hold their bodies as joints do: two on one body with a single degree of freedom "
+                            "(the pads of a teetering yoke) close a loop, which a compliance opens "
+                            "(coupling.interface_nodes[].regularization > 0: the Puma scenes' 5e-9 m/N)") +
+        ". Otherwise e.g. a planar loop of revolute joints in 3D: make one joint less constraining (spherical, "
+        "universal)");
   }
   if (flag < 0 || !(fnorm < 1e-8)) {
     throw InputError("model: the kinematic loops cannot be closed from the given poses (KINSOL flag " +

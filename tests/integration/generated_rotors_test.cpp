@@ -84,6 +84,22 @@ TEST(GeneratedRotors, ARigidTieOnABeamNodeThatMeetsAStopIsRefused) {
   EXPECT_NE(reason.find("give a compliance c > 0"), std::string::npos) << reason;
 }
 
+// A teetering rotor's two pads tied rigidly (c = 0) to its yoke, whose only freedom is the teeter:
+// the two ties hold it as two joints would, a loop. The message blamed the joints alone ("a planar
+// loop of revolute joints"); it now names the ties and the compliance that opens the loop (the
+// same rotor with its drawn c = 3.6e-9 m/N runs: ATeeteringRotorAtRestSettlesWithItsPadsInMidAir).
+TEST(GeneratedRotors, TwoRigidTiesOnATeeteringYokeAreNamedAsTheLoop) {
+  const fs::path out = TempDir("rotor_rigid_yoke_ties");
+  const Result r = Launch(kRotors + "/teetering_rigid_settled_gust/rotor.pbtxt --out " + out.string() +
+                          " --set parameters[c_tie].value=0 --set numerics.end_time=0.01");
+  EXPECT_EQ(r.code, 2) << r.output;
+  const std::string reason = ReadSummary(out).reason();
+  EXPECT_NE(reason.find("the rigid coupling ties (regularization 0) of contact nodes 'pad1', 'pad2'"),
+            std::string::npos)
+      << reason;
+  EXPECT_NE(reason.find("(coupling.interface_nodes[].regularization > 0"), std::string::npos) << reason;
+}
+
 // The continuous twin of an articulated rotor settled on its droop stops (numerics.smooth.settle):
 // the blades drawn exactly on their Hunt–Crossley stops, whose tangent vanishes at zero
 // penetration, made the static solve's first matrix singular ("no static equilibrium ... after 0

@@ -10,6 +10,8 @@ KIND
                   relaxation, the reaction tolerance and the step vary (a coupled scenario)
   stability       the hard-case table: SCENARIO is a folder of scenarios (or one file); does
                   each complete, constraint violation, energy change, iterations, wall time
+  modes           the fan plot of a MODES analysis (numerics.smooth.analysis: MODES): each
+                  mode's frequency against the spin speed, with the per-rev lines
   compare         runs of one scene on the same axes (study.compare: e.g. co-simulated and
                   continuous stops), their RMS and peak differences and each stop contact
   envelope        the scene over a grid of one or two named quantities (study.envelope: e.g.
@@ -24,9 +26,8 @@ run), PNG plots and report.md embedding them. Runs are independent processes (co
 run on Dask distributed: a local cluster of --jobs workers (default: the number of cores), or
 the cluster at --scheduler ADDRESS, each run's scenario folder shipped to its worker and its
 outputs brought back (distributed_runs.py); a failed run is a data point.
-
-This module is the command line, and the only place where a StudyError becomes an exit.
 """
+# (This module is the command line, and the only place where a StudyError becomes an exit.)
 import argparse
 import os
 import sys
@@ -63,7 +64,11 @@ def main():
         help="keep runs already in the output folder with the same scenario and overrides (resume an "
         "interrupted study); results: keep a study's report already made",
     )
-    parser.add_argument("--bin", default=os.environ.get("COSIM_BIN_DIR", os.path.join(ROOT, "build", "release", "bin")))
+    parser.add_argument(
+        "--bin",
+        default=os.environ.get("COSIM_BIN_DIR", os.path.join(ROOT, "build", "release", "bin")),
+        help="the folder of the built executables the runs use (default: COSIM_BIN_DIR, else build/release/bin)",
+    )
     args = parser.parse_args()
     try:
         run(args)

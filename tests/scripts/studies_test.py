@@ -207,5 +207,32 @@ class Studies(unittest.TestCase):
         self.assertTrue(math.isnan(compare_measure(history, {"probe": "q", "kind": "MAX"})))
 
 
+class Help(unittest.TestCase):
+    def test_the_help_describes_every_kind_and_option_for_a_user(self):
+        # `study --help` printed a sentence meant for developers, listed `modes` without a
+        # description and `--bin` without one (issue 50). Every kind the parser accepts is
+        # described in the KIND table, every option has a help text.
+        import subprocess
+
+        script = os.path.join(os.path.dirname(__file__), "..", "..", "scripts", "study.py")
+        p = subprocess.run(["/usr/bin/python3", script, "--help"], capture_output=True, text=True)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        text = p.stdout
+        self.assertNotIn("This module", text)
+        self.assertNotIn("StudyError", text)
+        table = text.split("KIND\n", 1)[1].split("\n\n", 1)[0]
+        kinds = text.split("{", 1)[1].split("}", 1)[0].split(",")
+        for kind in kinds:
+            self.assertRegex(table, rf"(?m)^  {kind} +\S", kind)
+        lines = text.split("options:", 1)[1].splitlines()
+        for option in ("--out", "--jobs", "--scheduler", "--set", "--reuse", "--bin"):
+            at = next(i for i, line in enumerate(lines) if line.strip().startswith(option))
+            words = lines[at].split()[1:]
+            if words and words[0].isupper():
+                words = words[1:]  # the metavar
+            continued = at + 1 < len(lines) and lines[at + 1].startswith(" " * 10)
+            self.assertTrue(words or continued, f"{option} has no description")
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -18,6 +18,7 @@ from studies.common import (
     read_histories,
     save_plot,
     start_from,
+    StudyError,
     with_study_sets,
     write_csv,
     write_report,
@@ -88,25 +89,28 @@ def study_compare(runner, scenario_path, out, sets):
                     r.id,
                     p,
                     float(np.sqrt(np.mean(d * d))),
-                    float(abs(d[k])),
+                    float(d[k]),  # signed: this run above (+) or below (−) the reference there
                     float(t0[inside][k]),
-                    float(np.max(np.abs(v0[inside]))),
+                    signed_peak(v0[inside]),
                 ]
             )
     # Contacts.
+    # Each contact probe's unit, from its quantity (a pad's IMPULSE per step, a twin's CONTACT_FORCE,
+    # a joint stop's REACTION_MOMENT: one column held all three, without a word).
     contact_rows = []
     for r, h in zip(runs, histories):
+        units = {} if r.labels.get("recorded") else probe_units(runner, r)
         for cp in r.contact_probes:
             if cp not in h:
                 continue
             t, v = h[cp]
             for n, (a, b, i0, i1) in enumerate(contact_episodes(t, v)):
-                row = [r.id, cp, n + 1, float(a), float(b), float(np.max(np.abs(v[i0 : i1 + 1])))]
+                row = [r.id, cp, n + 1, float(a), float(b), signed_peak(v[i0 : i1 + 1]), units.get(cp, "")]
                 for p in probes:
                     if p in h:
                         tp, vp = h[p]
                         window = (tp >= a) & (tp <= b)
-                        row.append(float(np.max(np.abs(vp[window]))) if window.any() else float("nan"))
+                        row.append(signed_peak(vp[window]) if window.any() else float("nan"))
                     else:
                         row.append(float("nan"))
                 contact_rows.append(row)
@@ -121,7 +125,8 @@ def study_compare(runner, scenario_path, out, sets):
         write_csv(os.path.join(out, "measures.csv"), ["measure"] + [r.id for r in runs], measure_rows)
     write_csv(
         os.path.join(out, "contacts.csv"),
-        ["run", "contact_probe", "contact", "start", "end", "peak_contact"] + [f"peak_{p}" for p in probes],
+        ["run", "contact_probe", "contact", "start", "end", "peak_contact", "contact_unit"]
+        + [f"peak_{p}" for p in probes],
         contact_rows,
     )
     write_csv(
@@ -181,12 +186,13 @@ def study_compare(runner, scenario_path, out, sets):
     if any(r.contact_probes for r in runs):  # scenes without stops have no contact table
         lines += [
             "",
-            "Stop contacts (samples where the contact probe is non-zero; the peaks of each probe within):",
+            "Stop contacts (samples where the contact probe is non-zero; the peaks of each probe within,"
+            " signed: the value of largest magnitude):",
             "",
-            "| run | contact probe | # | start [s] | end [s] | peak contact | "
+            "| run | contact probe | # | start [s] | end [s] | peak contact | unit | "
             + " | ".join(f"peak {p}" for p in probes)
             + " |",
-            "|---|---|---|---|---|---|" + "---|" * len(probes),
+            "|---|---|---|---|---|---|---|" + "---|" * len(probes),
         ]
     shown = {}
     for row in contact_rows:
@@ -196,7 +202,8 @@ def study_compare(runner, scenario_path, out, sets):
             lines.append(
                 "| "
                 + " | ".join(
-                    [row[0], row[1], str(row[2]), f"{row[3]:.3f}", f"{row[4]:.3f}"] + [fmt(x) for x in row[5:]]
+                    [row[0], row[1], str(row[2]), f"{row[3]:.3f}", f"{row[4]:.3f}", fmt(row[5]), row[6]]
+                    + [fmt(x) for x in row[7:]]
                 )
                 + " |"
             )
@@ -294,3 +301,36 @@ def measures_table(runs, measures, rows):
         cells.append(f"{float(m['agreement']):g}" if "agreement" in m else "—")
         lines.append("| " + " | ".join(cells) + " |")
     return lines
+
+
+def signed_peak(values):
+    """The value of largest magnitude, with its sign (a peak that is a trough stays one)."""
+    values = np.asarray(values, dtype=float)
+    return float(values[int(np.argmax(np.abs(values)))]) if values.size else float("nan")
+
+
+# Units of the probe quantities a stop's contact is measured by (scenario.proto, Probe).
+QUANTITY_UNITS = {
+    "IMPULSE": "N s (per step)",
+    "CONTACT_FORCE": "N",
+    "REACTION_FORCE": "N",
+    "REACTION_MOMENT": "N m",
+    "GAP": "m",
+    "POSITION": "m",
+    "VELOCITY": "m/s",
+    "JOINT_COORDINATE": "rad or m",
+    "JOINT_SPEED": "rad/s or m/s",
+}
+
+
+def probe_units(runner, run):
+    """{probe name: unit} of a run's probes, from its scenario as the solvers read it."""
+    try:
+        scenario = runner.scenario_json(run.scenario, run.sets)
+    except StudyError:
+        return {}
+    units = {}
+    for p in scenario.get("output", {}).get("probes", []):
+        unit, scale = QUANTITY_UNITS.get(p.get("quantity", ""), ""), float(p.get("scale", 1.0))
+        units[p.get("name", "")] = unit if scale == 1.0 or not unit else f"{unit} × {scale:g}"
+    return units

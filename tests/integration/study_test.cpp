@@ -1,6 +1,7 @@
 // scripts/cosim study end to end on tiny scenes: the convergence study measures CGα's order on
 // a closed-form oscillator and writes its CSV, plot and report; the stability study keeps going
 // past a failing scene and reports it.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -305,6 +306,22 @@ TEST(Study, CompareTakesARecordedHistoryASettledStartAndMeasures) {
   EXPECT_NE(report.find("| closed form | recorded: hanging_equilibrium.csv"), std::string::npos) << report;
   EXPECT_NE(report.find("✓) | "), std::string::npos) << report;
   EXPECT_NE(report.find("✗) | "), std::string::npos) << report;
+  // Peaks keep their sign and a contact probe's unit is named (one column held N s per step, N
+  // and N m unmarked, as magnitudes): the released run's lowest point, and its largest departure
+  // from the closed form, both below it.
+  const std::string contacts = Slurp(out / "contacts.csv");
+  EXPECT_NE(contacts.find("peak_contact,contact_unit"), std::string::npos) << contacts;
+  const Table c = ReadTable(out / "contacts.csv");
+  ASSERT_EQ(c.size(), 1u) << contacts;
+  EXPECT_NEAR(c[0][5], -2 * g, 1e-4);
+  EXPECT_NE(contacts.find(",m,"), std::string::npos) << contacts;
+  // The closed form's own peak is its value, −m g/k (it was printed as +m g/k); the released run
+  // departs from it most at its start, +m g/k above it (and as far below at the bottom).
+  const Table d = ReadTable(out / "differences.csv");
+  ASSERT_EQ(d.size(), 2u);
+  for (double p : d.Column("reference_peak")) EXPECT_NEAR(p, -g, 1e-9);
+  const std::vector<double> peaks = d.Column("peak");
+  EXPECT_NEAR(*std::max_element(peaks.begin(), peaks.end()), g, 1e-6);
   // --reuse keeps every run, the settled one too (its state was sent to the worker, whose copy
   // its summary records), and the measures are the same.
   const std::string first_measures = Slurp(out / "measures.csv");

@@ -52,7 +52,7 @@ std::string Base64(const std::vector<char>& bytes) {
 
 // The frame's arrays as VTK XML inline binary: each DataArray holds the base64 of a UInt64 byte
 // count followed by the values in the machine's byte order, encoded as one stream (as VTK's own
-// writer does). Every double exact, at 4/3 of the raw size (a Puma frame ~43 kB against ~51 kB
+// writer does). Every double exact, at 4/3 of the raw size (a Puma frame 42 kB against ~51 kB
 // as 17-digit ASCII). Not appended raw data: Debian's meshio 5.0 re-encodes such a block array
 // by array and finds each array again by its offset attribute, which it overwrites as it goes,
 // so an array whose new offset equals a later one's old offset is read in its place (two

@@ -312,7 +312,7 @@ def signed_peak(values):
 # Units of the probe quantities a stop's contact is measured by (scenario.proto, Probe).
 QUANTITY_UNITS = {
     "IMPULSE": "N s (per step)",
-    "CONTACT_FORCE": "N",
+    "CONTACT_FORCE": "N",  # a point contact's; a joint stop's is N m (probe_units)
     "REACTION_FORCE": "N",
     "REACTION_MOMENT": "N m",
     "GAP": "m",
@@ -329,8 +329,16 @@ def probe_units(runner, run):
         scenario = runner.scenario_json(run.scenario, run.sets)
     except StudyError:
         return {}
+    # A joint stop's CONTACT_FORCE is its law's moment (scenario.proto): the Puma twin's stops.
+    joint_stops = {f.get("name") for f in scenario.get("model", {}).get("forces", []) if "joint_stop" in f}
     units = {}
     for p in scenario.get("output", {}).get("probes", []):
-        unit, scale = QUANTITY_UNITS.get(p.get("quantity", ""), ""), float(p.get("scale", 1.0))
+        quantity = p.get("quantity", "")
+        unit = (
+            "N m"
+            if quantity == "CONTACT_FORCE" and p.get("entity") in joint_stops
+            else QUANTITY_UNITS.get(quantity, "")
+        )
+        scale = float(p.get("scale", 1.0))
         units[p.get("name", "")] = unit if scale == 1.0 or not unit else f"{unit} × {scale:g}"
     return units

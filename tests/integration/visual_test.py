@@ -37,14 +37,20 @@ EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4),
 FACES = [(0, 3, 4, 7), (1, 2, 5, 6), (0, 1, 4, 5), (2, 3, 6, 7), (0, 1, 2, 3), (4, 5, 6, 7)]
 
 
-def run(name, scenario, *sets):
+def launch(name, scenario, *sets):
+    """(output folder, exit code, stderr) of a run of `scenario` into WORK/name."""
     out = os.path.join(WORK, name)
     args = [os.path.join(BIN, "cosim_launch"), os.path.join(SOURCE, scenario), "--out", out]
     for s in sets:
         args += ["--set", s]
     p = subprocess.run(args, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise AssertionError(f"{scenario}: exit {p.returncode}: {p.stderr}")
+    return out, p.returncode, p.stderr
+
+
+def run(name, scenario, *sets):
+    out, code, stderr = launch(name, scenario, *sets)
+    if code != 0:
+        raise AssertionError(f"{scenario}: exit {code}: {stderr}")
     return out
 
 
@@ -274,19 +280,15 @@ class Visual(unittest.TestCase):
             end = numerics.get("start_time", 0.0) + 2 * numerics["step"]
             # (A hard case meant to be refused or to fail still leaves the frames of its accepted
             # steps, which must open too.)
-            out = os.path.join(WORK, f"shipped_{i}")
-            sets = ["--set", "output.visual.every=1", "--set", f"numerics.end_time={end!r}"]
-            code = subprocess.run(
-                [os.path.join(BIN, "cosim_launch"), os.path.join(SOURCE, scenario), "--out", out] + sets,
-                capture_output=True,
-            ).returncode
+            out, code, _ = launch(f"shipped_{i}", scenario, "output.visual.every=1", f"numerics.end_time={end!r}")
             files = [os.path.join(d, f) for d, _, fs in os.walk(out) for f in fs if f.endswith(".vtu")]
             if code == 0:
                 self.assertGreater(len(files), 0, scenario)
                 ran += 1
+            meshes = {}
             for file in files:
                 try:
-                    mesh = meshio.read(file)
+                    mesh = meshes[file] = meshio.read(file)
                 except Exception as e:  # noqa: BLE001 (which file, with meshio's own error)
                     raise AssertionError(f"{scenario}: meshio cannot read {file}: {e!r}") from e
                 n = len(mesh.points)
@@ -299,7 +301,7 @@ class Visual(unittest.TestCase):
                 contact = [f for f in files if os.sep + "stops" + os.sep in f]
                 self.assertGreater(len(contact), 0)
                 for file in contact:
-                    self.assertEqual(len(cells_of(meshio.read(file), "node")), 2, file)  # both pads
+                    self.assertEqual(len(cells_of(meshes[file], "node")), 2, file)  # both pads
         self.assertGreater(ran, 40)
         print(f"{len(scenes)} scenes ({ran} ran to their end), {frames} frames read back", file=sys.stderr)
 

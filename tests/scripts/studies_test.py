@@ -207,6 +207,46 @@ class Studies(unittest.TestCase):
         self.assertTrue(math.isnan(compare_measure(history, {"probe": "q", "kind": "MAX"})))
 
 
+class ContactUnits(unittest.TestCase):
+    def test_each_contact_probe_is_labelled_with_its_quantitys_unit(self):
+        # The compare tables' contact column held a pad's impulse per step (N s), a point contact's
+        # force (N) and a joint stop's moment (N m, the Puma twin's CONTACT_FORCE) unmarked. The
+        # unit comes from the probe's quantity, and from its element for CONTACT_FORCE.
+        from studies.compare import probe_units, signed_peak
+
+        class Runner:
+            def scenario_json(self, scenario, sets=()):
+                return {
+                    "model": {
+                        "forces": [
+                            {"name": "stops", "joint_stop": {"joint": "flap"}},
+                            {"name": "pad", "continuous_contact": {"body": "b"}},
+                        ]
+                    },
+                    "output": {
+                        "probes": [
+                            {"name": "moment", "quantity": "CONTACT_FORCE", "entity": "stops"},
+                            {"name": "force", "quantity": "CONTACT_FORCE", "entity": "pad"},
+                            {"name": "impulse", "quantity": "IMPULSE", "entity": "pad1/droop1"},
+                            {
+                                "name": "flap",
+                                "quantity": "JOINT_COORDINATE",
+                                "entity": "flap",
+                                "scale": 57.29577951308232,
+                            },
+                        ]
+                    },
+                }
+
+        run = Run(id="r", scenario="s.pbtxt", sets=[], out="")
+        units = probe_units(Runner(), run)
+        self.assertEqual(units["moment"], "N m")
+        self.assertEqual(units["force"], "N")
+        self.assertEqual(units["impulse"], "N s (per step)")
+        self.assertEqual(units["flap"], "rad or m × 57.2958")
+        self.assertEqual(signed_peak([0.5, -3.0, 2.0]), -3.0)  # a trough stays one
+
+
 class Help(unittest.TestCase):
     def test_the_help_describes_every_kind_and_option_for_a_user(self):
         # `study --help` printed a sentence meant for developers, listed `modes` without a

@@ -262,34 +262,69 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   system.AcceptStep(r.q, velocity(r.q), options.t, data);  // the rotors' inflow at the guess
   residual(r.q, r.lambda, &R);
   r.initial_residual = R.lpNorm<Eigen::Infinity>();
+  // options.stable: a walk in pseudo-time, K + μ M (the step of an implicit Euler;
+  // pseudo-transient continuation). Newton heads for the nearest stationary point, stable or not:
+  // on a generated teetering rotor at rest (`cosim rotor new --topology teetering --settle true`),
+  // whose teeter is nearly neutral (gravity −3.8 N m/rad, the blades' centres just above the
+  // hinge, against 350 kg m²), the settle's first step was 74 m, capped, and the iterates swung
+  // between two states (residuals 7.45 and 33.0) for 400 iterations; on its shaft tilted 0.3 rad
+  // the yoke went uphill through the far pad's plane, which then had to pull (−101 N), twelve
+  // rounds over; its continuous twin settled level at +2.39°, balanced on its gravity and the
+  // wind, from where it falls to its stop. μ is the step's trust region: raised until the step is
+  // within max_step (a capped step distorts rigid bodies' directors) and goes where the loads
+  // push, lowered by 4 after each step; the solve ends on a plain Newton step.
+  constexpr double kPseudoMass = 1.0;        // μ [1/s²]: 0.16 Hz, below any structural mode
+  Eigen::SparseMatrix<double> mass_N(N, N);  // M in the q block of the Newton matrix
+  {
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int k = 0; k < system.mass.outerSize(); ++k)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(system.mass, k); it; ++it)
+        entries.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), it.value());
+    mass_N.setFromTriplets(entries.begin(), entries.end());
+  }
+  double pseudo_mass = options.stable ? kPseudoMass : 0.0;
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;
     StaticTangent(system, *data, r.q, r.lambda, frame, options.t, MW2, &sink);
     sliding.Tangent(n, &sink);
-    Eigen::SparseMatrix<double> A = sink.Build(N);
-    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(A);
-    if (lu.info() != Eigen::Success) {
+    const Eigen::SparseMatrix<double> K = sink.Build(N);
+    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+    Eigen::VectorXd delta;
+    const auto moves = [&] {
+      return std::max(delta.head(n).lpNorm<Eigen::Infinity>(), delta.tail(sliding.size()).lpNorm<Eigen::Infinity>());
+    };
+    const auto solve = [&](double mu) {
+      lu.compute(mu > 0.0 ? Eigen::SparseMatrix<double>(K + mu * mass_N) : K);
+      if (lu.info() == Eigen::Success) delta = lu.solve(-R);
+      return lu.info() == Eigen::Success;
+    };
+    bool solved = solve(pseudo_mass);
+    if (!solved && pseudo_mass == 0.0) {
       // A mechanism at the guess: a coordinate that nothing stiff holds there, as a blade drawn
       // exactly on a Hunt–Crossley stop, whose tangent k n δ^(n−1) vanishes at δ = 0 (generated
       // articulated rotors' continuous twins, settled on their droop stops: LU failed before the
-      // first iteration). That step is taken with a pseudo-mass added, K + μ M (pseudo-transient
-      // continuation): the load moves the free coordinate (capped at max_step below) into the
-      // contact, whose tangent then holds it; later iterations are plain Newton again.
-      constexpr double kPseudoMass = 1.0;  // μ [1/s²]: 0.16 Hz, below any structural mode
-      AddSparse(Eigen::SparseMatrix<double>(kPseudoMass * system.mass), 1.0, &sink);
-      A = sink.Build(N);
-      lu.compute(A);
-      if (lu.info() != Eigen::Success) break;
+      // first iteration). That step is taken in pseudo-time: the load moves the free coordinate
+      // into the contact, whose tangent then holds it; later iterations are plain Newton again.
+      solved = solve(kPseudoMass);
     }
-    Eigen::VectorXd delta = lu.solve(-R);
+    if (!solved) break;
+    // In pseudo-time, μ raised (×4, or more for a long step) until the step is within max_step
+    // and goes where the loads push: their work along it, −R·δ over q and s (= δᵀ(K + μM)δ near
+    // the constraint manifold), positive. Not judged on steps within the tolerance's square root.
+    const auto uphill = [&] {
+      const double work = -(R.head(n).dot(delta.head(n)) + R.tail(sliding.size()).dot(delta.tail(sliding.size())));
+      return work < 0.0 && moves() > std::sqrt(options.tolerance);
+    };
+    for (int tries = 0; pseudo_mass > 0.0 && (moves() > options.max_step || uphill()) && tries < 12; ++tries) {
+      pseudo_mass *= 4.0 * std::max(1.0, moves() / options.max_step);
+      if (!solve(pseudo_mass)) break;
+    }
+    if (lu.info() != Eigen::Success) break;
     // Steps in q and s capped at options.max_step (metres, or director components): the first
     // steps from a flat start can be metres long where a soft mode meets a large load (a twisted
     // Puma blade in air: 13.8 m at the tip, then divergence); capped, Newton walks there. The
     // multipliers take their full step (linear in the residual: capping them too let a blade
     // drift under unbalanced centrifugal force to an unstable equilibrium).
-    const auto moves = [&] {
-      return std::max(delta.head(n).lpNorm<Eigen::Infinity>(), delta.tail(sliding.size()).lpNorm<Eigen::Infinity>());
-    };
     const double longest = moves();
     if (longest > options.max_step) {
       delta.head(n) *= options.max_step / longest;
@@ -306,8 +341,13 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
     system.AcceptStep(r.q, velocity(r.q), options.t, data);  // inflow of the new state, held in Newton
     residual(r.q, r.lambda, &R);
     if (!R.allFinite() || r.blocked_node >= 0) break;
+    pseudo_mass *= 0.25;
     const double scale = 1.0 + std::max(r.q.lpNorm<Eigen::Infinity>(), s.lpNorm<Eigen::Infinity>());
     if (moves() > options.tolerance * scale) continue;
+    if (pseudo_mass > 0.0) {  // still in pseudo-time: settled there, confirmed by plain Newton
+      pseudo_mass = 0.0;
+      continue;
+    }
     if (!sliding.Anchored(r.lambda, s)) {  // converged with the proximal springs pulling: again from here
       sliding.Anchor(s);
       residual(r.q, r.lambda, &R);

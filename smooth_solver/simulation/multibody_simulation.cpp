@@ -695,6 +695,7 @@ void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySy
   options.t = time_;
   options.tolerance = numerics_.smooth().newton_tolerance();
   options.max_iterations = std::max(50, numerics_.smooth().newton_max_iterations());
+  options.stable = true;
   EquilibriumResult r = SettleSolve(*system, initial->q, spin, options);
   settle_iterations_ = r.iterations;
   if (coupled) {

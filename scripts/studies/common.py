@@ -427,10 +427,17 @@ def start_from(state, time):
 def settled_start(runner, scenario_path, study, sets, out, why="the errors are those of the window alone"):
     """study.restart_time: one run of the scene up to that time (its own step, no output), whose
     final state every run of the study then starts from (numerics.initial_state); the overrides
-    that make a run start there, and a line for the report."""
+    that make a run start there, and a line for the report.
+
+    `sets` are the overrides of the whole study (study.set and the command line), never those of
+    one kind of run (an envelope's own `set`): the settling run is the scene's start as the study
+    describes it. A scene that settles its start (numerics.smooth.settle) settles in that run; the
+    runs from its state are settled already and start with settle off (a run from a saved state
+    that settles again is refused, exit 2: every point of an envelope failed so)."""
     restart = study.get("restart_time")
     if restart is None:
         return [], ""
+    settles = bool(runner.scenario_json(scenario_path, sets).get("numerics", {}).get("smooth", {}).get("settle"))
     settle = runner.run_all(
         [
             Run(
@@ -445,9 +452,11 @@ def settled_start(runner, scenario_path, study, sets, out, why="the errors are t
     if not settle.ok or not os.path.isfile(state):
         fail(f"the settling run to t = {restart:g} s failed (exit {settle.code}): {settle.message}", 3)
     return (
-        start_from(state, restart),
+        start_from(state, restart) + (["numerics.smooth.settle=false"] if settles else []),
         f"Every run starts at t = {restart:g} s from the state of one settling run of the scene "
-        f"(its own step, {settle.wall:.1f} s): {why}.",
+        f"(its own step, {settle.wall:.1f} s)"
+        + (", whose start was settled as the scene asks (numerics.smooth.settle)" if settles else "")
+        + f": {why}.",
     )
 
 

@@ -131,16 +131,18 @@ def study_envelope(runner, scenario_path, out, sets):
             fail(f"{where}.axes[{a}] ('{axis.get('name', '')}'): needs values and set")
     if not spec.get("tip_probes") and not spec.get("impulse_probes") and not spec.get("force_probes"):
         fail(f"{where}: nothing to measure: give tip_probes, impulse_probes or force_probes")
-    sets = list(sets) + list(spec.get("set", []))
-    if spec.get("impulse_probes"):
-        sets.append("output.every=1")  # every step's impulse: none missed between rows
     # study.restart_time: every point starts from one run's state there (co-simulated scenes
     # too: each contact process's state travels with the smooth solver's); the axes' overrides
-    # must not act before that time (a gust that has not reached the rotor).
+    # must not act before that time (a gust that has not reached the rotor). The settling run
+    # takes the study's overrides, not the envelope's own `set`, which are its points' only (the
+    # schema's word): with `numerics.smooth.settle=false` there it switched off the settle of the
+    # run every point started from, and each point continued an unsettled, ringing start.
     restart_sets, restart_note = settled_start(
         runner, scenario_path, study, sets, out, "the measures are the window's, without the start-up"
     )
-    sets += restart_sets
+    sets = list(sets) + restart_sets + list(spec.get("set", []))
+    if spec.get("impulse_probes"):
+        sets.append("output.every=1")  # every step's impulse: none missed between rows
     names = [a.get("name") or f"axis{i}" for i, a in enumerate(axes)]
     grid = [[v] for v in axes[0]["values"]]
     if len(axes) == 2:
@@ -245,6 +247,17 @@ def study_envelope(runner, scenario_path, out, sets):
                 lines.append(f"- {label}: {fmt(r.measured[key])} at {r.id}")
     lines += ["", failures_section(runs)]
     write_report(out, lines)
+    if not ok:
+        # Failed points are data (a rotor that finds no rest in a strong wind), but an envelope of
+        # which no point completed measured nothing: its report and runs.csv are written, and the
+        # study ends as its runs did (2 when each was refused as bad input, else 3).
+        codes = sorted({r.code for r in runs})
+        first = runs[0]
+        fail(
+            f"{scenario_path}: no point of the envelope completed (exits {', '.join(str(c) for c in codes)}); "
+            f"the first, {first.id}: {first.message}",
+            2 if codes == [2] else 3,
+        )
     return {"runs": runs}
 
 

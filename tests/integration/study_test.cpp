@@ -190,6 +190,53 @@ TEST(Study, ACoSimulatedEnvelopeStartsEveryPointFromOneSavedStateContactProcessI
             std::string::npos);
 }
 
+TEST(Study, AnEnvelopeOverASettledSceneStartsEveryPointWhereTheSceneSettled) {
+  // tests/data/envelope/settled_stop.pbtxt: a rod drawn with its tip 1 cm above a co-simulated
+  // stop, settled onto it (numerics.smooth.settle), kicked up at 0.35 s; study.restart_time 0.3 s.
+  // As a new user ran such an envelope, every point failed (exit 2: "a run from a saved state ...
+  // is settled already") and the study ended 0; with `numerics.smooth.settle=false` in the
+  // envelope's own `set` (of its runs only, the schema says) the settling run was unsettled too
+  // and every point continued a rod still bouncing from its drop. The points now start from the
+  // settled run's state, settle off, whatever the envelope's `set`: the tip rests on its plane
+  // (z = −0.01 m) from 0.3 s to the kick.
+  const std::string scene = std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/settled_stop.pbtxt";
+  const auto window = [](const fs::path& out) {
+    std::vector<double> z;
+    const Table h = ReadTable(out / "runs" / "p0" / "stops" / "history.csv");
+    const std::vector<double> t = h.Column("time"), tip = h.Column("tip_z");
+    for (size_t i = 0; i < t.size(); ++i)
+      if (t[i] < 0.35) z.push_back(tip[i]);
+    return z;
+  };
+  const fs::path out = TempDir("study_envelope_settled");
+  ASSERT_EQ(Study("envelope " + scene + " --out " + out.string(), out / "log.txt"), 0) << Slurp(out / "log.txt");
+  for (double code : ReadTable(out / "runs.csv").Column("exit")) EXPECT_EQ(code, 0.0);
+  const std::vector<double> rest = window(out);
+  ASSERT_EQ(rest.size(), 50u);                        // 0.300 … 0.349
+  for (double z : rest) EXPECT_NEAR(z, -0.01, 1e-6);  // on its plane (unsettled: −0.0099 and moving)
+  EXPECT_NE(Slurp(out / "report.md").find("whose start was settled as the scene asks"), std::string::npos);
+  // The envelope's own `set` switching the settle off reaches its points only: the same window.
+  const fs::path off = TempDir("study_envelope_settled_off");
+  ASSERT_EQ(Study("envelope " + scene + " --out " + off.string() +
+                      " --set 'study.envelope.set=[\"numerics.smooth.settle=false\"]'",
+                  off / "log.txt"),
+            0)
+      << Slurp(off / "log.txt");
+  const std::vector<double> same = window(off);
+  ASSERT_EQ(same.size(), rest.size());
+  for (size_t i = 0; i < rest.size(); ++i) EXPECT_EQ(same[i], rest[i]) << i;
+  // Settling again from the saved state is refused at every point: the study measured nothing and
+  // ends 2, naming why (it ended 0).
+  const fs::path again = TempDir("study_envelope_settled_again");
+  EXPECT_EQ(Study("envelope " + scene + " --out " + again.string() +
+                      " --set 'study.envelope.set=[\"numerics.smooth.settle=true\"]'",
+                  again / "log.txt"),
+            2);
+  const std::string log = Slurp(again / "log.txt");
+  EXPECT_NE(log.find("no point of the envelope completed (exits 2)"), std::string::npos) << log;
+  EXPECT_NE(log.find("is settled already"), std::string::npos) << log;
+}
+
 TEST(Study, AnOperatingLimitsEnvelopeRepeatsEveryQuarterTurnAndShadesItsUnsafePoints) {
   // tests/data/envelope/deck_rotor.pbtxt: a stopped four-blade rotor on a still deck in a LINEAR
   // airwake, wind speed (10, 16, 30 m/s) × relative wind direction (every 45°, a compass axis),

@@ -1,6 +1,8 @@
 #include "smooth_solver/model/beam_input.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace cosim::smooth {
 
@@ -73,10 +75,57 @@ void ReadSectionTable(const Checks& checks, const sc::Beam& b, const std::string
   beam.table = BeamTable(s, sections);
 }
 
-// The beam's nodes: bodies along the reference line, their axes the section frames (twisted
-// with the table), moving with the beam's initial velocity and angular velocity.
-void AddBeamNodes(const Checks& checks, const sc::Beam& b, const std::string& path, interface::NameTable* body_names,
-                  BeamModel* beam_out, MultibodyModel* model) {
+// The elements' ends in s, root to tip: `elements` equally long, or shared among the segments
+// that element_boundaries cut the span into. Each segment gets one element, then each further
+// element goes to the segment whose elements are longest (the first of equals), so the elements
+// are as even as the cuts allow and each segment's are equally long.
+std::vector<double> ElementEnds(const Checks& checks, const sc::Beam& b, const std::string& path,
+                                const BeamModel& beam) {
+  std::vector<double> cuts{beam.span_start};
+  for (int i = 0; i < b.element_boundaries_size(); ++i) {
+    const std::string at = ElementPath(path + ".element_boundaries", i);
+    const double s = b.element_boundaries(i);
+    if (!std::isfinite(s) || s <= cuts.back() || s >= beam.span_end) {
+      checks.Fail(at, FormatNumber(s) + " m: expected in (" + FormatNumber(cuts.back()) + ", " +
+                          FormatNumber(beam.span_end) + ") m, after " +
+                          (i == 0 ? "span_start" : "the boundary before it") + " and before span_end");
+    }
+    cuts.push_back(s);
+  }
+  cuts.push_back(beam.span_end);
+  const int segments = static_cast<int>(cuts.size()) - 1;
+  if (b.elements() < segments) {
+    checks.Fail(path + ".elements", std::to_string(b.elements()) + ": the " +
+                                        std::to_string(b.element_boundaries_size()) +
+                                        " element_boundaries cut the span into " + std::to_string(segments) +
+                                        " segments, which need one element each at least");
+  }
+  std::vector<int> count(static_cast<size_t>(segments), 1);
+  for (int extra = b.elements() - segments; extra > 0; --extra) {
+    size_t longest = 0;
+    double length = -1.0;
+    for (size_t j = 0; j < count.size(); ++j) {
+      const double l = (cuts[j + 1] - cuts[j]) / count[j];
+      if (l > length * (1.0 + 1e-12)) {
+        length = l;
+        longest = j;
+      }
+    }
+    ++count[longest];
+  }
+  std::vector<double> ends{beam.span_start};
+  for (size_t j = 0; j < count.size(); ++j) {
+    for (int e = 1; e <= count[j]; ++e) ends.push_back(cuts[j] + (cuts[j + 1] - cuts[j]) * e / count[j]);
+    ends.back() = cuts[j + 1];  // (exactly on the cut)
+  }
+  return ends;
+}
+
+// The beam's nodes: bodies along the reference line at the elements' ends and (quadratic) their
+// middles, their axes the section frames (twisted with the table), moving with the beam's initial
+// velocity and angular velocity.
+void AddBeamNodes(const Checks& checks, const sc::Beam& b, const std::string& path, const std::vector<double>& ends,
+                  interface::NameTable* body_names, BeamModel* beam_out, MultibodyModel* model) {
   BeamModel& beam = *beam_out;
   const Eigen::Vector3d root = checks.Vector3(path + ".root", b.root(), std::nullopt);
   const Eigen::Vector3d axis = checks.Direction(path + ".axis", b.axis());
@@ -86,10 +135,10 @@ void AddBeamNodes(const Checks& checks, const sc::Beam& b, const std::string& pa
   const Eigen::Vector3d v0 = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
   const Eigen::Vector3d w0 = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
 
-  const int n = beam.nodes_per_element, ne = b.elements(), nodes = ne * (n - 1) + 1;
-  const double length = beam.span_end - beam.span_start;
+  const int n = beam.nodes_per_element, ne = static_cast<int>(ends.size()) - 1, nodes = ne * (n - 1) + 1;
   for (int k = 0; k < nodes; ++k) {
-    const double sk = beam.span_start + length * k / (nodes - 1);
+    const size_t e = static_cast<size_t>(std::min(k / (n - 1), ne - 1));
+    const double sk = ends[e] + (ends[e + 1] - ends[e]) * (k - static_cast<int>(e) * (n - 1)) / (n - 1);
     const double twist = beam.table.At(sk).twist;
     RigidBody node;
     node.name = beam.name + ".n" + std::to_string(k);
@@ -107,17 +156,19 @@ void AddBeamNodes(const Checks& checks, const sc::Beam& b, const std::string& pa
   }
 }
 
-// The beam's elements over its nodes: reference coordinates and the Gauss points' stiffness.
-void AddBeamElements(int ne, const MultibodyModel& model, BeamModel* beam_out) {
+// The beam's elements over its nodes: reference coordinates and the Gauss points' stiffness
+// (the table sampled there: a step inside an element is smeared; element_boundaries put one on
+// it).
+void AddBeamElements(const std::vector<double>& ends, const MultibodyModel& model, BeamModel* beam_out) {
   BeamModel& beam = *beam_out;
-  const int n = beam.nodes_per_element;
-  const double le = (beam.span_end - beam.span_start) / ne;
+  const int n = beam.nodes_per_element, ne = static_cast<int>(ends.size()) - 1;
   std::array<double, 2> xi{}, w{};
   const int gauss = BeamGaussPoints(n, &xi, &w);
   for (int e = 0; e < ne; ++e) {
     BeamElement el;
-    el.s0 = beam.span_start + e * le;
-    el.length = le;
+    el.s0 = ends[static_cast<size_t>(e)];
+    el.length = ends[static_cast<size_t>(e) + 1] - el.s0;
+    const double le = el.length;
     for (int I = 0; I < n; ++I) {
       const int body = beam.node_bodies[static_cast<size_t>(e * (n - 1) + I)];
       el.node[static_cast<size_t>(I)] = body;
@@ -158,8 +209,9 @@ void AddBeams(const Checks& checks, interface::NameTable* body_names, MultibodyM
     beam.nodes_per_element = b.nodes_per_element();
     beam.retardation = checks.NonNegative(path + ".retardation_time", b.retardation_time(), "s");
 
-    AddBeamNodes(checks, b, path, body_names, &beam, model);
-    AddBeamElements(b.elements(), *model, &beam);
+    const std::vector<double> ends = ElementEnds(checks, b, path, beam);
+    AddBeamNodes(checks, b, path, ends, body_names, &beam, model);
+    AddBeamElements(ends, *model, &beam);
     model->beams.push_back(std::move(beam));
   }
 }

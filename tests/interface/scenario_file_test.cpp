@@ -463,6 +463,22 @@ TEST(Pattern, AnOverrideOfOneCopySaysSoAndNamesTheTemplatesPath) {
   EXPECT_EQ(every.proto().model().bodies(0).mass(), 12.0);
 }
 
+TEST(Pattern, WhatThePatternsMakeIsSwitchedOffByClearingItsField) {
+  // A new user could not find how to run a patterned rotor without its air or without an element
+  // the copies hold. A message set to {} and a repeated field set to [] are cleared after the
+  // expansion (model…), or in the template (patterns[0].each…): every copy's part goes.
+  const ScenarioFile no_air = ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"model.air={}"});
+  EXPECT_FALSE(no_air.proto().model().has_air() && no_air.proto().model().air().rotors_size() > 0);
+  EXPECT_TRUE(no_air.warnings().empty());
+  const ScenarioFile no_flaps =
+      ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"patterns[0].each.model.joints=[]", "patterns[0].each.output={}"});
+  EXPECT_EQ(no_flaps.proto().model().joints_size(), 0);
+  EXPECT_EQ(no_flaps.proto().model().bodies_size(), 5);  // the blades stay, free
+  EXPECT_EQ(no_flaps.proto().output().probes_size(), 0);
+  const ScenarioFile cleared = ScenarioFile::Parse(kRotor, "rotor.pbtxt", {"model.joints=[]"});
+  EXPECT_EQ(cleared.proto().model().joints_size(), 0);
+}
+
 TEST(Pattern, BadPatternsAreRefusedWithTheirPlace) {
   auto error = [](const std::vector<std::string>& sets) {
     try {

@@ -270,7 +270,9 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   // between two states (residuals 7.45 and 33.0) for 400 iterations; on its shaft tilted 0.3 rad
   // the yoke went uphill through the far pad's plane, which then had to pull (−101 N), twelve
   // rounds over; its continuous twin settled level at +2.39°, balanced on its gravity and the
-  // wind, from where it falls to its stop. μ is the step's trust region: raised until the step is
+  // wind, from where it falls to its stop. A STATIC step of the MBDyn-like Puma, whose lag at
+  // rest is neutral, converged or diverged (residual 3.5e4 after 20 iterations) on round-off in
+  // its beam nodes' positions. μ is the step's trust region: raised until the step is
   // within max_step (a capped step distorts rigid bodies' directors) and goes where the loads
   // push, lowered by 4 after each step; the solve ends on a plain Newton step.
   constexpr double kPseudoMass = 1.0;        // μ [1/s²]: 0.16 Hz, below any structural mode

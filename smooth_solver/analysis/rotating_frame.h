@@ -49,7 +49,8 @@ struct EquilibriumOptions {
   int max_iterations = 50;
   double max_step = 0.1;  // longest Newton step in q (|Δq|∞): metres or director components
   // Walk to a stable rest in pseudo-time (K + μ M, see StaticEquilibrium) instead of plain
-  // Newton, which heads for the nearest stationary point, stable or not (the settle's solves).
+  // Newton, which heads for the nearest stationary point, stable or not (the settle's solves and
+  // STATIC steps).
   bool stable = false;
   // Interface nodes whose positions are unknowns too (their imposed values in `data` are set to
   // the solution; the other nodes stay where the imposed values hold them).

@@ -884,6 +884,7 @@ void MultibodySimulation::StaticStep(double t1) {
   options.t = t1;
   options.tolerance = numerics_.smooth().newton_tolerance();
   options.max_iterations = numerics_.smooth().newton_max_iterations();
+  options.stable = true;
   const EquilibriumResult r = StaticEquilibrium(*system_, data_.get(), from.q, SpinningFrame{}, options);
   if (!r.converged) {
     throw NumericalError("STATIC: no equilibrium at t = " + interface::FormatNumber(t1) + " s " + ResidualsText(r) +

@@ -242,10 +242,13 @@ TEST(Study, AnOperatingLimitsEnvelopeRepeatsEveryQuarterTurnAndShadesItsUnsafePo
   // airwake, wind speed (10, 16, 30 m/s) × relative wind direction (every 45°, a compass axis),
   // each point settled in its wind. The setup is invariant under a quarter turn, so every
   // measure at ψ is the one at ψ + 90° (to the solves' tolerance; observed within 1e-15 m). At
-  // 30 m/s the windward blade cannot rest on its stop: no static equilibrium, exit 3, the points
-  // kept and counted unsafe. The diagram hatches the points whose clearance is below 0.1505 m
-  // (observed: 0.1491–0.1495 m with the wind along a blade, 0.1509–0.1539 m between two), and
-  // the report counts them as runs.csv's clearances and exits do.
+  // 30 m/s the windward blade's lift outgrows its weight's moment and it rests against its
+  // anti-flap stop (+10°: its centre 2.38 m above the deck against 1.75 m on the droop stop).
+  // The settle's plain Newton iterations found no rest there (exit 3, and the test expected the
+  // points failed); walking in pseudo-time it finds this one, and the run stays on it. The
+  // diagram hatches the points whose clearance is below 0.1505 m (observed: 0.1491–0.1495 m with
+  // the wind along a blade, 0.1509–0.1539 m between two), and the report counts them as runs.csv's
+  // clearances do.
   const fs::path out = TempDir("study_operating_limits");
   ASSERT_EQ(
       Study("envelope " + std::string(COSIM_SOURCE_DIR) + "/tests/data/envelope/deck_rotor.pbtxt --out " + out.string(),
@@ -259,26 +262,27 @@ TEST(Study, AnOperatingLimitsEnvelopeRepeatsEveryQuarterTurnAndShadesItsUnsafePo
                             clearance = runs.Column("clearance"), force = runs.Column("peak_stop_force");
   std::map<std::pair<double, double>, size_t> at;
   for (size_t i = 0; i < runs.size(); ++i) at[{speed[i], direction[i]}] = i;
+  const std::vector<double> highest = runs.Column("tip_highest");
   int unsafe = 0;
   for (size_t i = 0; i < runs.size(); ++i) {
-    if (speed[i] > 20.0) {
-      EXPECT_EQ(code[i], 3.0) << direction[i] << "°";
-      ++unsafe;
-      continue;
-    }
     EXPECT_EQ(code[i], 0.0) << speed[i] << " m/s, " << direction[i] << "°";
+    if (speed[i] > 20.0) {
+      EXPECT_GT(highest[i], 2.3) << direction[i] << "°";  // a blade up against its anti-flap stop
+    } else {
+      EXPECT_LT(highest[i], 1.9) << speed[i] << " m/s, " << direction[i] << "°";  // all on their droop stops
+    }
     const size_t j = at.at({speed[i], std::fmod(direction[i] + 90.0, 360.0)});
     EXPECT_NEAR(lowest[j], lowest[i], 1e-9) << speed[i] << " m/s, " << direction[i] << "°";
     EXPECT_NEAR(force[j], force[i], 1e-6 * force[i]) << speed[i] << " m/s, " << direction[i] << "°";
     unsafe += clearance[i] < 0.1505 ? 1 : 0;
   }
-  EXPECT_GT(unsafe, 8);
+  EXPECT_GT(unsafe, 0);
   EXPECT_LT(unsafe, 24);
   EXPECT_TRUE(fs::exists(out / "operating_limits.png"));
   const std::string report = Slurp(out / "report.md");
-  EXPECT_NE(report.find("Operating limits: " + std::to_string(unsafe) +
-                        " of 24 points unsafe (clearance below 0.1505 m, or one of the 8 failed runs)"),
-            std::string::npos)
+  EXPECT_NE(
+      report.find("Operating limits: " + std::to_string(unsafe) + " of 24 points unsafe (clearance below 0.1505 m)"),
+      std::string::npos)
       << report;
 }
 

@@ -208,6 +208,72 @@ class SlidingUnknowns {
   Eigen::VectorXd anchor_;
 };
 
+// M in the q block of an N × N Newton matrix.
+Eigen::SparseMatrix<double> MassInNewtonMatrix(const Eigen::SparseMatrix<double>& mass, int N) {
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int k = 0; k < mass.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(mass, k); it; ++it)
+      entries.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), it.value());
+  Eigen::SparseMatrix<double> out(N, N);
+  out.setFromTriplets(entries.begin(), entries.end());
+  return out;
+}
+
+constexpr double kPseudoMass = 1.0;  // μ [1/s²]: 0.16 Hz, below any structural mode
+
+// One step δ of the static solve, (K + μM) δ = −R (StaticEquilibrium says when μ > 0), over the
+// coordinates (the first n entries), the multipliers and the sliding unknowns (the last ones).
+class NewtonStep {
+ public:
+  NewtonStep(const Eigen::SparseMatrix<double>& K, const Eigen::SparseMatrix<double>& mass, const Eigen::VectorXd& R,
+             int n, int sliding)
+      : K_(K), mass_(mass), R_(R), n_(n), sliding_(sliding) {}
+  // The longest move in q and s, |δ|∞.
+  double Moves() const {
+    return std::max(delta_.head(n_).lpNorm<Eigen::Infinity>(), delta_.tail(sliding_).lpNorm<Eigen::Infinity>());
+  }
+  // Solves with μ = *pseudo_mass, raising it in pseudo-time; false if the matrix is singular.
+  bool Solve(const EquilibriumOptions& options, double* pseudo_mass) {
+    bool solved = Factor(*pseudo_mass);
+    if (!solved && *pseudo_mass == 0.0) {
+      // A mechanism at the guess: a coordinate that nothing stiff holds there, as a blade drawn
+      // exactly on a Hunt–Crossley stop, whose tangent k n δ^(n−1) vanishes at δ = 0 (generated
+      // articulated rotors' continuous twins, settled on their droop stops: LU failed before the
+      // first iteration). That step is taken in pseudo-time: the load moves the free coordinate
+      // into the contact, whose tangent then holds it; later iterations are plain Newton again.
+      solved = Factor(kPseudoMass);
+    }
+    // In pseudo-time, μ raised (×4, or more for a long step) until the step is within max_step
+    // and goes where the loads push: their work along it, −R·δ over q and s (= δᵀ(K + μM)δ near
+    // the constraint manifold), positive. Not judged on steps within the tolerance's square root.
+    for (int tries = 0; solved && *pseudo_mass > 0.0 && tries < 12; ++tries) {
+      if (Moves() <= options.max_step && !Uphill(options.tolerance)) break;
+      *pseudo_mass *= 4.0 * std::max(1.0, Moves() / options.max_step);
+      solved = Factor(*pseudo_mass);
+    }
+    return solved;
+  }
+  Eigen::VectorXd& delta() { return delta_; }
+
+ private:
+  bool Factor(double mu) {
+    lu_.compute(mu > 0.0 ? Eigen::SparseMatrix<double>(K_ + mu * mass_) : K_);
+    if (lu_.info() != Eigen::Success) return false;
+    delta_ = lu_.solve(-R_);
+    return true;
+  }
+  bool Uphill(double tolerance) const {
+    const double work = -(R_.head(n_).dot(delta_.head(n_)) + R_.tail(sliding_).dot(delta_.tail(sliding_)));
+    return work < 0.0 && Moves() > std::sqrt(tolerance);
+  }
+  const Eigen::SparseMatrix<double>& K_;
+  const Eigen::SparseMatrix<double>& mass_;
+  const Eigen::VectorXd& R_;
+  int n_, sliding_;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu_;
+  Eigen::VectorXd delta_;
+};
+
 }  // namespace
 
 Eigen::VectorXd SpinningVelocity(const MultibodySystem& system, const Eigen::VectorXd& q, const SpinningFrame& frame) {
@@ -275,53 +341,17 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   // its beam nodes' positions. μ is the step's trust region: raised until the step is
   // within max_step (a capped step distorts rigid bodies' directors) and goes where the loads
   // push, lowered by 4 after each step; the solve ends on a plain Newton step.
-  constexpr double kPseudoMass = 1.0;        // μ [1/s²]: 0.16 Hz, below any structural mode
-  Eigen::SparseMatrix<double> mass_N(N, N);  // M in the q block of the Newton matrix
-  {
-    std::vector<Eigen::Triplet<double>> entries;
-    for (int k = 0; k < system.mass.outerSize(); ++k)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(system.mass, k); it; ++it)
-        entries.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), it.value());
-    mass_N.setFromTriplets(entries.begin(), entries.end());
-  }
+  const Eigen::SparseMatrix<double> mass_N = MassInNewtonMatrix(system.mass, N);
   double pseudo_mass = options.stable ? kPseudoMass : 0.0;
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;
     StaticTangent(system, *data, r.q, r.lambda, frame, options.t, MW2, &sink);
     sliding.Tangent(n, &sink);
     const Eigen::SparseMatrix<double> K = sink.Build(N);
-    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
-    Eigen::VectorXd delta;
-    const auto moves = [&] {
-      return std::max(delta.head(n).lpNorm<Eigen::Infinity>(), delta.tail(sliding.size()).lpNorm<Eigen::Infinity>());
-    };
-    const auto solve = [&](double mu) {
-      lu.compute(mu > 0.0 ? Eigen::SparseMatrix<double>(K + mu * mass_N) : K);
-      if (lu.info() == Eigen::Success) delta = lu.solve(-R);
-      return lu.info() == Eigen::Success;
-    };
-    bool solved = solve(pseudo_mass);
-    if (!solved && pseudo_mass == 0.0) {
-      // A mechanism at the guess: a coordinate that nothing stiff holds there, as a blade drawn
-      // exactly on a Hunt–Crossley stop, whose tangent k n δ^(n−1) vanishes at δ = 0 (generated
-      // articulated rotors' continuous twins, settled on their droop stops: LU failed before the
-      // first iteration). That step is taken in pseudo-time: the load moves the free coordinate
-      // into the contact, whose tangent then holds it; later iterations are plain Newton again.
-      solved = solve(kPseudoMass);
-    }
-    if (!solved) break;
-    // In pseudo-time, μ raised (×4, or more for a long step) until the step is within max_step
-    // and goes where the loads push: their work along it, −R·δ over q and s (= δᵀ(K + μM)δ near
-    // the constraint manifold), positive. Not judged on steps within the tolerance's square root.
-    const auto uphill = [&] {
-      const double work = -(R.head(n).dot(delta.head(n)) + R.tail(sliding.size()).dot(delta.tail(sliding.size())));
-      return work < 0.0 && moves() > std::sqrt(options.tolerance);
-    };
-    for (int tries = 0; pseudo_mass > 0.0 && (moves() > options.max_step || uphill()) && tries < 12; ++tries) {
-      pseudo_mass *= 4.0 * std::max(1.0, moves() / options.max_step);
-      if (!solve(pseudo_mass)) break;
-    }
-    if (lu.info() != Eigen::Success) break;
+    NewtonStep step(K, mass_N, R, n, sliding.size());
+    if (!step.Solve(options, &pseudo_mass)) break;
+    Eigen::VectorXd& delta = step.delta();
+    const auto moves = [&] { return step.Moves(); };
     // Steps in q and s capped at options.max_step (metres, or director components): the first
     // steps from a flat start can be metres long where a soft mode meets a large load (a twisted
     // Puma blade in air: 13.8 m at the tip, then divergence); capped, Newton walks there. The

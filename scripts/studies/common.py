@@ -424,7 +424,7 @@ def start_from(state, time):
     return [f"numerics.start_time={time!r}", f'numerics.initial_state="{state}"']
 
 
-def settled_start(runner, scenario_path, study, sets, out, why="the errors are those of the window alone"):
+def settled_start(runner, scenario_path, scenario, study, sets, out, why="the errors are those of the window alone"):
     """study.restart_time: one run of the scene up to that time (its own step, no output), whose
     final state every run of the study then starts from (numerics.initial_state); the overrides
     that make a run start there, and a line for the report.
@@ -437,7 +437,7 @@ def settled_start(runner, scenario_path, study, sets, out, why="the errors are t
     restart = study.get("restart_time")
     if restart is None:
         return [], ""
-    settles = bool(runner.scenario_json(scenario_path, sets).get("numerics", {}).get("smooth", {}).get("settle"))
+    settles = bool(scenario.get("numerics", {}).get("smooth", {}).get("settle"))  # (as read with `sets`)
     settle = runner.run_all(
         [
             Run(

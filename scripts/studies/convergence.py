@@ -27,7 +27,7 @@ from studies.common import (
 
 def study_convergence(runner, scenario_path, out, sets):
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
-    restart_sets, restart_note = settled_start(runner, scenario_path, study, sets, out)
+    restart_sets, restart_note = settled_start(runner, scenario_path, scenario, study, sets, out)
     sets = list(sets) + restart_sets
     steps = halving_steps(scenario, study)
     runs = [

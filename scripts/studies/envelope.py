@@ -138,7 +138,7 @@ def study_envelope(runner, scenario_path, out, sets):
     # schema's word): with `numerics.smooth.settle=false` there it switched off the settle of the
     # run every point started from, and each point continued an unsettled, ringing start.
     restart_sets, restart_note = settled_start(
-        runner, scenario_path, study, sets, out, "the measures are the window's, without the start-up"
+        runner, scenario_path, scenario, study, sets, out, "the measures are the window's, without the start-up"
     )
     sets = list(sets) + restart_sets + list(spec.get("set", []))
     if spec.get("impulse_probes"):

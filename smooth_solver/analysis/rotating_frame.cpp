@@ -208,17 +208,6 @@ class SlidingUnknowns {
   Eigen::VectorXd anchor_;
 };
 
-// M in the q block of an N × N Newton matrix.
-Eigen::SparseMatrix<double> MassInNewtonMatrix(const Eigen::SparseMatrix<double>& mass, int N) {
-  std::vector<Eigen::Triplet<double>> entries;
-  for (int k = 0; k < mass.outerSize(); ++k)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(mass, k); it; ++it)
-      entries.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), it.value());
-  Eigen::SparseMatrix<double> out(N, N);
-  out.setFromTriplets(entries.begin(), entries.end());
-  return out;
-}
-
 constexpr double kPseudoMass = 1.0;  // μ [1/s²]: 0.16 Hz, below any structural mode
 
 // One step δ of the static solve, (K + μM) δ = −R (StaticEquilibrium says when μ > 0), over the
@@ -341,7 +330,8 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
   // its beam nodes' positions. μ is the step's trust region: raised until the step is
   // within max_step (a capped step distorts rigid bodies' directors) and goes where the loads
   // push, lowered by 4 after each step; the solve ends on a plain Newton step.
-  const Eigen::SparseMatrix<double> mass_N = MassInNewtonMatrix(system.mass, N);
+  Eigen::SparseMatrix<double> mass_N = system.mass;  // M in the q block of the Newton matrix
+  mass_N.conservativeResize(N, N);
   double pseudo_mass = options.stable ? kPseudoMass : 0.0;
   for (r.iterations = 0; r.iterations < options.max_iterations; ++r.iterations) {
     TripletSink sink;

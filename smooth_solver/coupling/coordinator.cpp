@@ -208,6 +208,9 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     // this memory are the run's own at the saved step.
     x_ = applied_ = accepted_x_;
   } else if (settings_.settled_start) {
+    // a_0 = q̈_0 as at a free start: the shifted start-up would take the first try's imposed
+    // coordinates (end-of-step values) at t_0 + Δα h, and each try of the first step its own a_0.
+    integrator_->Restart(integrator_->state());
     StartReactionsFrom(integrator_->state());
     x_ = accepted_x_ = applied_ = lambda_start_;
   } else {
@@ -269,7 +272,14 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     peer.jacobians = welcome.interface_jacobians();
     jacobians_ = jacobians_ && peer.jacobians;
   }
-  // The interface points' motion at the start (the first step's predicted positions).
+  // The nodes' motion at the start (the first step's predicted positions). A free start's nodes
+  // are where their points are (λ = 0); a settled start's where the settle left them, its
+  // imposed coordinates: a point on a regularised tie is not its node, and the settled rod
+  // resting on its stop had its node predicted cλ = 4.9e-7 m inside the stop (its point's
+  // position) and its first step began from a pre-solve with the tie slack. A continued run
+  // keeps its memory (overwritten here, a restart from the middle of a contact began from the
+  // points' positions too).
+  if (restored_) return;
   const DaeState& start = integrator_->state();
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
@@ -277,6 +287,12 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     accepted_position_.segment<3>(o) = point.Value(start.q);
     accepted_velocity_.segment<3>(o) = point.Rate(start.qdot);
     accepted_acceleration_.segment<3>(o) = point.Rate(start.qddot);
+    if (!settings_.settled_start) continue;
+    for (int j = 0; j < 3; ++j) {
+      const ImposedCoordinate& c = data_->imposed[3 * k + static_cast<size_t>(j)];
+      accepted_position_(o + j) = c.value;
+      accepted_velocity_(o + j) = c.rate;
+    }
   }
 }
 

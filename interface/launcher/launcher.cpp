@@ -23,6 +23,7 @@
 
 #include "interface/coupling/channel.h"
 #include "interface/run/errors.h"
+#include "interface/run/input_file.h"
 #include "interface/run/run_output.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/coupling_plan.h"
@@ -170,7 +171,9 @@ struct Child {
 
 // The time of the last row of a history.csv and the number of rows (0 if none).
 std::pair<double, long> LastHistoryRow(const std::string& path) {
-  std::ifstream in(path);
+  const InputFile text = ReadInputFile(path, kMaxOutputBytes);  // (bounded: not a device's endless text)
+  if (!text.ok) return {0.0, 0};
+  std::istringstream in(text.text);
   std::string line, last;
   long rows = -1;  // the header
   while (std::getline(in, line)) {
@@ -249,12 +252,18 @@ std::vector<std::string> SplitCells(const std::string& line) {
   return cells;
 }
 
-// Empty if the file is missing or not a history (no `time` column first).
+// Empty if the file is missing (a process that ended before writing it) or not a history (no
+// `time` column first). A file that is not a regular file, or larger than a run writes, is
+// refused (InputError naming it): read whole, /dev/full linked in its place filled the memory.
 History ReadHistory(const std::string& path) {
   History h;
-  std::ifstream in(path);
+  std::error_code absent;
+  if (!std::filesystem::exists(std::filesystem::symlink_status(path, absent))) return h;
+  const InputFile text = ReadInputFile(path, kMaxOutputBytes);
+  if (!text.ok) throw InputError(text.why + "; expected the history.csv a process of this run wrote");
+  std::istringstream in(text.text);
   std::string line;
-  if (!in || !std::getline(in, line)) return h;
+  if (!std::getline(in, line)) return h;
   h.header = SplitCells(line);
   if (h.header.empty() || h.header[0] != "time") return {};
   while (std::getline(in, line)) {
@@ -300,7 +309,9 @@ void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts
     }
     first += width;
   }
+  // Through a temporary file and a rename; a failure removes the temporary and names the file.
   const std::string tmp = out + ".part";
+  bool written = false;
   {
     std::ofstream file(tmp);
     for (size_t c = 0; c < header.size(); ++c) file << (c ? "," : "") << header[c];
@@ -309,9 +320,16 @@ void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts
       for (size_t c = 0; c < row.size(); ++c) file << (c ? "," : "") << row[c];
       file << "\n";
     }
-    if (!file) throw std::runtime_error("cannot write " + tmp);
+    file.close();
+    written = static_cast<bool>(file);
   }
-  std::filesystem::rename(tmp, out);
+  std::error_code ec;
+  if (written) std::filesystem::rename(tmp, out, ec);
+  if (!written || ec) {
+    const std::string why = ec ? ec.message() : std::string("writing failed (is the disk full?)");
+    std::filesystem::remove(tmp, ec);
+    throw InputError("cannot write " + out + ": " + why);
+  }
 }
 
 namespace {
@@ -488,10 +506,10 @@ class Supervisor {
 // (ParaView opens all of it at once), with whatever frames each wrote, failed run or not.
 // (The error_code forms: an output path the processes refused, e.g. longer than PATH_MAX,
 // must not turn their exit code 2 into the launcher's own failure.)
-void WriteRunScene(const std::vector<ProcessPlan>& plan) {
+std::string WriteRunScene(const std::vector<ProcessPlan>& plan) {
   const ProcessPlan& coordinator = plan.back();
   std::error_code unreadable;
-  if (plan.size() < 2 || !std::filesystem::exists(coordinator.out + "/visual.pvd", unreadable)) return;
+  if (plan.size() < 2 || !std::filesystem::exists(coordinator.out + "/visual.pvd", unreadable)) return {};
   std::vector<std::pair<std::string, std::string>> series;
   for (const ProcessPlan& p : plan) {
     const std::string pvd = p.out + "/visual.pvd";
@@ -503,22 +521,40 @@ void WriteRunScene(const std::vector<ProcessPlan>& plan) {
   try {
     WriteScenePvd(coordinator.out + "/scene.pvd", series);
   } catch (const Error& e) {
-    std::cerr << "cosim: " << e.what() << "\n";
+    return e.what();
   }
+  return {};
 }
 
 // A coupled run's histories side by side (history_joined.csv): the coordinator's probes, then
-// each contact process's, failed run or not.
-void JoinRunHistories(const std::vector<ProcessPlan>& plan) {
-  if (plan.size() < 2) return;
+// each contact process's, failed run or not. Returns why it could not be written, or "".
+std::string JoinRunHistories(const std::vector<ProcessPlan>& plan) {
+  if (plan.size() < 2) return {};
   const ProcessPlan& coordinator = plan.back();
   std::vector<std::pair<std::string, std::string>> parts{{coordinator.name, coordinator.out + "/history.csv"}};
   for (size_t i = 0; i + 1 < plan.size(); ++i) parts.emplace_back(plan[i].name, plan[i].out + "/history.csv");
   try {
     JoinHistories(parts, coordinator.out + "/history_joined.csv");
   } catch (const std::exception& e) {
-    std::cerr << "cosim: the joined history was not written: " << e.what() << "\n";
+    return std::string("the joined history was not written: ") + e.what();
   }
+  return {};
+}
+
+// An output of a coupled run the launcher writes (the joined history, scene.pvd) that could not
+// be: said, and a run that had ended ok ends 2 (the README lists them among its outputs), its
+// summary saying why if it can be written.
+int ReportLauncherOutput(const std::string& why, const ProcessPlan& coordinator, int code) {
+  std::cerr << "cosim: " << why << "\n";
+  if (code != 0) return code;
+  run::RunSummary s;
+  const std::string path = coordinator.out + "/summary.json";
+  if (!ReadSummaryJson(path, &s)) s.set_program(coordinator.program);
+  s.set_status("failed");
+  s.set_exit_code(static_cast<int>(ExitCode::kBadInput));
+  s.set_reason(why + (s.reason().empty() ? "" : " [" + s.reason() + "]"));
+  WriteSummaryJson(s, path);
+  return static_cast<int>(ExitCode::kBadInput);
 }
 
 }  // namespace
@@ -554,15 +590,21 @@ int RunProcesses(const std::string& bin_dir, const std::vector<ProcessPlan>& pla
   }
   const int contact_failure = supervisor.contact_failure();
   if (contact_failure != 0) PassContactFailureOn(plan[supervisor.failed_contact()], contact_failure, plan[last]);
-  WriteRunScene(plan);
-  JoinRunHistories(plan);
-
-  if (contact_failure != 0) return contact_failure;
-  if (children[last].code != 0) return children[last].code;
-  for (const Child& c : children) {
-    if (c.code != 0) return c.code;
+  const std::string scene = WriteRunScene(plan), joined = JoinRunHistories(plan);
+  int code = 0;
+  if (contact_failure != 0) {
+    code = contact_failure;
+  } else if (children[last].code != 0) {
+    code = children[last].code;
+  } else {
+    for (const Child& c : children) {
+      if (c.code != 0 && code == 0) code = c.code;
+    }
   }
-  return 0;
+  for (const std::string& why : {scene, joined}) {
+    if (!why.empty()) code = ReportLauncherOutput(why, plan[last], code);
+  }
+  return code;
 }
 
 }  // namespace cosim::interface

@@ -15,6 +15,8 @@
 #include <memory>
 #include <sstream>
 
+#include "interface/run/input_file.h"
+
 namespace cosim::interface {
 
 void IterationCounter::Fill(run::IterationStats* stats) const {
@@ -167,11 +169,8 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
 }
 
 bool ReadSummaryJson(const std::string& path, run::RunSummary* summary) {
-  std::ifstream in(path);
-  if (!in) return false;
-  std::stringstream text;
-  text << in.rdbuf();
-  return google::protobuf::util::JsonStringToMessage(text.str(), summary).ok();
+  const InputFile text = ReadInputFile(path, kMaxOutputBytes);  // (a regular file, bounded)
+  return text.ok && google::protobuf::util::JsonStringToMessage(text.text, summary).ok();
 }
 
 void WriteFinalState(const std::string& folder, const google::protobuf::Message& message) {

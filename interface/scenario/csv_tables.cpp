@@ -3,10 +3,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 #include <vector>
 
+#include "interface/run/input_file.h"
 #include "interface/scenario/message_tree.h"
 
 namespace cosim::interface {
@@ -60,11 +60,12 @@ using Cells = std::vector<std::string>;
 int ReadCsv(const std::filesystem::path& file, const std::string& place, const std::string& expected, const Fail& fail,
             const std::function<void(const Cells&, const Where&)>& on_header,
             const std::function<void(const Cells&, const Where&)>& on_row) {
-  std::ifstream in(file);
-  if (!in) {
-    fail(place, "'" + file.string() + "' cannot be read; expected " + expected +
-                    " (relative paths are from the scenario file's folder)");
+  // (A FIFO, a device or an endless file is refused before it is read: InputFile.)
+  const InputFile text = ReadInputFile(file, kMaxTableBytes);
+  if (!text.ok) {
+    fail(place, text.why + "; expected " + expected + " (relative paths are from the scenario file's folder)");
   }
+  std::istringstream in(text.text);
   int number = 0, rows = -1;
   size_t columns = 0;
   const Where where = [&](const std::string& column) {

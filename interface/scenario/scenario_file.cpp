@@ -19,6 +19,7 @@
 #include <sstream>
 
 #include "interface/run/errors.h"
+#include "interface/run/input_file.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/csv_tables.h"
 #include "interface/scenario/expression.h"
@@ -117,26 +118,23 @@ std::vector<Placeholder> FindPlaceholders(const std::string& text, const std::fu
 // that asked for it in errors (the command line's path, or an include's file:line).
 std::string ReadScenarioText(const std::string& path, const std::string& where) {
   const std::string what = where == path ? "the scenario file" : "the included file '" + path + "'";
+  InputFile f = ReadInputFile(path, ScenarioFile::kMaxScenarioBytes);
+  if (f.ok) return std::move(f.text);
   struct stat info {};
   if (::stat(path.c_str(), &info) != 0) {
     throw InputError(where + ": cannot read " + what + ": " + std::strerror(errno) +
                      " (does it exist and is it readable?)");
   }
   if (!S_ISREG(info.st_mode)) {
-    throw InputError(where + ": " + (where == path ? std::string("the scenario") : what) +
-                     " is not a regular file (a folder, device, FIFO or socket); expected a protobuf text file");
+    throw InputError(where + ": " + (where == path ? std::string("the scenario") : what) + " is not a regular file (" +
+                     FileKind(info.st_mode) + "); expected a protobuf text file");
   }
   if (info.st_size > ScenarioFile::kMaxScenarioBytes) {
     throw InputError(where + ": " + what + " has " + std::to_string(info.st_size) + " bytes; at most " +
                      std::to_string(ScenarioFile::kMaxScenarioBytes) +
                      " are read (tables belong in files of their own)");
   }
-  std::ifstream in(path);
-  if (!in) throw InputError(where + ": cannot read " + what + " (does it exist and is it readable?)");
-  std::string text(static_cast<size_t>(info.st_size), '\0');
-  in.read(text.data(), info.st_size);
-  text.resize(static_cast<size_t>(in.gcount()));
-  return text;
+  throw InputError(where + ": " + f.why);
 }
 
 // "file:line:col" of a line (1-based) of the expanded text: the file and line it came from.

@@ -2,17 +2,22 @@
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
+#include <system_error>
 #include <utility>
 #include <vector>
 
 #include "interface/run/errors.h"
+#include "interface/run/input_file.h"
 
 namespace cosim::interface {
 
@@ -180,32 +185,56 @@ void VisualSeries::Write(const VisualFrame& frame, double time) {
 }
 
 std::vector<std::pair<double, std::string>> ReadPvd(const std::string& path) {
+  // A process's own index, read back bounded (InputFile): a link to a device reads nothing.
+  const InputFile text = ReadInputFile(path, kMaxOutputBytes);
+  if (!text.ok)
+    throw InputError("visual output: " + text.why + "; expected the visual.pvd a process of this run wrote");
   std::vector<std::pair<double, std::string>> entries;
-  std::ifstream in(path);
+  std::istringstream in(text.text);
   std::string line;
   while (std::getline(in, line)) {
     const auto t = line.find("timestep=\""), file = line.find("file=\"");
     if (t == std::string::npos || file == std::string::npos) continue;
     const auto t_end = line.find('"', t + 10), file_end = line.find('"', file + 6);
     if (t_end == std::string::npos || file_end == std::string::npos) continue;
-    entries.emplace_back(std::stod(line.substr(t + 10, t_end - t - 10)), line.substr(file + 6, file_end - file - 6));
+    const std::string stamp = line.substr(t + 10, t_end - t - 10);
+    char* end = nullptr;
+    const double time = std::strtod(stamp.c_str(), &end);
+    if (end == stamp.c_str() || !std::isfinite(time)) continue;  // (not a line this project wrote)
+    entries.emplace_back(time, line.substr(file + 6, file_end - file - 6));
   }
   return entries;
 }
 
 void WriteScenePvd(const std::string& path, const std::vector<std::pair<std::string, std::string>>& series) {
-  auto f = Open(path);
-  std::fprintf(f.get(), "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n  <Collection>\n");
-  for (size_t part = 0; part < series.size(); ++part) {
-    const auto& [prefix, pvd] = series[part];
-    for (const auto& [time, file] : ReadPvd(pvd)) {
-      std::fprintf(f.get(), "    <DataSet timestep=\"%.17g\" part=\"%zu\" name=\"%s\" file=\"%s%s\"/>\n", time, part,
-                   prefix.empty() ? "smooth" : prefix.substr(0, prefix.size() - 1).c_str(), prefix.c_str(),
-                   file.c_str());
+  std::vector<std::vector<std::pair<double, std::string>>> frames;
+  for (const auto& part : series) frames.push_back(ReadPvd(part.second));
+  // Through a temporary file and a rename: a full disk leaves no half index, and no temporary.
+  const std::string temporary = path + ".part";
+  std::error_code ec;
+  errno = 0;
+  try {
+    auto f = Open(temporary);
+    std::fprintf(f.get(), "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n  <Collection>\n");
+    for (size_t part = 0; part < series.size(); ++part) {
+      const std::string& prefix = series[part].first;
+      for (const auto& [time, file] : frames[part]) {
+        std::fprintf(f.get(), "    <DataSet timestep=\"%.17g\" part=\"%zu\" name=\"%s\" file=\"%s%s\"/>\n", time, part,
+                     prefix.empty() ? "smooth" : prefix.substr(0, prefix.size() - 1).c_str(), prefix.c_str(),
+                     file.c_str());
+      }
     }
+    std::fprintf(f.get(), "  </Collection>\n</VTKFile>\n");
+    Close(std::move(f), temporary);
+    std::filesystem::rename(temporary, path, ec);
+  } catch (const Error&) {  // (Open or Close: errno says why)
+    ec = errno != 0 ? std::error_code(errno, std::generic_category()) : std::make_error_code(std::errc::io_error);
   }
-  std::fprintf(f.get(), "  </Collection>\n</VTKFile>\n");
-  Close(std::move(f), path);
+  if (ec) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
+    throw InputError("visual output: cannot write " + path + ": " + ec.message());
+  }
 }
 
 }  // namespace cosim::interface

@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 
 #include "interface/run/errors.h"
+#include "interface/run/input_file.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {
@@ -40,13 +40,14 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
   const std::string place = "numerics.initial_state";
   std::filesystem::path path = file.PathBeside(file.proto().numerics().initial_state());
   if (!process.empty()) path = path.parent_path() / process / "final_state.pb";
-  std::ifstream in(path, std::ios::binary);
-  state::ContactState s;
-  if (!in || !s.ParseFromIstream(&in)) {
-    file.Fail(place, "'" + path.string() + "' is not a readable final_state.pb of a contact process" +
-                         (process.empty() ? std::string()
+  const std::string own = process.empty() ? std::string()
                                           : " (a coupled run's contact process '" + process +
-                                                "' reads its own beside the smooth solver's state)"));
+                                                "' reads its own beside the smooth solver's state)";
+  const interface::InputFile bytes = interface::ReadInputFile(path, interface::kMaxStateBytes);
+  if (!bytes.ok) file.Fail(place, bytes.why + "; expected a final_state.pb of a contact process" + own);
+  state::ContactState s;
+  if (!s.ParseFromString(bytes.text)) {
+    file.Fail(place, "'" + path.string() + "' is not a readable final_state.pb of a contact process" + own);
   }
   const ContactModel& model = this->model();
   auto refuse = [&](const std::string& what) {

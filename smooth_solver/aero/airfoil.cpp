@@ -4,10 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 
 #include "interface/run/errors.h"
+#include "interface/run/input_file.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::smooth {
@@ -234,12 +234,10 @@ std::unique_ptr<C81Airfoil> C81Airfoil::Parse(const std::string& text, const std
 }
 
 std::unique_ptr<C81Airfoil> C81Airfoil::Read(const std::string& path, std::string name) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open the C81 airfoil table");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (text.str().size() > (16u << 20)) throw InputError(path + ": larger than 16 MiB; not a C81 table");
-  return Parse(text.str(), path, std::move(name));
+  // (Measured before it is read: a 6 GiB file used to be read whole, then refused.)
+  const interface::InputFile f = interface::ReadInputFile(path, interface::kMaxAirfoilBytes);
+  if (!f.ok) throw InputError(f.why + "; expected a C81 airfoil table");
+  return Parse(f.text, path, std::move(name));
 }
 
 std::string WriteC81(const Airfoil& airfoil, const std::string& title, const std::vector<double>& alpha_deg,

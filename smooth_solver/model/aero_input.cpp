@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <numbers>
 
+#include "interface/run/input_file.h"
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/model/multibody_model.h"
 
@@ -171,10 +172,9 @@ void AddAirfoils(const Checks& checks, const sc::Air& a, interface::NameTable* a
                    "a C81 table file (path relative to the scenario) or builtin_lift_slope");
     std::filesystem::path file(f.c81_file());
     if (file.is_relative()) file = folder / file;
-    if (!std::filesystem::is_regular_file(file)) {
-      checks.Fail(path + ".c81_file", "'" + file.string() + "' is not a readable file");
-    }
-    aero.airfoils.push_back(C81Airfoil::Read(file.string(), name));
+    const interface::InputFile text = interface::ReadInputFile(file, interface::kMaxAirfoilBytes);
+    if (!text.ok) checks.Fail(path + ".c81_file", text.why + "; expected a C81 airfoil table");
+    aero.airfoils.push_back(C81Airfoil::Parse(text.text, file.string(), name));
     aero.airfoil_names.push_back(name);
   }
 }

@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <numbers>
 #include <optional>
 #include <set>
 
+#include "interface/run/input_file.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
@@ -30,9 +30,10 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
                                const MultibodySystem& system, size_t joints, double start_time) {
   const std::string place = "numerics.initial_state";
   const std::filesystem::path path = file.PathBeside(file.proto().numerics().initial_state());
-  std::ifstream in(path, std::ios::binary);
+  const interface::InputFile bytes = interface::ReadInputFile(path, interface::kMaxStateBytes);
+  if (!bytes.ok) checks.Fail(place, bytes.why + "; expected a final_state.pb (a smooth run's saved state)");
   state::SmoothState s;
-  if (!in || !s.ParseFromIstream(&in)) {
+  if (!s.ParseFromString(bytes.text)) {
     checks.Fail(place, "'" + path.string() + "' is not a readable final_state.pb (a smooth run's saved state)");
   }
   if (s.scenario() != scenario) {
@@ -49,6 +50,11 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
                            ": expected a state written by a run of the same scene");
   }
   checks.StateTime("the state", s.time(), start_time);
+  if (!std::isfinite(s.reference_time())) {  // (carried into the states this run saves)
+    checks.Fail(place, "'" + path.string() + "' has a reference_time of " +
+                           interface::FormatNumber(s.reference_time()) +
+                           "; expected a finite time (a state written by a run of this scene)");
+  }
   for (int i = 0; i < s.q_size(); ++i) {
     if (!std::isfinite(s.q(i)) || !std::isfinite(s.qdot(i))) {
       checks.Fail(place,

@@ -178,6 +178,51 @@ TEST(Hardening, FullDiskEndsTheRunWithExitTwoNotOk) {
   EXPECT_NE(s.reason().find("history.csv failed: No space left on device"), std::string::npos) << s.reason();
 }
 
+TEST(Hardening, TheLaunchersJoinReadsOnlyTheRegularFilesTheRunWrote) {
+  // After every coupled run the launcher read each process's history.csv whole to join them:
+  // with OUT/history.csv linked to /dev/full (the smooth process then ends 2 at once, naming
+  // it) the launcher read /dev/full into memory until it was killed; a contact folder's history
+  // linked to /dev/zero (the process writes into it without error) likewise. Now each is
+  // measured first and refused by what it is: exit 2, naming the file.
+  const fs::path full = TempDir("join_full");
+  fs::create_symlink("/dev/full", full / "history.csv");
+  Result r = Launch(kTiedDrop + " --out " + full.string() + " --set numerics.end_time=0.05");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("'" + (full / "history.csv").string() + "' is a character device, not a regular file"),
+            std::string::npos)
+      << r.output;
+  const fs::path zero = TempDir("join_zero");
+  fs::create_directories(zero / "contacts");
+  fs::create_symlink("/dev/zero", zero / "contacts" / "history.csv");
+  r = Launch(kTiedDrop + " --out " + zero.string() + " --set numerics.end_time=0.05");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("the joined history was not written: '" + (zero / "contacts" / "history.csv").string() +
+                          "' is a character device, not a regular file"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(ReadSummary(zero).exit_code(), 2);
+}
+
+TEST(Hardening, ACoupledRunWhoseJoinedHistoryOrSceneCannotBeWrittenIsNotOk) {
+  // A coupled run ended 0 "ok" without its joined history or scene.pvd when the launcher could
+  // not write them (the name taken, the disk full at that moment), leaving .part files. The
+  // README lists both among a coupled run's outputs: exit 2 naming the file, no .part left.
+  // The launcher writes each through NAME.part and a rename; /dev/full linked there fails every
+  // write with ENOSPC, as a full disk does.
+  for (const std::string name : {"history_joined.csv", "scene.pvd"}) {
+    const fs::path out = TempDir("full_" + name);
+    fs::create_symlink("/dev/full", out / (name + ".part"));
+    const Result r =
+        Launch(kTiedDrop + " --out " + out.string() + " --set numerics.end_time=0.05 --set output.visual.every=10");
+    EXPECT_EQ(r.code, 2) << name << ": " << r.output;
+    EXPECT_NE(r.output.find("cannot write " + (out / name).string()), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(fs::symlink_status(out / (name + ".part")))) << name;
+    const cosim::run::RunSummary s = ReadSummary(out);
+    EXPECT_EQ(s.status(), "failed") << name;
+    EXPECT_NE(s.reason().find(name), std::string::npos) << s.reason();
+  }
+}
+
 TEST(Hardening, UnwritableSummaryIsAFailedRun) {
   // An unwritable summary.json printed an error and still exited 0.
   const fs::path out = TempDir("unwritable_summary");

@@ -3,6 +3,7 @@
 #include "interface/scenario/scenario_file.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <Eigen/Geometry>
@@ -275,6 +276,44 @@ TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
   std::filesystem::remove(dir / "blade.csv");
   m = MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), {}); });
   EXPECT_NE(m.find("'" + csv + "' cannot be read"), std::string::npos) << m;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(StationFiles, ATableThatIsAFifoADeviceOrTooLargeIsRefusedBeforeItIsRead) {
+  // Every CSV a scenario names (a beam's stations_file, a time function's table file, an
+  // airwake's grid_file) was read without the scenario reader's guards: a FIFO without a writer
+  // hung the run for ever, a link to /dev/zero was read into memory without end and then
+  // reported as "holds no stations". Each is refused with exit 2 naming the field and the file,
+  // before it is read (the sparse file is measured, never read).
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cosim_guarded_tables_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  ASSERT_EQ(::mkfifo((dir / "fifo.csv").c_str(), 0600), 0);
+  std::filesystem::create_symlink("/dev/zero", dir / "zero.csv");
+  { std::ofstream(dir / "huge.csv") << "s,mass\n"; }
+  std::filesystem::resize_file(dir / "huge.csv", 1ULL << 30);
+  const std::vector<std::pair<std::string, std::string>> fields = {
+      {"model { beams { name: \"b\" stations_file: \"FILE\" } }", "model.beams[0].stations_file"},
+      {"model { moving_bases { name: \"deck\" roll { table { file: \"FILE\" time_column: \"t\" value_column: \"r\" } } "
+       "} }",
+       "model.moving_bases[0].roll.table.file"},
+      {"model { air { airwake { speed: 10 form: TABLE grid_file: \"FILE\" } } }", "model.air.airwake.grid_file"},
+  };
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"fifo.csv", "is a FIFO, not a regular file"},
+      {"zero.csv", "is a character device, not a regular file"},
+      {"huge.csv", "has 1073741824 bytes; at most"},
+  };
+  for (const auto& [scene, field] : fields) {
+    for (const auto& [name, why] : files) {
+      std::string text = scene;
+      text.replace(text.find("FILE"), 4, name);
+      std::ofstream(dir / "main.pbtxt") << text;
+      const std::string m = MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), {}); });
+      EXPECT_NE(m.find(field + ": '" + (dir / name).string() + "' " + why), std::string::npos) << m;
+    }
+  }
   std::filesystem::remove_all(dir);
 }
 

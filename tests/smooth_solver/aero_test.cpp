@@ -3,6 +3,7 @@
 // momentum theory, a flapping blade's aerodynamic damping and coning, a still rotor in a
 // crosswind, and the Pitt–Peters inflow's response.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -1110,6 +1111,26 @@ TEST(AirLoads, BadAirInputNamesThePlace) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("bad.c81:1:"), std::string::npos) << e.what();
   }
+  // A C81 file that is a FIFO (blocked open() for ever), a device, or 6 GiB (read whole, then
+  // "the model does not fit in memory" with no place named): refused by what it is, before it is
+  // read, naming the field (the sparse file takes no disk).
+  const std::string fifo = WriteFile("fifo.c81", "");
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string huge = WriteFile("huge.c81", "");
+  std::filesystem::resize_file(huge, 6ULL << 30);
+  for (const auto& [file, why] :
+       std::vector<std::pair<std::string, std::string>>{{fifo, "is a FIFO, not a regular file"},
+                                                        {"/dev/zero", "is a character device, not a regular file"},
+                                                        {huge, "has 6442450944 bytes; at most 16777216 are read"}}) {
+    const std::string m = interface::MessageOf([&] {
+      BuildMultibodyModel(interface::ScenarioFile::Parse(scene("airfoils { name: \"t\" c81_file: \"" + file + "\" }"),
+                                                         "bad.pbtxt", {}));
+    });
+    EXPECT_NE(m.find("model.air.airfoils[0].c81_file: '" + file + "' " + why), std::string::npos) << m;
+  }
+  std::filesystem::remove(fifo);
+  std::filesystem::remove(huge);
 }
 
 }  // namespace

@@ -644,7 +644,7 @@ TEST(Restart, ARunFromASavedStateContinuesTheTrajectory) {
            {std::string(COSIM_SOURCE_DIR) + "/scenarios/four_bar.pbtxt",
             {"numerics.start_time=0.5", "numerics.initial_state=\"" + folder + "/final_state.pb\""},
             "scenario 'rigid_pendulum'"},
-           {pendulum, {"numerics.initial_state=\"" + folder + "/missing.pb\""}, "not a readable"}}) {
+           {pendulum, {"numerics.initial_state=\"" + folder + "/missing.pb\""}, "cannot be read: No such file"}}) {
     try {
       MultibodySimulation bad(interface::ScenarioFile::Load(scene, sets));
       ADD_FAILURE() << expected << ": accepted";

@@ -3,6 +3,7 @@
 // the elastic midpoint force) and the run's data (the contact laws' onset speeds, the rotors'
 // inflow), so the restart repeats the very steps the run would have taken.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include "interface/run/errors.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 #include "state.pb.h"
+#include "tests/interface/message_of.h"
 
 namespace cosim::smooth {
 namespace {
@@ -197,6 +199,33 @@ TEST(Restart, ASavedStateWhoseDataOrHistoryIsNotTheScenesIsRefusedNamingTheField
        "acceleration_variable[3] is not finite"},
   };
   ExpectEachEditRefused(path, saved, edits, folder);
+}
+
+TEST(Restart, ASavedStateThatIsAFifoOrADeviceIsRefusedBeforeItIsRead) {
+  // numerics.initial_state was read without the scenario reader's guards: a FIFO without a
+  // writer hung the run for ever (in a coupled restart the contact process kept heart-beating,
+  // so nothing gave up) and a link to /dev/zero was read into memory without end. Refused by what
+  // it is, naming the field; a saved state whose reference_time is not finite is refused too.
+  const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop_continuous.pbtxt";
+  const std::string folder = ::testing::TempDir() + "restart_not_a_file";
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder);
+  ASSERT_EQ(::mkfifo((folder + "/fifo.pb").c_str(), 0600), 0);
+  for (const auto& [file, why] :
+       std::vector<std::pair<std::string, std::string>>{{folder + "/fifo.pb", "is a FIFO, not a regular file"},
+                                                        {"/dev/zero", "is a character device, not a regular file"}}) {
+    const std::string m = interface::MessageOf([&] {
+      MultibodySimulation sim(interface::ScenarioFile::Load(path, {"numerics.initial_state=\"" + file + "\""}));
+    });
+    EXPECT_NE(m.find("numerics.initial_state: '" + file + "' " + why), std::string::npos) << m;
+  }
+  MultibodySimulation part(interface::ScenarioFile::Load(path, {}));
+  StepAndProbe(&part, 0.0, 5e-5, 10);
+  const state::SmoothState saved = SaveState(&part, folder);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  ExpectEachEditRefused(path, saved, {{[nan](state::SmoothState* s) { s->set_reference_time(nan); }, "reference_time"}},
+                        folder);
+  std::filesystem::remove_all(folder);
 }
 
 TEST(Restart, ASavedRotorInflowThatIsNotFiniteIsRefusedNamingTheRotorAndField) {

@@ -171,8 +171,13 @@ std::optional<std::string> IncludeOf(const std::string& line) {
 
 // `include: "FILE"` alone on its line (a comment may follow): FILE's lines in its place, FILE
 // relative to the folder of the file that includes it. `open` is the chain of files being
-// included (a file that includes itself, directly or not, is refused), at most 16 deep.
-void ExpandIncludes(const std::string& text, const std::string& file, std::vector<std::string>* open, std::string* out,
+// included (a file that includes itself, directly or not, is refused), at most 16 deep;
+// `included_at` the include line that brought `file` in (empty for the scenario itself). The
+// expanded text is bounded as a scenario file is: nine 30-byte files each including the next ten
+// times made 10⁹ lines, read until memory ran out.
+// `read` holds the files read so far (a file included again is not read again).
+void ExpandIncludes(const std::string& text, const std::string& file, const std::string& included_at,
+                    std::vector<std::string>* open, std::map<std::string, std::string>* read, std::string* out,
                     std::vector<std::pair<std::string, int>>* origins) {
   std::stringstream in(text);
   std::string line;
@@ -181,8 +186,15 @@ void ExpandIncludes(const std::string& text, const std::string& file, std::vecto
     ++n;
     const std::optional<std::string> included = IncludeOf(line);
     if (!included) {
-      *out += line + "\n";
+      out->append(line).push_back('\n');
       origins->emplace_back(file, n);
+      if (static_cast<long long>(out->size()) > ScenarioFile::kMaxScenarioBytes) {
+        throw InputError((included_at.empty() ? file + ":" + std::to_string(n) : included_at) +
+                         ": the scenario's text with its includes passes " +
+                         std::to_string(ScenarioFile::kMaxScenarioBytes) + " bytes here (" +
+                         std::to_string(origins->size()) +
+                         " lines so far); at most that is read: is a file included more often than meant?");
+      }
       continue;
     }
     const std::string where = file + ":" + std::to_string(n);
@@ -195,7 +207,9 @@ void ExpandIncludes(const std::string& text, const std::string& file, std::vecto
     }
     if (open->size() >= 16) throw InputError(where + ": include: more than 16 files deep");
     open->push_back(name);
-    ExpandIncludes(ReadScenarioText(name, where + ": include"), name, open, out, origins);
+    auto known = read->find(name);
+    if (known == read->end()) known = read->emplace(name, ReadScenarioText(name, where + ": include")).first;
+    ExpandIncludes(known->second, name, where, open, read, out, origins);
     open->pop_back();
   }
 }
@@ -405,7 +419,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   std::string joined;
   std::vector<std::pair<std::string, int>> origins;
   std::vector<std::string> open{display_name};
-  ExpandIncludes(text, display_name, &open, &joined, &origins);
+  std::map<std::string, std::string> read;
+  ExpandIncludes(text, display_name, "", &open, &read, &joined, &origins);
   ParameterValues substituted;
   const std::string expanded = ExpandParameters(joined, origins, display_name, overrides, &substituted);
   ScenarioFile file;

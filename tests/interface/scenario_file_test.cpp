@@ -222,6 +222,25 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(Include, AnIncludeThatMultipliesTheTextPastTheScenarioBoundIsRefusedWhereItPasses) {
+  // Nine 30-byte files each including the next ten times: 10⁹ lines, expanded until memory ran
+  // out (no answer after 60 s). The expanded text is bounded as a scenario file is: exit 2
+  // naming the include line where it passes the bound. (Stopped at the bound: 64 MiB.)
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cosim_include_bomb_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  for (int k = 0; k < 9; ++k) {
+    std::ofstream f(dir / ("f" + std::to_string(k) + ".pbtxt"));
+    for (int i = 0; i < 10; ++i) f << "include: \"f" << k + 1 << ".pbtxt\"\n";
+  }
+  std::ofstream(dir / "f9.pbtxt") << "# thirty bytes of a comment..\n";
+  const std::string m = MessageOf([&] { ScenarioFile::Load((dir / "f0.pbtxt").string(), {}); });
+  EXPECT_NE(m.find("f8.pbtxt:"), std::string::npos) << m;
+  EXPECT_NE(m.find(": the scenario's text with its includes passes 67108864 bytes here"), std::string::npos) << m;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
   // Beam.stations_file: a CSV beside the scenario, header = BeamStation's fields in any order
   // (here a subset; the others keep their defaults, an empty cell too), '#' lines skipped. The

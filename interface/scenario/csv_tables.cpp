@@ -1,5 +1,7 @@
 #include "interface/scenario/csv_tables.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -7,6 +9,7 @@
 #include <vector>
 
 #include "interface/run/input_file.h"
+#include "interface/scenario/checks.h"
 #include "interface/scenario/message_tree.h"
 
 namespace cosim::interface {
@@ -41,12 +44,26 @@ std::string Known(const pb::Descriptor* d) {
   return names;
 }
 
+// A column name as a header holds one: a letter or '_', then letters, digits, '_', '.', '-'
+// (at most 64 of them).
+bool LooksLikeAName(const std::string& cell) {
+  if (cell.empty() || cell.size() > 64) return false;
+  if (!std::isalpha(static_cast<unsigned char>(cell[0])) && cell[0] != '_') return false;
+  return std::all_of(cell.begin(), cell.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
+  });
+}
+bool LooksLikeAHeader(const std::vector<std::string>& cells) {
+  return std::all_of(cells.begin(), cells.end(), LooksLikeAName);
+}
+
 // A number from a CSV cell, or nothing.
 bool ReadNumber(const std::string& cell, double* value) {
   char* end = nullptr;
   errno = 0;
   *value = std::strtod(cell.c_str(), &end);
-  return end != cell.c_str() && *end == '\0' && errno != ERANGE && std::isfinite(*value);
+  // (the whole cell: "0.5\0…" was read as 0.5)
+  return end != cell.c_str() && end == cell.c_str() + cell.size() && errno != ERANGE && std::isfinite(*value);
 }
 
 using Fail = std::function<void(const std::string&, const std::string&)>;
@@ -110,11 +127,16 @@ void Load(pb::Message* m, const pb::FieldDescriptor* file_field, const pb::Field
     for (const std::string& name : cells) {
       const pb::FieldDescriptor* f = station->FindFieldByName(name);
       if (f == nullptr || f->is_repeated() || f->cpp_type() == pb::FieldDescriptor::CPPTYPE_MESSAGE) {
-        fail(place, where("") + ": '" + name + "' is not a field of " + station->name() + "; expected a header of " +
-                        Known(station));
+        // (A name is quoted; other text is not: a file that is no table, /etc/shadow, had its
+        // first line echoed into the terminal and summary.json.)
+        fail(place, where("") + ": " +
+                        (LooksLikeAName(name) ? "'" + name + "' is not a field of " + station->name()
+                                              : "the first line is not a header of " + station->name() +
+                                                    "'s fields (is it a CSV table?)") +
+                        "; expected a header of " + Known(station));
       }
       for (const pb::FieldDescriptor* seen : columns) {
-        if (seen == f) fail(place, where("") + ": column '" + name + "' is given twice");
+        if (seen == f) fail(place, where("") + ": column '" + EchoedText(name) + "' is given twice");
       }
       columns.push_back(f);
     }
@@ -133,7 +155,8 @@ void Load(pb::Message* m, const pb::FieldDescriptor* file_field, const pb::Field
       const bool whole =
           f->cpp_type() != pb::FieldDescriptor::CPPTYPE_DOUBLE && f->cpp_type() != pb::FieldDescriptor::CPPTYPE_FLOAT;
       if (!ReadNumber(cells[c], &v) || (whole && v != std::floor(v))) {
-        fail(place, where(f->name()) + ": '" + cells[c] + "' is not " + (whole ? "a whole number" : "a finite number"));
+        fail(place, where(f->name()) + ": '" + EchoedText(cells[c]) + "' is not " +
+                        (whole ? "a whole number" : "a finite number"));
       }
       switch (f->cpp_type()) {
         case pb::FieldDescriptor::CPPTYPE_DOUBLE:
@@ -177,7 +200,7 @@ void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
     for (size_t c = 0; c < cells.size(); ++c) {
       listed += (c == 0 ? "" : ", ") + cells[c];
       for (size_t d = 0; d < c; ++d) {
-        if (cells[d] == cells[c]) fail(place, where("") + ": column '" + cells[c] + "' is given twice");
+        if (cells[d] == cells[c]) fail(place, where("") + ": column '" + EchoedText(cells[c]) + "' is given twice");
       }
       if (cells[c] == time_name) {
         time_at = c;
@@ -188,15 +211,21 @@ void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
         has_value = true;
       }
     }
-    if (!has_time) fail(path + ".time_column", where("") + ": no column '" + time_name + "'; the header has " + listed);
+    // (The header listed only if it looks like one: a file that is no table is not quoted.)
+    const std::string shown = LooksLikeAHeader(cells)
+                                  ? "; the header has " + EchoedText(listed)
+                                  : "; the first line is not a header of names (is it a CSV table?)";
+    if (!has_time) fail(path + ".time_column", where("") + ": no column '" + EchoedText(time_name) + "'" + shown);
     if (!has_value) {
-      fail(path + ".value_column", where("") + ": no column '" + table->value_column() + "'; the header has " + listed);
+      fail(path + ".value_column", where("") + ": no column '" + EchoedText(table->value_column()) + "'" + shown);
     }
   };
   auto row = [&](const Cells& cells, const Where& where) {
     double t = 0.0, v = 0.0;
     for (auto [at, into] : {std::pair{time_at, &t}, std::pair{value_at, &v}}) {
-      if (!ReadNumber(cells[at], into)) fail(place, where(names[at]) + ": '" + cells[at] + "' is not a finite number");
+      if (!ReadNumber(cells[at], into)) {
+        fail(place, where(names[at]) + ": '" + EchoedText(cells[at]) + "' is not a finite number");
+      }
     }
     table->add_time(t);
     table->add_value(v * table->value_scale());

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "interface/run/errors.h"
+#include "interface/scenario/checks.h"
 
 namespace cosim::interface {
 namespace {
@@ -35,7 +36,7 @@ class Parser {
   // "<context>: '<text>' at column <c>: <what>", with what an expression may hold unless the
   // mistake is a name.
   [[noreturn]] void Fail(const std::string& what, bool syntax = true) const {
-    throw InputError(context_ + ": '" + s_ + "' at column " + std::to_string(i_ + 1) + ": " + what +
+    throw InputError(context_ + ": '" + EchoedText(s_) + "' at column " + std::to_string(i_ + 1) + ": " + what +
                      (syntax ? " (an expression holds numbers, parameters, + - * / ^, parentheses and sin, cos, tan, "
                                "asin, acos, atan, atan2, sqrt, exp, log, abs, min, max, radians, degrees, pi)"
                              : ""));
@@ -133,8 +134,9 @@ class Parser {
         {"degrees", [](double x) { return x * 180.0 / std::numbers::pi; }}};
     static const std::map<std::string, double (*)(double, double)> two = {
         {"atan2", [](double y, double x) { return std::atan2(y, x); }},
-        {"min", [](double a, double b) { return std::min(a, b); }},
-        {"max", [](double a, double b) { return std::max(a, b); }}};
+        // (A NaN argument gives a NaN, refused as not finite: std::max(1, nan) is 1.)
+        {"min", [](double a, double b) { return std::isnan(a) || std::isnan(b) ? a + b : std::min(a, b); }},
+        {"max", [](double a, double b) { return std::isnan(a) || std::isnan(b) ? a + b : std::max(a, b); }}};
     if (const auto f = one.find(name); f != one.end()) {
       if (args.size() != 1) ArgumentCount(name, at, 1, args.size());
       return f->second(args[0]);
@@ -179,7 +181,11 @@ double EvaluateExpression(const std::string& text, const NameLookup& lookup, con
   Parser parser(text, lookup, context, known);
   const double v = parser.Parse();
   if (!std::isfinite(v)) {
-    throw InputError(context + ": '" + text + "' is " + std::to_string(v) + "; expected a finite number");
+    throw InputError(context + ": '" + EchoedText(text) + "' is " +
+                     (std::isnan(v) ? std::string("not a number (NaN)")
+                      : v > 0       ? "+inf"
+                                    : "-inf") +
+                     "; expected a finite number");
   }
   return v;
 }

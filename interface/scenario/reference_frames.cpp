@@ -19,9 +19,11 @@ Eigen::Vector3d RotationVector(const Eigen::Matrix3d& rotation) {
   return aa.angle() * aa.axis();
 }
 
+// (A non-finite rotation vector gives a non-finite matrix, never the identity: `angle > 0` was
+// false for a NaN, and a template's [nan, 0.1745, 0] became "no rotation".)
 Eigen::Matrix3d RotationMatrix(const Eigen::Vector3d& v) {
   const double angle = v.norm();
-  return angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  return angle == 0.0 ? Eigen::Matrix3d::Identity() : Eigen::AngleAxisd(angle, v / angle).toRotationMatrix();
 }
 
 // The element's `reference` field, or nullptr if its message has none.

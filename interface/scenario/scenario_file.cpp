@@ -404,7 +404,7 @@ std::string ScenarioFile::ExpandParameters(const std::string& joined,
   std::string expanded;
   size_t copied = 0;
   for (const Placeholder& p : places) {
-    const std::string where = place_of(p.line, p.column) + ": ${" + p.expression + "}";
+    const std::string where = place_of(p.line, p.column) + ": ${" + EchoedText(p.expression) + "}";
     expanded += joined.substr(copied, p.begin - copied) +
                 FormatParameter(EvaluateExpression(p.expression, lookup, where, known));
     copied = p.end;
@@ -434,6 +434,9 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   for (const std::string& argument : overrides) {
     if (of_patterns(argument)) file.ApplyOverride(argument);
   }
+  // Every number finite before the patterns copy it (a template's rotation [nan, 0.1745, 0] was
+  // turned into "no rotation" by the copying, and the check after it found nothing).
+  file.CheckFinite(file.proto_, "");
   file.pattern_origins_ = ExpandPatterns(
       &file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   for (const std::string& argument : overrides) {
@@ -447,6 +450,7 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   LoadCsvTables(
       &file.proto_, [&file](const std::string& given) { return file.PathBeside(given); },
       [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
+  file.CheckFinite(file.proto_, "");  // (a table's value times its value_scale may overflow)
   // Frames last, so that every override of a frame or of an element written in one counts.
   std::vector<std::pair<std::string, CopyTurn>> deferred;
   for (const PatternOrigin& o : file.pattern_origins_) {

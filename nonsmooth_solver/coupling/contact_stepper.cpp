@@ -54,10 +54,12 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
     file.Fail(place, "'" + path.string() + "' " + what + "; expected a state written by a run of this scene");
   };
   if (s.scenario() != scenario_name_)
-    refuse("is a state of scenario '" + s.scenario() + "', not of '" + scenario_name_ + "'");
-  if (s.process() != process) refuse("is the state of process '" + s.process() + "', not of '" + process + "'");
+    refuse("is a state of scenario '" + interface::EchoedText(s.scenario()) + "', not of '" + scenario_name_ + "'");
+  if (s.process() != process)
+    refuse("is the state of process '" + interface::EchoedText(s.process()) + "', not of '" + process + "'");
   if (s.method() != MethodName()) {
-    refuse("was written by the " + s.method() + " method, and this process runs " + MethodName());
+    refuse("was written by the " + interface::EchoedText(s.method()) + " method, and this process runs " +
+           MethodName());
   }
   bool same_nodes = s.nodes_size() == static_cast<int>(model.nodes.size());
   for (int n = 0; same_nodes && n < s.nodes_size(); ++n)

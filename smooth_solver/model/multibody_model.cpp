@@ -178,8 +178,8 @@ void AddBodies(const Checks& checks, const sc::Model& m, NameTable* body_names, 
     body.inertia = Inertia(checks, path + ".inertia", b.inertia());
     body.position = checks.Vector3(path + ".position", b.position(), Eigen::Vector3d::Zero());
     const Eigen::Vector3d rv = checks.Vector3(path + ".rotation", b.rotation(), Eigen::Vector3d::Zero());
-    body.orientation = rv.norm() > 0.0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv.normalized()))
-                                       : Eigen::Quaterniond::Identity();
+    body.orientation = rv.norm() == 0.0 ? Eigen::Quaterniond::Identity()  // (a NaN stays a NaN)
+                                        : Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv / rv.norm()));
     body.velocity = checks.Vector3(path + ".velocity", b.velocity(), Eigen::Vector3d::Zero());
     body.angular_velocity = checks.Vector3(path + ".angular_velocity", b.angular_velocity(), Eigen::Vector3d::Zero());
     model->bodies.push_back(body);

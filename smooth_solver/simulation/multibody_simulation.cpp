@@ -37,16 +37,16 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
     checks.Fail(place, "'" + path.string() + "' is not a readable final_state.pb (a smooth run's saved state)");
   }
   if (s.scenario() != scenario) {
-    checks.Fail(place, "'" + path.string() + "' is a state of scenario '" + s.scenario() + "', not of '" + scenario +
-                           "'; expected a state written by a run of this scene");
+    checks.Fail(place, "'" + path.string() + "' is a state of scenario '" + interface::EchoedText(s.scenario()) +
+                           "', not of '" + scenario + "'; expected a state written by a run of this scene");
   }
   if (s.coordinates() != system.coordinates || s.constraints() != system.constraints.size() ||
       s.q_size() != system.coordinates || s.qdot_size() != system.coordinates ||
       s.reference_q_size() != system.coordinates || s.angle_offsets_size() != static_cast<int>(joints)) {
     checks.Fail(place, "'" + path.string() + "' holds a state of " + std::to_string(s.coordinates()) +
                            " coordinates and " + std::to_string(s.constraints()) + " constraints (scenario '" +
-                           s.scenario() + "'); this scene has " + std::to_string(system.coordinates) + " and " +
-                           std::to_string(system.constraints.size()) +
+                           interface::EchoedText(s.scenario()) + "'); this scene has " +
+                           std::to_string(system.coordinates) + " and " + std::to_string(system.constraints.size()) +
                            ": expected a state written by a run of the same scene");
   }
   checks.StateTime("the state", s.time(), start_time);

@@ -149,6 +149,15 @@ TEST(Parameters, MistakesNameTheirPlace) {
             std::string::npos);
   EXPECT_NE(error(p + "numerics { end_time: ${sqrt(R, 2)} }").find("sqrt takes 1 argument, got 2"), std::string::npos);
   EXPECT_NE(error(p + "numerics { end_time: ${log(0)} }").find("expected a finite number"), std::string::npos);
+  // A NaN argument of max or min is a NaN (std::max(1, nan) is 1: ${max(1, 0/0)} was 1).
+  EXPECT_NE(error(p + "numerics { end_time: ${max(1, 0/0)} }").find("is not a number (NaN); expected a finite number"),
+            std::string::npos)
+      << error(p + "numerics { end_time: ${max(1, 0/0)} }");
+  EXPECT_NE(error(p + "numerics { end_time: ${min(0/0, 1)} }").find("is not a number (NaN); expected a finite number"),
+            std::string::npos);
+  // A long expression is quoted cut, once per place (a 1 MB expression was quoted whole, twice).
+  const std::string long_sum = "1" + std::string(1 << 20, ' ') + "+ Rr";
+  EXPECT_LT(error(p + "numerics { end_time: ${" + long_sum + "} }").size(), 2000u);
   // Deep nesting is refused, not a stack overflow.
   EXPECT_NE(error(p + "numerics { end_time: ${" + std::string(100000, '(') + "1} }").find("nested more than 200 deep"),
             std::string::npos);
@@ -333,6 +342,46 @@ TEST(StationFiles, ATableThatIsAFifoADeviceOrTooLargeIsRefusedBeforeItIsRead) {
       EXPECT_NE(m.find(field + ": '" + (dir / name).string() + "' " + why), std::string::npos) << m;
     }
   }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(StationFiles, NumbersAreWholeCellsAndFileTextIsNotEchoed) {
+  // A cell "0.5\0…" was read as 0.5; a table's value times its value_scale could overflow to inf
+  // and be accepted; a file that is not a table (/etc/shadow) had its first line quoted in the
+  // message, and a 10 MB cell gave a 10 MB message. Each is refused, naming the place, with at
+  // most a cut quote.
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cosim_table_cells_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name, std::ios::binary) << text;
+  };
+  const std::string beam = "model { beams { name: \"b\" stations_file: \"blade.csv\" } }";
+  const std::string deck =
+      "model { moving_bases { name: \"deck\" roll { table { file: \"deck.csv\" time_column: \"t\" "
+      "value_column: \"r\" value_scale: 1e300 } } } }";
+  auto error_with = [&](const std::string& scene, const std::string& file, const std::string& text) {
+    write(file, text);
+    write("main.pbtxt", scene);
+    return MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), {}); });
+  };
+  std::string m = error_with(beam, "blade.csv", std::string("s,mass\n0,0.5\0 trailing\n", 23));
+  EXPECT_NE(m.find("line 2, column 'mass': '0.5? trailing' is not a finite number"), std::string::npos) << m;
+  m = error_with(deck, "deck.csv", "t,r\n0,0\n1,1e10\n");
+  EXPECT_NE(m.find("model.moving_bases[0].roll.table.value[1]: must be a finite number, got inf"), std::string::npos)
+      << m;
+  const std::string secret = "root:$6$saltsalt$hashhashhash:19000:0:99999:7:::";
+  m = error_with(beam, "blade.csv", secret + "\ndaemon:*:19000:0:99999:7:::\n");
+  EXPECT_EQ(m.find("saltsalt"), std::string::npos) << m;
+  EXPECT_NE(m.find("the first line is not a header of BeamStation's fields (is it a CSV table?)"), std::string::npos)
+      << m;
+  m = error_with(deck, "deck.csv", secret + "\n1,2\n");
+  EXPECT_EQ(m.find("saltsalt"), std::string::npos) << m;
+  EXPECT_NE(m.find("no column 't'; the first line is not a header of names"), std::string::npos) << m;
+  m = error_with(beam, "blade.csv", "s,mass\n0," + std::string(10 << 20, 'x') + "\n");
+  EXPECT_LT(m.size(), 2000u);
+  EXPECT_NE(m.find("(10485760 bytes)' is not a finite number"), std::string::npos) << m.substr(0, 600);
   std::filesystem::remove_all(dir);
 }
 
@@ -553,6 +602,13 @@ TEST(Pattern, BadPatternsAreRefusedWithTheirPlace) {
                 .find("patterns[0].each.model.gravity: a pattern repeats list elements"),
             std::string::npos);
   EXPECT_NE(error({"patterns[0].each.numerics.step=0.1"}).find("patterns[0].each.numerics.step"), std::string::npos);
+  // A NaN in a template's rotation was read as "no rotation" (exit 0), the valid angle beside it
+  // dropped too: the finiteness check ran after the copying, and the rotation of a non-finite
+  // vector was the identity. The template is checked before it is copied.
+  EXPECT_NE(error({"patterns[0].each.model.bodies[0].rotation=[nan, 0.1745, 0]"})
+                .find("patterns[0].each.model.bodies[0].rotation[0]: must be a finite number, got nan"),
+            std::string::npos)
+      << error({"patterns[0].each.model.bodies[0].rotation=[nan, 0.1745, 0]"});
 }
 
 }  // namespace

@@ -225,6 +225,20 @@ TEST(Restart, ASavedStateThatIsAFifoOrADeviceIsRefusedBeforeItIsRead) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   ExpectEachEditRefused(path, saved, {{[nan](state::SmoothState* s) { s->set_reference_time(nan); }, "reference_time"}},
                         folder);
+  // A saved state's 50 MB scenario name gave a 52 MB message: quoted cut.
+  state::SmoothState named = saved;
+  named.set_scenario(std::string(50 << 20, 'x'));
+  {
+    std::ofstream out(folder + "/named.pb", std::ios::binary);
+    ASSERT_TRUE(named.SerializeToOstream(&out));
+  }
+  const std::string m = interface::MessageOf([&] {
+    MultibodySimulation sim(interface::ScenarioFile::Load(
+        path,
+        {"numerics.start_time=" + std::to_string(saved.time()), "numerics.initial_state=\"" + folder + "/named.pb\""}));
+  });
+  EXPECT_NE(m.find("is a state of scenario 'xxx"), std::string::npos) << m.substr(0, 500);
+  EXPECT_LT(m.size(), 2000u);
   std::filesystem::remove_all(folder);
 }
 

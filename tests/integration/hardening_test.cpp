@@ -116,11 +116,11 @@ Background StartLongTiedDrop(const fs::path& out, const std::vector<std::string>
   return Start("cosim_launch", arguments, out.string() + ".txt");
 }
 
-// Waits until `out`/history.csv has `rows` rows after its header; false after `seconds`.
-bool WaitForHistoryRows(const fs::path& out, int rows, double seconds) {
+// Waits until `out`/`file` (history.csv) has `rows` rows after its header; false after `seconds`.
+bool WaitForHistoryRows(const fs::path& out, int rows, double seconds, const std::string& file = "history.csv") {
   const auto t0 = Clock::now();
   while (SecondsSince(t0) < seconds) {
-    const std::string history = Slurp(out / "history.csv");
+    const std::string history = Slurp(out / file);
     if (std::count(history.begin(), history.end(), '\n') >= rows + 1) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
@@ -239,7 +239,7 @@ TEST(Hardening, SecondRunIntoTheSameFolderIsRefused) {
   Background first =
       Start("cosim_launch", {kBall, "--out", out.string(), "--set", "numerics.end_time=1e6"}, dir / "first.txt");
   ASSERT_NE(WaitForProcess("nonsmooth_solver " + kBall + " --out " + out.string()), -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // it has locked its folder
+  ASSERT_TRUE(WaitForHistoryRows(out, 1, 120.0));  // it has locked its folder (then it writes rows)
   const Result second = Launch(kBall + " --out " + out.string() + " --set numerics.end_time=0.1");
   EXPECT_EQ(second.code, 2) << second.output;
   EXPECT_NE(second.output.find("the output folder is in use by another run"), std::string::npos) << second.output;
@@ -315,7 +315,7 @@ TEST(Hardening, StoppedContactProcessDoesNotHangTheRun) {
   Background run = StartLongTiedDrop(out, {"coupling.timeout=1"});
   const pid_t contact = WaitForProgram("nonsmooth_solver", out);
   ASSERT_NE(contact, -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_TRUE(WaitForHistoryRows(out / "contacts", 1, 120.0));  // stepping (a row written), not starting
   const auto t0 = Clock::now();
   kill(contact, SIGSTOP);
   EXPECT_EQ(run.Wait(20.0), 4);
@@ -424,7 +424,10 @@ TEST(Hardening, SignalsToTheLauncherReachItsChildren) {
     const fs::path out = TempDir("launcher_signal_" + std::to_string(signal));
     Background run = StartLongTiedDrop(out);
     ASSERT_NE(WaitForProgram("smooth_solver", out), -1);
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    // Both stepping (a row of each on disk): a signal before the first step found steps() == 0
+    // under load, where 300 ms were not enough.
+    ASSERT_TRUE(WaitForHistoryRows(out, 1, 120.0));
+    ASSERT_TRUE(WaitForHistoryRows(out / "contacts", 1, 120.0));
     kill(run.pid, signal);
     const int code = run.Wait(10.0);
     EXPECT_EQ(code, signal == SIGTERM ? 4 : -SIGKILL);
@@ -444,17 +447,20 @@ TEST(Hardening, KilledCoordinatorStillLeavesASummaryAndItsRecentRows) {
   Background run = StartLongTiedDrop(out);
   const pid_t coordinator = WaitForProgram("smooth_solver", out);
   ASSERT_NE(coordinator, -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  // 200 rows on disk (0.2 s simulated) while it runs on: they reach the disk at least every
+  // second, or this wait would not end (was: 2.5 s of wall time, too little under load).
+  ASSERT_TRUE(WaitForHistoryRows(out, 200, 120.0));
+  ASSERT_TRUE(WaitForHistoryRows(out, 11, 120.0, "coupling.csv"));
   kill(coordinator, SIGKILL);
   EXPECT_EQ(run.Wait(15.0), 4);
   const cosim::run::RunSummary s = ReadSummary(out);
   EXPECT_EQ(s.status(), "failed");
   EXPECT_NE(s.reason().find("smooth_solver was killed by signal 9"), std::string::npos) << s.reason();
-  // Rows written within the last second before the kill: at least a second's worth of a run
-  // that went for 2.5 s (a tied_drop step takes well under a millisecond).
+  // The rows on disk before the kill are kept (none cut), and the summary the launcher wrote
+  // ends where they end.
   const auto rows = ReadHistory(out / "history.csv");
-  ASSERT_GT(rows.size(), 10u);
-  EXPECT_GT(rows.back()[0], 0.1);
+  ASSERT_GE(rows.size(), 200u);
+  EXPECT_GE(rows.back()[0], 0.199);
   EXPECT_NEAR(s.simulated_time(), rows.back()[0], 1e-12);
   const auto iterations = ReadHistory(out / "coupling.csv");  // streamed too
   EXPECT_GT(iterations.size(), 10u);
@@ -481,7 +487,7 @@ TEST(Hardening, AStrangerOnTheMachineCannotEndARun) {
   Background run =
       StartLongTiedDrop(out, {"numerics.end_time=4", "coupling.processes[0].endpoint=\"" + endpoint + "\""});
   ASSERT_NE(WaitForProgram("nonsmooth_solver", out), -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(WaitForHistoryRows(out / "contacts", 1, 120.0));  // its socket bound (it steps)
   zmq::context_t context;
   zmq::socket_t stranger(context, zmq::socket_type::dealer);
   stranger.set(zmq::sockopt::linger, 200);
@@ -637,7 +643,7 @@ TEST(Hardening, AnEarlierRunsSummaryDoesNotSpeakForAKilledOne) {
   Background run = Start("nonsmooth_solver", {kBall, "--out", out.string(), "--set", "numerics.end_time=1e6"},
                          out.string() + ".txt");
   ASSERT_NE(WaitForProcess("/nonsmooth_solver " + kBall + " --out " + out.string()), -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_TRUE(WaitForHistoryRows(out, 1, 120.0));
   kill(run.pid, SIGKILL);
   EXPECT_EQ(run.Wait(10.0), -SIGKILL);
   EXPECT_FALSE(fs::exists(out / "summary.json"));

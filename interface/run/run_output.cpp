@@ -61,6 +61,38 @@ bool OutputFile::Flush() {
   return error_.empty();
 }
 
+bool HeldByAnotherRun(const std::string& folder) {
+  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC | O_NOFOLLOW);
+  if (fd < 0) return false;
+  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // (releases the lock if it was taken here)
+  return held;
+}
+
+void RemoveEarlierVisualOutput(const std::string& folder) {
+  // Only what a run of this folder writes: the two indexes as files, and in visual/ the frames
+  // (NNNNNN.vtu) and legend.csv. A folder where an index would go, or visual/ as another run's
+  // output folder (a running run's --out P/visual), is not this folder's output: it was removed
+  // whole, and the running run lost its history.
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  for (const char* index : {"/visual.pvd", "/scene.pvd"}) {
+    const fs::file_status st = fs::symlink_status(folder + index, ec);
+    if (fs::is_regular_file(st) || fs::is_symlink(st)) fs::remove(folder + index, ec);
+  }
+  const std::string visual = folder + "/visual";
+  const fs::file_status st = fs::symlink_status(visual, ec);
+  if (fs::is_symlink(st)) fs::remove(visual, ec);  // (the link, not what it points to)
+  if (!fs::is_directory(st) || HeldByAnotherRun(visual)) return;
+  for (const fs::directory_entry& e : fs::directory_iterator(visual, ec)) {
+    const std::string name = e.path().filename().string();
+    const bool frame = name.size() == 10 && name.compare(6, 4, ".vtu") == 0 &&
+                       std::all_of(name.begin(), name.begin() + 6, [](char c) { return c >= '0' && c <= '9'; });
+    if ((frame || name == "legend.csv") && e.is_regular_file(ec)) fs::remove(e.path(), ec);
+  }
+  fs::remove(visual, ec);  // (only if nothing else is left in it)
+}
+
 RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& probe_names)
     : folder_(folder), probe_count_(static_cast<int>(probe_names.size())) {
   if (folder.empty()) throw InputError("--out: the output folder is an empty string; give a folder");
@@ -87,8 +119,7 @@ RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& 
   // An earlier run's summary would describe this run if it were killed before its own; its
   // visual output would mix with this run's frames (or stand for them if this run writes none).
   ::unlink((folder + "/summary.json").c_str());
-  for (const char* visual : {"/visual.pvd", "/scene.pvd", "/visual"})
-    std::filesystem::remove_all(folder + visual, error);
+  RemoveEarlierVisualOutput(folder);
   history_ = std::make_unique<OutputFile>(folder + "/history.csv");
   const std::string log_path = folder + "/log.txt";
   log_ = std::fopen(log_path.c_str(), "w");

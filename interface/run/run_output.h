@@ -103,4 +103,11 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path);
 // Reads one back; false if there is none or it does not parse.
 bool ReadSummaryJson(const std::string& path, run::RunSummary* summary);
 
+// True if `folder` is the output folder of a running run (RunOutput's lock on it is held).
+bool HeldByAnotherRun(const std::string& folder);
+
+// Removes what an earlier run of `folder` wrote as visual output (visual.pvd, scene.pvd, the
+// frames and legend in visual/), and nothing else: never a folder that is another run's.
+void RemoveEarlierVisualOutput(const std::string& folder);
+
 }  // namespace cosim::interface

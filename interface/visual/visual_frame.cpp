@@ -18,6 +18,7 @@
 
 #include "interface/run/errors.h"
 #include "interface/run/input_file.h"
+#include "interface/run/run_output.h"
 
 namespace cosim::interface {
 
@@ -155,6 +156,11 @@ VisualSeries::VisualSeries(std::string folder) : folder_(std::move(folder)) {
   std::error_code ec;
   std::filesystem::create_directories(folder_ + "/visual", ec);
   if (ec) throw InputError("visual output: cannot create " + folder_ + "/visual: " + ec.message());
+  if (HeldByAnotherRun(folder_ + "/visual")) {  // (its frames would go into a running run's folder)
+    throw InputError("visual output: " + folder_ +
+                     "/visual, where this run's frames go, is the output folder of a running run; give this run "
+                     "another --out");
+  }
 }
 
 void VisualSeries::Write(const VisualFrame& frame, double time) {

@@ -223,6 +223,41 @@ TEST(Hardening, ACoupledRunWhoseJoinedHistoryOrSceneCannotBeWrittenIsNotOk) {
   }
 }
 
+TEST(Hardening, ANewRunNeverRemovesAnotherRunsFolder) {
+  // With run A's --out at P/visual (or P/scene.pvd), run B with --out P removed P/visual whole to
+  // drop old frames: A ended 2 with its history gone. B now removes only the files a run of P
+  // writes, and refuses to put its frames into a running run's folder.
+  for (const std::string name : {"visual", "scene.pvd"}) {
+    const fs::path p = TempDir("nested_" + name), a = p / name;
+    Background first = StartLongTiedDrop(a);
+    ASSERT_TRUE(WaitForHistoryRows(a, 1, 120.0)) << Slurp(a.string() + ".txt");
+    Result second = Launch(kBall + " --out " + p.string() + " --set numerics.end_time=0.05");
+    EXPECT_EQ(second.code, 0) << second.output;
+    if (name == "visual") {
+      second = Launch(kBall + " --out " + p.string() + " --set numerics.end_time=0.05 --set output.visual.every=1");
+      EXPECT_EQ(second.code, 2) << second.output;
+      EXPECT_NE(second.output.find("/visual, where this run's frames go, is the output folder of a running run"),
+                std::string::npos)
+          << second.output;
+    }
+    EXPECT_TRUE(fs::exists(a / "history.csv")) << name;
+    const size_t rows = ReadHistory(a / "history.csv").size();
+    kill(first.pid, SIGTERM);
+    EXPECT_EQ(first.Wait(30.0), 4) << Slurp(a.string() + ".txt");
+    EXPECT_EQ(ReadSummary(a).exit_code(), 4) << name;
+    EXPECT_GE(ReadHistory(a / "history.csv").size(), rows) << name;
+  }
+  // An earlier run's frames are still dropped: only they.
+  const fs::path q = TempDir("old_frames");
+  ASSERT_EQ(Launch(kBall + " --out " + q.string() + " --set numerics.end_time=0.05 --set output.visual.every=1").code,
+            0);
+  std::ofstream(q / "visual" / "notes.txt") << "mine";
+  ASSERT_EQ(Launch(kBall + " --out " + q.string() + " --set numerics.end_time=0.01").code, 0);
+  EXPECT_FALSE(fs::exists(q / "visual" / "000000.vtu"));
+  EXPECT_FALSE(fs::exists(q / "visual.pvd"));
+  EXPECT_TRUE(fs::exists(q / "visual" / "notes.txt"));
+}
+
 TEST(Hardening, UnwritableSummaryIsAFailedRun) {
   // An unwritable summary.json printed an error and still exited 0.
   const fs::path out = TempDir("unwritable_summary");

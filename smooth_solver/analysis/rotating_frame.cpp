@@ -339,7 +339,10 @@ EquilibriumResult StaticEquilibrium(const MultibodySystem& system, SystemData* d
     sliding.Tangent(n, &sink);
     const Eigen::SparseMatrix<double> K = sink.Build(N);
     NewtonStep step(K, mass_N, R, n, sliding.size());
-    if (!step.Solve(options, &pseudo_mass)) break;
+    if (!step.Solve(options, &pseudo_mass)) {
+      r.singular = true;
+      break;
+    }
     Eigen::VectorXd& delta = step.delta();
     const auto moves = [&] { return step.Moves(); };
     // Steps in q and s capped at options.max_step (metres, or director components): the first

@@ -64,6 +64,7 @@ struct EquilibriumResult {
   int blocked_node = -1, blocked_guard = -1;
   int iterations = 0;
   bool converged = false;
+  bool singular = false;          // stopped on a tangent singular even with the pseudo-mass
   double residual = 0.0;          // max norm of the force and constraint residual at the end
   double initial_residual = 0.0;  // the same at the guess
 };

@@ -42,6 +42,11 @@ ModalSimulation::ModalSimulation(const interface::ScenarioFile& file) : model_(B
                 "a MODES analysis sweeps the spin speed and has no motion to draw; leave "
                 "visual output out (0)");
   }
+  if (numerics_.smooth().settle()) {  // (it was ignored in silence; STATIC refuses it too)
+    checks.Fail("numerics.smooth.settle",
+                "settles the start of a DYNAMIC analysis; a MODES analysis finds its own steady state at each "
+                "spin speed: remove it");
+  }
   if (numerics_.start_time() < 0.0) {
     checks.Fail("numerics.start_time", "is the first spin speed in a MODES analysis; expected >= 0 rad/s, got " +
                                            interface::FormatNumber(numerics_.start_time()));
@@ -54,6 +59,14 @@ ModalSimulation::ModalSimulation(const interface::ScenarioFile& file) : model_(B
   pending_.clear();
   pending_speed_.clear();
   Solve(numerics_.start_time());
+  if (modes_.size() < static_cast<size_t>(count_)) {
+    // (More modes asked than the model has: their columns were NaN, and the run ended 3, "no
+    // longer finite", with no row written.)
+    checks.Fail("numerics.smooth.modes.count", "asks for " + std::to_string(count_) + " modes; the model has " +
+                                                   std::to_string(modes_.size()) + " oscillating modes at " +
+                                                   interface::FormatNumber(numerics_.start_time()) +
+                                                   " rad/s: ask for at most " + std::to_string(modes_.size()));
+  }
 }
 
 void ModalSimulation::Solve(double omega) {

@@ -836,6 +836,19 @@ EquilibriumResult MultibodySimulation::SettleSolve(const MultibodySystem& system
   for (const SlidingNode& node : options.sliding)
     moving += (moving.empty() ? "" : ", ") +
               ("'" + system.interface_points[static_cast<size_t>(node.point)].contact_node + "'");
+  if (r.singular && r.iterations == 0) {
+    // Nothing holds some part of the model where it starts, even in pseudo-time (its tangent is
+    // singular with the pseudo-mass): a scene without a rest to settle into is bad input for
+    // settle (tied_drop settled: a body on a tie to a node in mid-air ended 3, "no static
+    // equilibrium (residual 9.81 after 0 Newton iterations)").
+    throw InputError(
+        "numerics.smooth.settle: nothing holds the model at rest where it starts: its equilibrium's tangent is "
+        "singular" +
+        (moving.empty()
+             ? std::string(" (a body or mechanism free to move under its loads: no joint or stop holds it)")
+             : " (contact nodes " + moving + " rest on no plane, so nothing holds them or what hangs on them)") +
+        "; hold it, start it on its stop, or remove settle");
+  }
   throw NumericalError(
       "numerics.smooth.settle: no static equilibrium at t = " + interface::FormatNumber(time_) + " s" +
       (spin.omega.isZero() ? std::string() : " in the frame spinning with the rotor") +

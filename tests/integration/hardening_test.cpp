@@ -258,6 +258,18 @@ TEST(Hardening, ANewRunNeverRemovesAnotherRunsFolder) {
   EXPECT_TRUE(fs::exists(q / "visual" / "notes.txt"));
 }
 
+TEST(Hardening, ASettleWithNothingToRestOnIsBadInput) {
+  // tied_drop settled (a body on a tie to a contact node in mid-air: nothing holds either)
+  // ended 3, "no static equilibrium (residual 9.81 after 0 Newton iterations)": a scene with no
+  // rest to settle into is bad input for settle, named with what holds nothing.
+  const fs::path out = TempDir("settle_in_mid_air");
+  const Result r = Launch(kTiedDrop + " --out " + out.string() + " --set numerics.smooth.settle=true");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("numerics.smooth.settle: nothing holds the model at rest where it starts"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("contact nodes 'node' rest on no plane"), std::string::npos) << r.output;
+}
+
 TEST(Hardening, UnwritableSummaryIsAFailedRun) {
   // An unwritable summary.json printed an error and still exited 0.
   const fs::path out = TempDir("unwritable_summary");

@@ -22,6 +22,7 @@
 #include "smooth_solver/model/multibody_system.h"
 #include "smooth_solver/simulation/modal_simulation.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
+#include "tests/interface/message_of.h"
 
 namespace cosim::smooth {
 namespace {
@@ -548,6 +549,30 @@ TEST(Beam, AModesAnalysisRefusesVisualOutputItWouldWriteEmpty) {
     EXPECT_NE(what.find("output.visual.every"), std::string::npos) << what;
     EXPECT_NE(what.find("has no motion to draw; leave visual output out (0)"), std::string::npos) << what;
   }
+}
+
+TEST(Modes, MoreModesThanTheModelHasOrASettleAreRefusedNamingTheField) {
+  // One rigid blade on a flap hinge spinning at 10 to 20 rad/s has one oscillating mode. Asked
+  // for three, the run ended 3 ("the solution is no longer finite": the missing modes' columns
+  // were NaN) with no row; a settle was ignored in silence (STATIC refuses it). Both exit 2 now.
+  const std::string text = R"(
+    name: "one_hinge_modes"
+    model {
+      bodies { name: "blade" mass: 10 inertia: [0.1, 3, 3] position: [2, 0, 0] }
+      joints { name: "flap" type: REVOLUTE body1: "ground" body2: "blade" point: [0.5, 0, 0] axis: [0, 1, 0] }
+    }
+    numerics { start_time: 10 end_time: 20 step: 5 smooth { analysis: MODES modes { count: 3 } } })";
+  auto message = [&](const std::vector<std::string>& sets) {
+    return interface::MessageOf([&] { ModalSimulation sim(interface::ScenarioFile::Parse(text, "m.pbtxt", sets)); });
+  };
+  std::string m = message({});
+  EXPECT_NE(m.find("numerics.smooth.modes.count: asks for 3 modes; the model has 1 oscillating modes at 10 rad/s: "
+                   "ask for at most 1"),
+            std::string::npos)
+      << m;
+  EXPECT_EQ(message({"numerics.smooth.modes.count=1"}), "(no error)");
+  m = message({"numerics.smooth.modes.count=1", "numerics.smooth.settle=true"});
+  EXPECT_NE(m.find("numerics.smooth.settle: settles the start of a DYNAMIC analysis"), std::string::npos) << m;
 }
 
 TEST(Beam, PumaBladeTwistsAtItsTablesOneDimensionalTorsionFrequency) {

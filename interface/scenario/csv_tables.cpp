@@ -227,8 +227,13 @@ void LoadColumns(scenario::TimeFunction::Table* table, const std::string& path,
         fail(place, where(names[at]) + ": '" + EchoedText(cells[at]) + "' is not a finite number");
       }
     }
+    const double scaled = v * table->value_scale();
+    if (!std::isfinite(scaled)) {  // (accepted as inf before, or exit 3 when the run reached it)
+      fail(place, where(names[value_at]) + ": " + EchoedText(cells[value_at]) + " times value_scale " +
+                      FormatNumber(table->value_scale()) + " is not a finite number");
+    }
     table->add_time(t);
-    table->add_value(v * table->value_scale());
+    table->add_value(scaled);
   };
   if (ReadCsv(file, place, "a CSV file with a header line naming its columns", fail, header, row) <= 0)
     fail(place, "'" + file.string() + "' holds no rows; expected a header line and one row per time");

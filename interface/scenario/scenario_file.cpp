@@ -450,7 +450,6 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   LoadCsvTables(
       &file.proto_, [&file](const std::string& given) { return file.PathBeside(given); },
       [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
-  file.CheckFinite(file.proto_, "");  // (a table's value times its value_scale may overflow)
   // Frames last, so that every override of a frame or of an element written in one counts.
   std::vector<std::pair<std::string, CopyTurn>> deferred;
   for (const PatternOrigin& o : file.pattern_origins_) {

@@ -86,8 +86,11 @@ void RemoveEarlierVisualOutput(const std::string& folder) {
   if (!fs::is_directory(st) || HeldByAnotherRun(visual)) return;
   for (const fs::directory_entry& e : fs::directory_iterator(visual, ec)) {
     const std::string name = e.path().filename().string();
-    const bool frame = name.size() == 10 && name.compare(6, 4, ".vtu") == 0 &&
-                       std::all_of(name.begin(), name.begin() + 6, [](char c) { return c >= '0' && c <= '9'; });
+    // (NNNNNN.vtu: six digits or more, as VisualSeries names them)
+    const size_t digits = name.size() >= 4 ? name.size() - 4 : 0;
+    const bool frame = digits >= 6 && name.compare(digits, 4, ".vtu") == 0 &&
+                       std::all_of(name.begin(), name.begin() + static_cast<std::ptrdiff_t>(digits),
+                                   [](char c) { return c >= '0' && c <= '9'; });
     if ((frame || name == "legend.csv") && e.is_regular_file(ec)) fs::remove(e.path(), ec);
   }
   fs::remove(visual, ec);  // (only if nothing else is left in it)

@@ -172,7 +172,7 @@ struct Child {
 // The time of the last row of a history.csv and the number of rows (0 if none).
 std::pair<double, long> LastHistoryRow(const std::string& path) {
   const InputFile text = ReadInputFile(path, kMaxOutputBytes);  // (bounded: not a device's endless text)
-  if (!text.ok) return {0.0, 0};
+  if (!text.ok()) return {0.0, 0};
   std::istringstream in(text.text);
   std::string line, last;
   long rows = -1;  // the header
@@ -260,7 +260,7 @@ History ReadHistory(const std::string& path) {
   std::error_code absent;
   if (!std::filesystem::exists(std::filesystem::symlink_status(path, absent))) return h;
   const InputFile text = ReadInputFile(path, kMaxOutputBytes);
-  if (!text.ok) throw InputError(text.why + "; expected the history.csv a process of this run wrote");
+  if (!text.ok()) throw InputError(text.why + "; expected the history.csv a process of this run wrote");
   std::istringstream in(text.text);
   std::string line;
   if (!std::getline(in, line)) return h;

@@ -40,23 +40,26 @@ std::string FileKind(unsigned mode) {
 InputFile ReadInputFile(const std::filesystem::path& path, std::int64_t max_bytes) {
   InputFile f;
   const std::string name = "'" + path.string() + "'";
+  auto cannot_read = [&] {
+    f.problem = InputFile::Problem::kCannotRead;
+    f.detail = std::strerror(errno);
+    f.why = name + " cannot be read: " + f.detail;
+    f.text.clear();
+    return f;
+  };
   // O_NONBLOCK: a FIFO opens at once (and is refused below) instead of waiting for a writer.
   const Descriptor fd(::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
-  if (fd.get() < 0) {
-    f.why = name + " cannot be read: " + std::strerror(errno);
-    return f;
-  }
   struct stat info {};
-  if (::fstat(fd.get(), &info) != 0) {
-    f.why = name + " cannot be read: " + std::strerror(errno);
-    return f;
-  }
+  if (fd.get() < 0 || ::fstat(fd.get(), &info) != 0) return cannot_read();
   if (!S_ISREG(info.st_mode)) {
-    const std::string kind = FileKind(info.st_mode);
-    f.why = name + " is " + kind + (kind == "not a regular file" ? "" : ", not a regular file");
+    f.problem = InputFile::Problem::kNotRegular;
+    f.detail = FileKind(info.st_mode);
+    f.why = name + " is " + f.detail + (f.detail == "not a regular file" ? "" : ", not a regular file");
     return f;
   }
   if (info.st_size > max_bytes) {
+    f.problem = InputFile::Problem::kTooLarge;
+    f.size = info.st_size;
     f.why =
         name + " has " + std::to_string(info.st_size) + " bytes; at most " + std::to_string(max_bytes) + " are read";
     return f;
@@ -66,16 +69,12 @@ InputFile ReadInputFile(const std::filesystem::path& path, std::int64_t max_byte
   while (got < f.text.size()) {
     const ssize_t n = ::read(fd.get(), f.text.data() + got, f.text.size() - got);
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      f.text.clear();
-      f.why = name + " cannot be read: " + std::strerror(errno);
-      return f;
-    }
+    if (n < 0) return cannot_read();
     if (n == 0) break;  // (shorter than when it was measured: what is there)
     got += static_cast<size_t>(n);
   }
   f.text.resize(got);
-  f.ok = true;
+  f.problem = InputFile::Problem::kNone;
   return f;
 }
 

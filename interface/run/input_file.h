@@ -19,13 +19,19 @@ inline constexpr std::int64_t kMaxAirfoilBytes = 16LL << 20;  // C81 airfoil tab
 inline constexpr std::int64_t kMaxStateBytes = 1LL << 30;     // saved states (final_state.pb)
 inline constexpr std::int64_t kMaxOutputBytes = 4LL << 30;    // a run's own histories, read back
 
-// The outcome of ReadInputFile: `text` the file's bytes if `ok`, else `why` says what the file is
-// instead, in words a user can act on ("'P' is a FIFO, not a regular file", "'P' has N bytes; at
-// most M are read", "'P' cannot be read: No such file or directory"). No file content is quoted.
+// The outcome of ReadInputFile: `text` the file's bytes if ok(), else what went wrong: `problem`,
+// with `detail` (the system's reason it cannot be read, or what the file is instead: FileKind)
+// and `size` (a file too large), and `why` saying it in words a user can act on ("'P' is a FIFO,
+// not a regular file", "'P' has N bytes; at most M are read", "'P' cannot be read: No such file or
+// directory"). No file content is quoted.
 struct InputFile {
-  bool ok = false;
+  enum class Problem { kNone, kCannotRead, kNotRegular, kTooLarge };
+  Problem problem = Problem::kCannotRead;
   std::string text;
+  std::string detail;
+  std::int64_t size = 0;
   std::string why;
+  bool ok() const { return problem == Problem::kNone; }
 };
 
 InputFile ReadInputFile(const std::filesystem::path& path, std::int64_t max_bytes);

@@ -204,7 +204,7 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
 
 bool ReadSummaryJson(const std::string& path, run::RunSummary* summary) {
   const InputFile text = ReadInputFile(path, kMaxOutputBytes);  // (a regular file, bounded)
-  return text.ok && google::protobuf::util::JsonStringToMessage(text.text, summary).ok();
+  return text.ok() && google::protobuf::util::JsonStringToMessage(text.text, summary).ok();
 }
 
 void WriteFinalState(const std::string& folder, const google::protobuf::Message& message) {

@@ -79,7 +79,7 @@ int ReadCsv(const std::filesystem::path& file, const std::string& place, const s
             const std::function<void(const Cells&, const Where&)>& on_row) {
   // (A FIFO, a device or an endless file is refused before it is read: InputFile.)
   const InputFile text = ReadInputFile(file, kMaxTableBytes);
-  if (!text.ok) {
+  if (!text.ok()) {
     fail(place, text.why + "; expected " + expected + " (relative paths are from the scenario file's folder)");
   }
   std::istringstream in(text.text);

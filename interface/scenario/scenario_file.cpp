@@ -2,15 +2,12 @@
 
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -119,22 +116,20 @@ std::vector<Placeholder> FindPlaceholders(const std::string& text, const std::fu
 std::string ReadScenarioText(const std::string& path, const std::string& where) {
   const std::string what = where == path ? "the scenario file" : "the included file '" + path + "'";
   InputFile f = ReadInputFile(path, ScenarioFile::kMaxScenarioBytes);
-  if (f.ok) return std::move(f.text);
-  struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) {
-    throw InputError(where + ": cannot read " + what + ": " + std::strerror(errno) +
-                     " (does it exist and is it readable?)");
+  switch (f.problem) {
+    case InputFile::Problem::kNone:
+      break;
+    case InputFile::Problem::kCannotRead:
+      throw InputError(where + ": cannot read " + what + ": " + f.detail + " (does it exist and is it readable?)");
+    case InputFile::Problem::kNotRegular:
+      throw InputError(where + ": " + (where == path ? std::string("the scenario") : what) +
+                       " is not a regular file (" + f.detail + "); expected a protobuf text file");
+    case InputFile::Problem::kTooLarge:
+      throw InputError(where + ": " + what + " has " + std::to_string(f.size) + " bytes; at most " +
+                       std::to_string(ScenarioFile::kMaxScenarioBytes) +
+                       " are read (tables belong in files of their own)");
   }
-  if (!S_ISREG(info.st_mode)) {
-    throw InputError(where + ": " + (where == path ? std::string("the scenario") : what) + " is not a regular file (" +
-                     FileKind(info.st_mode) + "); expected a protobuf text file");
-  }
-  if (info.st_size > ScenarioFile::kMaxScenarioBytes) {
-    throw InputError(where + ": " + what + " has " + std::to_string(info.st_size) + " bytes; at most " +
-                     std::to_string(ScenarioFile::kMaxScenarioBytes) +
-                     " are read (tables belong in files of their own)");
-  }
-  throw InputError(where + ": " + f.why);
+  return std::move(f.text);
 }
 
 // "file:line:col" of a line (1-based) of the expanded text: the file and line it came from.

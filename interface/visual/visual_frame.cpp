@@ -193,7 +193,7 @@ void VisualSeries::Write(const VisualFrame& frame, double time) {
 std::vector<std::pair<double, std::string>> ReadPvd(const std::string& path) {
   // A process's own index, read back bounded (InputFile): a link to a device reads nothing.
   const InputFile text = ReadInputFile(path, kMaxOutputBytes);
-  if (!text.ok)
+  if (!text.ok())
     throw InputError("visual output: " + text.why + "; expected the visual.pvd a process of this run wrote");
   std::vector<std::pair<double, std::string>> entries;
   std::istringstream in(text.text);

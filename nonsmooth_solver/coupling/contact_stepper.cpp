@@ -44,7 +44,7 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
                                           : " (a coupled run's contact process '" + process +
                                                 "' reads its own beside the smooth solver's state)";
   const interface::InputFile bytes = interface::ReadInputFile(path, interface::kMaxStateBytes);
-  if (!bytes.ok) file.Fail(place, bytes.why + "; expected a final_state.pb of a contact process" + own);
+  if (!bytes.ok()) file.Fail(place, bytes.why + "; expected a final_state.pb of a contact process" + own);
   state::ContactState s;
   if (!s.ParseFromString(bytes.text)) {
     file.Fail(place, "'" + path.string() + "' is not a readable final_state.pb of a contact process" + own);

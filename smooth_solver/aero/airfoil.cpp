@@ -236,7 +236,7 @@ std::unique_ptr<C81Airfoil> C81Airfoil::Parse(const std::string& text, const std
 std::unique_ptr<C81Airfoil> C81Airfoil::Read(const std::string& path, std::string name) {
   // (Measured before it is read: a 6 GiB file used to be read whole, then refused.)
   const interface::InputFile f = interface::ReadInputFile(path, interface::kMaxAirfoilBytes);
-  if (!f.ok) throw InputError(f.why + "; expected a C81 airfoil table");
+  if (!f.ok()) throw InputError(f.why + "; expected a C81 airfoil table");
   return Parse(f.text, path, std::move(name));
 }
 

@@ -173,7 +173,7 @@ void AddAirfoils(const Checks& checks, const sc::Air& a, interface::NameTable* a
     std::filesystem::path file(f.c81_file());
     if (file.is_relative()) file = folder / file;
     const interface::InputFile text = interface::ReadInputFile(file, interface::kMaxAirfoilBytes);
-    if (!text.ok) checks.Fail(path + ".c81_file", text.why + "; expected a C81 airfoil table");
+    if (!text.ok()) checks.Fail(path + ".c81_file", text.why + "; expected a C81 airfoil table");
     aero.airfoils.push_back(C81Airfoil::Parse(text.text, file.string(), name));
     aero.airfoil_names.push_back(name);
   }

@@ -31,7 +31,7 @@ state::SmoothState ReadRestart(const Checks& checks, const interface::ScenarioFi
   const std::string place = "numerics.initial_state";
   const std::filesystem::path path = file.PathBeside(file.proto().numerics().initial_state());
   const interface::InputFile bytes = interface::ReadInputFile(path, interface::kMaxStateBytes);
-  if (!bytes.ok) checks.Fail(place, bytes.why + "; expected a final_state.pb (a smooth run's saved state)");
+  if (!bytes.ok()) checks.Fail(place, bytes.why + "; expected a final_state.pb (a smooth run's saved state)");
   state::SmoothState s;
   if (!s.ParseFromString(bytes.text)) {
     checks.Fail(place, "'" + path.string() + "' is not a readable final_state.pb (a smooth run's saved state)");

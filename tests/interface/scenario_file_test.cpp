@@ -13,6 +13,7 @@
 #include <functional>
 #include <numbers>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "interface/run/errors.h"
@@ -21,6 +22,30 @@
 
 namespace cosim::interface {
 namespace {
+
+// A fresh folder of this test process under the temporary directory, removed when it goes out
+// of scope (an assertion that ends the test early too); Write puts a file in it.
+class ScratchFolder {
+ public:
+  explicit ScratchFolder(const std::string& name)
+      : path_(std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()))) {
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~ScratchFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  ScratchFolder(const ScratchFolder&) = delete;
+  ScratchFolder& operator=(const ScratchFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  void Write(const std::string& name, const std::string& text) const {
+    std::ofstream(path_ / name, std::ios::binary) << text;
+  }
+
+ private:
+  std::filesystem::path path_;
+};
 
 const char* kText = R"(name: "t"
 model {
@@ -191,10 +216,10 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   // `include: "FILE"` on its own line is FILE's text (relative to the including file, included
   // files including others), with parameters used across files; every field's place, and a
   // syntax error's, is the line of the file it is written in.
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("cosim_include_" + std::to_string(::getpid()));
+  const ScratchFolder scratch("cosim_include");
+  const std::filesystem::path& dir = scratch.path();
   std::filesystem::create_directories(dir / "parts");
-  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  auto write = [&](const std::string& name, const std::string& text) { scratch.Write(name, text); };
   write(
       "main.pbtxt",
       "name: \"inc\"\nparameters { name: \"m\" value: 3 }\nmodel {\n  include: \"parts/bodies.pbtxt\"   # the bodies\n"
@@ -228,17 +253,14 @@ TEST(Include, AFilesLinesComeInPlaceAndKeepTheirOwnPlaces) {
   // as a field, "has no field named include": the message says where an include may stand.
   expect_error("bodies { name: \"b\" mass: 1 inertia: [1, 1, 1] }\nair { include: \"air.pbtxt\" }\n",
                parts + "/more.pbtxt:2:14: `include: \"FILE\"` is read only on a line of its own");
-  std::filesystem::remove_all(dir);
 }
 
 TEST(Include, AnIncludeThatMultipliesTheTextPastTheScenarioBoundIsRefusedWhereItPasses) {
   // Nine 30-byte files each including the next ten times: 10⁹ lines, expanded until memory ran
   // out (no answer after 60 s). The expanded text is bounded as a scenario file is: exit 2
   // naming the include line where it passes the bound. (Stopped at the bound: 64 MiB.)
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("cosim_include_bomb_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const ScratchFolder scratch("cosim_include_bomb");
+  const std::filesystem::path& dir = scratch.path();
   for (int k = 0; k < 9; ++k) {
     std::ofstream f(dir / ("f" + std::to_string(k) + ".pbtxt"));
     for (int i = 0; i < 10; ++i) f << "include: \"f" << k + 1 << ".pbtxt\"\n";
@@ -247,17 +269,15 @@ TEST(Include, AnIncludeThatMultipliesTheTextPastTheScenarioBoundIsRefusedWhereIt
   const std::string m = MessageOf([&] { ScenarioFile::Load((dir / "f0.pbtxt").string(), {}); });
   EXPECT_NE(m.find("f8.pbtxt:"), std::string::npos) << m;
   EXPECT_NE(m.find(": the scenario's text with its includes passes 67108864 bytes here"), std::string::npos) << m;
-  std::filesystem::remove_all(dir);
 }
 
 TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
   // Beam.stations_file: a CSV beside the scenario, header = BeamStation's fields in any order
   // (here a subset; the others keep their defaults, an empty cell too), '#' lines skipped. The
   // scenario then holds exactly the stations written inline would give, and no file name.
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("cosim_stations_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  const ScratchFolder scratch("cosim_stations");
+  const std::filesystem::path& dir = scratch.path();
+  auto write = [&](const std::string& name, const std::string& text) { scratch.Write(name, text); };
   write("blade.csv",
         "# Puma-like blade, two stations\ns, mass, ea, gj, ei_flap, ei_lag, twist\n"
         "0.5, 10.2, 3e8, 2.5e4, 1.1e5, 2e6, 0.1\n7.5, 8.0, 3e8, 2.5e4, 9e4, 1.8e6,\n");
@@ -304,7 +324,6 @@ TEST(StationFiles, ABladeTableIsReadFromCsvAsIfWrittenInline) {
   std::filesystem::remove(dir / "blade.csv");
   m = MessageOf([&] { ScenarioFile::Load((dir / "main.pbtxt").string(), {}); });
   EXPECT_NE(m.find("'" + csv + "' cannot be read"), std::string::npos) << m;
-  std::filesystem::remove_all(dir);
 }
 
 TEST(StationFiles, ATableThatIsAFifoADeviceOrTooLargeIsRefusedBeforeItIsRead) {
@@ -313,10 +332,8 @@ TEST(StationFiles, ATableThatIsAFifoADeviceOrTooLargeIsRefusedBeforeItIsRead) {
   // hung the run for ever, a link to /dev/zero was read into memory without end and then
   // reported as "holds no stations". Each is refused with exit 2 naming the field and the file,
   // before it is read (the sparse file is measured, never read).
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("cosim_guarded_tables_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const ScratchFolder scratch("cosim_guarded_tables");
+  const std::filesystem::path& dir = scratch.path();
   ASSERT_EQ(::mkfifo((dir / "fifo.csv").c_str(), 0600), 0);
   std::filesystem::create_symlink("/dev/zero", dir / "zero.csv");
   { std::ofstream(dir / "huge.csv") << "s,mass\n"; }
@@ -342,7 +359,6 @@ TEST(StationFiles, ATableThatIsAFifoADeviceOrTooLargeIsRefusedBeforeItIsRead) {
       EXPECT_NE(m.find(field + ": '" + (dir / name).string() + "' " + why), std::string::npos) << m;
     }
   }
-  std::filesystem::remove_all(dir);
 }
 
 TEST(StationFiles, NumbersAreWholeCellsAndFileTextIsNotEchoed) {
@@ -350,13 +366,9 @@ TEST(StationFiles, NumbersAreWholeCellsAndFileTextIsNotEchoed) {
   // and be accepted; a file that is not a table (/etc/shadow) had its first line quoted in the
   // message, and a 10 MB cell gave a 10 MB message. Each is refused, naming the place, with at
   // most a cut quote.
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("cosim_table_cells_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  auto write = [&](const std::string& name, const std::string& text) {
-    std::ofstream(dir / name, std::ios::binary) << text;
-  };
+  const ScratchFolder scratch("cosim_table_cells");
+  const std::filesystem::path& dir = scratch.path();
+  auto write = [&](const std::string& name, const std::string& text) { scratch.Write(name, text); };
   const std::string beam = "model { beams { name: \"b\" stations_file: \"blade.csv\" } }";
   const std::string deck =
       "model { moving_bases { name: \"deck\" roll { table { file: \"deck.csv\" time_column: \"t\" "
@@ -381,17 +393,15 @@ TEST(StationFiles, NumbersAreWholeCellsAndFileTextIsNotEchoed) {
   m = error_with(beam, "blade.csv", "s,mass\n0," + std::string(10 << 20, 'x') + "\n");
   EXPECT_LT(m.size(), 2000u);
   EXPECT_NE(m.find("(10485760 bytes)' is not a finite number"), std::string::npos) << m.substr(0, 600);
-  std::filesystem::remove_all(dir);
 }
 
 TEST(StationFiles, ATimeFunctionTableTakesTwoNamedColumnsOfACsvRecord) {
   // A ship-motion record (time, roll in degrees, heave) drives the deck: `file` with the time
   // and value columns named, the values scaled into radians. The scenario then holds the table
   // as if written inline. Mistakes name the field and the file's line.
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("cosim_columns_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  const ScratchFolder scratch("cosim_columns");
+  const std::filesystem::path& dir = scratch.path();
+  auto write = [&](const std::string& name, const std::string& text) { scratch.Write(name, text); };
   write("deck.csv", "# trial 7, sea state 5\nt, roll_deg, heave\n0, 0, 0\n0.5, 2.0, 0.1\n1.0, 3.5, 0.15\n");
   const std::string scene =
       "model { moving_bases { name: \"deck\" roll { table { file: \"deck.csv\" time_column: \"t\" "
@@ -418,7 +428,6 @@ TEST(StationFiles, ATimeFunctionTableTakesTwoNamedColumnsOfACsvRecord) {
   EXPECT_NE(m.find("model.moving_bases[0].roll.table.file: given with time or value too"), std::string::npos) << m;
   m = error_with("t, roll_deg\n");
   EXPECT_NE(m.find("holds no rows"), std::string::npos) << m;
-  std::filesystem::remove_all(dir);
 }
 
 TEST(ScenarioFile, ChecksNameFieldValueAndExpectation) {

@@ -429,9 +429,12 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   for (const std::string& argument : overrides) {
     if (of_patterns(argument)) file.ApplyOverride(argument);
   }
-  // Every number finite before the patterns copy it (a template's rotation [nan, 0.1745, 0] was
-  // turned into "no rotation" by the copying, and the check after it found nothing).
-  file.CheckFinite(file.proto_, "");
+  // The patterns' numbers finite before they are copied (a template's rotation [nan, 0.1745, 0]
+  // was turned into "no rotation" by the copying, and the check after it found nothing); the
+  // rest of the scene is checked once, after the expansion.
+  for (int i = 0; i < file.proto_.patterns_size(); ++i) {
+    file.CheckFinite(file.proto_.patterns(i), "patterns[" + std::to_string(i) + "]");
+  }
   file.pattern_origins_ = ExpandPatterns(
       &file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   for (const std::string& argument : overrides) {

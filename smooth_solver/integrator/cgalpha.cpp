@@ -36,16 +36,39 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system, const S
 // of the Newton tolerance (CgAlpha::Newton).
 constexpr double kReusedErrorShare = 1e-3;
 
+// Whether every vector of row c is a direction or point of one beam node (its rigidity rows).
+bool BeamNodeRow(const ScalarConstraint& c, const std::vector<char>& beam_node) {
+  int body = -1;
+  for (const auto& term : c.terms) {
+    for (const LinearVector* v : {&term.a, &term.b}) {
+      for (const auto& t : v->terms) {
+        const int b = t.offset / kCoordinatesPerBody;
+        if (b >= static_cast<int>(beam_node.size()) || beam_node[static_cast<size_t>(b)] == 0) return false;
+        if (body >= 0 && b != body) return false;
+        body = b;
+      }
+    }
+  }
+  return body >= 0;
+}
+
 // Whether INDEX2_PROJECTED closes row i at velocity level: a curved row (a term whose two
 // vectors both move: Φ_q changes with q, like the rigidity rows u·u = 1 and the axes of a
 // revolute joint between two bodies), unless it is a coupling interface row (imposed by a peer,
-// rotor-sailing paper Eq. (6), or Tikhonov-regularised, Eq. (7)). A linear row (a point
-// coincidence along fixed axes, an elastic clamp, an axis against the ground) keeps Φ = 0: its
-// normal never turns, so the Newmark update's normal-velocity mode (amplification 1 − γ/β,
-// |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
-bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
+// rotor-sailing paper Eq. (6), or Tikhonov-regularised, Eq. (7)) or a beam node's own rigidity
+// row. A linear row (a point coincidence along fixed axes, an elastic clamp, an axis against the
+// ground) keeps Φ = 0: its normal never turns, so the Newmark update's normal-velocity mode
+// (amplification 1 − γ/β, |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
+// A beam node's rigidity rows stay at position level too: its section rotates against the
+// beam's shear and bending stiffness at ωh of 10²–10³, the velocity rows of the matrix lean with
+// those rates (|ω| βh/γ), and the chord projection stalled, then diverged (generated rotor 707,
+// a blade of 5 quadratic elements at 116 rad/s: |Φ| = inf within 0.04 s). Held by its
+// neighbours through the beam's energy-consistent midpoint force (beam.h), a node's normal-velocity
+// mode has no free spin to feed it, as a free body's has (design.md, "Spinning bodies").
+bool VelocityLevelRow(const ConstraintSet& cs, size_t i, const std::vector<char>& beam_node) {
   if (cs.Compliance(i) != 0.0) return false;
   const ScalarConstraint& c = cs.constraints[i];
+  if (BeamNodeRow(c, beam_node)) return false;
   auto imposed = [&](const DriveWeight& w) {
     return w.drive >= 0 && cs.drives[static_cast<size_t>(w.drive)].imposed >= 0;
   };
@@ -149,8 +172,13 @@ CgAlpha::CgAlpha(const MultibodySystem& system, SystemData* data, const CgAlphaS
   rows_.resize(m);
   velocity_row_.assign(static_cast<size_t>(m), 0);
   if (settings.form == ConstraintForm::kIndex2Projected) {
+    std::vector<char> beam_node(static_cast<size_t>(system.coordinates / kCoordinatesPerBody) + 1, 0);
+    for (const auto& nodes : system.beam_node_bodies) {
+      for (int b : nodes) beam_node[static_cast<size_t>(b)] = 1;
+    }
     for (int i = 0; i < m; ++i) {
-      velocity_row_[static_cast<size_t>(i)] = VelocityLevelRow(system.constraints, static_cast<size_t>(i)) ? 1 : 0;
+      velocity_row_[static_cast<size_t>(i)] =
+          VelocityLevelRow(system.constraints, static_cast<size_t>(i), beam_node) ? 1 : 0;
       any_velocity_row_ = any_velocity_row_ || velocity_row_[static_cast<size_t>(i)] != 0;
     }
   }
@@ -173,7 +201,7 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   for (int k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
   MatrixSink sink(&S_);
   // The elastic force and its tangent in one pass (force_ holds the other forces already).
-  elastic_.Add(state_.q, next_.q, force_, bh2, &sink);
+  elastic_.Add(state_.q, next_.q, h, force_, bh2, &sink);
   AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);         // βh² β' M
   system_.constraints.HessianTimesLambda(data_->imposed, t1, next_.lambda, &sink, bh2);  // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
@@ -449,7 +477,7 @@ StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess) {
     // Accept: a_{n+1} from Eq. (3).
     a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) /
          (1.0 - coef_.alpha_m);
-    elastic_.Accept(state_.q, next_.q);
+    elastic_.Accept(state_.q, next_.q, h);
     std::swap(state_, next_);
     ++age_;
   } else if (starting) {
@@ -502,7 +530,7 @@ void CgAlpha::Newton(double t1, double h, Matrices matrices, StepStatus* status)
     if (fresh) {
       AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
     } else {
-      elastic_.Add(state_.q, next_.q, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
+      elastic_.Add(state_.q, next_.q, h, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
     }
     auto r_q = residual_.head(n);
     r_q.noalias() = system_.mass * next_.qddot;

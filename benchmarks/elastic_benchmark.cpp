@@ -88,14 +88,14 @@ int main() {
     Eigen::SparseMatrix<double> S = pattern.Build(dofs, dofs);
     Eigen::VectorXd f = Eigen::VectorXd::Zero(dofs);
     const int repeats = n > 40 ? 5 : 20;
-    const double residual = Seconds(repeats * 10, [&] { force.AddMidpoint(q, q, 0.5, 0.0, f, nullptr, 1.0); });
+    const double residual = Seconds(repeats * 10, [&] { force.AddMidpoint(q, q, 0.5, f, nullptr, 1.0); });
     const double tangent = Seconds(repeats, [&] {
       MatrixSink sink(&S);
-      force.AddMidpoint(q, q, 0.5, 0.0, f, &sink, 1.0);
+      force.AddMidpoint(q, q, 0.5, f, &sink, 1.0);
     });
     const double no_scatter = Seconds(repeats, [&] {
       NullSink sink;
-      force.AddMidpoint(q, q, 0.5, 0.0, f, &sink, 1.0);
+      force.AddMidpoint(q, q, 0.5, f, &sink, 1.0);
     });
     std::printf("%9d %7d %14.3f %26.3f %13.0f%%\n", n, body.node_count(), 1e3 * residual, 1e3 * tangent,
                 100.0 * (tangent - no_scatter) / tangent);
@@ -159,7 +159,7 @@ int main() {
       const Eigen::VectorXd& q = sim.integrator().state().q;
       const double elastic = Seconds(5, [&] {
         MatrixSink sink(&S);
-        for (const MidpointElasticForce* e : sys.elastic_forces) e->AddMidpoint(q, q, 0.45, 0.0, f, &sink, 1.0);
+        for (const ElasticForce* e : sys.elastic_forces) e->AddMidpoint(q, q, 0.45, f, &sink, 1.0);
       });
       const double iterations = static_cast<double>(sim.newton_iterations()) / steps;
       hex_step = per_step;

@@ -169,122 +169,60 @@ void BeamForce::Gather(const BeamElement& e, const Eigen::VectorXd& q, Local* ql
   }
 }
 
-void BeamForce::Element(const BeamElement& e, const Local& ql0, const Local& ql1, double alpha_f, double xi, Local* f,
-                        LocalMatrix* K, double* energy) const {
-  const int nl = kCoordinatesPerBody * n_;
-  const bool midpoint = alpha_f != 0.0 || xi != 0.0;
-  StrainGradient B1(6, nl), Bm(6, nl);
-  Vector6d eps1, eps0;
-  for (int g = 0; g < gauss_; ++g) {
-    const size_t gi = static_cast<size_t>(g);
-    const double wJ = GaussWeight(e, g);
-    Strains(e, ql1, g, &eps1, &B1);
-    eps1 -= e.reference[gi];
-    const Matrix6d& D = e.stiffness[gi];
-    if (energy != nullptr) *energy += 0.5 * wJ * eps1.dot(D * eps1);
-    // Eqs. (15)-(17): ε_m = (1 − αf + ξ) ε_{n+1} + (αf − ξ) ε_n, and B at q_m = (1 − αf) q_{n+1} +
-    // αf q_n (B is linear in q).
-    Vector6d eps_m = eps1;
-    if (midpoint) {
-      Strains(e, ql0, g, &eps0, &Bm);
-      eps0 -= e.reference[gi];
-      eps_m = (1.0 - alpha_f + xi) * eps1 + (alpha_f - xi) * eps0;
-      Bm = (1.0 - alpha_f) * B1 + alpha_f * Bm;
-    }
-    const StrainGradient& B = midpoint ? Bm : B1;
-    const Vector6d sigma = D * eps_m;
-    if (f != nullptr) f->noalias() += wJ * (B.transpose() * sigma);
-    if (K == nullptr) continue;
-    // ∂f_m/∂q_{n+1} = (1 − αf + ξ) B_mᵀ C B_{n+1} + (1 − αf) Σ_k σ_k H_k.
-    K->noalias() += ((1.0 - alpha_f + xi) * wJ) * (B.transpose() * (D * B1));
-    AddGeometric(e, g, ((1.0 - alpha_f) * wJ) * sigma, K);
-  }
-}
-
-void BeamForce::Viscous(const BeamElement& e, const Local& ql, const Local& vl, Local* f, double k_scale,
-                        double c_scale, LocalMatrix* K) const {
+void BeamForce::Element(const BeamElement& e, const Local& ql, const Local& vl, Local* f, LocalMatrix* K,
+                        LocalMatrix* C, double* energy) const {
   const int nl = kCoordinatesPerBody * n_;
   StrainGradient B(6, nl), Bv(6, nl);
-  Vector6d eps, unused;
+  Vector6d eps, rate;
   for (int g = 0; g < gauss_; ++g) {
-    const Matrix6d& D = e.stiffness[static_cast<size_t>(g)];
-    const double wb = GaussWeight(e, g) * retardation_;
+    const size_t gi = static_cast<size_t>(g);
+    const double wJ = w_[gi] * 0.5 * e.length;
     Strains(e, ql, g, &eps, &B);
-    const Vector6d sigma = wb * (D * (B * vl));  // σ_v = β C ε̇, ε̇ = B q̇
-    if (f != nullptr) f->noalias() += B.transpose() * sigma;
+    eps -= e.reference[gi];
+    const Matrix6d& D = e.stiffness[gi];
+    Vector6d sigma = D * eps;
+    if (energy != nullptr) *energy += 0.5 * wJ * eps.dot(sigma);
+    const bool damped = retardation_ > 0.0;
+    if (damped) {
+      // Kelvin–Voigt: σ_v = β C ε̇ with ε̇ = B q̇; ∂ε̇/∂q = B(q̇) (B is linear in q).
+      rate.noalias() = B * vl;
+      sigma.noalias() += retardation_ * (D * rate);
+    }
+    if (f != nullptr) f->noalias() -= wJ * (B.transpose() * sigma);
     if (K == nullptr) continue;
-    if (k_scale != 0.0) {
-      Strains(e, vl, g, &unused, &Bv);  // ∂ε̇/∂q = B(q̇) (B is linear in q)
-      K->noalias() += (k_scale * wb) * (B.transpose() * (D * Bv));
-      AddGeometric(e, g, k_scale * sigma, K);
+    // Material part Bᵀ C B (and, damped, β Bᵀ C B(q̇) on K, β Bᵀ C B on C).
+    const Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor, 6, kMaxLocal> DB = D * B;
+    K->noalias() += wJ * (B.transpose() * DB);
+    if (damped) {
+      Vector6d unused;
+      Strains(e, vl, g, &unused, &Bv);
+      K->noalias() += (wJ * retardation_) * (B.transpose() * (D * Bv));
+      if (C != nullptr) C->noalias() += (wJ * retardation_) * (B.transpose() * DB);
     }
-    if (c_scale != 0.0) K->noalias() += (c_scale * wb) * (B.transpose() * (D * B));
-  }
-}
-
-void BeamForce::AddGeometric(const BeamElement& e, int g, const Vector6d& sigma, LocalMatrix* K) const {
-  // Constant Hessians, scalar on slots ⊗ I3: with P_IJ = N_I N_J′, Γ_1 = ½ Σ N_I′ N_J′ x_I · x_J,
-  // Γ_a = Σ P_IJ d_aI · x_J (a = 2, 3) and κ = Σ ½(P_IJ − P_JI) d_bI · d_cJ.
-  const size_t gi = static_cast<size_t>(g);
-  const double* N = shape_[gi].data();
-  double dN[3];
-  for (int I = 0; I < n_; ++I) dN[I] = shape_xi_[gi][static_cast<size_t>(I)] * 2.0 / e.length;
-  static constexpr int kB[3] = {2, 0, 1}, kC[3] = {1, 2, 0};
-  auto add = [&](int row, int col, double v) {
-    for (int k = 0; k < 3; ++k) (*K)(row + k, col + k) += v;
-  };
-  for (int I = 0; I < n_; ++I) {
-    for (int J = 0; J < n_; ++J) {
-      const double P = N[I] * dN[J], A = 0.5 * (N[I] * dN[J] - N[J] * dN[I]);
-      add(Slot(I, 0), Slot(J, 0), sigma(0) * dN[I] * dN[J]);
-      for (int a = 1; a < 3; ++a) {
-        add(Slot(I, a + 1), Slot(J, 0), sigma(a) * P);
-        add(Slot(J, 0), Slot(I, a + 1), sigma(a) * P);
-      }
-      for (int k = 0; k < 3; ++k) {
-        add(Slot(I, kB[k] + 1), Slot(J, kC[k] + 1), sigma(3 + k) * A);
-        add(Slot(J, kC[k] + 1), Slot(I, kB[k] + 1), sigma(3 + k) * A);
-      }
-    }
-  }
-}
-
-void BeamForce::Scatter(const BeamElement& e, const LocalMatrix& local, SparseSink* global) const {
-  // In 3×3 blocks (slots x, d1, d2, d3 of each node): one search per column and block.
-  for (int J = 0; J < n_; ++J) {
-    const int cj = kCoordinatesPerBody * e.node[static_cast<size_t>(J)];
+    // Geometric part Σ_k σ_k H_k (constant Hessians, scalar on slots ⊗ I3): with P_IJ = N_I N_J′,
+    // Γ_1 = ½ Σ N_I′ N_J′ x_I · x_J, Γ_a = Σ P_IJ d_aI · x_J (a = 2, 3) and
+    // κ = Σ ½(P_IJ − P_JI) d_bI · d_cJ.
+    const double* N = shape_[gi].data();
+    double dN[3];
+    for (int I = 0; I < n_; ++I) dN[I] = shape_xi_[gi][static_cast<size_t>(I)] * 2.0 / e.length;
+    static constexpr int kB[3] = {2, 0, 1}, kC[3] = {1, 2, 0};
+    auto add = [&](int row, int col, double v) {
+      for (int k = 0; k < 3; ++k) (*K)(row + k, col + k) += v;
+    };
     for (int I = 0; I < n_; ++I) {
-      const int ri = kCoordinatesPerBody * e.node[static_cast<size_t>(I)];
-      for (int sc = 0; sc < kCoordinatesPerBody; sc += 3) {
-        for (int sr = 0; sr < kCoordinatesPerBody; sr += 3) {
-          global->AddBlock3(ri + sr, cj + sc,
-                            local.block<3, 3>(kCoordinatesPerBody * I + sr, kCoordinatesPerBody * J + sc));
+      for (int J = 0; J < n_; ++J) {
+        const double P = wJ * N[I] * dN[J], A = 0.5 * wJ * (N[I] * dN[J] - N[J] * dN[I]);
+        add(Slot(I, 0), Slot(J, 0), sigma(0) * wJ * dN[I] * dN[J]);  // Γ_1 = ½ Σ N_I′ N_J′ x_I · x_J
+        for (int a = 1; a < 3; ++a) {
+          add(Slot(I, a + 1), Slot(J, 0), sigma(a) * P);
+          add(Slot(J, 0), Slot(I, a + 1), sigma(a) * P);
+        }
+        for (int k = 0; k < 3; ++k) {
+          add(Slot(I, kB[k] + 1), Slot(J, kC[k] + 1), sigma(3 + k) * A);
+          add(Slot(J, kC[k] + 1), Slot(I, kB[k] + 1), sigma(3 + k) * A);
         }
       }
     }
-  }
-}
-
-void BeamForce::AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f, double h,
-                            Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const {
-  Local ql0, ql1, fl;
-  LocalMatrix K;
-  const int nl = kCoordinatesPerBody * n_;
-  const bool tangent = sink != nullptr && k_scale != 0.0;
-  const double xi = h > 0.0 ? retardation_ / h : 0.0;  // Eq. (17): Kelvin–Voigt on the step's strain rate
-  for (const BeamElement& e : elements_) {
-    Gather(e, q, &ql1);
-    if (alpha_f != 0.0 || xi != 0.0) Gather(e, q_prev, &ql0);
-    fl.setZero(nl);
-    if (tangent) K.setZero(nl, nl);
-    Element(e, ql0, ql1, alpha_f, xi, &fl, tangent ? &K : nullptr, nullptr);
-    for (int I = 0; I < n_; ++I) {
-      f_m.segment<kCoordinatesPerBody>(kCoordinatesPerBody * e.node[static_cast<size_t>(I)]) +=
-          fl.segment<kCoordinatesPerBody>(kCoordinatesPerBody * I);
-    }
-    if (!tangent) continue;
-    K *= k_scale;
-    Scatter(e, K, sink);
   }
 }
 
@@ -293,14 +231,11 @@ void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, 
   Local ql, vl, fl;
   for (const BeamElement& e : elements_) {
     Gather(e, q, &ql);
+    if (retardation_ > 0.0) Gather(e, qdot, &vl);
     fl.setZero(ql.size());
-    Element(e, ql, ql, 0.0, 0.0, &fl, nullptr, nullptr);
-    if (retardation_ > 0.0) {
-      Gather(e, qdot, &vl);
-      Viscous(e, ql, vl, &fl, 0.0, 0.0, nullptr);
-    }
+    Element(e, ql, vl, &fl, nullptr, nullptr, nullptr);
     for (int I = 0; I < n_; ++I) {
-      f.segment<kCoordinatesPerBody>(kCoordinatesPerBody * e.node[static_cast<size_t>(I)]) -=
+      f.segment<kCoordinatesPerBody>(kCoordinatesPerBody * e.node[static_cast<size_t>(I)]) +=
           fl.segment<kCoordinatesPerBody>(kCoordinatesPerBody * I);
     }
   }
@@ -309,20 +244,29 @@ void BeamForce::AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, 
 void BeamForce::AddTangent(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double, const SystemData&,
                            double stiffness_scale, double damping_scale, SparseSink* sink) const {
   Local ql, vl;
-  LocalMatrix K;
+  LocalMatrix K, C;
   const int nl = kCoordinatesPerBody * n_;
   for (const BeamElement& e : elements_) {
     Gather(e, q, &ql);
+    if (retardation_ > 0.0) Gather(e, qdot, &vl);
     K.setZero(nl, nl);
-    if (stiffness_scale != 0.0) {
-      Element(e, ql, ql, 0.0, 0.0, nullptr, &K, nullptr);
-      K *= stiffness_scale;
+    C.setZero(nl, nl);
+    Element(e, ql, vl, nullptr, &K, &C, nullptr);
+    K *= stiffness_scale;
+    if (retardation_ > 0.0) K += damping_scale * C;
+    // In 3×3 blocks (slots x, d1, d2, d3 of each node): one search per column and block.
+    for (int J = 0; J < n_; ++J) {
+      const int cj = kCoordinatesPerBody * e.node[static_cast<size_t>(J)];
+      for (int I = 0; I < n_; ++I) {
+        const int ri = kCoordinatesPerBody * e.node[static_cast<size_t>(I)];
+        for (int sc = 0; sc < kCoordinatesPerBody; sc += 3) {
+          for (int sr = 0; sr < kCoordinatesPerBody; sr += 3) {
+            sink->AddBlock3(ri + sr, cj + sc,
+                            K.block<3, 3>(kCoordinatesPerBody * I + sr, kCoordinatesPerBody * J + sc));
+          }
+        }
+      }
     }
-    if (retardation_ > 0.0) {
-      Gather(e, qdot, &vl);
-      Viscous(e, ql, vl, nullptr, stiffness_scale, damping_scale, &K);
-    }
-    Scatter(e, K, sink);
   }
 }
 
@@ -342,10 +286,11 @@ void BeamForce::Pattern(SparseSink* sink) const {
 
 double BeamForce::PotentialEnergy(const Eigen::VectorXd& q) const {
   double energy = 0.0;
-  Local ql;
+  Local ql, vl;
   for (const BeamElement& e : elements_) {
     Gather(e, q, &ql);
-    Element(e, ql, ql, 0.0, 0.0, nullptr, nullptr, &energy);
+    vl.setZero(ql.size());  // the energy is the elastic one; the rate is not needed
+    Element(e, ql, vl, nullptr, nullptr, nullptr, &energy);
   }
   return energy;
 }

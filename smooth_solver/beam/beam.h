@@ -104,18 +104,9 @@ int BeamGaussPoints(int n, std::array<double, 2>* xi, std::array<double, 2>* wei
 // [m²] adds rotary_floor · m to every director's second moment (see beam_model.h).
 Eigen::MatrixXd BeamElementMass(int n, double s0, double length, const BeamTable& table, double rotary_floor);
 
-// A beam's internal force with its Kelvin–Voigt structural damping (σ_v = β C ε̇, ζ = βω/2 per
-// mode), as one force element over all its elements: the end-point force for IDA, the static
-// and settle solves, and the GEMM midpoint force over the step for the CGα integrators
-// (AddMidpoint). Every strain is a quadratic form in q, so the midpoint force of Eq. (13) [CGα
-// paper] is exactly energy-consistent: ε_{n+1} − ε_n = B(q_½)(q_{n+1} − q_n), hence
-// (q_{n+1} − q_n)ᵀ B(q_½)ᵀ C ½(ε_n + ε_{n+1}) = V_{n+1} − V_n, and the damping, taken with the
-// step's strain rate (ε_{n+1} − ε_n)/h, only ever removes energy (Eq. (17)'s ξ = β/h). An
-// end-point force let a stiff spinning blade gain energy through the coupling of its axial and
-// bending modes, with or without its damping at the end point (generated rotor 707: one 1.6 m
-// blade of 5 quadratic elements at 116 rad/s, in vacuum, blew up within 0.02 s at h = 1 ms
-// and ρ∞ = 0.9).
-class BeamForce : public MidpointElasticForce {
+// A beam's internal and Kelvin–Voigt damping forces (σ_v = β C ε̇, ζ = βω/2 per mode), as one
+// force element over all its elements (an end-point force for every integrator).
+class BeamForce : public ForceElement {
  public:
   BeamForce(std::string name, int nodes_per_element, std::vector<BeamElement> elements, double retardation);
   void AddForce(const Eigen::VectorXd& q, const Eigen::VectorXd& qdot, double t, const SystemData& data,
@@ -124,12 +115,6 @@ class BeamForce : public MidpointElasticForce {
                   double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
-  // f_m += Σ_g w_g J B(q_m)ᵀ C ε_m with q_m = (1 − αf) q + αf q_prev and ε_m = (1 − αf) ε(q) +
-  // αf ε(q_prev) + ξ (ε(q) − ε(q_prev)), ξ = β/h (Eqs. (15)-(17): the strains averaged, their
-  // gradient at the averaged coordinates); sink += k_scale · ∂f_m/∂q =
-  // k_scale Σ w J ((1 − αf + ξ) B(q_m)ᵀ C B(q) + (1 − αf) Σ_k σ_k H_k).
-  void AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f, double h,
-                   Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const override;
 
   // Section forces and moments σ = C ε = [N, V2, V3, T, M2, M3] (section frame) at span
   // coordinate s, from the Gauss points of the element containing it (constant over a 2-node
@@ -149,25 +134,14 @@ class BeamForce : public MidpointElasticForce {
 
  private:
   void Gather(const BeamElement& e, const Eigen::VectorXd& q, Local* ql) const;
-  // Adds the element's local matrix (12 per node) into `global` in 3×3 blocks.
-  void Scatter(const BeamElement& e, const LocalMatrix& local, SparseSink* global) const;
-  // K += Σ_k σ_k H_k at Gauss point g (σ already weighted by w J): the strains' constant Hessians.
-  void AddGeometric(const BeamElement& e, int g, const Vector6d& sigma, LocalMatrix* K) const;
-  double GaussWeight(const BeamElement& e, int g) const { return w_[static_cast<size_t>(g)] * 0.5 * e.length; }
-  // The element's internal force over ql0 → ql1 with weight αf on ql0 and strain-rate weight ξ
-  // (f += f_m, positive as f_int), its tangent ∂f_m/∂ql1 (K +=) and strain energy at ql1
-  // (energy +=), each if given.
-  void Element(const BeamElement& e, const Local& ql0, const Local& ql1, double alpha_f, double xi, Local* f,
-               LocalMatrix* K, double* energy) const;
-  // The element's Kelvin–Voigt force at (ql, vl) (f += f_v, positive as f_int) and its tangents
-  // K += k_scale ∂f_v/∂q, K += c_scale ∂f_v/∂q̇ (if K is given).
-  void Viscous(const BeamElement& e, const Local& ql, const Local& vl, Local* f, double k_scale, double c_scale,
-               LocalMatrix* K) const;
+  // Adds the element's contributions: f_l += force; K_l, C_l (if given) += tangents.
+  void Element(const BeamElement& e, const Local& ql, const Local& vl, Local* f, LocalMatrix* K, LocalMatrix* C,
+               double* energy) const;
 
   std::string name_;
   int n_;
   std::vector<BeamElement> elements_;
-  double retardation_;  // β [s]
+  double retardation_;
   std::array<double, 2> xi_{}, w_{};
   // Shape functions N_I and dN_I/dξ at each Gauss point (computed once).
   std::array<std::array<double, 3>, 2> shape_{}, shape_xi_{};

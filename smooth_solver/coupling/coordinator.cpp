@@ -417,13 +417,6 @@ std::string Coordinator::Describe(const Attempt& attempt) const {
     case Attempt::Outcome::kConverged:
       return "coupling: the step to t = " + interface::FormatNumber(attempt.end_time) + " s converged";
     case Attempt::Outcome::kNotConverged:
-      if (attempt.stalled) {
-        return "coupling: the interface iteration made no progress at step " + std::to_string(step_) +
-               " (t = " + interface::FormatNumber(attempt.end_time) + " s): its reaction residual repeats " +
-               interface::FormatNumber(log_[log_.size() - 2].reaction_residual) + " N, " +
-               interface::FormatNumber(log_.back().reaction_residual) + " N after " +
-               std::to_string(attempt.iterations) + " iterations; " + CouplingState();
-      }
       return "coupling: no convergence in " + std::to_string(settings_.max_iterations) + " iterations at step " +
              std::to_string(step_) + " (t = " + interface::FormatNumber(attempt.end_time) + " s): reaction residual " +
              interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
@@ -816,27 +809,6 @@ void Coordinator::Backtrack(int iteration, int backtracks) {
   Exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
 }
 
-// With interface Jacobians the iteration is Newton's on the coupled step, which converges in a few
-// iterations or not at all: where a contact sits at its lift-off, the linearised answers can flip
-// it open and closed in turn, and the residual repeats with period two for ever (generated
-// rotor 313, teetering beam gust, t = 1.659 s: 21.06 N and 908.97 N for 50 iterations; its
-// halves converged at once). No progress over two iterations, in both phases, ends the attempt
-// there, and the step is retried as halves 46 iterations sooner.
-bool Coordinator::Stalled(const CouplingIterationRecord& now) const {
-  constexpr double kProgress = 1e-3;  // the least share two iterations must take off the residual
-  if (now.iteration < 3 || log_.size() < 3) return false;
-  const size_t n = log_.size();
-  for (size_t k = 1; k <= 3; ++k) {
-    const CouplingIterationRecord& r = log_[n - k];
-    if (r.step != now.step || r.iteration != now.iteration - static_cast<int>(k)) return false;
-  }
-  auto no_progress = [&](double later, double earlier) {
-    return std::isfinite(later) && later >= (1.0 - kProgress) * earlier;
-  };
-  return no_progress(now.reaction_residual, log_[n - 2].reaction_residual) &&
-         no_progress(log_[n - 1].reaction_residual, log_[n - 3].reaction_residual);
-}
-
 Coordinator::Attempt Coordinator::Try(double t, double h) {
   Attempt result;
   result.end_time = t + h;
@@ -905,8 +877,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       ++free_flight_;
     }
     previous_x_tilde_ = x_tilde_;
-    result.stalled = !converged && jacobians_ && Stalled(record);
-    if (converged || result.stalled || iteration + 1 >= settings_.max_iterations) {
+    if (converged || iteration + 1 >= settings_.max_iterations) {
       record.relaxation_factor = 0.0;
       log_.push_back(record);
       break;

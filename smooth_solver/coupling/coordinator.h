@@ -134,7 +134,6 @@ class Coordinator {
     double time_to_contact = 0.0;  // the peers' earliest, from the step's end [s]
     int failed_iteration = -1;     // kSmoothFailed, kReactionsNotFinite: the coupling iteration
     bool with_answers = false;     // kSmoothFailed: the solve imposed the contact processes' answers
-    bool stalled = false;          // kNotConverged before max_iterations: no progress (Stalled)
     StepStatus smooth;             // kSmoothFailed: CGα's status
     bool converged() const { return outcome == Outcome::kConverged; }
     bool failed() const { return outcome == Outcome::kSmoothFailed || outcome == Outcome::kReactionsNotFinite; }
@@ -226,9 +225,6 @@ class Coordinator {
   bool LinearisationAgrees(CouplingIterationRecord* record) const;
   // The force test of both: `force` within the tolerances of the force the peers held.
   bool ForcesAgree(const Eigen::VectorXd& force) const;
-  // Interface Jacobians: whether `now` and the three records before it in this step show no
-  // progress over two iterations in both phases (a period-two flip of a contact; Try ends there).
-  bool Stalled(const CouplingIterationRecord& now) const;
 
   const MultibodySystem& system_;
   SystemData* data_;

@@ -2,7 +2,7 @@
 
 namespace cosim::smooth {
 
-void ElasticForce::AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f, double,
+void ElasticForce::AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f,
                                Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const {
   const MidpointWeights weights{alpha_f, alpha_f == 0.0 ? 0.0 : strain_damping_};
   body_->AssembleMidpoint(Positions(q_prev), Positions(q), weights, 1.0, f_m.segment(offset_, 3 * body_->node_count()),

@@ -15,7 +15,7 @@ namespace cosim::smooth {
 // Every (row, column) the element matrices of `body` touch, its coordinates from `offset`.
 void ElasticPattern(const ElasticBody& body, int offset, SparseSink* sink);
 
-class ElasticForce : public MidpointElasticForce {
+class ElasticForce : public ForceElement {
  public:
   ElasticForce(const ElasticBody* body, int offset, double strain_damping)
       : body_(body), offset_(offset), strain_damping_(strain_damping) {}
@@ -25,12 +25,13 @@ class ElasticForce : public MidpointElasticForce {
                   double stiffness_scale, double damping_scale, SparseSink* sink) const override;
   void Pattern(SparseSink* sink) const override;
   double PotentialEnergy(const Eigen::VectorXd& q) const override;
+  bool IsElastic() const override { return true; }
 
   // f_m += the midpoint internal force over q_prev → q with weights (αf, ξ of this body) —
   // αf = 0 gives the end-point force f_int(q), whatever ξ — and, if sink is given,
   // sink += k_scale · ∂f_m/∂q.
-  void AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f, double h,
-                   Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const override;
+  void AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f,
+                   Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const;
 
  private:
   Eigen::Map<const Eigen::Matrix3Xd> Positions(const Eigen::VectorXd& q) const {

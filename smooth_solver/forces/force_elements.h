@@ -30,7 +30,7 @@ class ForceElement {
   // Every (row, column) AddTangent may touch.
   virtual void Pattern(SparseSink* sink) const = 0;
   virtual double PotentialEnergy(const Eigen::VectorXd&) const { return 0.0; }
-  // An elastic internal force, which CGα evaluates over the step instead (MidpointElasticForce).
+  // An elastic body's internal force, which CGα evaluates over the step (GEMM) instead.
   virtual bool IsElastic() const { return false; }
   // False for an element that can feed energy into the system beyond its PotentialEnergy
   // (time-varying or follower loads): the energy watchdog is then off in AUTO mode.
@@ -46,21 +46,6 @@ class ForceElement {
   virtual double TimeToContact(const Eigen::VectorXd& /*q*/, const Eigen::VectorXd& /*qdot*/) const {
     return std::numeric_limits<double>::infinity();
   }
-};
-
-// An elastic internal force (a hex27 body's, a beam's) that the CGα integrators take over the
-// step as the GEMM midpoint force f_m(q_n, q_{n+1}) [CGα paper, Eqs. (13)-(19), (30)]
-// (integrator/elastic_step_force); to everyone else (IDA, the static and settle solves, the
-// energy) it is the ordinary end-point force element −f_int(q).
-class MidpointElasticForce : public ForceElement {
- public:
-  bool IsElastic() const final { return true; }
-  // f_m += the midpoint internal force over the step q_prev → q of length h with weight αf on
-  // the step's start (αf = 0 and no damping: the end-point f_int(q)) and, if sink is given,
-  // sink += k_scale · ∂f_m/∂q. Structural damping, if the element has it, enters with the step's
-  // strain rate (ε(q) − ε(q_prev))/h (h = 0: none, as at a history's restart).
-  virtual void AddMidpoint(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double alpha_f, double h,
-                           Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const = 0;
 };
 
 // A force F(t) at a body point s and a torque T(t) on the body, both global. In natural

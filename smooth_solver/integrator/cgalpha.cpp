@@ -1,5 +1,6 @@
 #include "smooth_solver/integrator/cgalpha.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -36,14 +37,19 @@ Eigen::SparseMatrix<double> SaddlePattern(const MultibodySystem& system, const S
 // of the Newton tolerance (CgAlpha::Newton).
 constexpr double kReusedErrorShare = 1e-3;
 
-// Whether every vector of row c is a direction or point of one beam node (its rigidity rows).
-bool BeamNodeRow(const ScalarConstraint& c, const std::vector<char>& beam_node) {
+// Whether row c is one of a beam node's six rigidity rows (u·u = 1, u·v = 0, ...): every term a
+// dot product of two directions of that one node, with no constant vector.
+bool BeamNodeRigidityRow(const ScalarConstraint& c, const std::vector<char>& beam_node) {
   int body = -1;
   for (const auto& term : c.terms) {
     for (const LinearVector* v : {&term.a, &term.b}) {
+      if (v->terms.empty() || !v->constant.isZero(0.0)) return false;
       for (const auto& t : v->terms) {
         const int b = t.offset / kCoordinatesPerBody;
-        if (b >= static_cast<int>(beam_node.size()) || beam_node[static_cast<size_t>(b)] == 0) return false;
+        const bool direction = t.offset % kCoordinatesPerBody >= 3;
+        if (!direction || b >= static_cast<int>(beam_node.size()) || beam_node[static_cast<size_t>(b)] == 0) {
+          return false;
+        }
         if (body >= 0 && b != body) return false;
         body = b;
       }
@@ -55,20 +61,13 @@ bool BeamNodeRow(const ScalarConstraint& c, const std::vector<char>& beam_node) 
 // Whether INDEX2_PROJECTED closes row i at velocity level: a curved row (a term whose two
 // vectors both move: Φ_q changes with q, like the rigidity rows u·u = 1 and the axes of a
 // revolute joint between two bodies), unless it is a coupling interface row (imposed by a peer,
-// rotor-sailing paper Eq. (6), or Tikhonov-regularised, Eq. (7)) or a beam node's own rigidity
-// row. A linear row (a point coincidence along fixed axes, an elastic clamp, an axis against the
-// ground) keeps Φ = 0: its normal never turns, so the Newmark update's normal-velocity mode
-// (amplification 1 − γ/β, |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
-// A beam node's rigidity rows stay at position level too: its section rotates against the
-// beam's shear and bending stiffness at ωh of 10²–10³, the velocity rows of the matrix lean with
-// those rates (|ω| βh/γ), and the chord projection stalled, then diverged (generated rotor 707,
-// a blade of 5 quadratic elements at 116 rad/s: |Φ| = inf within 0.04 s). Held by its
-// neighbours through the beam's energy-consistent midpoint force (beam.h), a node's normal-velocity
-// mode has no free spin to feed it, as a free body's has (design.md, "Spinning bodies").
-bool VelocityLevelRow(const ConstraintSet& cs, size_t i, const std::vector<char>& beam_node) {
+// rotor-sailing paper Eq. (6), or Tikhonov-regularised, Eq. (7)). A linear row (a point
+// coincidence along fixed axes, an elastic clamp, an axis against the ground) keeps Φ = 0: its
+// normal never turns, so the Newmark update's normal-velocity mode (amplification 1 − γ/β,
+// |·| < 1 for ρ∞ < 1) stays damped, and index 3 is exact for it.
+bool VelocityLevelRow(const ConstraintSet& cs, size_t i) {
   if (cs.Compliance(i) != 0.0) return false;
   const ScalarConstraint& c = cs.constraints[i];
-  if (BeamNodeRow(c, beam_node)) return false;
   auto imposed = [&](const DriveWeight& w) {
     return w.drive >= 0 && cs.drives[static_cast<size_t>(w.drive)].imposed >= 0;
   };
@@ -171,15 +170,22 @@ CgAlpha::CgAlpha(const MultibodySystem& system, SystemData* data, const CgAlphaS
   rate_.resize(m);
   rows_.resize(m);
   velocity_row_.assign(static_cast<size_t>(m), 0);
+  beam_node_row_.assign(static_cast<size_t>(m), 0);
   if (settings.form == ConstraintForm::kIndex2Projected) {
-    std::vector<char> beam_node(static_cast<size_t>(system.coordinates / kCoordinatesPerBody) + 1, 0);
+    const int bodies = system.coordinates / kCoordinatesPerBody;
+    std::vector<char> beam_node(static_cast<size_t>(bodies), 0);
     for (const auto& nodes : system.beam_node_bodies) {
-      for (int b : nodes) beam_node[static_cast<size_t>(b)] = 1;
+      for (int b : nodes) {
+        beam_node[static_cast<size_t>(b)] = 1;
+        beam_nodes_.push_back(b);
+      }
     }
     for (int i = 0; i < m; ++i) {
-      velocity_row_[static_cast<size_t>(i)] =
-          VelocityLevelRow(system.constraints, static_cast<size_t>(i), beam_node) ? 1 : 0;
-      any_velocity_row_ = any_velocity_row_ || velocity_row_[static_cast<size_t>(i)] != 0;
+      const size_t r = static_cast<size_t>(i);
+      velocity_row_[r] = VelocityLevelRow(system.constraints, r) ? 1 : 0;
+      any_velocity_row_ = any_velocity_row_ || velocity_row_[r] != 0;
+      beam_node_row_[r] =
+          velocity_row_[r] != 0 && BeamNodeRigidityRow(system.constraints.constraints[r], beam_node) ? 1 : 0;
     }
   }
   woodbury_ = !system.interface_points.empty();
@@ -201,7 +207,7 @@ void CgAlpha::AssembleIteration(double t1, double h) {
   for (int k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
   MatrixSink sink(&S_);
   // The elastic force and its tangent in one pass (force_ holds the other forces already).
-  elastic_.Add(state_.q, next_.q, h, force_, bh2, &sink);
+  elastic_.Add(state_.q, next_.q, force_, bh2, &sink);
   AddSparse(system_.mass, (1.0 - coef_.alpha_m) / (1.0 - coef_.alpha_f), &sink);         // βh² β' M
   system_.constraints.HessianTimesLambda(data_->imposed, t1, next_.lambda, &sink, bh2);  // βh² Σ λ_i ∂²φ_i/∂q²
   // βh² (K + γ' C) of the force elements, γ' = γ/(βh): ∂q̇/∂q along the Newton correction.
@@ -310,6 +316,17 @@ double CgAlpha::ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> ou
   return out.size() > 0 ? out.lpNorm<Eigen::Infinity>() : 0.0;
 }
 
+void CgAlpha::OrthonormaliseBeamNodes() {
+  for (int b : beam_nodes_) {
+    const int o = kCoordinatesPerBody * b + 3;
+    Eigen::Matrix3d A;
+    for (int k = 0; k < 3; ++k) A.col(k) = next_.q.segment<3>(o + 3 * k);
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(A, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Matrix3d R = svd.matrixU() * svd.matrixV().transpose();
+    for (int k = 0; k < 3; ++k) next_.q.segment<3>(o + 3 * k) = R.col(k);
+  }
+}
+
 bool CgAlpha::ProjectPositions(double t1, StepStatus* status) {
   // Chord iteration on Φ(q) = 0 (velocity rows only; the position rows hold already) with the
   // last Newton factorisation: its constraint rows are Φ_q + O(h) (Φ_q q̇)_q, so each solve
@@ -323,8 +340,18 @@ bool CgAlpha::ProjectPositions(double t1, StepStatus* status) {
   const double target = std::max(1e-4 * settings_.tolerance, 1e-14);
   double previous = std::numeric_limits<double>::infinity();
   for (int k = 0;; ++k) {
+    // A beam node's rigidity rows closed exactly, in the Euclidean metric of its axes (the
+    // direction of GGL's Φ_qᵀν): the chord solves' matrix leans from Φ_q by |ω| βh/γ, and a
+    // section's rotation rates against the beam's shear and bending stiffness (ωh of 10²–10³)
+    // made that lean large enough for the chord iteration to stall, then diverge (generated
+    // rotor 707, blades of 5 quadratic elements at 116 rad/s: |Φ| = inf within 0.08 s in both
+    // stop models). The chord solves below then close the other velocity rows.
+    OrthonormaliseBeamNodes();
     system_.constraints.Evaluate(data_->imposed, next_.q, t1, phi_);
-    for (int i = 0; i < m; ++i) rhs(i) = velocity_row_[static_cast<size_t>(i)] != 0 ? -phi_(i) : 0.0;
+    for (int i = 0; i < m; ++i) {
+      const size_t r = static_cast<size_t>(i);
+      rhs(i) = velocity_row_[r] != 0 && beam_node_row_[r] == 0 ? -phi_(i) : 0.0;
+    }
     const double violation = rhs.lpNorm<Eigen::Infinity>();
     if (violation <= target || (violation > 0.5 * previous && violation <= settings_.tolerance)) return true;
     // A slow but steady contraction (the velocity rows of the matrix lean by |ω| βh/γ from Φ_q,
@@ -477,7 +504,7 @@ StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess) {
     // Accept: a_{n+1} from Eq. (3).
     a_ = ((1.0 - coef_.alpha_f) * next_.qddot + coef_.alpha_f * state_.qddot - coef_.alpha_m * a_) /
          (1.0 - coef_.alpha_m);
-    elastic_.Accept(state_.q, next_.q, h);
+    elastic_.Accept(state_.q, next_.q);
     std::swap(state_, next_);
     ++age_;
   } else if (starting) {
@@ -530,7 +557,7 @@ void CgAlpha::Newton(double t1, double h, Matrices matrices, StepStatus* status)
     if (fresh) {
       AssembleIteration(t1, h);  // also force_ −= f̃_{n+1}
     } else {
-      elastic_.Add(state_.q, next_.q, h, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
+      elastic_.Add(state_.q, next_.q, force_, bh2, nullptr);  // force_ −= f̃_{n+1}
     }
     auto r_q = residual_.head(n);
     r_q.noalias() = system_.mass * next_.qddot;

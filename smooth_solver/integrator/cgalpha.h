@@ -219,10 +219,14 @@ class CgAlpha : public SmoothIntegrator {
   // out = rows_ with the velocity rows × velocity_scale (1/γ' in the residual, h in the
   // convergence test); returns |out|∞.
   double ScaledRows(double velocity_scale, Eigen::Ref<Eigen::VectorXd> out) const;
-  // INDEX2_PROJECTED: projects next_.q onto Φ(q, t1) = 0 on the velocity rows with the last
+  // INDEX2_PROJECTED: projects next_.q onto Φ(q, t1) = 0 on the velocity rows: each beam node's
+  // axes onto the nearest orthonormal ones (OrthonormaliseBeamNodes), the other rows with the last
   // factorisation (a chord iteration); false (and *status says how far it got) if it does not
   // converge.
   bool ProjectPositions(double t1, StepStatus* status);
+  // next_.q's beam-node axes A ← U Vᵀ (A = U Σ Vᵀ): the closest orthonormal axes, which close the
+  // node's six rigidity rows exactly.
+  void OrthonormaliseBeamNodes();
 
   const MultibodySystem& system_;
   SystemData* data_;  // the run's changing state (the constructor's `data`), saved with the checkpoints
@@ -236,6 +240,10 @@ class CgAlpha : public SmoothIntegrator {
   // rows but the coupling rows; VelocityLevelRow in cgalpha.cpp), 0 where Φ itself does.
   std::vector<char> velocity_row_;
   bool any_velocity_row_ = false;
+  // INDEX2_PROJECTED: the beam nodes (bodies) whose axes ProjectPositions orthonormalises, and per
+  // row 1 for their rigidity rows, which that closes (the chord solves leave them out).
+  std::vector<int> beam_nodes_;
+  std::vector<char> beam_node_row_;
   long long projection_solves_ = 0;
   long long factorizations_ = 0;
   // The factorisation in lu_: valid for step h_factorized_, reused for age_ accepted steps.

@@ -121,7 +121,7 @@ int CgAlphaIndex2::Step(double t, double h) {
     for (Eigen::Index k = 0; k < S_.nonZeros(); ++k) S_.valuePtr()[k] = 0.0;
     {
       MatrixSink sink(&S_);
-      elastic_.Add(state_.q, next_.q, h, force_, cq, &sink);  // force_ −= f̃_{n+1}; its tangent × c_q
+      elastic_.Add(state_.q, next_.q, force_, cq, &sink);  // force_ −= f̃_{n+1}; its tangent × c_q
     }
     r1.noalias() = system_.mass * next_.qddot;
     r1 -= force_;
@@ -157,7 +157,7 @@ int CgAlphaIndex2::Step(double t, double h) {
     if (dq <= settings_.tolerance * (1.0 + next_.q.lpNorm<Eigen::Infinity>()) && phi <= settings_.tolerance &&
         vel_error <= settings_.tolerance) {
       a_ = a_next_;
-      elastic_.Accept(state_.q, next_.q, h);
+      elastic_.Accept(state_.q, next_.q);
       std::swap(state_, next_);
       return iteration;
     }

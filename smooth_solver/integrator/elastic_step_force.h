@@ -25,17 +25,17 @@ class ElasticStepForce {
   bool empty() const { return system_.elastic_forces.empty(); }
   // Restarts the history at q: f̃_n = f_int(q) (the start, or a joint release).
   void Reset(const Eigen::VectorXd& q);
-  // For the step q_prev → q of length h: f −= f̃_{n+1}(q) and, if sink is given,
+  // For the step q_prev → q: f −= f̃_{n+1}(q) and, if sink is given,
   // sink += k_scale · ∂f̃_{n+1}/∂q = k_scale/(1 − αf) · ∂f_m/∂q.
-  void Add(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double h, Eigen::Ref<Eigen::VectorXd> f,
-           double k_scale, SparseSink* sink);
-  // The step q_prev → q of length h is accepted: f̃_n = f̃_{n+1}(q), evaluated at the accepted q.
-  void Accept(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double h);
+  void Add(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, Eigen::Ref<Eigen::VectorXd> f, double k_scale,
+           SparseSink* sink);
+  // The step q_prev → q is accepted: f̃_n = f̃_{n+1}(q), evaluated at the accepted q.
+  void Accept(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q);
   const Eigen::VectorXd& current() const { return current_; }   // f̃_n
   void set_current(const Eigen::VectorXd& f) { current_ = f; }  // a checkpoint's f̃_n
 
  private:
-  void Evaluate(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double h, double k_scale, SparseSink* sink);
+  void Evaluate(const Eigen::VectorXd& q_prev, const Eigen::VectorXd& q, double k_scale, SparseSink* sink);
 
   const MultibodySystem& system_;
   double alpha_;                    // αf with GEMM, 0 without

@@ -276,7 +276,6 @@ void AddBeams(const MultibodyModel& model, MultibodySystem* sys, std::vector<Eig
     }
     auto force = std::make_unique<BeamForce>(beam.name, nn, beam.elements, beam.retardation);
     sys->beam_forces.push_back(force.get());
-    sys->elastic_forces.push_back(force.get());
     sys->forces.push_back(std::move(force));
   }
 }

@@ -97,9 +97,8 @@ struct MultibodySystem {
   std::vector<std::vector<const UnilateralContact*>> contact_laws;
   // The air loads (also in `forces`), or null.
   const AirLoads* air_loads = nullptr;
-  // The elastic internal forces CGα takes as GEMM midpoint forces: the hex27 bodies' and the
-  // beams' (also in `forces`).
-  std::vector<const MidpointElasticForce*> elastic_forces;
+  // The elastic bodies' internal forces (also in `forces`).
+  std::vector<const ElasticForce*> elastic_forces;
   void ForcePattern(SparseSink* sink) const;
   // A step was accepted (or the run starts) at (q, q̇): force elements with a memory update it
   // in `data`.

@@ -32,14 +32,6 @@ double Watchdog::RigidityRate(const Eigen::VectorXd& q, const Eigen::VectorXd& q
 Watchdog::Watchdog(const MultibodySystem& system, const WatchdogSettings& settings, std::vector<std::string> body_names,
                    const DaeState& initial)
     : system_(system), settings_(settings), bodies_(std::move(body_names)) {
-  rigidity_limit_.assign(bodies_.size(), settings_.rigidity_rate);
-  for (const auto& nodes : system.beam_node_bodies) {
-    for (int b : nodes) {
-      if (b >= 0 && static_cast<size_t>(b) < rigidity_limit_.size()) {
-        rigidity_limit_[static_cast<size_t>(b)] *= kBeamNodeRigidityFactor;
-      }
-    }
-  }
   double kinetic = 0.0, potential = 0.0;
   Energy(initial, &kinetic, &potential);
   min_energy_ = kinetic + potential;
@@ -73,7 +65,7 @@ void Watchdog::Check(const DaeState& state, double t, long step) {
       double omega = 0.0;
       const double rate = RigidityRate(state.q, state.qdot, static_cast<int>(b), &omega);
       max_rigidity_rate_ = std::max(max_rigidity_rate_, rate);
-      if (rate > rigidity_limit_[b]) {
+      if (rate > settings_.rigidity_rate) {
         throw NumericalError(
             "watchdog: body '" + bodies_[b] + "' is no longer moving rigidly " + when() +
             ": the non-rigid part of its axis "
@@ -81,9 +73,6 @@ void Watchdog::Check(const DaeState& state, double t, long step) {
             FormatNumber(rate * (omega + 1.0)) + " 1/s, is " + FormatNumber(rate) + " of its angular speed " +
             FormatNumber(omega) +
             " rad/s + 1 rad/s (numerics.smooth.watchdog.rigidity_rate = " + FormatNumber(settings_.rigidity_rate) +
-            (rigidity_limit_[b] != settings_.rigidity_rate
-                 ? ", × " + FormatNumber(kBeamNodeRigidityFactor) + " for a beam node"
-                 : std::string()) +
             "); the integrator has lost the velocity-level rigidity constraints "
             "(with constraint_form INDEX3: use INDEX2_PROJECTED, or reduce the step)");
       }

@@ -5,8 +5,7 @@
 //  - every rigid body's axis velocities are a rigid rotation: with A = [u v w] and Ȧ its rate,
 //    AᵀȦ = Ω̃ + S where Ω̃ is skew (the angular velocity) and S = sym(AᵀȦ) is the velocity-level
 //    rigidity residual (S = ½ d/dt (AᵀA) = 0 for a rigid body). |S|max / (|ω| + 1 rad/s) is the
-//    share of the axis velocities that is not a rotation (a beam node's against a wider bound:
-//    kBeamNodeRigidityFactor);
+//    share of the axis velocities that is not a rotation;
 //  - where the scene cannot gain energy (no drives, coupling rows or loads outside the potential,
 //    or declared so), the total energy does not stay above its earlier lowest value by more than
 //    a fraction of the scene's energy scale. The median energy of the last `energy_window` steps
@@ -29,15 +28,6 @@ struct WatchdogSettings {
   int energy_window = 10;       // steps the growth must last
   bool energy = true;           // the energy check applies to this scene
 };
-
-// A beam node's rigidity rows are closed at position level (CGα's VelocityLevelRow), so its axis
-// velocities carry index 3's normal-velocity error, which CGα damps only by 1 − |1 − γ/β| a step
-// (0.005 at ρ∞ = 0.9): measured up to 1.03 % of the angular speed (generated rotor 2 of the
-// suite's sample, at a pad's impact; 0.32–0.45 % on rotor 707), against ~1e-9 for a body whose
-// rows are closed at velocity level. Its bound is this many times rigidity_rate: a blow-up still
-// crosses it within steps (the end-point beam force on rotor 707 with position-level rows: its
-// tip node crossed 0.01 at 0.085 s and the run would have diverged right after).
-constexpr double kBeamNodeRigidityFactor = 10.0;
 
 class Watchdog {
  public:
@@ -63,7 +53,6 @@ class Watchdog {
   const MultibodySystem& system_;
   WatchdogSettings settings_;
   std::vector<std::string> bodies_;
-  std::vector<double> rigidity_limit_;  // per body: rigidity_rate, × kBeamNodeRigidityFactor for a beam node
   struct Sample {
     double energy = 0.0, kinetic = 0.0, potential = 0.0;
   };

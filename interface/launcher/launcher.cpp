@@ -309,27 +309,16 @@ void JoinHistories(const std::vector<std::pair<std::string, std::string>>& parts
     }
     first += width;
   }
-  // Through a temporary file and a rename; a failure removes the temporary and names the file.
-  const std::string tmp = out + ".part";
-  bool written = false;
-  {
-    std::ofstream file(tmp);
+  // Whole or not at all (WriteWholeFile): a failure leaves no temporary and names the file.
+  const WrittenFile written = WriteWholeFile(out, [&header, &rows](std::ostream& file) {
     for (size_t c = 0; c < header.size(); ++c) file << (c ? "," : "") << header[c];
     file << "\n";
     for (const auto& [t, row] : rows) {
       for (size_t c = 0; c < row.size(); ++c) file << (c ? "," : "") << row[c];
       file << "\n";
     }
-    file.close();
-    written = static_cast<bool>(file);
-  }
-  std::error_code ec;
-  if (written) std::filesystem::rename(tmp, out, ec);
-  if (!written || ec) {
-    const std::string why = ec ? ec.message() : std::string("writing failed (is the disk full?)");
-    std::filesystem::remove(tmp, ec);
-    throw InputError("cannot write " + out + ": " + why);
-  }
+  });
+  if (!written.ok()) throw InputError(written.why);
 }
 
 namespace {

@@ -61,12 +61,58 @@ bool OutputFile::Flush() {
   return error_.empty();
 }
 
+FolderLock::FolderLock(const std::string& folder, bool follow_links) {
+  fd_ = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC | (follow_links ? 0 : O_NOFOLLOW));
+  if (fd_ < 0) {
+    why_ = std::strerror(errno);
+    return;
+  }
+  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) {
+    outcome_ = Outcome::kTaken;
+    return;
+  }
+  const int error = errno;
+  outcome_ = error == EWOULDBLOCK ? Outcome::kHeldByAnotherRun : Outcome::kCannotLock;
+  if (error != EWOULDBLOCK) why_ = std::strerror(error);
+  ::close(fd_);
+  fd_ = -1;
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // (releases the lock)
+}
+
 bool HeldByAnotherRun(const std::string& folder) {
-  const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC | O_NOFOLLOW);
-  if (fd < 0) return false;
-  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
-  ::close(fd);  // (releases the lock if it was taken here)
-  return held;
+  return FolderLock(folder, /*follow_links=*/false).outcome() == FolderLock::Outcome::kHeldByAnotherRun;
+}
+
+WrittenFile WriteWholeFile(const std::string& path, const std::function<void(std::ostream&)>& write) {
+  const std::string temporary = path + ".part";
+  WrittenFile result;
+  {
+    errno = 0;
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) {
+      result.why = "cannot write " + path + ": " + std::strerror(errno != 0 ? errno : EIO);
+    } else {
+      errno = 0;
+      write(out);
+      int error = out ? 0 : errno;  // (a write that failed as it went)
+      out.close();                  // (flushes: a full disk shows here at the latest)
+      if (!out) {
+        if (error == 0) error = errno;
+        result.why = "cannot write " + path + ": " +
+                     (error != 0 ? std::string(std::strerror(error)) : "writing failed (is the disk full?)");
+      }
+    }
+  }
+  std::error_code ec;
+  if (result.ok()) {
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) result.why = "cannot write " + path + ": " + ec.message();
+  }
+  if (!result.ok()) std::filesystem::remove(temporary, ec);
+  return result;
 }
 
 void RemoveEarlierVisualOutput(const std::string& folder) {
@@ -105,19 +151,18 @@ RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& 
     throw InputError("--out " + folder + ": cannot create the output folder: " + error.message() +
                      " (choose a writable folder)");
   }
-  // One run per folder: an advisory lock on the folder itself, released when the process
-  // ends however it ends (no lock file is left behind).
-  lock_ = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (lock_ < 0) {
-    throw InputError("--out " + folder + ": cannot open the output folder: " + std::strerror(errno));
-  }
-  if (::flock(lock_, LOCK_EX | LOCK_NB) != 0) {
-    const int why = errno;
-    ::close(lock_);
-    lock_ = -1;
-    throw InputError("--out " + folder + ": the output folder is in use by another run" +
-                     (why == EWOULDBLOCK ? std::string() : std::string(" (") + std::strerror(why) + ")") +
-                     "; give each run its own folder");
+  // One run per folder (FolderLock).
+  lock_ = std::make_unique<FolderLock>(folder);
+  switch (lock_->outcome()) {
+    case FolderLock::Outcome::kTaken:
+      break;
+    case FolderLock::Outcome::kCannotOpen:
+      throw InputError("--out " + folder + ": cannot open the output folder: " + lock_->why());
+    case FolderLock::Outcome::kHeldByAnotherRun:
+    case FolderLock::Outcome::kCannotLock:
+      throw InputError("--out " + folder + ": the output folder is in use by another run" +
+                       (lock_->why().empty() ? std::string() : " (" + lock_->why() + ")") +
+                       "; give each run its own folder");
   }
   // An earlier run's summary would describe this run if it were killed before its own; its
   // visual output would mix with this run's frames (or stand for them if this run writes none).
@@ -141,7 +186,6 @@ RunOutput::RunOutput(const std::string& folder, const std::vector<std::string>& 
 RunOutput::~RunOutput() {
   history_.reset();
   if (log_ != nullptr) std::fclose(log_);
-  if (lock_ >= 0) ::close(lock_);
 }
 
 void RunOutput::WriteRow(double time, const std::vector<double>& values) {
@@ -190,13 +234,9 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path) {
   // it): a process killed while it writes leaves no half summary taken for its outcome.
   std::error_code absent;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), absent);
-  const std::string partial = path + ".partial";
-  std::ofstream out(partial);
-  out << json;
-  out.close();
-  if (!out || std::rename(partial.c_str(), path.c_str()) != 0) {
-    std::cerr << "error: cannot write " << path << ": " << std::strerror(errno) << " (the run's outcome is lost)\n";
-    ::unlink(partial.c_str());
+  const WrittenFile written = WriteWholeFile(path, [&json](std::ostream& out) { out << json; });
+  if (!written.ok()) {
+    std::cerr << "error: " << written.why << " (the run's outcome is lost)\n";
     return false;
   }
   return true;
@@ -209,10 +249,10 @@ bool ReadSummaryJson(const std::string& path, run::RunSummary* summary) {
 
 void WriteFinalState(const std::string& folder, const google::protobuf::Message& message) {
   const std::string path = folder + "/final_state.pb";
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out || !message.SerializeToOstream(&out)) {
-    throw InputError("cannot write " + path + " (choose a writable output folder; is the disk full?)");
-  }
+  const WrittenFile written = WriteWholeFile(path, [&message](std::ostream& out) {
+    if (!message.SerializeToOstream(&out)) out.setstate(std::ios::failbit);
+  });
+  if (!written.ok()) throw InputError(written.why + " (choose a writable output folder; is the disk full?)");
 }
 
 }  // namespace cosim::interface

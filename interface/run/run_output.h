@@ -9,6 +9,9 @@
 // full disk) is not ignored: the run ends with exit 2 naming the file and the system's reason.
 #include <chrono>
 #include <cstdio>
+#include <functional>
+#include <memory>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -34,8 +37,46 @@ class IterationCounter {
   long long max_ = 0;
 };
 
+// The outcome of WriteWholeFile: ok(), or `why` naming the file and the system's reason.
+struct WrittenFile {
+  std::string why;
+  bool ok() const { return why.empty(); }
+};
+
+// Writes a file whole or not at all: `write` fills a temporary beside `path` (`path`.part), which
+// is renamed over `path` once it is complete. If anything fails (the temporary cannot be made, a
+// write fails on a full disk, the rename is refused) the temporary is removed, `path` is left as it
+// was, and the outcome says why. A process stopped while it writes leaves at most the temporary,
+// never half a file taken for the whole one; a link at `path` is replaced, not written through.
+// `write` may set the stream's failbit to say its own content could not be made.
+[[nodiscard]] WrittenFile WriteWholeFile(const std::string& path, const std::function<void(std::ostream&)>& write);
+
+// One run per output folder: an advisory lock (flock) on the folder itself, taken without
+// waiting and released when the lock is destroyed or the process ends, however it ends (no lock
+// file is left behind).
+class FolderLock {
+ public:
+  enum class Outcome { kTaken, kHeldByAnotherRun, kCannotOpen, kCannotLock };
+  // Tries to take the lock on `folder`; `follow_links` false refuses a link at `folder` (kCannotOpen).
+  explicit FolderLock(const std::string& folder, bool follow_links = true);
+  ~FolderLock();
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+  Outcome outcome() const { return outcome_; }
+  bool taken() const { return outcome_ == Outcome::kTaken; }
+  // The system's reason the folder could not be opened or locked (empty if taken or held).
+  const std::string& why() const { return why_; }
+
+ private:
+  int fd_ = -1;
+  Outcome outcome_ = Outcome::kCannotOpen;
+  std::string why_;
+};
+
 // `message` in binary protobuf as `folder`/final_state.pb, a run's saved state
-// (proto/state.proto); InputError naming the file if it cannot be written.
+// (proto/state.proto), whole or not at all (WriteWholeFile); InputError naming the file if it
+// cannot be written.
 void WriteFinalState(const std::string& folder, const google::protobuf::Message& message);
 
 // A text file of an output folder written row by row: buffered, flushed at least every
@@ -90,7 +131,7 @@ class RunOutput {
  private:
   std::string folder_;
   int probe_count_ = 0;
-  int lock_ = -1;  // the folder's descriptor, flock-ed
+  std::unique_ptr<FolderLock> lock_;
   std::unique_ptr<OutputFile> history_;
   std::FILE* log_ = nullptr;
   run::RunSummary summary_;
@@ -103,7 +144,7 @@ bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path);
 // Reads one back; false if there is none or it does not parse.
 bool ReadSummaryJson(const std::string& path, run::RunSummary* summary);
 
-// True if `folder` is the output folder of a running run (RunOutput's lock on it is held).
+// True if `folder` (not a link) is the output folder of a running run (RunOutput's lock on it is held).
 bool HeldByAnotherRun(const std::string& folder);
 
 // Removes what an earlier run of `folder` wrote as visual output (visual.pvd, scene.pvd, the

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <iomanip>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -175,19 +176,17 @@ void VisualSeries::Write(const VisualFrame& frame, double time) {
   }
   times_.push_back(time);
   files_.emplace_back(name);
-  // The index rewritten whole (a few thousand lines at most), through a temporary file and a
-  // rename: a run stopped at any moment leaves a complete index of the frames written.
-  const std::string index = folder_ + "/visual.pvd", temporary = index + ".tmp";
-  auto f = Open(temporary);
-  std::fprintf(f.get(), "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n  <Collection>\n");
-  for (size_t i = 0; i < times_.size(); ++i) {
-    std::fprintf(f.get(), "    <DataSet timestep=\"%.17g\" part=\"0\" file=\"%s\"/>\n", times_[i], files_[i].c_str());
-  }
-  std::fprintf(f.get(), "  </Collection>\n</VTKFile>\n");
-  Close(std::move(f), temporary);
-  std::error_code ec;
-  std::filesystem::rename(temporary, index, ec);
-  if (ec) throw InputError("visual output: cannot rename " + temporary + ": " + ec.message());
+  // The index rewritten whole (a few thousand lines at most; WriteWholeFile): a run stopped at
+  // any moment leaves a complete index of the frames written.
+  const WrittenFile written = WriteWholeFile(folder_ + "/visual.pvd", [this](std::ostream& f) {
+    f << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n  <Collection>\n";
+    f << std::setprecision(17);  // (%.17g)
+    for (size_t i = 0; i < times_.size(); ++i) {
+      f << "    <DataSet timestep=\"" << times_[i] << "\" part=\"0\" file=\"" << files_[i] << "\"/>\n";
+    }
+    f << "  </Collection>\n</VTKFile>\n";
+  });
+  if (!written.ok()) throw InputError("visual output: " + written.why);
 }
 
 std::vector<std::pair<double, std::string>> ReadPvd(const std::string& path) {
@@ -215,32 +214,21 @@ std::vector<std::pair<double, std::string>> ReadPvd(const std::string& path) {
 void WriteScenePvd(const std::string& path, const std::vector<std::pair<std::string, std::string>>& series) {
   std::vector<std::vector<std::pair<double, std::string>>> frames;
   for (const auto& part : series) frames.push_back(ReadPvd(part.second));
-  // Through a temporary file and a rename: a full disk leaves no half index, and no temporary.
-  const std::string temporary = path + ".part";
-  std::error_code ec;
-  errno = 0;
-  try {
-    auto f = Open(temporary);
-    std::fprintf(f.get(), "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n  <Collection>\n");
+  // Whole or not at all (WriteWholeFile): a full disk leaves no half index, and no temporary.
+  const WrittenFile written = WriteWholeFile(path, [&series, &frames](std::ostream& f) {
+    f << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n  <Collection>\n";
+    f << std::setprecision(17);  // (%.17g)
     for (size_t part = 0; part < series.size(); ++part) {
       const std::string& prefix = series[part].first;
+      const std::string name = prefix.empty() ? "smooth" : prefix.substr(0, prefix.size() - 1);
       for (const auto& [time, file] : frames[part]) {
-        std::fprintf(f.get(), "    <DataSet timestep=\"%.17g\" part=\"%zu\" name=\"%s\" file=\"%s%s\"/>\n", time, part,
-                     prefix.empty() ? "smooth" : prefix.substr(0, prefix.size() - 1).c_str(), prefix.c_str(),
-                     file.c_str());
+        f << "    <DataSet timestep=\"" << time << "\" part=\"" << part << "\" name=\"" << name << "\" file=\""
+          << prefix << file << "\"/>\n";
       }
     }
-    std::fprintf(f.get(), "  </Collection>\n</VTKFile>\n");
-    Close(std::move(f), temporary);
-    std::filesystem::rename(temporary, path, ec);
-  } catch (const Error&) {  // (Open or Close: errno says why)
-    ec = errno != 0 ? std::error_code(errno, std::generic_category()) : std::make_error_code(std::errc::io_error);
-  }
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw InputError("visual output: cannot write " + path + ": " + ec.message());
-  }
+    f << "  </Collection>\n</VTKFile>\n";
+  });
+  if (!written.ok()) throw InputError("visual output: " + written.why);
 }
 
 }  // namespace cosim::interface

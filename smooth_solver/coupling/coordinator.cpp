@@ -1,6 +1,7 @@
 #include "smooth_solver/coupling/coordinator.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -943,14 +944,18 @@ void Coordinator::Accept(double t, double h) {
   // accelerations of 1e10 m/s² (observed: Newton, or the position projection, failed the step
   // after the first impact of tests/data/impacts/hex27_tip_on_stop.pbtxt and impacts/beam_tip_on_stop.pbtxt);
   // the body takes the jump through its own dynamics, the contact process's impulse having been
-  // found with its stiffness E.
+  // found with its stiffness E, and keeps the impulse out of its acceleration history
+  // (HoldImpactingBodiesHistory).
   std::vector<int> restarted;
   for (int k : impacts) {
     if (!system_.interface_points[static_cast<size_t>(k)].elastic) restarted.push_back(k);
   }
-  if (settings_.restart_at_impact && !restarted.empty()) {
+  if (settings_.restart_at_impact && !impacts.empty()) {
     DaeState after = integrator_->state();
-    restarted = ProjectImpactVelocities(system_, *data_, t + h, restarted, &after);  // the points move with their nodes
+    if (!restarted.empty()) {
+      restarted =
+          ProjectImpactVelocities(system_, *data_, t + h, restarted, &after);  // the points move with their nodes
+    }
     if (!restarted.empty()) {
       RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
       for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
@@ -958,12 +963,58 @@ void Coordinator::Accept(double t, double h) {
       offset_known_ = false;
       relaxation_.Forget();  // nor do the secants of the interface map before it
     }
+    // (after a restart in the same step, whose consistent accelerations hold the impulse too)
+    if (restarted.size() < impacts.size()) HoldImpactingBodiesHistory(impacts, restarted);
   }
   was_contact_ = contact_;
   // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
   // last_accepted_step at the end): no StepEnd round trip.
   last_accepted_ = step_;
   ++step_;
+}
+
+void Coordinator::HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted) {
+  // An impact left to its tie (an elastic node's; restart_at_impact restarts the rigid bodies'):
+  // the impulse reached the smooth model within the step through the tie's multiplier, and the
+  // step's a_{n+1} and q̈_{n+1} hold it divided by h on the body the node belongs to. Carried on
+  // by Eq. (3) and by Newmark's (1 − γ) h a_n and h² (½ − β) a_n, it pushed the blade on after
+  // its rebound at every impact: a light pad on a beam node rattling between its stops gained
+  // energy until the step failed (generated hingeless rotors 353, 383 and 458: exit 3) or the pad
+  // went through its stop (551). The nonsmooth generalised-α keeps impulses out of the recurrence
+  // (Chen, Acary, Virlez & Brüls, IJNME 96:487–511, 2013); here that body's history is the step
+  // before's, its last impulse-free one, and its positions, velocities and multipliers the step's
+  // own. Only that body's: held for every body, the other blades' centripetal accelerations,
+  // turned by Ωh since, kicked them at each impact (generated rotor 707, 116 rad/s: exit 3 at
+  // 0.86 s); the step's linearising pre-solve as the impulse-free history let pads through their
+  // stops (seeds 2, 5 and 722). docs/design.md, "Impacts and the restart".
+  std::vector<bool> held(static_cast<size_t>(system_.coordinates), false);
+  for (int k : impacts) {
+    if (std::find(restarted.begin(), restarted.end(), k) != restarted.end()) continue;
+    const InterfacePoint& p = system_.interface_points[static_cast<size_t>(k)];
+    for (const std::vector<int>& nodes : system_.beam_node_bodies) {  // a beam's node: the beam's
+      if (p.body < 0 || std::find(nodes.begin(), nodes.end(), p.body) == nodes.end()) continue;
+      for (int b : nodes) {
+        for (int j = 0; j < kCoordinatesPerBody; ++j) held[static_cast<size_t>(kCoordinatesPerBody * b + j)] = true;
+      }
+    }
+    for (size_t e = 0; e < system_.elastic.size(); ++e) {  // a hex27 body's node: the body's
+      const int first = system_.elastic_offset[e], count = 3 * system_.elastic[e]->body.node_count();
+      const bool on = std::any_of(p.point.terms.begin(), p.point.terms.end(), [&](const LinearVector::Term& t) {
+        return t.offset >= first && t.offset < first + count;
+      });
+      for (int j = 0; on && j < count; ++j) held[static_cast<size_t>(first + j)] = true;
+    }
+  }
+  if (std::find(held.begin(), held.end(), true) == held.end()) return;  // (a point on a rigid body)
+  held_a_ = integrator_->acceleration_variable();                       // (equal sizes: no allocation once warm)
+  held_qddot_ = integrator_->state().qddot;
+  for (size_t i = 0; i < held.size(); ++i) {
+    if (!held[i]) continue;
+    held_a_(static_cast<Eigen::Index>(i)) = start_.a(static_cast<Eigen::Index>(i));
+    held_qddot_(static_cast<Eigen::Index>(i)) = start_.state.qddot(static_cast<Eigen::Index>(i));
+  }
+  integrator_->ReplaceAccelerationHistory(held_a_, held_qddot_);
+  ++impacts_held_;
 }
 
 std::vector<int> Coordinator::Impacts() const {

@@ -152,6 +152,9 @@ class Coordinator {
   long long backtracks() const { return backtracks_; }
   // Steps whose linearising pre-solve failed and that took the predictions as the point instead.
   long long linearisation_fallbacks() const { return linearisation_fallbacks_; }
+  // Steps whose impacts, left to their ties, had the impacting elastic bodies' acceleration
+  // history replaced by the step before's (HoldImpactingBodiesHistory).
+  long long impacts_held() const { return impacts_held_; }
   // Steps accepted on the linearising pre-solve: the peers' answer agreed with it (no second solve).
   long long linearisation_accepted() const { return linearisation_accepted_; }
   // Whether the steps iterate with interface Jacobians (every peer offered them).
@@ -179,6 +182,9 @@ class Coordinator {
   // The interface points whose node's contact closed in this step (in contact, not in the last
   // accepted one): impacts.
   std::vector<int> Impacts() const;
+  // After an accepted step with impacts at elastic nodes (`impacts` not in `restarted`): their
+  // bodies' a_{n+1} and q̈_{n+1} become the step before's (the impulse kept out of CGα's recurrence).
+  void HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted);
   void ReceiveKinematics(int iteration);
   void EndStep(bool accepted, bool converged);  // StepEnd to every peer, and their replies
 
@@ -235,6 +241,7 @@ class Coordinator {
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
   bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
+  Eigen::VectorXd held_a_, held_qddot_;     // HoldImpactingBodiesHistory's buffers
   bool restored_ = false;                   // RestoreMemory: the handshake goes on with the rows held
   static constexpr int kMaxBacktracks = 4;  // per step (Try)
   // Try's pieces.
@@ -286,7 +293,7 @@ class Coordinator {
   Eigen::VectorXd accepted_offset_, previous_accepted_position_, previous_accepted_velocity_;
   double previous_accepted_h_ = 0.0;
   bool offset_known_ = false;  // accepted_offset_ and the previous step's motion hold for this law
-  long long linearisation_fallbacks_ = 0, linearisation_accepted_ = 0;
+  long long linearisation_fallbacks_ = 0, linearisation_accepted_ = 0, impacts_held_ = 0;
   long long response_factorizations_ = -1;
   double response_h_ = 0.0;
   // The moving obstacles' frames the peers stepped with (origin, rotation), peer by peer.

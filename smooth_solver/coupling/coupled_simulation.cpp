@@ -277,6 +277,7 @@ void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {
   summary->mutable_counters()->insert({"coupling_backtracks", static_cast<double>(coordinator_->backtracks())});
   summary->mutable_counters()->insert(
       {"coupling_linearisation_fallbacks", static_cast<double>(coordinator_->linearisation_fallbacks())});
+  summary->mutable_counters()->insert({"coupling_impacts_held", static_cast<double>(coordinator_->impacts_held())});
   summary->mutable_counters()->insert(
       {"coupling_steps_on_linearisation", static_cast<double>(coordinator_->linearisation_accepted())});
   summary->mutable_counters()->insert(

@@ -182,6 +182,14 @@ class CgAlpha : public SmoothIntegrator {
     started_ = true;
   }
 
+  // Replaces the last step's acceleration history, a_{n+1} and q̈_{n+1}, keeping its positions,
+  // velocities and multipliers: the coupling's way to keep an impact's impulse out of Eq. (3)'s
+  // recurrence (Coordinator::Accept).
+  void ReplaceAccelerationHistory(const Eigen::VectorXd& a, const Eigen::VectorXd& qddot) {
+    a_ = a;
+    state_.qddot = qddot;
+  }
+
   // Everything a step changes, to try a step again (a coupling iteration) or undo it (a
   // rejected step): the integrator's state and the run's SystemData (imposed interface
   // coordinates, contact memories, inflow). SaveTo reuses the checkpoint's buffers.

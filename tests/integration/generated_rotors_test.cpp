@@ -297,6 +297,52 @@ TEST(GeneratedRotors, AStiffBladeSpinningFastRunsWithDefaultNumerics) {
   }
 }
 
+// A five-blade hingeless rotor (86.6 rad/s, blades of 3 quadratic elements) in a 45 m/s gust, its
+// 0.05 kg pads on ties of 8.2e-9 m/N to beam nodes between stops 5 mm apart, Newton's e = 0.717.
+// The impulse of each impact reached the blade within the step through the tie, and the step's
+// acceleration history carried it on (Newmark's (1 − γ) h a_n): the pads rattled between their
+// planes with impulses growing to 58 N s, went 12 mm through them, and the run ended with exit 3 at
+// 0.752 s (Newton did not converge; the smaller steps failed too). The impacting beam's history is
+// now the step before's (Coordinator::HoldImpactingBodiesHistory, the nonsmooth generalised-α's
+// split).
+TEST(GeneratedRotors, ALightPadRattlingBetweenItsStopsGainsNoEnergy) {
+  const PairRun p = RunPair("hingeless_rattle_gust", "rotor_rattle", "0.9");
+  ASSERT_EQ(p.cosim.code, 0) << p.cosim.output;
+  ASSERT_EQ(p.continuous.code, 0) << p.continuous.output;
+  const cosim::run::RunSummary s = ReadSummary(p.out);
+  EXPECT_GT(s.counters().at("coupling_impacts_held"), 0.0);  // measured 96
+  EXPECT_EQ(s.counters().at("coupling_steps_marked"), 0.0);
+  const Table h = ReadTable(p.out / "history_joined.csv"), c = ReadTable(p.twin / "history.csv");
+  ASSERT_EQ(h.size(), 901u);
+  const double gap = 0.005;  // the anti-flap plane over the droop plane (rotor.json, hingeless_gap)
+  for (int k = 1; k <= 5; ++k) {
+    const std::string blade = "blade " + std::to_string(k);
+    const std::vector<double> a = h.Column("flap" + std::to_string(k)), b = c.Column("flap" + std::to_string(k));
+    // The pad (its height over the droop plane) stays between its planes but for Moreau–Jean's
+    // position drift (measured 0.13 mm; 12.5 mm below and 15 mm above before).
+    EXPECT_GT(*std::min_element(a.begin(), a.end()), -5e-4) << blade;
+    EXPECT_LT(*std::max_element(a.begin(), a.end()), gap + 5e-4) << blade;
+    // Its extremes are the twin's within the judge's tolerance, 2 mm + 10 % of the range
+    // (scripts/rotors/check.py; the twin's Hertzian law lets its pad up to 1 mm past the planes).
+    const double range = *std::max_element(b.begin(), b.end()) - *std::min_element(b.begin(), b.end());
+    EXPECT_NEAR(*std::max_element(a.begin(), a.end()), *std::max_element(b.begin(), b.end()), 2e-3 + 0.1 * range)
+        << blade;
+    EXPECT_NEAR(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()), 2e-3 + 0.1 * range)
+        << blade;
+    // The momentum each stop passes over the run is the twin's stop law's, ∫ F dt, within a factor
+    // of 2 (measured 1.06-1.47 times; before, blade 3's droop stop had passed 30 times the twin's by
+    // 0.75 s, its impulses growing to 58 N s).
+    for (const std::string plane : {"droop", "antiflap"}) {
+      const std::string stop = "stop" + std::to_string(k) + "_" + plane;
+      const std::vector<double> impulse = h.Column(stop), force = c.Column(stop);
+      double passed = 0.0, law = 0.0;
+      for (double v : impulse) passed += v;
+      for (double f : force) law += 1e-3 * f;  // (rows every 1 ms)
+      EXPECT_LE(passed, 2.0 * law + 0.5) << stop << ": " << passed << " N s against the twin's " << law;
+    }
+  }
+}
+
 }  // namespace
 
 namespace {

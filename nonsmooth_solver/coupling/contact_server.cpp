@@ -293,6 +293,7 @@ void ContactServer::Run() {
 }
 
 const Envelope& ContactServer::Next() {
+  replaying_deferred_ = has_deferred_;
   if (has_deferred_) {
     has_deferred_ = false;
     return deferred_;
@@ -355,8 +356,46 @@ void ContactServer::ServeShutdown() {
   }
 }
 
-void ContactServer::AcceptStep() {
+void ContactServer::CheckRestartedNodes(const coupling::RestartedNodes& restarted, const char* where) const {
+  const std::string peer = channel_->options().peer;
+  const int count = restarted.node_size();
+  if (restarted.position_size() != 3 * count || restarted.velocity_size() != 3 * count) {
+    throw InputError("coupling: " + std::string(where) + " from '" + peer + "' lists " + std::to_string(count) +
+                     " nodes with " + std::to_string(restarted.position_size()) + " position and " +
+                     std::to_string(restarted.velocity_size()) + " velocity values; expected " +
+                     std::to_string(3 * count) + " of each (3 per node listed)");
+  }
+  std::vector<bool> listed(nodes_.size(), false);
+  for (int r = 0; r < count; ++r) {
+    const int k = restarted.node(r);
+    if (k < 0 || static_cast<size_t>(k) >= nodes_.size() || listed[static_cast<size_t>(k)]) {
+      throw InputError("coupling: " + std::string(where) + ".node[" + std::to_string(r) + "] from '" + peer + "' is " +
+                       std::to_string(k) + "; expected the index of an interface node of the Hello (0 to " +
+                       std::to_string(static_cast<int>(nodes_.size()) - 1) + "), each listed once");
+    }
+    listed[static_cast<size_t>(k)] = true;
+    for (int j = 3 * r; j < 3 * r + 3; ++j) {
+      if (!std::isfinite(restarted.position(j)) || !std::isfinite(restarted.velocity(j))) {
+        throw InputError("coupling: " + std::string(where) + " from '" + peer + "' moves node " + std::to_string(k) +
+                         " to a non-finite state (position[" + std::to_string(j) +
+                         "] = " + interface::FormatNumber(restarted.position(j)) + ", velocity[" + std::to_string(j) +
+                         "] = " + interface::FormatNumber(restarted.velocity(j)) + "); expected finite numbers");
+      }
+    }
+  }
+}
+
+void ContactServer::AcceptStep(const coupling::RestartedNodes* restarted) {
   simulation_->CheckAccepted(t_ + h_);  // (the caller reports a failure)
+  // The coordinator's restart at an impact moved these nodes' points at the step's end: each
+  // node's accepted state follows its point (proto/coupling.proto, RestartedNodes).
+  for (int r = 0; restarted != nullptr && r < restarted->node_size(); ++r) {
+    const int at = 3 * r;
+    simulation_->StartNodeAt(
+        nodes_[static_cast<size_t>(restarted->node(r))],
+        Eigen::Vector3d(restarted->position(at), restarted->position(at + 1), restarted->position(at + 2)),
+        Eigen::Vector3d(restarted->velocity(at), restarted->velocity(at + 1), restarted->velocity(at + 2)));
+  }
   last_accepted_ = step_;
   accepted_time_ = t_ + h_;
   ++accepted_;
@@ -377,8 +416,11 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
                            std::to_string(step_ + 1) + " (which accepts it) or a message of step " +
                            std::to_string(step_));
         }
+        if (e.step_begin().has_restarted_nodes()) {
+          CheckRestartedNodes(e.step_begin().restarted_nodes(), "StepBegin.restarted_nodes");
+        }
         try {
-          AcceptStep();
+          AcceptStep(e.step_begin().has_restarted_nodes() ? &e.step_begin().restarted_nodes() : nullptr);
         } catch (const Error& failure) {
           StopOnFailure(failure, e.step(), e.iteration());
           throw;
@@ -390,6 +432,11 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       if (e.step() != last_accepted_ + 1) {
         throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
                          "', expected step " + std::to_string(last_accepted_ + 1));
+      }
+      if (e.step_begin().has_restarted_nodes() && !replaying_deferred_) {
+        throw InputError("coupling: StepBegin of step " + std::to_string(e.step()) + " from '" + peer +
+                         "' carries restarted_nodes but accepts no step (none was under way); expected them "
+                         "only with the StepBegin that accepts the step of the restart");
       }
       if (!(e.step_begin().step() > 0.0) || !std::isfinite(e.step_begin().step())) {
         throw InputError("coupling: StepBegin.step from '" + peer + "' is " +
@@ -449,7 +496,10 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       if (step_ >= 0 && e.shutdown().has_last_accepted_step() && e.shutdown().last_accepted_step() >= step_) {
         // The coordinator accepted the step under way and ended the run before another began:
         // accepted here, the Shutdown answered by the next call (after the caller's record).
-        AcceptStep();
+        if (e.shutdown().has_restarted_nodes()) {
+          CheckRestartedNodes(e.shutdown().restarted_nodes(), "Shutdown.restarted_nodes");
+        }
+        AcceptStep(e.shutdown().has_restarted_nodes() ? &e.shutdown().restarted_nodes() : nullptr);
         deferred_ = e;
         has_deferred_ = true;
         return Outcome::kAccepted;

@@ -66,7 +66,10 @@ class ContactServer {
   enum class Outcome { kContinue, kAccepted, kShutdown };
   Outcome Handle(const coupling::Envelope& e);  // one message, answered
   const coupling::Envelope& Next();             // a deferred message first, else the channel's next
-  void AcceptStep();                            // the step under way is accepted
+  // The step under way is accepted; `restarted` (the accepting message's, or null): the nodes
+  // the coordinator's restart at an impact moved, checked by CheckRestartedNodes.
+  void AcceptStep(const coupling::RestartedNodes* restarted = nullptr);
+  void CheckRestartedNodes(const coupling::RestartedNodes& restarted, const char* where) const;
   void TentativeStep(int64_t step, int iteration);
   void StopOnFailure(const Error& e, int64_t step, int iteration);  // Shutdown with its code and reason
   // The coordinator's Shutdown came before `before` (a step, a time): ends this process with it.
@@ -93,6 +96,7 @@ class ContactServer {
   // served by the next call.
   coupling::Envelope deferred_;
   bool has_deferred_ = false;
+  bool replaying_deferred_ = false;                              // Handle's message is deferred_ (its acceptance done)
   Eigen::VectorXd sensitivity_position_, sensitivity_velocity_;  // scratch
   double t_ = 0.0, h_ = 0.0;
   int64_t step_ = -1;  // the step under way

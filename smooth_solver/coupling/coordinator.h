@@ -185,6 +185,13 @@ class Coordinator {
   // After an accepted step with impacts at elastic nodes (`impacts` not in `restarted`): their
   // bodies' a_{n+1} and q̈_{n+1} become the step before's (the impulse kept out of CGα's recurrence).
   void HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted);
+  // A restart at an impact moved the rigid bodies from `before` (the step's end) to `after` (the
+  // projected velocities): the nodes of the points on them follow (RestartedNodes in
+  // proto/coupling.proto). The `restarted` points' nodes take their points' positions, every other
+  // moved point's node its point's velocity jump; the imposed coordinates and the kinematics
+  // are updated here, the peers told with the next StepBegin or the Shutdown (FillRestartedNodes).
+  void MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeState& after, const std::vector<int>& restarted);
+  void FillRestartedNodes(const Peer& peer, coupling::RestartedNodes* out) const;
   void ReceiveKinematics(int iteration);
   void EndStep(bool accepted, bool converged);  // StepEnd to every peer, and their replies
 
@@ -240,10 +247,12 @@ class Coordinator {
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
-  bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
-  Eigen::VectorXd held_a_, held_qddot_;     // HoldImpactingBodiesHistory's buffers
-  bool restored_ = false;                   // RestoreMemory: the handshake goes on with the rows held
-  static constexpr int kMaxBacktracks = 4;  // per step (Try)
+  bool iterate_solved_ = false;                      // iterate_ is a solve of the step under way
+  Eigen::VectorXd held_a_, held_qddot_;              // HoldImpactingBodiesHistory's buffers
+  std::vector<int> moved_points_;                    // MoveNodesWithRestart's, until the peers are told
+  Eigen::VectorXd moved_position_, moved_velocity_;  // (3 per interface point)
+  bool restored_ = false;                            // RestoreMemory: the handshake goes on with the rows held
+  static constexpr int kMaxBacktracks = 4;           // per step (Try)
   // Try's pieces.
   void BeginTry(double h);
   Attempt Failed(int at, Attempt::Outcome outcome, Attempt result);

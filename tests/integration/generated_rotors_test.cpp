@@ -459,3 +459,58 @@ TEST(GeneratedRotors, ACoupledStepThatFailsIsRetriedAsHalves) {
 }
 
 }  // namespace
+
+namespace {
+
+// The times a stop's column turns non-zero (a contact's start) in rows of `time`.
+std::vector<double> ContactStarts(const std::vector<double>& time, const std::vector<double>& column) {
+  std::vector<double> starts;
+  for (size_t i = 0; i < column.size() && i < time.size(); ++i) {
+    if (column[i] != 0.0 && (i == 0 || column[i - 1] == 0.0)) starts.push_back(time[i]);
+  }
+  return starts;
+}
+
+// A two-blade teetering rotor with rigid blades in a gust (generated rotor 805: 0.079 kg pads on
+// ties of 2.4e-9 m/N, one contact process per pad, e = 0.25) hits its stops at 0.79 s, 1.10 s,
+// 1.22 s and 1.68 s, as its continuous twin does. The first impact's restart turned the yoke, and
+// with it the other pad's point, while that pad's node kept its velocity: on its stiff tie,
+// Moreau–Jean's midpoint rule does not damp the difference, and 300 steps later the node still
+// swung ±0.13 m/s about its point from step to step. Its own impact at 1.10 s reversed that
+// swinging velocity, which the yoke could not take: the impact was left to the tie, the pad
+// stuck to its plane for 21 ms, and the co-simulated rotor met no stop after 1.12 s (the twin
+// twice more). The restart now moves every node with its point (RestartedNodes, protocol 4).
+TEST(GeneratedRotors, ATeeteringYokesOtherPadMovesWithTheRestartOfAnImpact) {
+  const PairRun p = RunPair("teetering_rigid_gust", "rotor_805", "1.8");
+  ASSERT_EQ(p.cosim.code, 0) << p.cosim.output;
+  ASSERT_EQ(p.continuous.code, 0) << p.continuous.output;
+  const Table h = ReadTable(p.out / "history_joined.csv"), c = ReadTable(p.twin / "history.csv");
+  const std::vector<double> t = h.Column("time"), teeter = h.Column("teeter");
+  std::vector<double> cosim = ContactStarts(t, h.Column("stop1_mast"));
+  for (double s : ContactStarts(t, h.Column("stop2_mast"))) cosim.push_back(s);
+  const std::vector<double> twin = ContactStarts(c.Column("time"), c.Column("stop"));
+  ASSERT_EQ(twin.size(), 4u) << "the twin's four impacts (0.791, 1.102, 1.221, 1.675 s measured)";
+  // Each of the twin's impacts has a co-simulated one within 10 ms (measured within 2 ms; the
+  // judge's window is the law's 20 ms and five steps, scripts/rotors/check.py).
+  for (double s : twin) {
+    const bool partner = std::any_of(cosim.begin(), cosim.end(), [&](double q) { return std::abs(q - s) <= 0.01; });
+    EXPECT_TRUE(partner) << "the twin's impact at " << s << " s has no co-simulated one within 10 ms";
+  }
+  // Both pads' first impacts rebound the yoke at Newton's e = 0.25 (rotor.json): the teeter rate
+  // over two steps after the contact against two steps before (measured 0.250 and 0.234; the
+  // second 0.99 before, after 21 ms on the plane).
+  for (const std::string stop : {"stop1_mast", "stop2_mast"}) {
+    const std::vector<double> impulse = h.Column(stop);
+    const auto hit = std::find_if(impulse.begin(), impulse.end(), [](double v) { return v > 0.0; });
+    ASSERT_NE(hit, impulse.end()) << stop;
+    size_t i = static_cast<size_t>(hit - impulse.begin()), j = i;
+    while (j + 1 < impulse.size() && impulse[j + 1] > 0.0) ++j;
+    ASSERT_GE(i, 3u);
+    ASSERT_LT(j + 3, teeter.size());
+    EXPECT_LE(j - i, 2u) << stop << ": an impact, not a contact that lasts";
+    const double before = teeter[i - 1] - teeter[i - 3], after = teeter[j + 3] - teeter[j + 1];
+    EXPECT_NEAR(-after / before, 0.25, 0.03) << stop << " at " << t[i] << " s";
+  }
+}
+
+}  // namespace

@@ -345,5 +345,107 @@ TEST(ContactServer, ReactionsOfTheWrongSizeAreRefused) {
   }
 }
 
+TEST(ContactServer, RestartedNodesMoveTheNodeAsTheStepIsAcceptedAndTheNextStepStartsThere) {
+  // Protocol 4: after a restart at an impact the coordinator's StepBegin (or Shutdown) lists the
+  // nodes it moved; the process makes that the accepted state before it begins the next step, so
+  // a rejected try of that step comes back to it. The ball held still at z = 1 m is moved to
+  // z = 1.2 m rising at 1 m/s; the next step, held by +m g, ends at 1.2 + h m with the same speed.
+  for (const bool by_shutdown : {false, true}) {
+    SCOPED_TRACE(by_shutdown ? "Shutdown" : "StepBegin");
+    Harness h;
+    h.Hello("ball");
+    h.smooth.Receive(Envelope::kWelcome, -1, -1);
+    const double g = 9.81, dt = 0.005;
+    const auto move = [](coupling::RestartedNodes* r) {
+      r->add_node(0);
+      for (double x : {0.0, 0.0, 1.2}) r->add_position(x);
+      for (double v : {0.0, 0.0, 1.0}) r->add_velocity(v);
+    };
+    auto* begin = h.smooth.Outgoing(0, 0).mutable_step_begin();
+    begin->set_time(0.0);
+    begin->set_step(dt);
+    for (double f : {0.0, 0.0, g}) begin->mutable_predictor()->add_force(f);
+    h.smooth.Send();
+    h.smooth.Receive(Envelope::kKinematics, 0, 0);
+    if (by_shutdown) {
+      auto* stop = h.smooth.Outgoing(-1, 0).mutable_shutdown();
+      stop->set_last_accepted_step(0);
+      move(stop->mutable_restarted_nodes());
+      h.smooth.Send();
+      h.smooth.Receive(Envelope::kShutdown, -1, -1);
+      h.thread.join();
+      if (h.failure) std::rethrow_exception(h.failure);
+      EXPECT_NEAR(h.simulation.integrator().positions()(2), 1.2, 1e-15);  // (its final state)
+      EXPECT_NEAR(h.simulation.integrator().velocities()(2), 1.0, 1e-15);
+      continue;
+    }
+    for (int attempt = 0; attempt < 2; ++attempt) {  // a rejected try starts from the moved node too
+      auto* next = h.smooth.Outgoing(1, 0).mutable_step_begin();
+      next->set_time(dt);
+      next->set_step(dt);
+      if (attempt == 0) move(next->mutable_restarted_nodes());
+      for (double f : {0.0, 0.0, g}) next->mutable_predictor()->add_force(f);
+      h.smooth.Send();
+      const coupling::Kinematics& k = h.smooth.Receive(Envelope::kKinematics, 1, 0).kinematics();
+      EXPECT_NEAR(k.position(2), 1.2 + dt, 1e-14);
+      EXPECT_NEAR(k.velocity(2), 1.0, 1e-14);
+      if (attempt == 0) {
+        h.smooth.Outgoing(1, 0).mutable_step_end()->set_accepted(false);
+        h.smooth.Send();
+        h.smooth.Receive(Envelope::kStepEnd, 1, 0);
+      }
+    }
+    h.Finish();
+  }
+}
+
+// A StepBegin whose restarted_nodes do not fit: each refused naming the field and the value.
+std::string RefusalOfRestartedNodes(bool accepting, const std::function<void(coupling::RestartedNodes*)>& edit) {
+  Harness h;
+  h.Hello("ball");
+  h.smooth.Receive(Envelope::kWelcome, -1, -1);
+  int64_t step = 0;
+  if (accepting) {
+    h.Begin(0, 0.0, 0.005);
+    step = 1;
+  }
+  auto* begin = h.smooth.Outgoing(step, 0).mutable_step_begin();
+  begin->set_time(0.005 * static_cast<double>(step));
+  begin->set_step(0.005);
+  edit(begin->mutable_restarted_nodes());
+  h.smooth.Send();
+  return h.Refusal();
+}
+
+TEST(ContactServer, RestartedNodesThatDoNotFitAreRefused) {
+  const auto node = [](int k, double z) {
+    return [k, z](coupling::RestartedNodes* r) {
+      r->add_node(k);
+      for (double x : {0.0, 0.0, z}) r->add_position(x);
+      for (double v : {0.0, 0.0, 0.0}) r->add_velocity(v);
+    };
+  };
+  std::string refusal = RefusalOfRestartedNodes(true, node(1, 1.0));
+  EXPECT_NE(refusal.find("StepBegin.restarted_nodes.node[0] from 'smooth' is 1; expected the index of an interface "
+                         "node of the Hello (0 to 0), each listed once"),
+            std::string::npos)
+      << refusal;
+  refusal = RefusalOfRestartedNodes(true, [&](coupling::RestartedNodes* r) {
+    node(0, 1.0)(r);
+    node(0, 1.0)(r);
+  });
+  EXPECT_NE(refusal.find("node[1] from 'smooth' is 0"), std::string::npos) << refusal;
+  refusal = RefusalOfRestartedNodes(true, node(0, std::nan("")));
+  EXPECT_NE(refusal.find("moves node 0 to a non-finite state (position[2] = nan"), std::string::npos) << refusal;
+  refusal = RefusalOfRestartedNodes(true, [&](coupling::RestartedNodes* r) {
+    node(0, 1.0)(r);
+    r->add_velocity(0.0);
+  });
+  EXPECT_NE(refusal.find("lists 1 nodes with 3 position and 4 velocity values; expected 3 of each"), std::string::npos)
+      << refusal;
+  refusal = RefusalOfRestartedNodes(false, node(0, 1.0));  // (the first step: it accepts none)
+  EXPECT_NE(refusal.find("carries restarted_nodes but accepts no step"), std::string::npos) << refusal;
+}
+
 }  // namespace
 }  // namespace cosim::nonsmooth

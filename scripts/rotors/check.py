@@ -127,10 +127,19 @@ def in_contact(times, eps):
 
 def compare_contacts(rotor, ha, ea, hb, eb, tol):
     """Times at which model a has a pad in contact while model b has it clearly off its stops
-    (farther than a band of 5 % of the stops' span from each) with no contact within ±tol: a
-    contact one model has and the other has not, or one that starts or ends more than tol apart.
-    A pad that the other model holds on its stop without a recorded contact (a bounce series, a
-    load in balance) is no mismatch. Returns [(pad, first time, last time)] of such intervals."""
+    with no contact within ±tol: a contact one model has and the other has not, or one that starts
+    or ends more than tol apart. A pad that the other model holds on its stop without a recorded
+    contact (a bounce series, a load in balance) is no mismatch. Returns [(pad, first time, last
+    time)] of such intervals.
+    Clearly off: farther from each stop than a band, the larger of 5 % of the stops' span and the
+    difference the flap histories may have (0.1° or 0.5 mm + 2 % of the range: compare_flaps; a
+    graze the other model misses by less is within what the two models may differ by), measured
+    from the plane and from where b's pad rests on it at the start (a twin's pad sits in its
+    Hertzian stop), and not pressed into the plane. A twin pad that unloads leaves the law's force
+    at 0 while still inside the plane (Hunt–Crossley's damping clipped): rotors 608 and 650 had
+    their co-simulated pads lift off within a step of their twins', 0.01 mm apart, and were
+    counted "in the co-simulated model only" for the 30 ms the twin spent inside its plane without
+    force."""
     stops = stop_positions(rotor)
     times = ha["time"]
     n = min(len(times), len(hb["time"]))
@@ -150,7 +159,11 @@ def compare_contacts(rotor, ha, ea, hb, eb, tol):
         col, where = stops[key]
         span = max(where) - min(where) if len(where) > 1 else 2 * abs(where[0])
         base = hb[col][0] if rotor["topology"] == "hingeless" else 0.0
-        band = 0.05 * span
+        n_b = min(n, len(hb[col]))
+        history_range = max(hb[col][:n_b]) - min(hb[col][:n_b]) if n_b else 0.0
+        band = max(0.05 * span, (5e-4 if rotor["topology"] == "hingeless" else 0.1) + 0.02 * history_range)
+        # The side of each stop past which b's pad is pressed into it (a lower stop: below it).
+        lower = [w < max(where) or (len(where) == 1 and w < 0) for w in where]
         a_on = in_contact(times[:n], eps)
         b_on = in_contact(times[:n], eb.get(key, []))
         # b in contact anywhere within ±reach samples: a running window.
@@ -167,7 +180,9 @@ def compare_contacts(rotor, ha, ea, hb, eb, tol):
             near[i] = near[i] or nxt - i <= reach_at[i]
         bad = None
         for i in range(n):
-            off = min(abs(hb[col][i] - base - w) for w in where) > band
+            y = hb[col][i]
+            pressed = any((y < w) if low else (y > w) for w, low in zip(where, lower))
+            off = not pressed and min(min(abs(y - base - w), abs(y - w)) for w in where) > band
             if a_on[i] and not near[i] and off:
                 bad = (bad[0], times[i]) if bad and bad[1] >= times[i] - 1.5 * step else bad
                 if bad is None or bad[1] < times[i] - 1.5 * step:

@@ -994,12 +994,14 @@ void Coordinator::MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeS
   for (size_t k = 0; k < points; ++k) {
     const InterfacePoint& p = system_.interface_points[k];
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    Eigen::Vector3d x, v;
-    for (int j = 0; j < 3; ++j) {
-      x(j) = data_->imposed[3 * k + static_cast<size_t>(j)].value;
-      v(j) = data_->imposed[3 * k + static_cast<size_t>(j)].rate;
-    }
-    if (std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end()) {
+    // The node's own state as its peer answered it, plus the jump: its motion relative to its
+    // point is left as it was. (The imposed rates are the peers' affine model's with interface
+    // Jacobians; sending those instead changed that relative motion too, and generated rotor 765,
+    // which passed, then met its droop stop with its pad left to the tie: exit 0 but a rebound to
+    // −2.4° where its twin stayed on the stop.)
+    Eigen::Vector3d x = position_.segment<3>(o), v = velocity_.segment<3>(o);
+    const bool hit = std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end();
+    if (hit) {
       x = p.point.Value(after.q);  // (its rows are freed: no multiplier, no stretch)
     } else {
       const Eigen::Vector3d jump = p.point.Rate(after.qdot) - p.point.Rate(before);
@@ -1010,7 +1012,7 @@ void Coordinator::MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeS
     moved_position_.segment<3>(o) = x;
     moved_velocity_.segment<3>(o) = v;
     for (int j = 0; j < 3; ++j) {
-      data_->imposed[3 * k + static_cast<size_t>(j)].value = x(j);
+      if (hit) data_->imposed[3 * k + static_cast<size_t>(j)].value = x(j);  // (the others' rows hold as they are)
       data_->imposed[3 * k + static_cast<size_t>(j)].rate = v(j);
     }
     position_.segment<3>(o) = accepted_position_.segment<3>(o) = x;

@@ -978,45 +978,36 @@ void Coordinator::Accept(double t, double h) {
 
 void Coordinator::MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeState& after,
                                        const std::vector<int>& restarted) {
-  // The projection changed the rigid bodies' velocities, and with them every interface point's
-  // on them; the nodes, the contact processes', kept theirs. On a stiff tie Moreau–Jean's midpoint
-  // rule (θ = ½) does not damp a node's motion relative to its point (the relative velocity changes
-  // sign each step, its amplitude kept), so the difference swung for the rest of the run: a
-  // teetering yoke's other pad by ±0.04 m/s about its point's 436 steps after the first impact, and
-  // its own impact 437 steps later reversed that swinging velocity, not the yoke's: the yoke
-  // rebounded at 0.35 of its speed for e = 0.391 (generated rotor 784) and its flight drifted from
-  // its twin's. The impacting point's tie was stretched too: the smooth step went on through the
-  // obstacle while the node stopped at it (~h |v| (1 + e) / 2, 60 µm there).
+  // The projection changed the rigid bodies' velocities, and with them the velocity of every
+  // interface point on them; the nodes, the contact processes', kept theirs. On a stiff tie
+  // Moreau–Jean's midpoint rule (θ = ½) does not damp a node's motion relative to its point (the
+  // relative velocity changes sign each step, its amplitude kept), so the difference swung for
+  // the rest of the run: a teetering yoke's other pad by ±0.13 m/s about its point 300 steps after
+  // the first impact, and its own impact then reversed that swinging velocity, not the yoke's
+  // (generated rotor 805: left to the tie, 21 ms on the plane, and no stop met after). Each
+  // other node takes its point's jump; its motion relative to its point is left as it was: its
+  // own answered velocity (with interface Jacobians the imposed rates are the peers' affine
+  // model's; sending those changed the relative motion too, and generated rotor 765 rebounded
+  // from its droop stop to −2.4° where its twin stayed on it). The impacting node keeps its state:
+  // moved to its point (the smooth step went on through the obstacle), a node resting on its
+  // plane went into it by its tie's stretch at every closing, and a settled blade sank through
+  // its stop (GeneratedRotors.ASettledPadSlidesAlongItsStopUntilItsTieHoldsIt).
   moved_points_.clear();
   const size_t points = system_.interface_points.size();
   moved_position_.resize(3 * static_cast<Eigen::Index>(points));
   moved_velocity_.resize(3 * static_cast<Eigen::Index>(points));
   for (size_t k = 0; k < points; ++k) {
+    if (std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end()) continue;
     const InterfacePoint& p = system_.interface_points[k];
+    const Eigen::Vector3d jump = p.point.Rate(after.qdot) - p.point.Rate(before);
+    if (jump.isZero(0.0)) continue;  // (a body the projection did not move: a beam's, another blade's)
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    // The node's own state as its peer answered it, plus the jump: its motion relative to its
-    // point is left as it was. (The imposed rates are the peers' affine model's with interface
-    // Jacobians; sending those instead changed that relative motion too, and generated rotor 765,
-    // which passed, then met its droop stop with its pad left to the tie: exit 0 but a rebound to
-    // −2.4° where its twin stayed on the stop.)
-    Eigen::Vector3d x = position_.segment<3>(o), v = velocity_.segment<3>(o);
-    const bool hit = std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end();
-    if (hit) {
-      x = p.point.Value(after.q);  // (its rows are freed: no multiplier, no stretch)
-    } else {
-      const Eigen::Vector3d jump = p.point.Rate(after.qdot) - p.point.Rate(before);
-      if (jump.isZero(0.0)) continue;  // (a body the projection did not move: a beam's, another blade's)
-      v += jump;
-    }
     moved_points_.push_back(static_cast<int>(k));
-    moved_position_.segment<3>(o) = x;
-    moved_velocity_.segment<3>(o) = v;
-    for (int j = 0; j < 3; ++j) {
-      if (hit) data_->imposed[3 * k + static_cast<size_t>(j)].value = x(j);  // (the others' rows hold as they are)
-      data_->imposed[3 * k + static_cast<size_t>(j)].rate = v(j);
-    }
-    position_.segment<3>(o) = accepted_position_.segment<3>(o) = x;
-    velocity_.segment<3>(o) = accepted_velocity_.segment<3>(o) = v;
+    moved_position_.segment<3>(o) = position_.segment<3>(o);
+    moved_velocity_.segment<3>(o) = velocity_.segment<3>(o) + jump;
+    velocity_.segment<3>(o) = accepted_velocity_.segment<3>(o) = moved_velocity_.segment<3>(o);
+    for (int j = 0; j < 3; ++j)
+      data_->imposed[3 * k + static_cast<size_t>(j)].rate += jump(j);  // (rows as consistent as before)
   }
 }
 

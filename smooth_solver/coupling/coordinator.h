@@ -185,11 +185,10 @@ class Coordinator {
   // After an accepted step with impacts at elastic nodes (`impacts` not in `restarted`): their
   // bodies' a_{n+1} and q̈_{n+1} become the step before's (the impulse kept out of CGα's recurrence).
   void HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted);
-  // A restart at an impact moved the rigid bodies from `before` (the step's end) to `after` (the
-  // projected velocities): the nodes of the points on them follow (RestartedNodes in
-  // proto/coupling.proto). The `restarted` points' nodes take their points' positions, every other
-  // moved point's node its point's velocity jump; the imposed coordinates and the kinematics
-  // are updated here, the peers told with the next StepBegin or the Shutdown (FillRestartedNodes).
+  // A restart at an impact moved the rigid bodies' velocities from `before` (the step's end) to
+  // `after` (projected): the nodes of the other points on them take their points' jumps
+  // (RestartedNodes in proto/coupling.proto); the imposed rates and the kinematics are updated
+  // here, the peers told with the next StepBegin or the Shutdown (FillRestartedNodes).
   void MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeState& after, const std::vector<int>& restarted);
   void FillRestartedNodes(const Peer& peer, coupling::RestartedNodes* out) const;
   void ReceiveKinematics(int iteration);

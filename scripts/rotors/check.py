@@ -11,7 +11,8 @@ Hence the tolerances:
   start and end (the law's duration, a few steps of the tie's transient), plus T_c for each impact
   of that pad before it (each contact the law resolves over T_c shifts the flight after it by up
   to T_c: bounce series drift apart), unless the other model's blade is on its stop then anyway
-  (within 5 % of the stops' span: a load in balance, a bounce series the law merges);
+  (pressed into it, or within the larger of 5 % of the stops' span and the difference the flap
+  histories may have, below: a load in balance, a bounce series the law merges, a graze);
 - flap histories before the first impact of any blade (lift-offs, free flight, the gust or the
   run-up): RMS difference <= 0.1° + 2 % of the range (a hingeless pad's height: 0.5 mm + 2 %):
   the models differ there only by where the pad's mass sits and the stops' static compliance;

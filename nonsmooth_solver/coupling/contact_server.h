@@ -70,6 +70,9 @@ class ContactServer {
   // the coordinator's restart at an impact moved, checked by CheckRestartedNodes.
   void AcceptStep(const coupling::RestartedNodes* restarted = nullptr);
   void CheckRestartedNodes(const coupling::RestartedNodes& restarted, const char* where) const;
+  // A free start's Hello: node k (in the Hello's order) at its tied point's position x and velocity
+  // v to round-off, else refused (InputError naming the node and both states).
+  void RequireNodeAtItsPoint(int k, const Eigen::Vector3d& x, const Eigen::Vector3d& v) const;
   void TentativeStep(int64_t step, int iteration);
   void StopOnFailure(const Error& e, int64_t step, int iteration);  // Shutdown with its code and reason
   // The coordinator's Shutdown came before `before` (a step, a time): ends this process with it.

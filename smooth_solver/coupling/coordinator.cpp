@@ -233,12 +233,18 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     for (int p : peer.points) hello->add_interface_nodes(system_.interface_points[static_cast<size_t>(p)].contact_node);
     hello->set_start_time(start_time);
     hello->set_step(step);
-    if (settings_.settled_start && !restored_) {  // where the settle left the nodes (it may move them)
+    if (!restored_) {
+      // A settled start: where the settle left the nodes (it may move them). A free start: where
+      // the tied points are and how they move in the consistent start, which the contact process
+      // checks against its nodes' scenario state (Hello.settled).
+      hello->set_settled(settings_.settled_start);
       for (int p : peer.points) {
+        const LinearVector& point = system_.interface_points[static_cast<size_t>(p)].point;
+        const Eigen::Vector3d x = point.Value(integrator_->state().q), v = point.Rate(integrator_->state().qdot);
         for (size_t j = 0; j < 3; ++j) {
-          const ImposedCoordinate& x = data_->imposed[3 * static_cast<size_t>(p) + j];
-          hello->add_node_positions(x.value);
-          hello->add_node_velocities(x.rate);
+          const ImposedCoordinate& c = data_->imposed[3 * static_cast<size_t>(p) + j];
+          hello->add_node_positions(settings_.settled_start ? c.value : x(static_cast<Eigen::Index>(j)));
+          hello->add_node_velocities(settings_.settled_start ? c.rate : v(static_cast<Eigen::Index>(j)));
         }
       }
     }

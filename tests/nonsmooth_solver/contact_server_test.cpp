@@ -271,6 +271,7 @@ TEST(ContactServer, ASettledStartsNodePositionsMoveTheNodeOrAreRefused) {
   {
     Harness h;
     h.Hello("ball", [](coupling::Hello* hello) {
+      hello->set_settled(true);
       for (double x : {0.0, 0.0, 0.4}) hello->add_node_positions(x);
       for (double v : {0.0, 0.0, 2.0}) hello->add_node_velocities(v);
     });
@@ -292,6 +293,33 @@ TEST(ContactServer, ASettledStartsNodePositionsMoveTheNodeOrAreRefused) {
               for (int i = 0; i < 3; ++i) m->add_node_velocities(0.0);
             }).find("a non-finite start for node 'ball' (node_positions[1] = nan"),
             std::string::npos);
+}
+
+TEST(ContactServer, AFreeStartsNodeMustBeAtItsTiedPoint) {
+  // Protocol 4: a free start's Hello gives the tied points' state; the node must start there (to
+  // round-off), or its stiff tie would swing it about its point for the whole run. The ball is at
+  // z = 1 m at rest: a point there is accepted (and the node starts exactly on it), one 1 mm
+  // lower or moving at 1 m/s is refused naming the node and both states.
+  const auto point = [](double z, double w) {
+    return [z, w](coupling::Hello* hello) {
+      for (double x : {0.0, 0.0, z}) hello->add_node_positions(x);
+      for (double v : {0.0, 0.0, w}) hello->add_node_velocities(v);
+    };
+  };
+  {
+    Harness h;
+    h.Hello("ball", point(1.0 + 1e-9, 0.0));
+    h.smooth.Receive(Envelope::kWelcome, -1, -1);
+    EXPECT_EQ(h.simulation.integrator().positions()(2), 1.0 + 1e-9);
+    h.Finish();
+  }
+  std::string refusal = RefusalOfHello(point(0.999, 0.0));
+  EXPECT_NE(refusal.find("contact node 'ball' is not at its tied point at the start: give it position "
+                         "[0, 0, 0.999] m, velocity [0, 0, 0] m/s"),
+            std::string::npos)
+      << refusal;
+  refusal = RefusalOfHello(point(1.0, 1.0));
+  EXPECT_NE(refusal.find("position [0, 0, 1] m, velocity [0, 0, 1] m/s"), std::string::npos) << refusal;
 }
 
 TEST(ContactServer, APeersLongTextIsEchoedCut) {

@@ -16,6 +16,15 @@ namespace cosim::nonsmooth {
 
 using coupling::Envelope;
 
+namespace {
+
+// The three values of a per-node vector field from index `at` (Hello's and RestartedNodes').
+Eigen::Vector3d Triple(const google::protobuf::RepeatedField<double>& values, int at) {
+  return {values.Get(at), values.Get(at + 1), values.Get(at + 2)};
+}
+
+}  // namespace
+
 ContactServer::ContactServer(ContactStepper* simulation, interface::Channel* channel, std::string scenario_name)
     : simulation_(simulation), channel_(channel), scenario_name_(std::move(scenario_name)) {
   external_ = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(simulation_->model().nodes.size()));
@@ -117,8 +126,7 @@ void ContactServer::Answer(const Envelope& e) {
     }
     for (size_t k = 0; k < nodes_.size(); ++k) {
       const int at = 3 * static_cast<int>(k);
-      const Eigen::Vector3d x(hello.node_positions(at), hello.node_positions(at + 1), hello.node_positions(at + 2));
-      const Eigen::Vector3d v(hello.node_velocities(at), hello.node_velocities(at + 1), hello.node_velocities(at + 2));
+      const Eigen::Vector3d x = Triple(hello.node_positions(), at), v = Triple(hello.node_velocities(), at);
       if (!hello.settled()) RequireNodeAtItsPoint(static_cast<int>(k), x, v);
       simulation_->StartNodeAt(nodes_[k], x, v);
     }
@@ -415,11 +423,8 @@ void ContactServer::AcceptStep(const coupling::RestartedNodes* restarted) {
   // The coordinator's restart at an impact moved these nodes' points at the step's end: each
   // node's accepted state follows its point (proto/coupling.proto, RestartedNodes).
   for (int r = 0; restarted != nullptr && r < restarted->node_size(); ++r) {
-    const int at = 3 * r;
-    simulation_->StartNodeAt(
-        nodes_[static_cast<size_t>(restarted->node(r))],
-        Eigen::Vector3d(restarted->position(at), restarted->position(at + 1), restarted->position(at + 2)),
-        Eigen::Vector3d(restarted->velocity(at), restarted->velocity(at + 1), restarted->velocity(at + 2)));
+    simulation_->StartNodeAt(nodes_[static_cast<size_t>(restarted->node(r))], Triple(restarted->position(), 3 * r),
+                             Triple(restarted->velocity(), 3 * r));
   }
   last_accepted_ = step_;
   accepted_time_ = t_ + h_;

@@ -999,31 +999,29 @@ void Coordinator::MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeS
   // plane went into it by its tie's stretch at every closing, and a settled blade sank through
   // its stop (GeneratedRotors.ASettledPadSlidesAlongItsStopUntilItsTieHoldsIt).
   moved_points_.clear();
-  const size_t points = system_.interface_points.size();
-  moved_position_.resize(3 * static_cast<Eigen::Index>(points));
-  moved_velocity_.resize(3 * static_cast<Eigen::Index>(points));
-  for (size_t k = 0; k < points; ++k) {
+  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     if (std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end()) continue;
     const InterfacePoint& p = system_.interface_points[k];
     const Eigen::Vector3d jump = p.point.Rate(after.qdot) - p.point.Rate(before);
     if (jump.isZero(0.0)) continue;  // (a body the projection did not move: a beam's, another blade's)
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
     moved_points_.push_back(static_cast<int>(k));
-    moved_position_.segment<3>(o) = position_.segment<3>(o);
-    moved_velocity_.segment<3>(o) = velocity_.segment<3>(o) + jump;
-    velocity_.segment<3>(o) = accepted_velocity_.segment<3>(o) = moved_velocity_.segment<3>(o);
+    velocity_.segment<3>(o) += jump;
+    accepted_velocity_.segment<3>(o) = velocity_.segment<3>(o);
     for (int j = 0; j < 3; ++j)
       data_->imposed[3 * k + static_cast<size_t>(j)].rate += jump(j);  // (rows as consistent as before)
   }
 }
 
 void Coordinator::FillRestartedNodes(const Peer& peer, coupling::RestartedNodes* out) const {
+  // (The accepted kinematics: the next step's prediction has overwritten position_ and velocity_
+  // by the time its StepBegin goes.)
   for (size_t i = 0; i < peer.points.size(); ++i) {
     const int k = peer.points[i];
     if (std::find(moved_points_.begin(), moved_points_.end(), k) == moved_points_.end()) continue;
     out->add_node(static_cast<int>(i));
-    for (int j = 0; j < 3; ++j) out->add_position(moved_position_(3 * k + j));
-    for (int j = 0; j < 3; ++j) out->add_velocity(moved_velocity_(3 * k + j));
+    for (int j = 0; j < 3; ++j) out->add_position(accepted_position_(3 * k + j));
+    for (int j = 0; j < 3; ++j) out->add_velocity(accepted_velocity_(3 * k + j));
   }
 }
 

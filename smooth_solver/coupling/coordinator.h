@@ -246,12 +246,11 @@ class Coordinator {
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
-  bool iterate_solved_ = false;                      // iterate_ is a solve of the step under way
-  Eigen::VectorXd held_a_, held_qddot_;              // HoldImpactingBodiesHistory's buffers
-  std::vector<int> moved_points_;                    // MoveNodesWithRestart's, until the peers are told
-  Eigen::VectorXd moved_position_, moved_velocity_;  // (3 per interface point)
-  bool restored_ = false;                            // RestoreMemory: the handshake goes on with the rows held
-  static constexpr int kMaxBacktracks = 4;           // per step (Try)
+  bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
+  Eigen::VectorXd held_a_, held_qddot_;     // HoldImpactingBodiesHistory's buffers
+  std::vector<int> moved_points_;           // MoveNodesWithRestart's, until the peers are told
+  bool restored_ = false;                   // RestoreMemory: the handshake goes on with the rows held
+  static constexpr int kMaxBacktracks = 4;  // per step (Try)
   // Try's pieces.
   void BeginTry(double h);
   Attempt Failed(int at, Attempt::Outcome outcome, Attempt result);

@@ -1,6 +1,7 @@
 #include "smooth_solver/coupling/coordinator.h"
 
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -973,7 +974,7 @@ void Coordinator::Accept(double t, double h) {
       relaxation_.Forget();  // nor do the secants of the interface map before it
     }
     // (after a restart in the same step, whose consistent accelerations hold the impulse too)
-    if (restarted.size() < impacts.size()) HoldImpactingBodiesHistory(impacts, restarted);
+    if (restarted.size() < impacts.size()) HoldImpactingBodiesHistory(impacts, restarted, t + h, h);
   }
   was_contact_ = contact_;
   // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
@@ -1025,48 +1026,102 @@ void Coordinator::FillRestartedNodes(const Peer& peer, coupling::RestartedNodes*
   }
 }
 
-void Coordinator::HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted) {
+void Coordinator::HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted,
+                                             double t, double h) {
   // An impact left to its tie (an elastic node's; restart_at_impact restarts the rigid bodies'):
   // the impulse reached the smooth model within the step through the tie's multiplier, and the
-  // step's a_{n+1} and q̈_{n+1} hold it divided by h on the body the node belongs to. Carried on
-  // by Eq. (3) and by Newmark's (1 − γ) h a_n and h² (½ − β) a_n, it pushed the blade on after
-  // its rebound at every impact: a light pad on a beam node rattling between its stops gained
-  // energy until the step failed (generated hingeless rotors 353, 383 and 458: exit 3) or the pad
-  // went through its stop (551). The nonsmooth generalised-α keeps impulses out of the recurrence
-  // (Chen, Acary, Virlez & Brüls, IJNME 96:487–511, 2013); here that body's history is the step
-  // before's, its last impulse-free one, and its positions, velocities and multipliers the step's
-  // own. Only that body's: held for every body, the other blades' centripetal accelerations,
-  // turned by Ωh since, kicked them at each impact (generated rotor 707, 116 rad/s: exit 3 at
-  // 0.86 s); the step's linearising pre-solve as the impulse-free history let pads through their
-  // stops (seeds 2, 5 and 722). docs/design.md, "Impacts and the restart".
+  // step's a_{n+1} and q̈_{n+1} hold it divided by h on the bodies it moved. Carried on by
+  // Eq. (3) and by Newmark's (1 − γ) h a_n and h² (½ − β) a_n, it pushed the blade on after its
+  // rebound at every impact: a light pad on a beam node rattling between its stops gained energy
+  // until the step failed (generated hingeless rotors 353, 383 and 458: exit 3) or the pad went
+  // through its stop (551); a pad on an articulated blade's cuff (a rigid body the restart cannot
+  // move: the beam clamped beyond it) likewise (801: the position projection diverged at 1.18 s).
+  // The nonsmooth generalised-α keeps impulses out of the recurrence (Chen, Acary, Virlez &
+  // Brüls, IJNME 96:487–511, 2013); here those bodies' history is the step before's, its last
+  // impulse-free one, turned with each body over the step, and their positions, velocities and
+  // multipliers the step's own. Only those bodies': held for every body, the other blades'
+  // centripetal accelerations, turned by Ωh since, kicked them at each impact (generated rotor
+  // 707, 116 rad/s: exit 3 at 0.86 s); the step's linearising pre-solve as the impulse-free
+  // history let pads through their stops (seeds 2, 5 and 722). docs/design.md, "Impacts and the
+  // restart".
   std::vector<bool> held(static_cast<size_t>(system_.coordinates), false);
+  std::vector<int> turned;
   for (int k : impacts) {
     if (std::find(restarted.begin(), restarted.end(), k) != restarted.end()) continue;
-    const InterfacePoint& p = system_.interface_points[static_cast<size_t>(k)];
-    for (const std::vector<int>& nodes : system_.beam_node_bodies) {  // a beam's node: the beam's
-      if (p.body < 0 || std::find(nodes.begin(), nodes.end(), p.body) == nodes.end()) continue;
-      for (int b : nodes) {
-        for (int j = 0; j < kCoordinatesPerBody; ++j) held[static_cast<size_t>(kCoordinatesPerBody * b + j)] = true;
-      }
+    for (int b : BodiesTheImpulseMovedInTheStep(k, t, h)) {
+      turned.push_back(b);
+      for (int j = 0; j < kCoordinatesPerBody; ++j) held[static_cast<size_t>(kCoordinatesPerBody * b + j)] = true;
     }
+    const InterfacePoint& p = system_.interface_points[static_cast<size_t>(k)];
     for (size_t e = 0; e < system_.elastic.size(); ++e) {  // a hex27 body's node: the body's
       const int first = system_.elastic_offset[e], count = 3 * system_.elastic[e]->body.node_count();
-      const bool on = std::any_of(p.point.terms.begin(), p.point.terms.end(), [&](const LinearVector::Term& t) {
-        return t.offset >= first && t.offset < first + count;
+      const bool on = std::any_of(p.point.terms.begin(), p.point.terms.end(), [&](const LinearVector::Term& term) {
+        return term.offset >= first && term.offset < first + count;
       });
       for (int j = 0; on && j < count; ++j) held[static_cast<size_t>(first + j)] = true;
     }
   }
-  if (std::find(held.begin(), held.end(), true) == held.end()) return;  // (a point on a rigid body)
-  held_a_ = integrator_->acceleration_variable();                       // (equal sizes: no allocation once warm)
+  if (std::find(held.begin(), held.end(), true) == held.end()) return;
+  held_a_ = integrator_->acceleration_variable();  // (equal sizes: no allocation once warm)
   held_qddot_ = integrator_->state().qddot;
   for (size_t i = 0; i < held.size(); ++i) {
     if (!held[i]) continue;
     held_a_(static_cast<Eigen::Index>(i)) = start_.a(static_cast<Eigen::Index>(i));
     held_qddot_(static_cast<Eigen::Index>(i)) = start_.state.qddot(static_cast<Eigen::Index>(i));
   }
+  for (int b : turned) {
+    // Each [x, u, v, w] block of the step before's accelerations turned by the body's rotation
+    // over the step, E_{n+1} E_n⁻¹: a blade spinning at Ω has turned by Ωh, and its centripetal
+    // accelerations with it (held unturned, they kick the blade by Ω²·Ωh at every impact).
+    const Eigen::Index o = static_cast<Eigen::Index>(kCoordinatesPerBody) * b;
+    Eigen::Matrix3d e0, e1;
+    for (int c = 0; c < 3; ++c) {
+      e0.col(c) = start_.state.q.segment<3>(o + 3 + 3 * c);
+      e1.col(c) = integrator_->state().q.segment<3>(o + 3 + 3 * c);
+    }
+    const Eigen::Matrix3d turn = e1 * e0.inverse();
+    for (int c = 0; c < 4; ++c) {
+      held_a_.segment<3>(o + 3 * c) = turn * start_.a.segment<3>(o + 3 * c);
+      held_qddot_.segment<3>(o + 3 * c) = turn * start_.state.qddot.segment<3>(o + 3 * c);
+    }
+  }
   integrator_->ReplaceAccelerationHistory(held_a_, held_qddot_);
   ++impacts_held_;
+}
+
+std::vector<int> Coordinator::BodiesTheImpulseMovedInTheStep(int k, double t, double h) const {
+  // The bodies an impulse at point k moves at once through the constraints (for a beam's node,
+  // its body), each beam among them with all its nodes; none if the tie did not deliver the
+  // impulse within the step: its half period π √(m c) on the effective mass m the point's
+  // reaction meets is longer than h. Such a tie is a spring the impact compresses over several
+  // steps, and its force a real one of each: held, a two-blade teetering rotor's yoke (m = 240 kg
+  // at the pad, c = 9.2e-9 m/N: 4.7 ms) pressed onto its stop by a gust bounced on it for 0.8 s
+  // where its twin rested after one bounce (generated rotor 679; 646: exit 3). An articulated
+  // cuff's pad (801: 1.3 kg, 1.1e-9 m/N, 0.12 ms) and a hingeless beam node's are held.
+  const InterfacePoint& p = system_.interface_points[static_cast<size_t>(k)];
+  if (p.body < 0) return {};  // (a hex27 node: HoldImpactingBodiesHistory holds its body)
+  const auto beam_of = [&](int b) -> const std::vector<int>* {
+    for (const std::vector<int>& nodes : system_.beam_node_bodies) {
+      if (std::find(nodes.begin(), nodes.end(), b) != nodes.end()) return &nodes;
+    }
+    return nullptr;
+  };
+  Eigen::Matrix3d mobility = Eigen::Matrix3d::Zero();  // point velocity per unit impulse
+  std::vector<int> moved = BodiesAnImpulseMoves(system_, *data_, t, integrator_->state().q, k, &mobility);
+  if (beam_of(p.body) != nullptr) moved = {p.body};
+  const Eigen::Vector3d force = system_.InterfaceReaction(k, integrator_->state().lambda);
+  if (force.norm() == 0.0) return {};
+  const Eigen::Vector3d n = force.normalized();
+  const double mass = 1.0 / n.dot(mobility * n);
+  if (!(M_PI * std::sqrt(mass * p.regularization) < h)) return {};
+  std::vector<int> out;
+  for (int b : moved) {
+    const std::vector<int>* beam = beam_of(b);
+    for (int c : beam != nullptr ? *beam : std::vector<int>{b}) {
+      if (std::find(out.begin(), out.end(), c) == out.end()) out.push_back(c);
+    }
+  }
+  return out;
 }
 
 std::vector<int> Coordinator::Impacts() const {

@@ -184,7 +184,9 @@ class Coordinator {
   std::vector<int> Impacts() const;
   // After an accepted step with impacts at elastic nodes (`impacts` not in `restarted`): their
   // bodies' a_{n+1} and q̈_{n+1} become the step before's (the impulse kept out of CGα's recurrence).
-  void HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted);
+  void HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted, double t,
+                                  double h);
+  std::vector<int> BodiesTheImpulseMovedInTheStep(int k, double t, double h) const;
   // A restart at an impact moved the rigid bodies' velocities from `before` (the step's end) to
   // `after` (projected): the nodes of the other points on them take their points' jumps
   // (RestartedNodes in proto/coupling.proto); the imposed rates and the kinematics are updated

@@ -266,36 +266,61 @@ std::vector<bool> ElasticCoordinates(const MultibodySystem& system) {
   return held;
 }
 
-// min ½ Δq̇ᵀ M Δq̇ over the rigid bodies' velocities, the elastic coordinates' held, subject to the
-// constraints' velocity rows with the coupling rows of `points` only. Rows that only held
-// coordinates enter (a beam's own frames) are then empty: every row gets a compliance of 1e-10
-// (an impulse of 1 kN s meets its row to 1e-7 m/s) where anything is held; without, the rows are
-// exact (a tied drop's restart, as before).
-bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data, double t,
-                          const std::vector<bool>& held, const std::vector<int>& points, DaeState* state) {
+// The matrix of an impact's restart at positions q: [M Φ_qᵀ; Φ_q −C] over the rigid bodies'
+// coordinates, the elastic coordinates' rows and columns (`held`) and the other points' coupling
+// rows (those not in `points`) replaced by identity rows. Rows that only held coordinates enter
+// (a beam's own frames) are then empty: every row gets a compliance of 1e-10 (an impulse of
+// 1 kN s meets its row to 1e-7 m/s) where anything is held; without, the rows are exact (a tied
+// drop's restart, as before). `out(i)`: the row or column i is an identity one.
+struct ImpactMatrix {
+  Eigen::SparseMatrix<double> full, A;  // before and after the identity rows
+  std::vector<bool> out;
+};
+ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& data, double t,
+                               const Eigen::VectorXd& q, const std::vector<bool>& held, const std::vector<int>& points,
+                               bool regularised = false) {
   const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
   constexpr double kRedundancy = 1e-10;
-  std::vector<bool> dropped(static_cast<size_t>(mc), false);  // the other points' coupling rows
+  ImpactMatrix m;
+  m.out = held;  // (n coordinates, then the rows)
+  m.out.resize(static_cast<size_t>(N), false);
   for (size_t k = 0; k < system.interface_points.size(); ++k) {
     if (std::find(points.begin(), points.end(), static_cast<int>(k)) != points.end()) continue;
-    for (int j = 0; j < 3; ++j) dropped[static_cast<size_t>(system.interface_points[k].first_row + j)] = true;
+    for (int j = 0; j < 3; ++j) m.out[static_cast<size_t>(n + system.interface_points[k].first_row + j)] = true;
   }
-  const bool any_held = std::find(held.begin(), held.end(), true) != held.end();
+  const bool any_held = regularised || std::find(held.begin(), held.end(), true) != held.end();
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
   AddSparse(system.mass, 1.0, &pattern);
-  system.constraints.Jacobian(data.imposed, state->q, t, &pattern, n, 1.0);
-  system.constraints.JacobianTranspose(data.imposed, state->q, t, &pattern, n, 1.0);
-  Eigen::SparseMatrix<double> A = pattern.Build(N, N);
-  MatrixSink sink(&A);
+  system.constraints.Jacobian(data.imposed, q, t, &pattern, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, q, t, &pattern, n, 1.0);
+  m.A = pattern.Build(N, N);
+  MatrixSink sink(&m.A);
   AddSparse(system.mass, 1.0, &sink);
-  system.constraints.Jacobian(data.imposed, state->q, t, &sink, n, 1.0);
-  system.constraints.JacobianTranspose(data.imposed, state->q, t, &sink, n, 1.0);
+  system.constraints.Jacobian(data.imposed, q, t, &sink, n, 1.0);
+  system.constraints.JacobianTranspose(data.imposed, q, t, &sink, n, 1.0);
   system.constraints.AddReleasedDiagonal(t, &sink, n);
   system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
   if (any_held) {
     for (int i = n; i < N; ++i) sink.Add(i, i, -kRedundancy);
   }
+  m.full = m.A;
+  const std::vector<bool>& out = m.out;
+  m.A.prune([&](Eigen::Index row, Eigen::Index col, double) {
+    return !(out[static_cast<size_t>(row)] || out[static_cast<size_t>(col)]) || row == col;
+  });
+  for (int i = 0; i < N; ++i) {
+    if (out[static_cast<size_t>(i)]) m.A.coeffRef(i, i) = 1.0;
+  }
+  return m;
+}
+
+// min ½ Δq̇ᵀ M Δq̇ over the rigid bodies' velocities, the elastic coordinates' held, subject to the
+// constraints' velocity rows with the coupling rows of `points` only.
+bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data, double t,
+                          const std::vector<bool>& held, const std::vector<int>& points, DaeState* state) {
+  const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
+  const ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
   rhs.head(n) = system.mass * state->qdot;
   system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));
@@ -306,23 +331,58 @@ bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data,
   for (int j = 0; j < n; ++j) {
     if (held[static_cast<size_t>(j)]) fixed(j) = state->qdot(j);
   }
-  rhs -= A * fixed;
-  const auto out = [&](Eigen::Index i) {
-    return (i < n && held[static_cast<size_t>(i)]) || (i >= n && dropped[static_cast<size_t>(i - n)]);
-  };
-  A.prune([&](Eigen::Index row, Eigen::Index col, double) { return !(out(row) || out(col)) || row == col; });
+  rhs -= m.full * fixed;
   for (int i = 0; i < N; ++i) {
-    if (!out(i)) continue;
-    A.coeffRef(i, i) = 1.0;
-    rhs(i) = i < n ? state->qdot(i) : 0.0;
+    if (m.out[static_cast<size_t>(i)]) rhs(i) = i < n ? state->qdot(i) : 0.0;
   }
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
   if (lu.info() != Eigen::Success) return false;
   state->qdot = lu.solve(rhs).head(n);
   return state->qdot.allFinite();
 }
 
 }  // namespace
+
+std::vector<int> BodiesAnImpulseMoves(const MultibodySystem& system, const SystemData& data, double t,
+                                      const Eigen::VectorXd& q, int point, Eigen::Matrix3d* mobility) {
+  // [M Φ_qᵀ; Φ_q −C] [Δq̇; P] = [J_kᵀ e; 0] for the three directions e: the velocity change an
+  // impulse at the point makes at once through the constraints, every coupling row left out (the
+  // other nodes' ties give way within an impact; the point's own carries the impulse) and the
+  // hex27 nodes held (their rows are point rows, not rigid joints). Beam nodes are bodies: the
+  // impulse reaches a clamped root node through its rows and the rest of the beam through its
+  // stiffness, which is not impulsive. Every row takes a compliance of 1e-10 (a closed pitch-link
+  // loop's redundant rows; a driven hub then takes ~1e-10 of the energy).
+  const int n = system.coordinates, N = n + system.constraints.size();
+  const int bodies = (system.elastic_offset.empty() ? n : system.elastic_offset.front()) / kCoordinatesPerBody;
+  std::vector<bool> hex27(static_cast<size_t>(n), false);
+  for (size_t e = 0; e < system.elastic.size(); ++e) {
+    const int first = system.elastic_offset[e], count = 3 * system.elastic[e]->body.node_count();
+    for (int j = 0; j < count; ++j) hex27[static_cast<size_t>(first + j)] = true;
+  }
+  const ImpactMatrix m = BuildImpactMatrix(system, data, t, q, hex27, {}, /*regularised=*/true);
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
+  if (lu.info() != Eigen::Success) return {};
+  Eigen::VectorXd energy = Eigen::VectorXd::Zero(bodies);
+  const InterfacePoint& p = system.interface_points[static_cast<size_t>(point)];
+  for (int d = 0; d < 3; ++d) {
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
+    for (const LinearVector::Term& term : p.point.terms) rhs(term.offset + d) += term.coefficient;
+    const Eigen::VectorXd dv = lu.solve(rhs).head(n);
+    if (!dv.allFinite()) return {};
+    if (mobility != nullptr) mobility->col(d) = p.point.Rate(dv);
+    const Eigen::VectorXd m_dv = system.mass * dv;
+    for (int b = 0; b < bodies; ++b) {
+      const Eigen::Index o = static_cast<Eigen::Index>(kCoordinatesPerBody) * b;
+      energy(b) += std::abs(dv.segment<kCoordinatesPerBody>(o).dot(m_dv.segment<kCoordinatesPerBody>(o)));
+    }
+  }
+  std::vector<int> moved;
+  const double total = energy.sum();
+  for (int b = 0; b < bodies; ++b) {
+    if (energy(b) > 1e-6 * total) moved.push_back(b);
+  }
+  return moved;
+}
 
 std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
                                          const std::vector<int>& impacting, DaeState* state) {

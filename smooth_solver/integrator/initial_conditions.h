@@ -40,4 +40,10 @@ void ProjectVelocities(const MultibodySystem& system, const SystemData& data, do
 std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
                                          const std::vector<int>& impacting, DaeState* state);
 
+// The rigid bodies (beam nodes included) an impulse at interface point `point` moves at once
+// through the constraints at positions q: those that take more than 1e-6 of its kinetic energy
+// (in any of the three directions). Empty if the system is singular there.
+std::vector<int> BodiesAnImpulseMoves(const MultibodySystem& system, const SystemData& data, double t,
+                                      const Eigen::VectorXd& q, int point, Eigen::Matrix3d* mobility = nullptr);
+
 }  // namespace cosim::smooth

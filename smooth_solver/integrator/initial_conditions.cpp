@@ -250,18 +250,24 @@ void ProjectVelocities(const MultibodySystem& system, const SystemData& data, do
 
 namespace {
 
+// Every elastic (hex27) body's node coordinates.
+std::vector<bool> Hex27Coordinates(const MultibodySystem& system) {
+  std::vector<bool> held(static_cast<size_t>(system.coordinates), false);
+  for (size_t e = 0; e < system.elastic.size(); ++e) {
+    const int first = system.elastic_offset[e], count = 3 * system.elastic[e]->body.node_count();
+    for (int j = 0; j < count; ++j) held[static_cast<size_t>(first + j)] = true;
+  }
+  return held;
+}
+
 // The coordinates an impact's restart leaves as they are: every beam node's and every elastic
 // (hex27) body's.
 std::vector<bool> ElasticCoordinates(const MultibodySystem& system) {
-  std::vector<bool> held(static_cast<size_t>(system.coordinates), false);
+  std::vector<bool> held = Hex27Coordinates(system);
   for (const std::vector<int>& nodes : system.beam_node_bodies) {
     for (int b : nodes) {
       for (int j = 0; j < kCoordinatesPerBody; ++j) held[static_cast<size_t>(kCoordinatesPerBody * b + j)] = true;
     }
-  }
-  for (size_t e = 0; e < system.elastic.size(); ++e) {
-    const int first = system.elastic_offset[e], count = 3 * system.elastic[e]->body.node_count();
-    for (int j = 0; j < count; ++j) held[static_cast<size_t>(first + j)] = true;
   }
   return held;
 }
@@ -354,12 +360,7 @@ std::vector<int> BodiesAnImpulseMoves(const MultibodySystem& system, const Syste
   // loop's redundant rows; a driven hub then takes ~1e-10 of the energy).
   const int n = system.coordinates, N = n + system.constraints.size();
   const int bodies = (system.elastic_offset.empty() ? n : system.elastic_offset.front()) / kCoordinatesPerBody;
-  std::vector<bool> hex27(static_cast<size_t>(n), false);
-  for (size_t e = 0; e < system.elastic.size(); ++e) {
-    const int first = system.elastic_offset[e], count = 3 * system.elastic[e]->body.node_count();
-    for (int j = 0; j < count; ++j) hex27[static_cast<size_t>(first + j)] = true;
-  }
-  const ImpactMatrix m = BuildImpactMatrix(system, data, t, q, hex27, {}, /*regularised=*/true);
+  const ImpactMatrix m = BuildImpactMatrix(system, data, t, q, Hex27Coordinates(system), {}, /*regularised=*/true);
   Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
   if (lu.info() != Eigen::Success) return {};
   Eigen::VectorXd energy = Eigen::VectorXd::Zero(bodies);

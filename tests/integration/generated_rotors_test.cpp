@@ -32,6 +32,16 @@ PairRun RunPair(const std::string& rotor, const std::string& name, const std::st
   return p;
 }
 
+// The co-simulated history `a` reaches the highest and the lowest value of its twin's `b` within
+// `tolerance` (a flap angle's or a pad's height's extremes).
+void ExpectSameExtremes(const std::vector<double>& a, const std::vector<double>& b, double tolerance,
+                        const std::string& what) {
+  EXPECT_NEAR(*std::max_element(a.begin(), a.end()), *std::max_element(b.begin(), b.end()), tolerance)
+      << what << ": highest";
+  EXPECT_NEAR(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()), tolerance)
+      << what << ": lowest";
+}
+
 // A six-blade articulated rotor with beam blades clamped to the pitch fitting, pads on the cuffs
 // (5.3 kg nodes on ties of 8.5e-9 m/N), thrown onto its anti-flap stops by a 45 m/s gust and
 // dropped back onto its droop stops. The impact's restart moved the cuff and fitting and bent
@@ -50,8 +60,7 @@ TEST(GeneratedRotors, BeamBladesMeetTheirStopsWithDefaultNumerics) {
   int antiflap_hits = 0;
   for (int k = 1; k <= 6; ++k) {
     const std::vector<double> a = h.Column("flap" + std::to_string(k)), b = c.Column("flap" + std::to_string(k));
-    EXPECT_NEAR(*std::max_element(a.begin(), a.end()), *std::max_element(b.begin(), b.end()), 0.2) << "blade " << k;
-    EXPECT_NEAR(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()), 0.2) << "blade " << k;
+    ExpectSameExtremes(a, b, 0.2, "blade " + std::to_string(k));
     const std::vector<double> up = h.Column("stop" + std::to_string(k) + "_antiflap");
     antiflap_hits += static_cast<int>(std::count_if(up.begin(), up.end(), [](double v) { return v > 0.0; }));
   }
@@ -292,8 +301,7 @@ TEST(GeneratedRotors, AStiffBladeSpinningFastRunsWithDefaultNumerics) {
     // The pad's height [m] over its droop plane; the anti-flap plane is 5 mm above. The twin's
     // Hertzian law lets its pad 0.1-0.7 mm past the gap where the co-simulated pad stops on it.
     const std::vector<double> a = h.Column("flap" + std::to_string(k)), b = c.Column("flap" + std::to_string(k));
-    EXPECT_NEAR(*std::max_element(a.begin(), a.end()), *std::max_element(b.begin(), b.end()), 1e-3) << "blade " << k;
-    EXPECT_NEAR(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()), 1e-3) << "blade " << k;
+    ExpectSameExtremes(a, b, 1e-3, "blade " + std::to_string(k));
   }
 }
 
@@ -325,10 +333,7 @@ TEST(GeneratedRotors, ALightPadRattlingBetweenItsStopsGainsNoEnergy) {
     // Its extremes are the twin's within the judge's tolerance, 2 mm + 10 % of the range
     // (scripts/rotors/check.py; the twin's Hertzian law lets its pad up to 1 mm past the planes).
     const double range = *std::max_element(b.begin(), b.end()) - *std::min_element(b.begin(), b.end());
-    EXPECT_NEAR(*std::max_element(a.begin(), a.end()), *std::max_element(b.begin(), b.end()), 2e-3 + 0.1 * range)
-        << blade;
-    EXPECT_NEAR(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()), 2e-3 + 0.1 * range)
-        << blade;
+    ExpectSameExtremes(a, b, 2e-3 + 0.1 * range, blade);
     // The momentum each stop passes over the run is the twin's stop law's, ∫ F dt, within a factor
     // of 2 (measured 1.06-1.47 times; before, blade 3's droop stop had passed 30 times the twin's by
     // 0.75 s, its impulses growing to 58 N s).
@@ -571,8 +576,7 @@ TEST(GeneratedRotors, AnImpactOnAnArticulatedBladesCuffStaysOutOfItsHistory) {
     // Each blade reaches its anti-flap stop (11.5°) or comes near it and falls back onto its
     // droop stop (−6.4°) as its twin does: extremes within 0.2° (measured 0.09° at most; the
     // judge allows 0.5° + 10 % of the range, scripts/rotors/check.py).
-    EXPECT_NEAR(*std::max_element(a.begin(), a.end()), *std::max_element(b.begin(), b.end()), 0.2) << flap;
-    EXPECT_NEAR(*std::min_element(a.begin(), a.end()), *std::min_element(b.begin(), b.end()), 0.2) << flap;
+    ExpectSameExtremes(a, b, 0.2, flap);
   }
   const std::vector<double> flap1 = h.Column("flap1");
   EXPECT_GT(*std::max_element(flap1.begin(), flap1.end()), 11.0) << "blade 1 is thrown onto its anti-flap stop";

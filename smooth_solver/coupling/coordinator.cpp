@@ -213,6 +213,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     // a_0 = q̈_0 as at a free start: the shifted start-up would take the first try's imposed
     // coordinates (end-of-step values) at t_0 + Δα h, and each try of the first step its own a_0.
     integrator_->Restart(integrator_->state());
+    resting_at_start_ = true;  // (Impacts)
     StartReactionsFrom(integrator_->state());
     x_ = accepted_x_ = applied_ = lambda_start_;
   } else {
@@ -960,14 +961,36 @@ void Coordinator::Accept(double t, double h) {
     if (!system_.interface_points[static_cast<size_t>(k)].elastic) restarted.push_back(k);
   }
   if (settings_.restart_at_impact && !impacts.empty()) {
-    DaeState after = integrator_->state();
-    if (!restarted.empty()) {
-      restarted =
-          ProjectImpactVelocities(system_, *data_, t + h, restarted, &after);  // the points move with their nodes
+    const DaeState before = integrator_->state();
+    DaeState after = before;
+    // The points move with their nodes across each impact's plane (along its reaction: Newton's
+    // law's velocity); along the plane a node's velocity is its own, which on a stiff tie swings
+    // about its point's (Moreau–Jean's midpoint rule does not damp it): imposed whole, it kicked
+    // the blade in lag at each impact (generated rotor 648: 11 of 143 restarts failed the
+    // projection's 10 % test, the pad's in-plane swing growing to 3 m/s).
+    std::vector<Eigen::Vector3d>& normals = impact_normals_;
+    normals.assign(system_.interface_points.size(), Eigen::Vector3d::Zero());
+    for (int k : restarted) {
+      const Eigen::Vector3d f = system_.InterfaceReaction(k, before.lambda);
+      if (f.norm() > 0.0) normals[static_cast<size_t>(k)] = f.normalized();
     }
+    if (!restarted.empty()) restarted = ProjectImpactVelocities(system_, *data_, t + h, restarted, normals, &after);
     if (!restarted.empty()) {
-      MoveNodesWithRestart(integrator_->state().qdot, after, restarted);  // (before: the restart reads them)
+      // And onto their nodes' reported positions: the tie's stretch c·λ at the impact (0.25 mm
+      // for 648's 139 N s) was a spring the next steps released into the node's swing, and the
+      // step's point sat at the interface model's imposed value, which then differs from the
+      // node's position (648: 0.11 mm along the plane). Not moved, the swing doubled at each
+      // re-contact and rotor 639's pad went 0.107 m through its anti-flap plane (exit 3). (If a
+      // solve of the move fails, the projection alone stands.)
+      for (int k : restarted) {
+        for (int j = 0; j < 3; ++j)
+          data_->imposed[3 * static_cast<size_t>(k) + static_cast<size_t>(j)].value = position_(3 * k + j);
+      }
+      MoveImpactPointsOntoNodes(system_, *data_, t + h, restarted, normals, &after);
+      MoveNodesWithRestart(before, after, restarted);  // (before the restart: it reads them)
+      const Eigen::VectorXd a_before = integrator_->acceleration_variable();
       RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
+      KeepHistoryTheRestartDidNotChange(before, a_before);
       for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
       accepted_steps_ = 0;
       offset_known_ = false;
@@ -977,41 +1000,85 @@ void Coordinator::Accept(double t, double h) {
     if (restarted.size() < impacts.size()) HoldImpactingBodiesHistory(impacts, restarted, t + h, h);
   }
   was_contact_ = contact_;
+  resting_at_start_ = false;
   // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
   // last_accepted_step at the end): no StepEnd round trip.
   last_accepted_ = step_;
   ++step_;
 }
 
-void Coordinator::MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeState& after,
+void Coordinator::MoveNodesWithRestart(const DaeState& before, const DaeState& after,
                                        const std::vector<int>& restarted) {
-  // The projection changed the rigid bodies' velocities, and with them the velocity of every
-  // interface point on them; the nodes, the contact processes', kept theirs. On a stiff tie
-  // Moreau–Jean's midpoint rule (θ = ½) does not damp a node's motion relative to its point (the
-  // relative velocity changes sign each step, its amplitude kept), so the difference swung for
-  // the rest of the run: a teetering yoke's other pad by ±0.13 m/s about its point 300 steps after
-  // the first impact, and its own impact then reversed that swinging velocity, not the yoke's
-  // (generated rotor 805: left to the tie, 21 ms on the plane, and no stop met after). Each
-  // other node takes its point's jump; its motion relative to its point is left as it was: its
-  // own answered velocity (with interface Jacobians the imposed rates are the peers' affine
-  // model's; sending those changed the relative motion too, and generated rotor 765 rebounded
-  // from its droop stop to −2.4° where its twin stayed on it). The impacting node keeps its state:
-  // moved to its point (the smooth step went on through the obstacle), a node resting on its
+  // The projection and the move changed the rigid bodies' velocities and positions, and with them
+  // every interface point's on them; the nodes, the contact processes', kept theirs. On a stiff
+  // tie Moreau–Jean's midpoint rule (θ = ½) does not damp a node's motion relative to its point
+  // (the relative velocity changes sign each step, its amplitude kept), so the difference swung
+  // for the rest of the run: a teetering yoke's other pad by ±0.13 m/s about its point 300 steps
+  // after the first impact, and its own impact then reversed that swinging velocity, not the
+  // yoke's (generated rotor 805: left to the tie, 21 ms on the plane, and no stop met after).
+  // Each other node takes its point's jump and shift; its motion relative to its point is left as
+  // it was: its own answered velocity (with interface Jacobians the imposed rates are the peers'
+  // affine model's; sending those changed the relative motion too, and generated rotor 765
+  // rebounded from its droop stop to −2.4° where its twin stayed on it). The impacting node keeps
+  // its position (the point was moved onto it: moved to its point instead, a node resting on its
   // plane went into it by its tie's stretch at every closing, and a settled blade sank through
-  // its stop (GeneratedRotors.ASettledPadSlidesAlongItsStopUntilItsTieHoldsIt).
+  // its stop, GeneratedRotors.ASettledPadSlidesAlongItsStopUntilItsTieHoldsIt) and takes its
+  // point's new velocity: Newton's law's across the plane, the point's along it, so that no swing
+  // about the point is left (generated rotor 648's bounce series on its anti-flap stop rebounded
+  // at 1.19–1.40 times e = 0.704, each impact reversing the swing with the blade's approach).
   moved_points_.clear();
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    if (std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end()) continue;
     const InterfacePoint& p = system_.interface_points[k];
-    const Eigen::Vector3d jump = p.point.Rate(after.qdot) - p.point.Rate(before);
-    if (jump.isZero(0.0)) continue;  // (a body the projection did not move: a beam's, another blade's)
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+    const bool impacting = std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end();
+    const Eigen::Vector3d jump = impacting ? Eigen::Vector3d(p.point.Rate(after.qdot) - velocity_.segment<3>(o))
+                                           : Eigen::Vector3d(p.point.Rate(after.qdot) - p.point.Rate(before.qdot));
+    const Eigen::Vector3d shift =
+        impacting ? Eigen::Vector3d::Zero() : Eigen::Vector3d(p.point.Value(after.q) - p.point.Value(before.q));
+    if (!impacting && jump.norm() < 1e-12 && shift.norm() < 1e-12) continue;  // (a body nothing moved: round-off)
     moved_points_.push_back(static_cast<int>(k));
     velocity_.segment<3>(o) += jump;
+    position_.segment<3>(o) += shift;
     accepted_velocity_.segment<3>(o) = velocity_.segment<3>(o);
-    for (int j = 0; j < 3; ++j)
-      data_->imposed[3 * k + static_cast<size_t>(j)].rate += jump(j);  // (rows as consistent as before)
+    accepted_position_.segment<3>(o) = position_.segment<3>(o);
+    for (int j = 0; j < 3; ++j) {  // (rows as consistent as before)
+      data_->imposed[3 * k + static_cast<size_t>(j)].rate += jump(j);
+      data_->imposed[3 * k + static_cast<size_t>(j)].value += shift(j);
+    }
   }
+}
+
+void Coordinator::KeepHistoryTheRestartDidNotChange(const DaeState& before, const Eigen::VectorXd& a_before) {
+  // The restart's consistent accelerations are every body's, found with every node's imposed
+  // acceleration, (v − v₀)/h, which holds the nodes' swing about their points divided by h. A body
+  // whose velocities the restart did not change keeps its own history: reset, another blade
+  // lifting off its droop stop took −0.03 rad/s in the next step with no contact of its own and
+  // chattered on the stop every 9 ms (generated rotor 651, blade 1). Per rigid body (a beam's
+  // node included), per coordinate of a hex27 body. Unchanged: by at most 1e-3 of the largest
+  // change of any coordinate. The solves' round-off on a body the impulse does not reach (another
+  // blade on a driven hub) is up to 1e-8 of it, the impacting blade's bodies change by 0.4–1
+  // (generated rotor 648); a bound within the round-off's range (1e-12 absolute, 1e-9 relative)
+  // fell on either side of it in a run and in its restart from a saved state, which departed
+  // from the run made in one go by up to 0.29° (rotors 600, 648, 651, 780).
+  const DaeState& now = integrator_->state();
+  const double dv = (now.qdot - before.qdot).lpNorm<Eigen::Infinity>(),
+               dq = (now.q - before.q).lpNorm<Eigen::Infinity>();
+  held_a_ = integrator_->acceleration_variable();
+  held_qddot_ = now.qddot;
+  const Eigen::Index n = system_.coordinates;
+  const Eigen::Index rigid = system_.elastic_offset.empty() ? n : system_.elastic_offset.front();
+  bool kept = false;
+  for (Eigen::Index o = 0; o < n;) {
+    const Eigen::Index count = o < rigid ? kCoordinatesPerBody : 1;
+    if ((now.qdot.segment(o, count) - before.qdot.segment(o, count)).lpNorm<Eigen::Infinity>() <= 1e-3 * dv &&
+        (now.q.segment(o, count) - before.q.segment(o, count)).lpNorm<Eigen::Infinity>() <= 1e-3 * dq) {
+      held_a_.segment(o, count) = a_before.segment(o, count);
+      held_qddot_.segment(o, count) = before.qddot.segment(o, count);
+      kept = true;
+    }
+    o += count;
+  }
+  if (kept) integrator_->ReplaceAccelerationHistory(held_a_, held_qddot_);
 }
 
 void Coordinator::FillRestartedNodes(const Peer& peer, coupling::RestartedNodes* out) const {
@@ -1125,6 +1192,11 @@ std::vector<int> Coordinator::BodiesTheImpulseMovedInTheStep(int k, double t, do
 }
 
 std::vector<int> Coordinator::Impacts() const {
+  // A settled start's first step closes no contact: its nodes rest on their stops (the settle's
+  // equilibrium, no approach speed), and their contacts, reported closed in that step, are not
+  // impacts. Restarted there, a rod settled on its stop lost 79 % of its pad's steady impulse and
+  // a settled rotor's blade rose 0.023° off its droop stop (the tie's static stretch moved away).
+  if (resting_at_start_) return {};
   std::vector<int> points;
   for (size_t k = 0; k < contact_.size(); ++k) {
     if (contact_[k] && !was_contact_[k]) points.push_back(static_cast<int>(k));

@@ -191,7 +191,10 @@ class Coordinator {
   // `after` (projected): the nodes of the other points on them take their points' jumps
   // (RestartedNodes in proto/coupling.proto); the imposed rates and the kinematics are updated
   // here, the peers told with the next StepBegin or the Shutdown (FillRestartedNodes).
-  void MoveNodesWithRestart(const Eigen::VectorXd& before, const DaeState& after, const std::vector<int>& restarted);
+  void MoveNodesWithRestart(const DaeState& before, const DaeState& after, const std::vector<int>& restarted);
+  // After an impact's restart: the bodies whose positions and velocities it did not change take
+  // back their acceleration history (`before`, `a_before`: the step's state before the restart).
+  void KeepHistoryTheRestartDidNotChange(const DaeState& before, const Eigen::VectorXd& a_before);
   void FillRestartedNodes(const Peer& peer, coupling::RestartedNodes* out) const;
   void ReceiveKinematics(int iteration);
   void EndStep(bool accepted, bool converged);  // StepEnd to every peer, and their replies
@@ -248,11 +251,13 @@ class Coordinator {
   interface::Relaxation relaxation_;
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
-  bool iterate_solved_ = false;             // iterate_ is a solve of the step under way
-  Eigen::VectorXd held_a_, held_qddot_;     // HoldImpactingBodiesHistory's buffers
-  std::vector<int> moved_points_;           // MoveNodesWithRestart's, until the peers are told
-  bool restored_ = false;                   // RestoreMemory: the handshake goes on with the rows held
-  static constexpr int kMaxBacktracks = 4;  // per step (Try)
+  bool iterate_solved_ = false;                  // iterate_ is a solve of the step under way
+  Eigen::VectorXd held_a_, held_qddot_;          // HoldImpactingBodiesHistory's buffers
+  std::vector<int> moved_points_;                // MoveNodesWithRestart's, until the peers are told
+  std::vector<Eigen::Vector3d> impact_normals_;  // Accept's impact reactions' directions, one per point
+  bool restored_ = false;                        // RestoreMemory: the handshake goes on with the rows held
+  bool resting_at_start_ = false;                // a settled start's first step: its contacts rest (Impacts)
+  static constexpr int kMaxBacktracks = 4;       // per step (Try)
   // Try's pieces.
   void BeginTry(double h);
   Attempt Failed(int at, Attempt::Outcome outcome, Attempt result);

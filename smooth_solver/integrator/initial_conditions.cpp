@@ -284,7 +284,7 @@ struct ImpactMatrix {
 };
 ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& data, double t,
                                const Eigen::VectorXd& q, const std::vector<bool>& held, const std::vector<int>& points,
-                               bool regularised = false) {
+                               bool regularised = false, const ImpactNormals* normals = nullptr) {
   const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
   constexpr double kRedundancy = 1e-10;
   ImpactMatrix m;
@@ -295,13 +295,28 @@ ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& 
     for (int j = 0; j < 3; ++j) m.out[static_cast<size_t>(n + system.interface_points[k].first_row + j)] = true;
   }
   const bool any_held = regularised || std::find(held.begin(), held.end(), true) != held.end();
+  // A point given a normal n: its rows along the plane free, a compliance of 1e6 (m/s)/(N s) on
+  // I − n nᵀ, so that only n · J q̇ is imposed (an impulse of 1 µN s per m/s of tangential mismatch).
+  const auto along_the_plane = [&](SparseSink* out, double compliance) {
+    for (size_t k = 0; normals != nullptr && k < normals->size(); ++k) {
+      const Eigen::Vector3d& nk = (*normals)[k];
+      if (nk.isZero(0.0)) continue;
+      const Eigen::Matrix3d free = Eigen::Matrix3d::Identity() - nk * nk.transpose();
+      const int r = n + system.interface_points[k].first_row;
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) out->Add(r + i, r + j, -compliance * free(i, j));
+      }
+    }
+  };
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
+  along_the_plane(&pattern, 0.0);
   AddSparse(system.mass, 1.0, &pattern);
   system.constraints.Jacobian(data.imposed, q, t, &pattern, n, 1.0);
   system.constraints.JacobianTranspose(data.imposed, q, t, &pattern, n, 1.0);
   m.A = pattern.Build(N, N);
   MatrixSink sink(&m.A);
+  along_the_plane(&sink, 1e6);
   AddSparse(system.mass, 1.0, &sink);
   system.constraints.Jacobian(data.imposed, q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(data.imposed, q, t, &sink, n, 1.0);
@@ -324,9 +339,10 @@ ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& 
 // min ½ Δq̇ᵀ M Δq̇ over the rigid bodies' velocities, the elastic coordinates' held, subject to the
 // constraints' velocity rows with the coupling rows of `points` only.
 bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data, double t,
-                          const std::vector<bool>& held, const std::vector<int>& points, DaeState* state) {
+                          const std::vector<bool>& held, const std::vector<int>& points, DaeState* state,
+                          const ImpactNormals* normals) {
   const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
-  const ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points);
+  const ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points, false, normals);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
   rhs.head(n) = system.mass * state->qdot;
   system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));
@@ -386,12 +402,13 @@ std::vector<int> BodiesAnImpulseMoves(const MultibodySystem& system, const Syste
 }
 
 std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
-                                         const std::vector<int>& impacting, DaeState* state) {
+                                         const std::vector<int>& impacting, const ImpactNormals& normals,
+                                         DaeState* state) {
   const std::vector<bool> held = ElasticCoordinates(system);
   std::vector<int> points = impacting;
   for (int pass = 0; pass < 2 && !points.empty(); ++pass) {
     DaeState trial = *state;
-    if (!SmallestImpactChange(system, data, t, held, points, &trial)) return {};
+    if (!SmallestImpactChange(system, data, t, held, points, &trial, &normals)) return {};
     // A point whose node's velocity the rigid bodies could not take (its body clamped to a
     // beam, or joined to one: the jump would have to bend the beam within the step) is left to
     // its tie; the others are projected again without it.
@@ -400,8 +417,11 @@ std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const Sy
       const InterfacePoint& p = system.interface_points[static_cast<size_t>(k)];
       Eigen::Vector3d wanted;
       for (int j = 0; j < 3; ++j) wanted(j) = data.imposed[static_cast<size_t>(3 * k + j)].rate;
-      const double jump = (wanted - p.point.Rate(state->qdot)).norm();
-      if ((wanted - p.point.Rate(trial.qdot)).norm() <= 0.1 * jump + 1e-9) taken.push_back(k);
+      const Eigen::Vector3d& nk = normals[static_cast<size_t>(k)];
+      const Eigen::Matrix3d across =
+          nk.isZero(0.0) ? Eigen::Matrix3d::Identity() : Eigen::Matrix3d(nk * nk.transpose());
+      const double jump = (across * (wanted - p.point.Rate(state->qdot))).norm();
+      if ((across * (wanted - p.point.Rate(trial.qdot))).norm() <= 0.1 * jump + 1e-9) taken.push_back(k);
     }
     if (taken.size() == points.size()) {
       *state = trial;
@@ -410,6 +430,37 @@ std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const Sy
     points = taken;
   }
   return {};
+}
+
+bool MoveImpactPointsOntoNodes(const MultibodySystem& system, const SystemData& data, double t,
+                               const std::vector<int>& points, const ImpactNormals& normals, DaeState* state) {
+  // The smallest move of the rigid bodies in the mass metric that puts each point on its node:
+  // [M Φ_qᵀ; Φ_q −C] [Δq; μ] = [0; −Φ(q)] with the restart's rows (the elastic coordinates held,
+  // the other points' coupling rows out), Newton on the matrix kept (Φ is quadratic in the
+  // Euler parameters; the move is a fraction of a millimetre).
+  const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
+  const std::vector<bool> held = ElasticCoordinates(system);
+  const ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points);
+  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
+  if (lu.info() != Eigen::Success) return false;
+  DaeState moved = *state;
+  Eigen::VectorXd rhs(N), phi(mc);
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    system.constraints.Evaluate(data.imposed, moved.q, t, phi);
+    rhs.setZero();
+    rhs.segment(n, mc) = -phi;
+    for (int i = 0; i < N; ++i) {
+      if (m.out[static_cast<size_t>(i)]) rhs(i) = 0.0;
+    }
+    const Eigen::VectorXd dq = lu.solve(rhs).head(n);
+    if (!dq.allFinite()) return false;
+    moved.q += dq;
+  }
+  // The velocities again at the new positions, whose Jacobians have moved with them (a body's
+  // axes would otherwise no longer move rigidly).
+  if (!SmallestImpactChange(system, data, t, held, points, &moved, &normals)) return false;
+  *state = moved;
+  return true;
 }
 
 void HoldClosedLocks(MultibodySystem* system, const SystemData& data, const Eigen::VectorXd& q, double t0) {

@@ -37,8 +37,19 @@ void ProjectVelocities(const MultibodySystem& system, const SystemData& data, do
 // whose jump the rigid bodies cannot take to 10 % (its body clamped to a beam: the jump would
 // have to bend the beam within the step) is left to its tie. Returns the points that took their
 // jump (state changed), or none (state unchanged).
+// `normals` (one per interface point): a point with a nonzero one takes its jump across the plane
+// only, n nᵀ; along it its velocity is what the projection leaves (its node's there swings about
+// the point on a stiff tie: imposed, it kicked the blade in lag).
+using ImpactNormals = std::vector<Eigen::Vector3d>;
 std::vector<int> ProjectImpactVelocities(const MultibodySystem& system, const SystemData& data, double t,
-                                         const std::vector<int>& impacting, DaeState* state);
+                                         const std::vector<int>& impacting, const ImpactNormals& normals,
+                                         DaeState* state);
+// After ProjectImpactVelocities: the rigid bodies moved by the smallest change in the mass metric
+// that puts each of `points` on its node (the imposed values), the elastic coordinates held and
+// the other points' coupling rows left out, and the velocities projected again at the new
+// positions as ProjectImpactVelocities does. False (state unchanged) if a solve fails.
+bool MoveImpactPointsOntoNodes(const MultibodySystem& system, const SystemData& data, double t,
+                               const std::vector<int>& points, const ImpactNormals& normals, DaeState* state);
 
 // The rigid bodies (beam nodes included) an impulse at interface point `point` moves at once
 // through the constraints at positions q: those that take more than 1e-6 of its kinetic energy

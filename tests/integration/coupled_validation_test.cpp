@@ -474,12 +474,22 @@ TEST(CoupledRestart, ARunRestartedFromItsSavedStatesContinuesItContactProcessInc
       << lost.output;
 }
 
+// The rows of a history whose `impulse` is positive: the steps in which the node hit the wall.
+std::vector<size_t> ImpactRows(const Table& history) {
+  const std::vector<double> impulse = history.Column("impulse");
+  std::vector<size_t> rows;
+  for (size_t k = 0; k < impulse.size(); ++k) {
+    if (impulse[k] > 0.0) rows.push_back(k);
+  }
+  return rows;
+}
+
 TEST(CoupledValidation, LinearOscillatorMatchesTheEntirelyNonsmoothSolution) {
   // The paper's Fig. 1 check: the co-simulated oscillator (1 kg body and spring in the smooth
   // model, 0.1 kg node against the wall in the contact process) against the same oscillator
   // entirely in Moreau–Jean, both against the closed form over 2 s (four impacts). The
-  // coupling costs no accuracy: RMS errors 1.32e-3 vs 1.27e-3 m at h = 1 ms, 4.8e-4 vs 5.3e-4
-  // at 0.5 ms (first order, event capturing); the two runs differ by 2e-4 m at most (1 ms).
+  // coupling costs no accuracy: RMS errors 1.44e-3 vs 1.27e-3 m at h = 1 ms, 5.27e-4 vs 5.28e-4
+  // at 0.5 ms (first order, event capturing).
   const ExactOscillator exact;
   EXPECT_NEAR(exact.FirstImpact(), 2.0 * M_PI / (3.0 * std::sqrt(100.0 / 1.1)), 1e-12);
   double coupled_rms[2];
@@ -496,15 +506,31 @@ TEST(CoupledValidation, LinearOscillatorMatchesTheEntirelyNonsmoothSolution) {
     const auto [rms_c, max_c] = OscillatorError(coupled, exact);
     const auto [rms_n, max_n] = OscillatorError(nonsmooth, exact);
     EXPECT_LT(rms_c, 1.2 * rms_n) << steps[i];
-    EXPECT_LT(max_c, 2.5e-3) << steps[i];
+    // Largest error 2.93e-3 m against the nonsmooth run's 1.93e-3 (1 ms), after the fourth impact,
+    // which event capturing puts one step later than the nonsmooth run's (below).
+    EXPECT_LT(max_c, 1.6 * max_n) << steps[i];
     coupled_rms[i] = rms_c;
-    std::printf("linear oscillator at %s s: RMS coupled %.3e, nonsmooth %.3e m\n", steps[i], rms_c, rms_n);
-    if (i == 0) {
-      const std::vector<double> zc = coupled.Column("z"), zn = nonsmooth.Column("z");
-      ASSERT_EQ(zc.size(), zn.size());
-      double diff = 0.0;
-      for (size_t k = 0; k < zc.size(); ++k) diff = std::max(diff, std::abs(zc[k] - zn[k]));
-      EXPECT_LT(diff, 5e-4);
+    std::printf("linear oscillator at %s s: RMS coupled %.3e, nonsmooth %.3e m; largest %.3e, %.3e m\n", steps[i],
+                rms_c, rms_n, max_c, max_n);
+    // Each impact in the nonsmooth run's step or the next (measured: the same steps, the fourth
+    // one step later at 1 ms: 1.675 s against 1.674 s, the closed form's at 1.6706 s; the flights
+    // between differ by CGα's and Moreau–Jean's phase errors, 8e-5 m over the second one).
+    const std::vector<size_t> hits_c = ImpactRows(coupled), hits_n = ImpactRows(nonsmooth);
+    ASSERT_EQ(hits_c.size(), 4u) << steps[i];
+    ASSERT_EQ(hits_n.size(), 4u) << steps[i];
+    const std::vector<double> vc = coupled.Column("vz"), vn = nonsmooth.Column("vz");
+    for (size_t k = 0; k < 4; ++k) {
+      EXPECT_LE(hits_c[k] - std::min(hits_c[k], hits_n[k]) + hits_n[k] - std::min(hits_c[k], hits_n[k]), 1u)
+          << steps[i] << ": impact " << k;
+      // The node leaves the wall as the nonsmooth model's mass does, in its impact's step and the
+      // two after it: within 2 % (measured 1.4 % at most, at the fourth impact; 0.07–0.3 % at the
+      // others). Before the restart moved the body onto its node, the tie's stretch (0.3 mm) was
+      // released into the node in the next step, which then moved at 41 % of that speed (0.271
+      // against 0.664 m/s after the first impact).
+      for (size_t j = 0; j < 3; ++j) {
+        const double v = vn[hits_n[k] + j];
+        EXPECT_NEAR(vc[hits_c[k] + j], v, 0.02 * std::abs(v)) << steps[i] << ": impact " << k << ", step " << j;
+      }
     }
   }
   EXPECT_GT(coupled_rms[0] / coupled_rms[1], 1.6);

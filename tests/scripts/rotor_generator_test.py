@@ -71,6 +71,62 @@ class Judge(unittest.TestCase):
         self.assertAlmostEqual(mismatches[0][2], 0.05)
 
 
+class Rebounds(unittest.TestCase):
+    """The judge's rebound check (check.rebounds) on a hinge history made up for it."""
+
+    @staticmethod
+    def history(rebound):
+        # Rotor 648's blade 1 (articulated, rigid blades, e = 0.704) decelerated at 2000 °/s² by
+        # its centrifugal moment, meeting its anti-flap stop at 60 °/s at t = 51 ms (the end of the
+        # step whose contact the restart resolves, the contact's one sample) and leaving it at
+        # `rebound` times that.
+        rotor = spec.draw(648).__dict__ | {"step": 0.001}
+        assert rotor["topology"] == "articulated" and rotor["blade_model"] == "rigid"
+        times = [0.001 * i for i in range(101)]
+        hit = 0.051
+
+        def flap(t):
+            v = 60.0 if t < hit else -rebound * 60.0
+            return 10.0 + v * (t - hit) - 1000.0 * (t - hit) ** 2
+
+        return rotor, {"time": times, "flap1": [flap(t) for t in times]}, {"pad1": [(0.051, 0.051)]}
+
+    def test_newtons_rebound_is_measured_through_the_flaps_own_acceleration(self):
+        rotor, hist, eps = self.history(0.704)
+        (pad, start, rate, ratio), = check.rebounds(rotor, hist, eps)
+        self.assertEqual((pad, start), ("pad1", 0.051))
+        self.assertAlmostEqual(rate, 60.0, places=6)  # (the parabola is exact on a parabola)
+        self.assertAlmostEqual(ratio, 0.704, places=6)
+
+    def test_a_rebound_faster_than_newtons_is_one_the_judge_counts(self):
+        # Rotor 648 before the restart imposed Newton's law across the plane only: 1.2-1.4 e.
+        rotor, hist, eps = self.history(1.2 * 0.704)
+        (_, _, _, ratio), = check.rebounds(rotor, hist, eps)
+        self.assertGreater(ratio, 1.1 * rotor["restitution"] + 0.01)
+
+    def test_a_graze_and_a_beam_blade_are_not_judged(self):
+        rotor, hist, eps = self.history(0.704)
+        slow = {"time": hist["time"], "flap1": [v / 20.0 for v in hist["flap1"]]}  # 3 °/s
+        self.assertEqual(check.rebounds(rotor, slow, eps), [])
+        self.assertEqual(check.rebounds(rotor | {"blade_model": "beam"}, hist, eps), [])
+
+
+class TeeteringDrift(unittest.TestCase):
+    def test_a_contact_of_either_pad_shifts_the_yokes_flight_after_it(self):
+        # Rotor 784 (teetering, rigid): its twin's pad 1 closes 50 ms after the co-simulated one,
+        # each contact the twin's law resolves over its 20 ms shifting the yoke's flight after it.
+        # Pad 2's two closings (one per model) before it count as pad 1's own would: on a yoke both
+        # pads share the one hinge.
+        rotor = spec.draw(784).__dict__ | {"contact_duration": 0.02, "step": 0.001}
+        assert rotor["topology"] == "teetering"
+        times = [0.001 * i for i in range(1001)]
+        flight = {"time": times, "teeter": [0.0] * len(times)}  # (clearly off both stops)
+        cosim, twin = {"pad1": [(0.8, 0.8)]}, {"pad1": [(0.85, 0.87)]}
+        self.assertEqual(len(check.compare_contacts(rotor, flight, cosim, flight, twin, 0.025)), 1)
+        cosim["pad2"], twin["pad2"] = [(0.3, 0.3)], [(0.3, 0.32)]
+        self.assertEqual(check.compare_contacts(rotor, flight, cosim, flight, twin, 0.025), [])
+
+
 class Draws(unittest.TestCase):
     def test_every_draw_is_a_valid_rotor_written_with_the_languages_conveniences(self):
         seen = set()

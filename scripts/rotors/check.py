@@ -156,9 +156,7 @@ def compare_contacts(rotor, ha, ea, hb, eb, tol):
         # Newton's e = 0.391 exactly, while the twin stays 23 ms on its stop, 0.27° into it; pad 1
         # then closes 79 ms after its twin, with two closings of its own counted and pad 2's not).
         same_hinge = [k for k in ea if stops[k][0] == stops[key][0]]
-        closings = sorted(
-            s for k in same_hinge for s, _ in ea.get(k, []) + eb.get(k, []) if s > times[0] + 0.5 * step
-        )
+        closings = sorted(s for k in same_hinge for s, _ in ea.get(k, []) + eb.get(k, []) if s > times[0] + 0.5 * step)
         drift = [0] * n
         j = 0
         for i in range(n):

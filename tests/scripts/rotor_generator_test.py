@@ -93,7 +93,7 @@ class Rebounds(unittest.TestCase):
 
     def test_newtons_rebound_is_measured_through_the_flaps_own_acceleration(self):
         rotor, hist, eps = self.history(0.704)
-        (pad, start, rate, ratio), = check.rebounds(rotor, hist, eps)
+        ((pad, start, rate, ratio),) = check.rebounds(rotor, hist, eps)
         self.assertEqual((pad, start), ("pad1", 0.051))
         self.assertAlmostEqual(rate, 60.0, places=6)  # (the parabola is exact on a parabola)
         self.assertAlmostEqual(ratio, 0.704, places=6)
@@ -101,7 +101,7 @@ class Rebounds(unittest.TestCase):
     def test_a_rebound_faster_than_newtons_is_one_the_judge_counts(self):
         # Rotor 648 before the restart imposed Newton's law across the plane only: 1.2-1.4 e.
         rotor, hist, eps = self.history(1.2 * 0.704)
-        (_, _, _, ratio), = check.rebounds(rotor, hist, eps)
+        ((_, _, _, ratio),) = check.rebounds(rotor, hist, eps)
         self.assertGreater(ratio, 1.1 * rotor["restitution"] + 0.01)
 
     def test_a_graze_and_a_beam_blade_are_not_judged(self):

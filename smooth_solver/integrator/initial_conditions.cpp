@@ -281,6 +281,11 @@ std::vector<bool> ElasticCoordinates(const MultibodySystem& system) {
 struct ImpactMatrix {
   Eigen::SparseMatrix<double> full, A;  // before and after the identity rows
   std::vector<bool> out;
+  Eigen::SparseMatrix<double> turn;  // the rows turned to each normal's frame (empty: none)
+  // The right-hand side of [q̇ or Δq; rows] in the matrix's rows.
+  Eigen::VectorXd Turned(const Eigen::VectorXd& rhs) const {
+    return turn.size() == 0 ? rhs : Eigen::VectorXd(turn * rhs);
+  }
 };
 ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& data, double t,
                                const Eigen::VectorXd& q, const std::vector<bool>& held, const std::vector<int>& points,
@@ -295,28 +300,13 @@ ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& 
     for (int j = 0; j < 3; ++j) m.out[static_cast<size_t>(n + system.interface_points[k].first_row + j)] = true;
   }
   const bool any_held = regularised || std::find(held.begin(), held.end(), true) != held.end();
-  // A point given a normal n: its rows along the plane free, a compliance of 1e6 (m/s)/(N s) on
-  // I − n nᵀ, so that only n · J q̇ is imposed (an impulse of 1 µN s per m/s of tangential mismatch).
-  const auto along_the_plane = [&](SparseSink* out, double compliance) {
-    for (size_t k = 0; normals != nullptr && k < normals->size(); ++k) {
-      const Eigen::Vector3d& nk = (*normals)[k];
-      if (nk.isZero(0.0)) continue;
-      const Eigen::Matrix3d free = Eigen::Matrix3d::Identity() - nk * nk.transpose();
-      const int r = n + system.interface_points[k].first_row;
-      for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) out->Add(r + i, r + j, -compliance * free(i, j));
-      }
-    }
-  };
   PatternSink pattern;
   for (int i = 0; i < N; ++i) pattern.Add(i, i, 0.0);
-  along_the_plane(&pattern, 0.0);
   AddSparse(system.mass, 1.0, &pattern);
   system.constraints.Jacobian(data.imposed, q, t, &pattern, n, 1.0);
   system.constraints.JacobianTranspose(data.imposed, q, t, &pattern, n, 1.0);
   m.A = pattern.Build(N, N);
   MatrixSink sink(&m.A);
-  along_the_plane(&sink, 1e6);
   AddSparse(system.mass, 1.0, &sink);
   system.constraints.Jacobian(data.imposed, q, t, &sink, n, 1.0);
   system.constraints.JacobianTranspose(data.imposed, q, t, &sink, n, 1.0);
@@ -324,6 +314,39 @@ ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& 
   system.constraints.AddComplianceDiagonal(&sink, n, 1.0);
   if (any_held) {
     for (int i = n; i < N; ++i) sink.Add(i, i, -kRedundancy);
+  }
+  // A point given a normal n: its three rows turned to [n, t₁, t₂]ᵀ (T A Tᵀ; the tie's compliance
+  // c I and the 1e-10 on every row are unchanged by it), the two along the plane then left out,
+  // so that only n · J q̇ is imposed. (A compliance of 1e6 on I − n nᵀ does the same in a matrix
+  // whose other rows carry 1e-10, and its round-off reached 1e-8 of the impact's change on bodies
+  // the impulse does not reach.)
+  std::vector<Eigen::Triplet<double>> turn;
+  bool turned = false;
+  for (int i = 0; i < n; ++i) turn.emplace_back(i, i, 1.0);
+  std::vector<bool> row_turned(static_cast<size_t>(mc), false);
+  for (size_t k = 0; normals != nullptr && k < normals->size(); ++k) {
+    const Eigen::Vector3d& nk = (*normals)[k];
+    if (nk.isZero(0.0) || m.out[static_cast<size_t>(n + system.interface_points[k].first_row)]) continue;
+    Eigen::Matrix3d frame;
+    frame.row(0) = nk.transpose();
+    const Eigen::Vector3d t1 = nk.unitOrthogonal();
+    frame.row(1) = t1.transpose();
+    frame.row(2) = nk.cross(t1).transpose();
+    const int r = system.interface_points[k].first_row;
+    for (int i = 0; i < 3; ++i) {
+      row_turned[static_cast<size_t>(r + i)] = true;
+      for (int j = 0; j < 3; ++j) turn.emplace_back(n + r + i, n + r + j, frame(i, j));
+    }
+    m.out[static_cast<size_t>(n + r + 1)] = m.out[static_cast<size_t>(n + r + 2)] = true;
+    turned = true;
+  }
+  if (turned) {
+    for (int i = 0; i < mc; ++i) {
+      if (!row_turned[static_cast<size_t>(i)]) turn.emplace_back(n + i, n + i, 1.0);
+    }
+    m.turn.resize(N, N);
+    m.turn.setFromTriplets(turn.begin(), turn.end());
+    m.A = Eigen::SparseMatrix<double>(m.turn * m.A * m.turn.transpose());
   }
   m.full = m.A;
   const std::vector<bool>& out = m.out;
@@ -347,6 +370,7 @@ bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data,
   rhs.head(n) = system.mass * state->qdot;
   system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));
   rhs.segment(n, mc) *= -1.0;
+  rhs = m.Turned(rhs);
   // Held coordinates: their columns move to the right-hand side at their present rates, their
   // rows say q̇_j = its rate. A dropped row: its multiplier alone, μ = 0.
   Eigen::VectorXd fixed = Eigen::VectorXd::Zero(N);

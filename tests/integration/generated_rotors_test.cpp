@@ -710,3 +710,26 @@ TEST(GeneratedRotors, AParkedYokeLeavesItsStopAsItsTwinDoes) {
 }
 
 }  // namespace
+
+namespace {
+
+// A six-blade articulated rotor with rigid blades settled on its droop stops (0.15 kg pads,
+// Newton's e = 0.054), whose gust throws blades 1, 5 and 6 up. Before the impacting node's restart
+// was mended (Coordinator::Accept), blade 5 rose to 0.95° where its twin rose to 3.58°. Traced on
+// blade 1: each impact's restart recomputed every body's consistent accelerations from every
+// node's imposed acceleration, (v − v₀)/h, the nodes' swing about their points over h included,
+// and another blade's restart kicked it by −0.03 rad/s with no contact of its own. The bodies the
+// restart does not change now keep their history (KeepHistoryTheRestartDidNotChange).
+TEST(GeneratedRotors, ABladeOnItsStopIsNotKickedByAnotherBladesImpact) {
+  const PairRun p = RunPair("articulated_rigid_lift_off_gust", "rotor_651", "2.4");
+  ASSERT_EQ(p.cosim.code, 0) << p.cosim.output;
+  ASSERT_EQ(p.continuous.code, 0) << p.continuous.output;
+  const Table h = ReadTable(p.out / "history_joined.csv"), c = ReadTable(p.twin / "history.csv");
+  for (int k = 1; k <= 6; ++k) {
+    const std::string flap = "flap" + std::to_string(k);
+    // Within 0.5° (measured 0.27° at most, blade 6's highest; blade 5's 0.04°, 2.63° before).
+    ExpectSameExtremes(h.Column(flap), c.Column(flap), 0.5, flap);
+  }
+}
+
+}  // namespace

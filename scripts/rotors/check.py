@@ -224,7 +224,8 @@ def rebounds(rotor, hist, eps):
     before, each from the parabola through the three samples on its side, both taken at the
     contact's middle (the flap's smooth acceleration, the same on both sides, cancels). Newton's
     law with a rigid blade gives e; a regularised tie's transient and the parabola's error add a
-    few per cent (the 103 rigid rotors of seeds 600–909: at most 1.05 e). Left out: beam blades
+    few per cent (the 103 rigid rotors of seeds 600–909: at most 1.23 e, 654 at e = 0.071, where
+    the bound is 1.24 e). Left out: beam blades
     (the hinge's rebound is the blade's, bent), hingeless rotors, approaches slower than 5 °/s
     (grazes: there the tie's own transient, ~1 °/s, is the rebound) and impacts whose approach the
     flap's own acceleration changes by more than 5 % in a step (a parabola over three steps does

@@ -320,27 +320,30 @@ ImpactMatrix BuildImpactMatrix(const MultibodySystem& system, const SystemData& 
   // so that only n · J q̇ is imposed. (A compliance of 1e6 on I − n nᵀ does the same in a matrix
   // whose other rows carry 1e-10, and its round-off reached 1e-8 of the impact's change on bodies
   // the impulse does not reach.)
-  std::vector<Eigen::Triplet<double>> turn;
-  bool turned = false;
-  for (int i = 0; i < n; ++i) turn.emplace_back(i, i, 1.0);
-  std::vector<bool> row_turned(static_cast<size_t>(mc), false);
+  std::vector<size_t> turned;  // the points whose rows turn (their coupling rows in the matrix)
   for (size_t k = 0; normals != nullptr && k < normals->size(); ++k) {
-    const Eigen::Vector3d& nk = (*normals)[k];
-    if (nk.isZero(0.0) || m.out[static_cast<size_t>(n + system.interface_points[k].first_row)]) continue;
-    Eigen::Matrix3d frame;
-    frame.row(0) = nk.transpose();
-    const Eigen::Vector3d t1 = nk.unitOrthogonal();
-    frame.row(1) = t1.transpose();
-    frame.row(2) = nk.cross(t1).transpose();
-    const int r = system.interface_points[k].first_row;
-    for (int i = 0; i < 3; ++i) {
-      row_turned[static_cast<size_t>(r + i)] = true;
-      for (int j = 0; j < 3; ++j) turn.emplace_back(n + r + i, n + r + j, frame(i, j));
+    if (!(*normals)[k].isZero(0.0) && !m.out[static_cast<size_t>(n + system.interface_points[k].first_row)]) {
+      turned.push_back(k);
     }
-    m.out[static_cast<size_t>(n + r + 1)] = m.out[static_cast<size_t>(n + r + 2)] = true;
-    turned = true;
   }
-  if (turned) {
+  if (!turned.empty()) {
+    std::vector<Eigen::Triplet<double>> turn;
+    std::vector<bool> row_turned(static_cast<size_t>(mc), false);
+    for (size_t k : turned) {
+      const Eigen::Vector3d& nk = (*normals)[k];
+      Eigen::Matrix3d frame;
+      frame.row(0) = nk.transpose();
+      const Eigen::Vector3d t1 = nk.unitOrthogonal();
+      frame.row(1) = t1.transpose();
+      frame.row(2) = nk.cross(t1).transpose();
+      const int r = system.interface_points[k].first_row;
+      for (int i = 0; i < 3; ++i) {
+        row_turned[static_cast<size_t>(r + i)] = true;
+        for (int j = 0; j < 3; ++j) turn.emplace_back(n + r + i, n + r + j, frame(i, j));
+      }
+      m.out[static_cast<size_t>(n + r + 1)] = m.out[static_cast<size_t>(n + r + 2)] = true;
+    }
+    for (int i = 0; i < n; ++i) turn.emplace_back(i, i, 1.0);
     for (int i = 0; i < mc; ++i) {
       if (!row_turned[static_cast<size_t>(i)]) turn.emplace_back(n + i, n + i, 1.0);
     }

@@ -520,8 +520,7 @@ TEST(CoupledValidation, LinearOscillatorMatchesTheEntirelyNonsmoothSolution) {
     ASSERT_EQ(hits_n.size(), 4u) << steps[i];
     const std::vector<double> vc = coupled.Column("vz"), vn = nonsmooth.Column("vz");
     for (size_t k = 0; k < 4; ++k) {
-      EXPECT_LE(hits_c[k] - std::min(hits_c[k], hits_n[k]) + hits_n[k] - std::min(hits_c[k], hits_n[k]), 1u)
-          << steps[i] << ": impact " << k;
+      EXPECT_LE(std::max(hits_c[k], hits_n[k]) - std::min(hits_c[k], hits_n[k]), 1u) << steps[i] << ": impact " << k;
       // The node leaves the wall as the nonsmooth model's mass does, in its impact's step and the
       // two after it: within 2 % (measured 1.4 % at most, at the fourth impact; 0.07–0.3 % at the
       // others). Before the restart moved the body onto its node, the tie's stretch (0.3 mm) was

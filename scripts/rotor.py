@@ -163,6 +163,14 @@ def write_report(out, results):
             f"{max(r['restart_difference'] for r in restarts):.3g}."
         )
         lines.append("")
+    refined = [r for r in results if r.get("twin_refinement", 1) > 1]
+    if refined:
+        lines.append(
+            f"Pairs judged against a refined twin (its stop contacts shorter, rotors/check.py): {len(refined)}, "
+            + ", ".join(f"{r['name']} ({r['twin_refinement']}x, {'passed' if r['ok'] else 'failed'})" for r in refined)
+            + "."
+        )
+        lines.append("")
     failed = [r for r in results if not r["ok"]]
     if failed:
         lines.append("## Failures")

@@ -70,9 +70,12 @@ def plane_normals(x0, z0, lower, upper):
 
 
 class Writer:
-    def __init__(self, rotor: Rotor):
+    def __init__(self, rotor: Rotor, twin_refinement=1):
         self.r = rotor
         r = rotor
+        # The judge's refined twins (rotors/check.py): the twin's stop laws last contact_duration
+        # / twin_refinement, at a step that many times smaller (output on the rotor's own steps).
+        self.refinement = twin_refinement
         self.omega0 = {"gust": r.idle_fraction * r.omega, "engage": 0.0, "shutdown": r.omega}[r.excitation]
         self.spinning_start = self.omega0 > 0.3 * r.omega
         # Start angle of the flap (or teeter) hinge.
@@ -103,6 +106,11 @@ class Writer:
         """Hunt–Crossley K of a contact lasting about r.contact_duration at the onset speed
         `speed` for an effective inertia (Hertz: T = 3.21 (m² / (K² v))^(1/5))."""
         return inertia * (3.21 / self.r.contact_duration) ** 2.5 / math.sqrt(speed)
+
+    def twin_stop_stiffness(self, inertia):
+        """The twin's flap, teeter or pad stop: a contact lasting contact_duration / refinement
+        (the lag stops, the same law in both scenes, keep contact_duration)."""
+        return self.stop_stiffness(inertia) * self.refinement**2.5
 
     def parameters(self, twin):
         r = self.r
@@ -310,7 +318,7 @@ class Writer:
             # into the cuff's mass at the cuff's centre, on the blade axis, it lacked the pad's
             # centrifugal moment about the flap hinge, 0.034 m below it: rotor 582's 7 kg pads
             # flapped 0.8° RMS apart in the two models before any contact).
-            k = self.stop_stiffness(self.flap_inertia())
+            k = self.twin_stop_stiffness(self.flap_inertia())
             return (
                 f'  bodies {{ name: "pad{{k}}" reference: "flap{{k}}" mass: ${{node_mass}} inertia: [1e-4, 1e-4, 1e-4] position: [{num(x0)}, 0, {num(z0)}]\n'
                 f"          velocity: [0, {flap_speed(x0, z0)}, 0] angular_velocity: {FLAP_SPIN} }}\n"
@@ -371,7 +379,7 @@ class Writer:
                 out.append(
                     f'  joints {{ name: "pad{k}_mount" reference: "hub" type: FIXED body1: "yoke" body2: "pad{k}" point: [{num(x)}, 0, {num(zp)}] }}'
                 )
-            k = self.stop_stiffness(2 * self.flap_inertia())
+            k = self.twin_stop_stiffness(2 * self.flap_inertia())
             out.append(
                 '  forces { name: "stops" joint_stop { joint: "teeter" lower: ${droop} upper: ${antiflap}\n'
                 f"           law {{ stiffness: {num(k)} exponent: 1.5 restitution: {num(max(r.restitution, 0.05))} effective_restitution: true }} }} }}"
@@ -430,7 +438,7 @@ class Writer:
             f'  obstacles {{ name: "antiflap{{k}}" reference: "root{{k}}" point: [{num(x)}, 0, {num(gap)}] normal: [0, 0, -1] attached_to_body: "hub" }}\n'
         )
         if twin:
-            k = self.stop_stiffness(0.25 * r.blade_mass())
+            k = self.twin_stop_stiffness(0.25 * r.blade_mass())
             law = f"law {{ stiffness: {num(k)} exponent: 1.5 restitution: {num(max(r.restitution, 0.05))} effective_restitution: true }}"
             return (
                 planes
@@ -553,8 +561,9 @@ class Writer:
                 processes.append('  processes { name: "stops2" contact_nodes: ["pad2"] }')
             tail.append("coupling {\n" + "\n".join(processes + ([coupling_extra] if coupling_extra else [])) + "\n}")
         settle = " smooth { settle: true }" if r.settle else ""
-        tail.append(f"numerics {{ end_time: {num(r.end_time)} step: {num(r.step)}{settle} }}")
-        tail.append("output {\n  every: 1\n" + self.rotor_probes(twin) + "\n}")
+        f = self.refinement if twin else 1
+        tail.append(f"numerics {{ end_time: {num(r.end_time)} step: {num(r.step / f)}{settle} }}")
+        tail.append(f"output {{\n  every: {f}\n" + self.rotor_probes(twin) + "\n}")
         return "\n".join(head + model + pattern + tail) + "\n"
 
     def blade_stops(self, twin):
@@ -579,15 +588,27 @@ class Writer:
         return self.hingeless_parts()
 
 
-def write(rotor: Rotor, folder):
-    """Writes the rotor's files into `folder` (made if needed); returns the two scenes' paths."""
+def complete(rotor: Rotor):
+    """The rotor as written: refused naming the field if it makes none, its twin's contact time set."""
     problems = rotor.check()
     if problems:
         raise ValueError("; ".join(problems))
     if rotor.contact_duration <= 0.0:  # (the judge reads the law's time from rotor.json)
         rotor = dataclasses.replace(rotor, contact_duration=twin_contact_duration(rotor.topology))
-    w = Writer(rotor)
+    return rotor
+
+
+def put(folder, files):
     os.makedirs(folder, exist_ok=True)
+    for name, text in files.items():
+        with open(os.path.join(folder, name), "w") as f:
+            f.write(text)
+
+
+def write(rotor: Rotor, folder):
+    """Writes the rotor's files into `folder` (made if needed); returns the two scenes' paths."""
+    rotor = complete(rotor)
+    w = Writer(rotor)
     files = {
         "rotor.pbtxt": w.scene(False),
         "rotor_continuous.pbtxt": w.scene(True),
@@ -602,7 +623,24 @@ def write(rotor: Rotor, folder):
     }
     if rotor.blade_model == "beam":
         files["blade_sections.csv"] = w.sections_csv()
-    for name, text in files.items():
-        with open(os.path.join(folder, name), "w") as f:
-            f.write(text)
+    put(folder, files)
     return os.path.join(folder, "rotor.pbtxt"), os.path.join(folder, "rotor_continuous.pbtxt")
+
+
+def write_refined_twin(rotor: Rotor, folder, refinement):
+    """Writes only the continuous twin into `folder`, its flap, teeter or pad stops lasting
+    contact_duration / refinement at a step `refinement` times smaller, its history on the
+    rotor's own steps (rotors/check.py's refined twins); returns the scene's path."""
+    rotor = complete(rotor)
+    w = Writer(rotor, refinement)
+    files = {
+        "rotor_continuous.pbtxt": w.scene(True),
+        "blade_parts.pbtxt": w.parts(),
+        "blade_twin.pbtxt": w.blade_stops(True)[0],
+        "blade_probes_twin.pbtxt": w.blade_probes(True),
+        "air_stations.csv": w.air_csv(),
+    }
+    if rotor.blade_model == "beam":
+        files["blade_sections.csv"] = w.sections_csv()
+    put(folder, files)
+    return os.path.join(folder, "rotor_continuous.pbtxt")

@@ -5,6 +5,8 @@
    language's conveniences (parameters, frames, a pattern, included files), and one of each
    topology reads as a scenario (cosim_launch --print-scenario, co-simulated and twin); the twin
    carries each stop pad's mass where the co-simulated model has its contact node.
+   The judge's refined twins: stops 4 times shorter are 32 times stiffer, the lag stops
+   unchanged; rotor 868, which its 20 ms twin rejects, agrees with the twin refined twice.
 2. A user's numbers with a mistake are refused naming the field (exit 2), and a user's section
    table is used as given.
 3. A seeded sample, one rotor per topology on a short window, each run co-simulated and as its
@@ -182,6 +184,68 @@ class Draws(unittest.TestCase):
                 for key in ("position", "velocity"):
                     for a, b in zip(body[key], node[key]):
                         self.assertAlmostEqual(a, b, places=9, msg=f"seed {seed} {name} {key}")
+
+
+class RefinedTwin(unittest.TestCase):
+    """The judge's refined twins (check.REFINEMENTS, scene.write_refined_twin)."""
+
+    @staticmethod
+    def laws(folder):
+        # Each Hunt–Crossley law's (stiffness, restitution) in the twin's files, by file.
+        import re
+
+        out = {}
+        for name in ("blade_parts.pbtxt", "blade_twin.pbtxt", "rotor_continuous.pbtxt"):
+            text = read(os.path.join(folder, name))
+            out[name] = [
+                (float(k), e) for k, e in re.findall(r"law \{ stiffness: (\S+) exponent: 1.5 restitution: (\S+)", text)
+            ]
+        return out
+
+    def test_a_refined_twins_stops_are_stiffer_by_the_hertz_time_law_and_its_lag_stops_unchanged(self):
+        # Hertz: a contact's time goes as K^(-2/5), so a contact 4 times shorter takes a law 4^2.5
+        # = 32 times stiffer; the lag stops (one law in both scenes) must not change, or the
+        # co-simulated run would no longer be the refined twin's partner. The step is 4 times
+        # smaller and the history kept every 4th step: on the co-simulated run's steps.
+        for seed in (600, 601, 602):  # articulated (with lag stops), teetering, hingeless
+            r = spec.draw(seed)
+            _, twin = scene.write(r, os.path.join(WORK, "refined", r.name))
+            finer = scene.write_refined_twin(r, os.path.join(WORK, "refined", r.name + "_4"), 4)
+            base, refined = self.laws(os.path.dirname(twin)), self.laws(os.path.dirname(finer))
+            self.assertEqual(base["blade_parts.pbtxt"], refined["blade_parts.pbtxt"], f"seed {seed}: lag stops")
+            stops = base["blade_twin.pbtxt"] + base["rotor_continuous.pbtxt"]
+            finer_stops = refined["blade_twin.pbtxt"] + refined["rotor_continuous.pbtxt"]
+            self.assertGreater(len(stops), 0, f"seed {seed}")
+            self.assertEqual(len(finer_stops), len(stops), f"seed {seed}")
+            for (k, e), (k_finer, e_finer) in zip(stops, finer_stops):
+                self.assertAlmostEqual(k_finer / k, 32.0, places=6, msg=f"seed {seed}")
+                self.assertEqual(e_finer, e)
+            self.assertIn(f"step: {scene.num(r.step / 4)}", read(finer))
+            self.assertIn("every: 4", read(finer))
+
+    def test_a_pair_its_twin_rejects_for_the_twins_own_compliance_agrees_with_a_refined_twin(self):
+        # Rotor 868 (tests/data/rotors/teetering_rigid_stopped_yoke): a stopped teetering yoke hits
+        # its upper stop once at 48 deg/s and swings slowly back. With its 20 ms twin the yoke came
+        # to -6.73 deg and hit the lower stop at 2.712 s; the co-simulated yoke (Newton's e, to
+        # 0.642 for e = 0.641) turned at -6.14 deg, 0.54 deg short of it, and the judge failed the
+        # pair. The twin's lowest angle goes -6.73, -6.65, -6.35, -6.21 deg as its contact time
+        # goes 20, 10, 5, 2.5 ms: the 20 ms law's compliance, not the co-simulation. Against the
+        # twin refined twice the pair must agree with that twin's own tolerances, and it must
+        # still disagree with the 20 ms twin (or this test replays nothing).
+        import shutil
+
+        folder = os.path.join(WORK, "stopped_yoke")
+        shutil.rmtree(folder, ignore_errors=True)
+        shutil.copytree(os.path.join(ROOT, "tests", "data", "rotors", "teetering_rigid_stopped_yoke"), folder)
+        res = check.judge(folder, BIN)
+        self.assertTrue(res["ok"], res["why"])
+        self.assertEqual(res["twin_refinement"], 2)
+        rotor = json.loads(read(os.path.join(folder, "rotor.json")))
+        hc = check.read_history(os.path.join(folder, "cosim", "history_joined.csv"))
+        ht = check.read_history(os.path.join(folder, "twin", "history.csv"))
+        why = check.compare_twin(rotor, hc, ht, {})
+        self.assertEqual(len(why), 1, why)
+        self.assertIn("pad1 2.71", why[0])
 
 
 class UserNumbers(unittest.TestCase):

@@ -7,6 +7,7 @@
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/hub_columns.h"
 
 namespace cosim::smooth {
 
@@ -191,7 +192,9 @@ CgAlpha::CgAlpha(const MultibodySystem& system, SystemData* data, const CgAlphaS
   woodbury_ = !system.interface_points.empty();
   // (Φ_q q̇)_q has the coordinates of Φ_q in every row: the pattern is the index-3 one.
   S_ = SaddlePattern(system, *data);
-  lu_.Analyze(S_);  // once: the pattern never changes
+  // Once: the pattern never changes. A hub's coordinates (a rotor's) ordered last.
+  const int rigid = system.elastic_offset.empty() ? system.coordinates : system.elastic_offset.front();
+  lu_.Analyze(S_, HubColumns(S_, RigidBodyGroups(rigid, static_cast<int>(S_.cols()))));
 }
 
 double CgAlpha::ConstraintViolation(double t) const {

@@ -165,6 +165,8 @@ class CgAlpha : public SmoothIntegrator {
   // Newton matrices assembled and factorised over all steps so far (cost accounting; with
   // jacobian_max_age = 0 one per Newton iteration).
   long long factorizations() const { return factorizations_; }
+  // Entries of the Newton matrix's LU factors (KluSolver::factor_entries).
+  long factor_entries() const { return lu_.factor_entries(); }
   // With the last factorised Newton matrix, at the present state: ∂λ/∂x of interface point k's
   // multipliers with respect to its imposed position x (3 × 3), the smooth model's own (the
   // peers' compliance, SystemData::interface_compliance, taken out) — the smooth side's interface

@@ -5,6 +5,7 @@
 
 #include "interface/run/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/hub_columns.h"
 
 namespace cosim::smooth {
 
@@ -48,7 +49,11 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const SystemData& da
   cs.Jacobian(imposed, system.q0, always, &r4, 0, 1.0);
   cs.Jacobian(imposed, system.q0, always, &r4_vdot, 0, 1.0);
   S_ = p.Build(2 * n + 2 * m, 2 * n + 2 * m);
-  lu_.Analyze(S_);
+  // A hub's coordinates and rates (a rotor's: hub_columns.h) ordered last.
+  const int rigid = system.elastic_offset.empty() ? n : system.elastic_offset.front();
+  std::vector<int> group = RigidBodyGroups(rigid, static_cast<int>(S_.cols()));
+  for (int j = 0; j < rigid; ++j) group[static_cast<size_t>(n + j)] = group[static_cast<size_t>(j)];
+  lu_.Analyze(S_, HubColumns(S_, group));
 }
 
 double CgAlphaIndex2::ConstraintViolation(double t) const {

@@ -13,6 +13,8 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/hub_columns.h"
+#include "smooth_solver/linear_algebra/sun_klu_ordering.h"
 #include "smooth_solver/linear_algebra/sun_sparse.h"
 
 namespace cosim::smooth {
@@ -172,6 +174,11 @@ DaeState ConsistentInitialState(const MultibodySystem& system, const SystemData&
   N_Vector scale = N_VNew_Serial(N, ctx);
   SUNMatrix J = SUNSparseMatrix(N, N, problem.A.nonZeros(), CSC_MAT, ctx);
   SUNLinearSolver LS = SUNLinSol_KLU(y, J, ctx);
+  // A hub's coordinates last, as in CGα's matrices (hub_columns.h): the closure's Jacobian has
+  // their coupling, and on a 100-blade Puma its factorisation was 9 % of a two-step run.
+  std::vector<sunindextype> sets;
+  const int rigid = system.elastic_offset.empty() ? n : system.elastic_offset.front();
+  OrderColumnsLast(SUNLinSol_KLUGetCommon(LS), N, HubColumns(problem.A, RigidBodyGroups(rigid, N)), &sets);
   void* kin = KINCreate(ctx);
   View(y).setZero();
   View(y).head(n) = system.q0;

@@ -6,6 +6,7 @@
 // Eigen's SparseLU on the four-bar: see docs/design.md.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <vector>
 
 namespace cosim::smooth {
 
@@ -16,8 +17,10 @@ class KluSolver {
   KluSolver(const KluSolver&) = delete;
   KluSolver& operator=(const KluSolver&) = delete;
 
-  // Symbolic analysis of A's pattern (compressed, column-major, int indices).
-  void Analyze(const Eigen::SparseMatrix<double>& A);
+  // Symbolic analysis of A's pattern (compressed, column-major, int indices). `last`: columns
+  // the ordering keeps after all others (a hub's: HubColumns); empty, KLU's AMD and COLAMD are
+  // both analysed and the first factorisation keeps the one with the smaller factors.
+  void Analyze(const Eigen::SparseMatrix<double>& A, const std::vector<int>& last = {});
   // Numeric factorisation; false if A is singular.
   bool Factorize(const Eigen::SparseMatrix<double>& A);
   // Solves A x = b in place.
@@ -25,11 +28,14 @@ class KluSolver {
   // Solves A X = B for the columns of B in place, in one pass over the factors (KLU takes the
   // right-hand sides four at a time: the factors are read once for every four columns).
   void SolveInPlace(Eigen::MatrixXd& b);
+  // Entries of the factors L and U (and of the off-diagonal blocks), 0 before the first factorisation.
+  long factor_entries() const;
   long full_factorizations() const { return full_; }
   long refactorizations() const { return refactor_; }
 
  private:
   struct Impl;
+  void Free();
   Impl* impl_;
   long full_ = 0, refactor_ = 0;
 };

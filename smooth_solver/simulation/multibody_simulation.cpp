@@ -998,6 +998,7 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get())) {
     counters["position_projection_solves"] = static_cast<double>(cg->projection_solves());
     counters["newton_factorizations"] = static_cast<double>(cg->factorizations());
+    counters["newton_factor_entries"] = static_cast<double>(cg->factor_entries());  // L + U
   }
   counters["watchdog_max_rigidity_rate"] = watchdog_->max_rigidity_rate();
   counters["watchdog_energy_checked"] = watchdog_->energy_checked() ? 1.0 : 0.0;

@@ -12,6 +12,7 @@
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
+#include "smooth_solver/linear_algebra/hub_columns.h"
 #include "smooth_solver/linear_algebra/klu_solver.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 
@@ -67,6 +68,98 @@ TEST(KluSolver, SeveralRightHandSidesInOnePassAreTheSingleSolves) {
     EXPECT_LE((X.col(j) - x).lpNorm<Eigen::Infinity>(), 1e-14 * x.lpNorm<Eigen::Infinity>()) << "column " << j;
     EXPECT_LE((A * X.col(j) - B.col(j)).lpNorm<Eigen::Infinity>(), 1e-12) << "column " << j;
   }
+}
+
+// A rotor's Newton matrix in miniature: a hub (group 0, columns 0-2) held by a shaft row
+// (column 3), and `blades` blades, each a root body (a group of 3 columns) joined to the hub by
+// one multiplier column and carrying a chain of `chain` columns; saddle-point rows without a
+// diagonal, so KLU must pivot. Returns the matrix and each column's group.
+std::pair<Eigen::SparseMatrix<double>, std::vector<int>> MiniatureRotor(int blades, int chain) {
+  std::vector<Eigen::Triplet<double>> e;
+  std::vector<int> group{0, 0, 0, -1};
+  auto link = [&](int a, int b, double v) {
+    e.emplace_back(a, b, v);
+    e.emplace_back(b, a, v);
+  };
+  for (int j = 0; j < 3; ++j) e.emplace_back(j, j, 5.0 + j);
+  link(0, 1, 0.3);
+  link(1, 2, 0.2);
+  link(3, 0, 1.0);  // the shaft row: no diagonal
+  for (int k = 0; k < blades; ++k) {
+    const int root = static_cast<int>(group.size()), joint = root + 3;
+    for (int j = 0; j < 3; ++j) {
+      group.push_back(k + 1);
+      e.emplace_back(root + j, root + j, 4.0 + 0.1 * j + 0.01 * k);
+    }
+    link(root, root + 1, -0.4);
+    group.push_back(-1);
+    link(joint, 1, 1.0);  // the root joint's row: hub and root body, no diagonal
+    link(joint, root, -1.0);
+    int previous = root + 2;
+    for (int c = 0; c < chain; ++c) {
+      const int column = static_cast<int>(group.size());
+      group.push_back(-1);
+      if (c % 2 == 0) {
+        e.emplace_back(column, column, 3.0 + 0.02 * c);
+        link(column, previous, -1.0);
+      } else {
+        link(column, previous, 1.0);  // a constraint row on the chain
+      }
+      previous = column;
+    }
+  }
+  const int n = static_cast<int>(group.size());
+  Eigen::SparseMatrix<double> A(n, n);
+  A.setFromTriplets(e.begin(), e.end());
+  A.makeCompressed();
+  return {A, group};
+}
+
+TEST(HubColumns, TheBodyEveryBladeHangsFromIsTheHubAndNoOtherIs) {
+  // Removing the hub leaves five parts (four blades and the shaft row), none larger than half
+  // of the rest: the hub. A blade's root body also cuts its chain off, but into two parts,
+  // one of them the rest of the rotor.
+  const auto [A, group] = MiniatureRotor(4, 10);
+  EXPECT_EQ(HubColumns(A, group), (std::vector<int>{0, 1, 2}));
+  // One blade: the hub leaves two parts (the shaft row, the blade): no hub to order last.
+  const auto [one, one_group] = MiniatureRotor(1, 10);
+  EXPECT_TRUE(HubColumns(one, one_group).empty());
+  // A body with three one-column branches beside the rest of the model (a chain of 40) is no
+  // hub: one of its parts holds more than half of the columns left.
+  std::vector<Eigen::Triplet<double>> e;
+  std::vector<int> g{0, 0};
+  for (int j = 0; j < 2; ++j) e.emplace_back(j, j, 1.0);
+  for (int k = 0; k < 3 + 40; ++k) {
+    const int c = static_cast<int>(g.size());
+    g.push_back(-1);
+    e.emplace_back(c, c, 1.0);
+    e.emplace_back(c, k < 4 ? 0 : c - 1, 0.5);
+    e.emplace_back(k < 4 ? 0 : c - 1, c, 0.5);
+  }
+  Eigen::SparseMatrix<double> B(static_cast<int>(g.size()), static_cast<int>(g.size()));
+  B.setFromTriplets(e.begin(), e.end());
+  B.makeCompressed();
+  EXPECT_TRUE(HubColumns(B, g).empty());
+}
+
+TEST(KluSolver, AHubOrderedLastKeepsEachBladesFactorsToItself) {
+  // With the hub's columns last, each blade's block is eliminated on its own: the factors of a
+  // rotor with twice the blades hold twice the entries (to the hub's few), and the solves are
+  // the matrix's solves.
+  long fill[2] = {0, 0};
+  for (int twice = 0; twice < 2; ++twice) {
+    const auto [A, group] = MiniatureRotor(40 << twice, 30);
+    const std::vector<int> hub = HubColumns(A, group);
+    ASSERT_EQ(hub, (std::vector<int>{0, 1, 2}));
+    KluSolver lu;
+    lu.Analyze(A, hub);
+    ASSERT_TRUE(lu.Factorize(A));
+    fill[twice] = lu.factor_entries();
+    Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(A.rows(), -1.0, 2.0), x = b;
+    lu.SolveInPlace(x);
+    EXPECT_LE((A * x - b).lpNorm<Eigen::Infinity>(), 1e-12);
+  }
+  EXPECT_LE(fill[1], 2 * fill[0] + 50) << fill[0] << " → " << fill[1];
 }
 
 TEST(Constraints, JacobianAndHessianMatchFiniteDifferences) {

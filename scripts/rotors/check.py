@@ -301,7 +301,8 @@ def judge(folder, bin_dir, restart=False):
     if co["code"] == 0 and tw["code"] == 0:
         hc = read_history(os.path.join(folder, "cosim", "history_joined.csv"))
         ht = read_history(os.path.join(folder, "twin", "history.csv"))
-        twin_why = compare_twin(rotor, hc, ht, res)
+        ca = contact_lists(rotor, hc, False)
+        twin_why = compare_twin(rotor, hc, ca, ht, res)
         # A pair that disagrees is judged again against refined twins (REFINEMENTS): the
         # co-simulated stop is Newton's, instantaneous, and a twin whose contacts are shorter is
         # a closer model of it, judged with that twin's own (tighter) tolerances. Rotors 758, 825,
@@ -324,12 +325,11 @@ def judge(folder, bin_dir, restart=False):
                 break
             ht = read_history(os.path.join(out, "history.csv"))
             finer_rotor = dict(rotor, contact_duration=rotor["contact_duration"] / finer)
-            twin_why = compare_twin(finer_rotor, hc, ht, res)
+            twin_why = compare_twin(finer_rotor, hc, ca, ht, res)
         res["twin_refinement"] = refinement
         if twin_why and refinement > 1:
             twin_why[0] = f"against the twin refined {refinement} times: " + twin_why[0]
         why += twin_why
-        ca = contact_lists(rotor, hc, False)
         e = rotor["restitution"]
         fast = [r for r in rebounds(rotor, hc, ca) if r[3] > 1.1 * e + 0.01]
         res["rebounds_over_e"] = len(fast)
@@ -346,12 +346,13 @@ def judge(folder, bin_dir, restart=False):
     return res
 
 
-def compare_twin(rotor, hc, ht, res):
-    """The co-simulated history `hc` against the twin's `ht` (on the same steps): contacts and
-    flaps, with tolerances from rotor["contact_duration"], the twin's law. Returns the reasons."""
+def compare_twin(rotor, hc, ca, ht, res):
+    """The co-simulated history `hc` (its contacts `ca`) against the twin's `ht` (on the same
+    steps): contacts and flaps, with tolerances from rotor["contact_duration"], the twin's law.
+    Returns the reasons."""
     h = rotor["step"]
     tol = rotor["contact_duration"] + 5 * h
-    ca, ct = contact_lists(rotor, hc, False), contact_lists(rotor, ht, True)
+    ct = contact_lists(rotor, ht, True)
     res["contacts_cosim"] = sum(len(v) for v in ca.values())
     res["contacts_twin"] = sum(len(v) for v in ct.values())
     un = compare_contacts(rotor, hc, ca, ht, ct, tol)

@@ -605,24 +605,32 @@ def put(folder, files):
             f.write(text)
 
 
+def twin_files(w: Writer):
+    """The files the continuous twin reads, by name."""
+    files = {
+        "rotor_continuous.pbtxt": w.scene(True),
+        "blade_parts.pbtxt": w.parts(),
+        "blade_twin.pbtxt": w.blade_stops(True)[0],
+        "blade_probes_twin.pbtxt": w.blade_probes(True),
+        "air_stations.csv": w.air_csv(),
+    }
+    if w.r.blade_model == "beam":
+        files["blade_sections.csv"] = w.sections_csv()
+    return files
+
+
 def write(rotor: Rotor, folder):
     """Writes the rotor's files into `folder` (made if needed); returns the two scenes' paths."""
     rotor = complete(rotor)
     w = Writer(rotor)
     files = {
         "rotor.pbtxt": w.scene(False),
-        "rotor_continuous.pbtxt": w.scene(True),
-        "blade_parts.pbtxt": w.parts(),
         "blade_stops.pbtxt": w.blade_stops(False)[0],
         "blade_coupling.pbtxt": w.blade_stops(False)[1],
-        "blade_twin.pbtxt": w.blade_stops(True)[0],
         "blade_probes.pbtxt": w.blade_probes(False),
-        "blade_probes_twin.pbtxt": w.blade_probes(True),
-        "air_stations.csv": w.air_csv(),
         "rotor.json": json.dumps(dataclasses.asdict(rotor), indent=1) + "\n",
+        **twin_files(w),
     }
-    if rotor.blade_model == "beam":
-        files["blade_sections.csv"] = w.sections_csv()
     put(folder, files)
     return os.path.join(folder, "rotor.pbtxt"), os.path.join(folder, "rotor_continuous.pbtxt")
 
@@ -631,16 +639,5 @@ def write_refined_twin(rotor: Rotor, folder, refinement):
     """Writes only the continuous twin into `folder`, its flap, teeter or pad stops lasting
     contact_duration / refinement at a step `refinement` times smaller, its history on the
     rotor's own steps (rotors/check.py's refined twins); returns the scene's path."""
-    rotor = complete(rotor)
-    w = Writer(rotor, refinement)
-    files = {
-        "rotor_continuous.pbtxt": w.scene(True),
-        "blade_parts.pbtxt": w.parts(),
-        "blade_twin.pbtxt": w.blade_stops(True)[0],
-        "blade_probes_twin.pbtxt": w.blade_probes(True),
-        "air_stations.csv": w.air_csv(),
-    }
-    if rotor.blade_model == "beam":
-        files["blade_sections.csv"] = w.sections_csv()
-    put(folder, files)
+    put(folder, twin_files(Writer(complete(rotor), refinement)))
     return os.path.join(folder, "rotor_continuous.pbtxt")

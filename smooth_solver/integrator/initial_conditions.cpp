@@ -14,7 +14,7 @@
 #include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/linear_algebra/hub_columns.h"
-#include "smooth_solver/linear_algebra/sun_klu_ordering.h"
+#include "smooth_solver/linear_algebra/klu_ordering.h"
 #include "smooth_solver/linear_algebra/sun_sparse.h"
 
 namespace cosim::smooth {

@@ -1,13 +1,12 @@
 #include "smooth_solver/linear_algebra/klu_solver.h"
 
-#include <ccolamd.h>
 #include <klu.h>
 
-#include <algorithm>
 #include <utility>
 #include <vector>
 
 #include "interface/run/errors.h"
+#include "smooth_solver/linear_algebra/klu_ordering.h"
 
 namespace cosim::smooth {
 
@@ -25,25 +24,6 @@ struct KluSolver::Impl {
 namespace {
 
 long Fill(const klu_numeric* numeric) { return static_cast<long>(numeric->lnz) + numeric->unz + numeric->nzoff; }
-
-// KLU's user ordering: COLAMD constrained to order the columns of set 1 after those of set 0
-// (SuiteSparse's ccolamd; common->user_data holds the sets). Returns 0 on failure, else a
-// positive estimate of nnz(L) (KLU sizes its first allocation with it).
-int ConstrainedColamd(int n, int Ap[], int Ai[], int Perm[], klu_common* common) {
-  auto& constraint = *static_cast<std::vector<int>*>(common->user_data);
-  const int nnz = Ap[n];
-  const size_t length = ccolamd_recommended(nnz, n, n);
-  if (length == 0 || static_cast<int>(constraint.size()) != n) return 0;
-  std::vector<int> rows(length), start(Ap, Ap + n + 1);
-  std::copy(Ai, Ai + nnz, rows.begin());
-  double knobs[CCOLAMD_KNOBS];
-  int stats[CCOLAMD_STATS];
-  ccolamd_set_defaults(knobs);
-  if (ccolamd(n, n, static_cast<int>(length), rows.data(), start.data(), knobs, stats, constraint.data()) == 0)
-    return 0;
-  std::copy(start.begin(), start.begin() + n, Perm);
-  return std::max(nnz, 1);
-}
 
 }  // namespace
 
@@ -64,15 +44,8 @@ void KluSolver::Analyze(const Eigen::SparseMatrix<double>& A, const std::vector<
     // The hub's columns last (hub_columns.h): each blade's block is eliminated on its own and
     // fills only itself and the hub. L + U of 0.43M, 0.85M and 1.71M entries for Puma gusts of
     // 25, 50 and 100 blades (linear), against 0.63M, 1.56M and 4.36M with COLAMD alone; on
-    // the four-blade Puma 67k against 99k (COLAMD) and 73k (AMD). No block triangular form
-    // first: the sets are the matrix's own columns (a saddle-point matrix of a connected model
-    // is one block anyway).
-    impl_->constraint.assign(static_cast<size_t>(impl_->n), 0);
-    for (const int j : last) impl_->constraint[static_cast<size_t>(j)] = 1;
-    impl_->common.ordering = 3;
-    impl_->common.user_order = ConstrainedColamd;
-    impl_->common.user_data = &impl_->constraint;
-    impl_->common.btf = 0;
+    // the four-blade Puma 67k against 99k (COLAMD) and 73k (AMD).
+    OrderColumnsLast(&impl_->common, impl_->n, last, &impl_->constraint);
     impl_->symbolic = klu_analyze(impl_->n, Ap, Ai, &impl_->common);
     impl_->common.ordering = 0;
     impl_->common.btf = 1;

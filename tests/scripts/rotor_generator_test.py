@@ -243,7 +243,7 @@ class RefinedTwin(unittest.TestCase):
         rotor = json.loads(read(os.path.join(folder, "rotor.json")))
         hc = check.read_history(os.path.join(folder, "cosim", "history_joined.csv"))
         ht = check.read_history(os.path.join(folder, "twin", "history.csv"))
-        why = check.compare_twin(rotor, hc, ht, {})
+        why = check.compare_twin(rotor, hc, check.contact_lists(rotor, hc, False), ht, {})
         self.assertEqual(len(why), 1, why)
         self.assertIn("pad1 2.71", why[0])
 

@@ -108,6 +108,20 @@ pid_t WaitForProcess(const std::string& needle, double seconds = 10.0) {
   return -1;
 }
 
+// Waits until process `pid`'s state in /proc/PID/stat is `state` ('T': stopped); false if it
+// ended or did not get there within `seconds`.
+bool WaitForProcessState(pid_t pid, char state, double seconds = 10.0) {
+  const auto t0 = Clock::now();
+  while (SecondsSince(t0) < seconds) {
+    const std::string stat = Slurp("/proc/" + std::to_string(pid) + "/stat");
+    const size_t paren = stat.rfind(')');  // the command name may hold spaces and parentheses
+    if (paren == std::string::npos || paren + 2 >= stat.size()) return false;
+    if (stat[paren + 2] == state) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
 // A long tied_drop run (1e4 s) through the launcher into `out`, its output in `out`.txt, with
 // `sets` (FIELD=VALUE) added; it is stopped by the test.
 Background StartLongTiedDrop(const fs::path& out, const std::vector<std::string>& sets = {}) {
@@ -824,8 +838,15 @@ TEST(Hardening, AProcessKilledBeforeItMadeItsOutputFolderStillHasASummary) {
   fs::last_write_time(out / "summary.json", fs::file_time_type::clock::now() - std::chrono::hours(1));
   Background run =
       Start("cosim_launch", {scene, "--out", out.string(), "--set", "patterns[0].count=100"}, out.string() + ".txt");
-  ASSERT_NE(WaitForProcess("/smooth_solver " + scene), -1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // The state the test needs is a solver that has not written its first output and does not
+  // get to: it is stopped where it was found (a model this large takes longer to build than the
+  // search for its process), so the launcher's SIGTERM waits and the grace period ends in SIGKILL,
+  // as for a build longer than the grace period. (Waiting a fixed 300 ms instead failed in CI once
+  // the hub ordering made this build fast enough to reach its first step within the grace period.)
+  const pid_t solver = WaitForProcess("/smooth_solver " + scene);
+  ASSERT_NE(solver, -1);
+  ASSERT_EQ(kill(solver, SIGSTOP), 0);
+  ASSERT_TRUE(WaitForProcessState(solver, 'T')) << "smooth_solver did not stop";
   ASSERT_FALSE(fs::exists(out / "history.csv")) << "the model was built already: the test plays nothing";
   kill(run.pid, SIGTERM);
   EXPECT_EQ(run.Wait(10.0), 4) << Slurp(out.string() + ".txt");

@@ -22,71 +22,18 @@ Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlph
     : system_(system),
       data_(data),
       integrator_(integrator),
-      peers_(std::move(peers)),
       settings_(settings),
-      relaxation_(settings.relaxation, 3 * static_cast<int>(system.interface_points.size()), settings.relaxation_factor,
-                  -1, settings.reuse_steps) {
-  n_ = 3 * static_cast<int>(system.interface_points.size());
-  x_ = Eigen::VectorXd::Zero(n_);
-  x_tilde_ = x_;
-  previous_x_tilde_ = x_;
-  x_next_ = x_;
-  accepted_x_ = x_;
-  solved_x_ = x_;
-  previous_accepted_x_ = x_;
-  lambda_start_ = lambda_end_ = filtered_start_ = filtered_end_ = x_;
-  position_ = x_;
-  velocity_ = x_;
-  previous_position_ = x_;
-  start_velocity_ = x_;
-  for (const InterfacePoint& p : system.interface_points) {
-    for (int j = 0; j < 3; ++j) coupling_rows_.push_back(p.first_row + j);
-  }
-  const size_t points = system.interface_points.size();
-  for (auto* blocks : {&sensitivity_, &stiffness_, &response_, &response_axes_, &accepted_sensitivity_}) {
-    blocks->assign(points, Eigen::Matrix3d::Zero());
-  }
-  applied_ = sent_position_ = accepted_position_ = accepted_velocity_ = accepted_acceleration_ = x_;
-  accepted_offset_ = previous_accepted_position_ = previous_accepted_velocity_ = x_;
-  sent_frames_.resize(peers_.size());
-  contact_.assign(points, false);
-  was_contact_ = contact_;
+      link_(system, std::move(peers)),
+      n_(3 * static_cast<int>(system.interface_points.size())),
+      it_(static_cast<int>(system.interface_points.size())),
+      memory_(static_cast<int>(system.interface_points.size())),
+      rows_(data),
+      reaction_(system, *integrator, settings.step_average_reaction),
+      jacobian_method_(system, integrator, link_, reaction_, settings_, &it_, &memory_, &rows_),
+      relaxation_method_(settings_, &it_, &rows_) {
   // Until the first step: where the points are, at rest.
-  for (size_t k = 0; k < system.interface_points.size(); ++k) {
-    for (int j = 0; j < 3; ++j) position_(3 * static_cast<Eigen::Index>(k) + j) = data->imposed[3 * k + j].value;
-  }
+  for (Eigen::Index v = 0; v < n_; ++v) it_.answers.position(v) = data->imposed[static_cast<size_t>(v)].value;
 }
-
-namespace {
-
-// Body `body`'s frame in `state` (natural coordinates [x, u, v, w]: R = [u v w]), advanced by
-// `ahead` seconds at constant velocity and angular velocity ω = ½ Σ u_i × u̇_i; returns its
-// origin and rotation.
-std::pair<Eigen::Vector3d, Eigen::Matrix3d> FillFrame(int body, const DaeState& state, double ahead,
-                                                      coupling::Frame* frame) {
-  const Eigen::Index o = kCoordinatesPerBody * body;
-  if (!state.q.segment<kCoordinatesPerBody>(o).allFinite() || !state.qdot.segment<kCoordinatesPerBody>(o).allFinite()) {
-    throw NumericalError("coupling: the frame of body " + std::to_string(body) +
-                         " (carrying a contact process's obstacle) is not finite");
-  }
-  Eigen::Matrix3d R = BodyAxes(state.q, body);
-  const Eigen::Vector3d omega = BodyAngularRate(state.q, state.qdot, body);
-  const Eigen::Vector3d v = state.qdot.segment<3>(o);
-  const Eigen::Vector3d c = state.q.segment<3>(o) + ahead * v;
-  const double angle = omega.norm() * ahead;
-  if (angle > 0.0) R = Eigen::AngleAxisd(angle, omega.normalized()).toRotationMatrix() * R;
-  for (int i = 0; i < 3; ++i) {
-    frame->add_position(c(i));
-    frame->add_velocity(v(i));
-    frame->add_angular_velocity(omega(i));
-    for (int j = 0; j < 3; ++j) frame->add_rotation(R(i, j));
-  }
-  return {c, R};
-}
-
-using Block = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
-
-}  // namespace
 
 void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const std::vector<int>& points) {
   std::vector<int> rows;
@@ -97,106 +44,21 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   integrator_->Restart(state);
   // The freed rows' multipliers are 0 there, and a = q̈: their filtered multipliers too; the
   // others' are the state's.
-  StartReactionsFrom(state);
+  reaction_.StartFrom(state, &memory_);
 }
 
 void Coordinator::SaveMemory(state::CoordinatorMemory* out) const {
-  out->set_points(static_cast<int>(system_.interface_points.size()));
-  AddValues(accepted_x_, out->mutable_accepted_x());
-  AddValues(previous_accepted_x_, out->mutable_previous_accepted_x());
-  out->set_accepted_steps(accepted_steps_);
-  out->set_accepted_h(accepted_h_);
-  out->set_previous_accepted_h(previous_accepted_h_);
-  AddValues(lambda_start_, out->mutable_lambda_start());
-  AddValues(filtered_start_, out->mutable_filtered_start());
-  AddValues(accepted_position_, out->mutable_accepted_position());
-  AddValues(accepted_velocity_, out->mutable_accepted_velocity());
-  AddValues(accepted_acceleration_, out->mutable_accepted_acceleration());
-  AddValues(previous_accepted_position_, out->mutable_previous_accepted_position());
-  AddValues(previous_accepted_velocity_, out->mutable_previous_accepted_velocity());
-  AddValues(accepted_offset_, out->mutable_accepted_offset());
-  for (const Eigen::Matrix3d& S : sensitivity_) {
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) out->add_sensitivity(S(i, j));
-    }
-  }
-  out->set_offset_known(offset_known_);
-  for (const bool c : was_contact_) out->add_was_contact(c);
-  relaxation_.Save(out->mutable_relaxation());
+  memory_.Save(out);
+  method_->SaveMemory(out);
 }
 
 std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
-  const size_t points = system_.interface_points.size();
-  if (in.points() != static_cast<int>(points)) {
-    return "its coordinator's memory is of " + std::to_string(in.points()) + " interface points, not " +
-           std::to_string(points);
-  }
-  // Read into copies: a refused memory changes nothing.
-  constexpr int kFields = 11;
-  const std::pair<const char*, const google::protobuf::RepeatedField<double>*> fields[kFields] = {
-      {"accepted_x", &in.accepted_x()},
-      {"previous_accepted_x", &in.previous_accepted_x()},
-      {"lambda_start", &in.lambda_start()},
-      {"filtered_start", &in.filtered_start()},
-      {"accepted_position", &in.accepted_position()},
-      {"accepted_velocity", &in.accepted_velocity()},
-      {"accepted_acceleration", &in.accepted_acceleration()},
-      {"previous_accepted_position", &in.previous_accepted_position()},
-      {"previous_accepted_velocity", &in.previous_accepted_velocity()},
-      {"accepted_offset", &in.accepted_offset()},
-      {"sensitivity", &in.sensitivity()}};
-  Eigen::VectorXd v[kFields];
-  for (int f = 0; f < kFields; ++f) {
-    const int size = f == kFields - 1 ? 9 * static_cast<int>(points) : n_;  // sensitivity: 3 × 3 per point
-    if (!ReadValues(*fields[f].second, size, &v[f])) {
-      return std::string("its coordinator's ") + fields[f].first + " has " + std::to_string(fields[f].second->size()) +
-             " values, not " + std::to_string(size);
-    }
-    if (std::string bad = NonFinite({fields[f]}, "coordinator's "); !bad.empty()) return bad;
-  }
-  if (in.was_contact_size() != static_cast<int>(points)) {
-    return "its coordinator's was_contact has " + std::to_string(in.was_contact_size()) + " values, not " +
-           std::to_string(points);
-  }
-  if (!std::isfinite(in.accepted_h()) || !std::isfinite(in.previous_accepted_h()) || in.accepted_h() < 0.0 ||
-      in.previous_accepted_h() < 0.0 || in.accepted_steps() < 0) {
-    return "its coordinator's accepted_h, previous_accepted_h or accepted_steps is not a step length or count";
-  }
-  bool relaxation = false;  // (not restored if saved with other settings: it starts afresh, as they say)
-  if (in.has_relaxation()) {
-    if (std::string wrong = relaxation_.Restore(in.relaxation(), &relaxation); !wrong.empty()) {
-      return "its coordinator's " + wrong;
-    }
-  }
-  accepted_x_ = v[0];
-  previous_accepted_x_ = v[1];
-  lambda_start_ = v[2];
-  filtered_start_ = v[3];
-  accepted_position_ = v[4];
-  accepted_velocity_ = v[5];
-  accepted_acceleration_ = v[6];
-  previous_accepted_position_ = v[7];
-  previous_accepted_velocity_ = v[8];
-  accepted_offset_ = v[9];
-  for (size_t k = 0; k < points; ++k) {
-    sensitivity_[k] = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(v[10].data() + 9 * k);
-  }
-  accepted_sensitivity_ = sensitivity_;
-  accepted_steps_ = in.accepted_steps();
-  accepted_h_ = in.accepted_h();
-  previous_accepted_h_ = in.previous_accepted_h();
-  offset_known_ = in.offset_known();
-  for (size_t k = 0; k < points; ++k) was_contact_[k] = in.was_contact(static_cast<int>(k));
+  if (std::string wrong = memory_.Restore(in); !wrong.empty()) return wrong;
+  // (Before the handshake the method is not chosen: a saved relaxation is the relaxation's.)
+  if (std::string wrong = relaxation_method_.RestoreMemory(in); !wrong.empty()) return wrong;
+  memory_.GetSensitivities(&it_.answers.sensitivity);
   restored_ = true;
   return {};
-}
-
-void Coordinator::StartReactionsFrom(const DaeState& state) {
-  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    lambda_start_.segment<3>(3 * static_cast<Eigen::Index>(k)) =
-        system_.InterfaceReaction(static_cast<int>(k), state.lambda);
-  }
-  filtered_start_ = lambda_start_;
 }
 
 void Coordinator::Handshake(const std::string& scenario_name, double start_time, double step) {
@@ -208,79 +70,50 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
   if (restored_) {
     // A restart that continues the run: CGα's history, the data (the imposed coordinates) and
     // this memory are the run's own at the saved step.
-    x_ = applied_ = accepted_x_;
+    it_.x = it_.answers.applied = memory_.accepted_x;
   } else if (settings_.settled_start) {
     // a_0 = q̈_0 as at a free start: the shifted start-up would take the first try's imposed
     // coordinates (end-of-step values) at t_0 + Δα h, and each try of the first step its own a_0.
     integrator_->Restart(integrator_->state());
     resting_at_start_ = true;  // (Impacts)
-    StartReactionsFrom(integrator_->state());
-    x_ = accepted_x_ = applied_ = lambda_start_;
+    reaction_.StartFrom(integrator_->state(), &memory_);
+    it_.x = memory_.accepted_x = it_.answers.applied = memory_.lambda_start;
   } else {
     std::vector<int> every_point(system_.interface_points.size());
     for (size_t k = 0; k < every_point.size(); ++k) every_point[k] = static_cast<int>(k);
     RestartWithCouplingRowsFree(integrator_->state(), start_time, every_point);
   }
+  const DaeState& start = integrator_->state();
+  PeerLink::Hello hello{scenario_name, start_time, step};
+  Eigen::VectorXd positions(n_), velocities(n_);
   if (!restored_) {  // (a continued run's imposed coordinates are its own, restored with the data)
     for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-      const Eigen::Vector3d a =
-          system_.interface_points[k].point.Rate(integrator_->state().qddot);  // point acceleration
+      const LinearVector& point = system_.interface_points[k].point;
+      const Eigen::Vector3d a = point.Rate(start.qddot);  // point acceleration
       for (int j = 0; j < 3; ++j) data_->imposed[3 * k + static_cast<size_t>(j)].acceleration = a(j);
     }
-  }
-  for (Peer& peer : peers_) {
-    auto* hello = peer.channel->Outgoing(-1, 0).mutable_hello();
-    hello->set_scenario_name(scenario_name);
-    hello->set_process_name(peer.channel->options().peer);
-    for (int p : peer.points) hello->add_interface_nodes(system_.interface_points[static_cast<size_t>(p)].contact_node);
-    hello->set_start_time(start_time);
-    hello->set_step(step);
-    if (!restored_) {
-      // A settled start: where the settle left the nodes (it may move them). A free start: where
-      // the tied points are and how they move in the consistent start, which the contact process
-      // checks against its nodes' scenario state (Hello.settled).
-      hello->set_settled(settings_.settled_start);
-      for (int p : peer.points) {
-        const LinearVector& point = system_.interface_points[static_cast<size_t>(p)].point;
-        const Eigen::Vector3d x = point.Value(integrator_->state().q), v = point.Rate(integrator_->state().qdot);
-        for (size_t j = 0; j < 3; ++j) {
-          const ImposedCoordinate& c = data_->imposed[3 * static_cast<size_t>(p) + j];
-          hello->add_node_positions(settings_.settled_start ? c.value : x(static_cast<Eigen::Index>(j)));
-          hello->add_node_velocities(settings_.settled_start ? c.rate : v(static_cast<Eigen::Index>(j)));
-        }
+    // A settled start: where the settle left the nodes (it may move them). A free start: where
+    // the tied points are and how they move in the consistent start, which the contact process
+    // checks against its nodes' scenario state (Hello.settled).
+    for (size_t k = 0; k < system_.interface_points.size(); ++k) {
+      const LinearVector& point = system_.interface_points[k].point;
+      const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
+      positions.segment<3>(o) = point.Value(start.q);
+      velocities.segment<3>(o) = point.Rate(start.qdot);
+      if (!settings_.settled_start) continue;
+      for (int j = 0; j < 3; ++j) {
+        const ImposedCoordinate& c = data_->imposed[static_cast<size_t>(o + j)];
+        positions(o + j) = c.value;
+        velocities(o + j) = c.rate;
       }
     }
-    for (const MovingObstacle& o : peer.obstacles) {
-      hello->add_moving_obstacles(o.name);
-      FillFrame(o.body, integrator_->state(), 0.0, hello->add_obstacle_frames());
-    }
-    peer.channel->Send();
+    hello.node_positions = &positions;
+    hello.node_velocities = &velocities;
+    hello.settled = settings_.settled_start;
   }
-  jacobians_ = settings_.interface_jacobians && n_ > 0;
-  for (Peer& peer : peers_) {
-    const auto& welcome = peer.channel->Receive(Envelope::kWelcome, -1, -1).welcome();
-    const std::string& name = peer.channel->options().peer;
-    if (welcome.process_name() != name) {
-      throw InputError("coupling: the Welcome from the process addressed as '" + name + "' names itself '" +
-                       interface::EchoedText(welcome.process_name()) + "'; expected '" + name + "'");
-    }
-    if (welcome.interface_nodes_size() != static_cast<int>(peer.points.size())) {
-      throw InputError("coupling: '" + name + "' welcomed " + std::to_string(welcome.interface_nodes_size()) +
-                       " interface nodes, expected " + std::to_string(peer.points.size()));
-    }
-    // The same nodes in the same order: the k-th reaction goes to the k-th node named.
-    for (int i = 0; i < welcome.interface_nodes_size(); ++i) {
-      const std::string& asked =
-          system_.interface_points[static_cast<size_t>(peer.points[static_cast<size_t>(i)])].contact_node;
-      if (welcome.interface_nodes(i) != asked) {
-        throw InputError("coupling: Welcome.interface_nodes[" + std::to_string(i) + "] from '" + name + "' is '" +
-                         interface::EchoedText(welcome.interface_nodes(i)) + "'; the Hello asked for '" + asked +
-                         "' there (the nodes, in the Hello's order)");
-      }
-    }
-    peer.jacobians = welcome.interface_jacobians();
-    jacobians_ = jacobians_ && peer.jacobians;
-  }
+  const bool offered = link_.Handshake(hello, start);
+  jacobians_ = settings_.interface_jacobians && n_ > 0 && offered;
+  method_ = jacobians_ ? static_cast<CouplingMethod*>(&jacobian_method_) : &relaxation_method_;
   // The nodes' motion at the start (the first step's predicted positions). A free start's nodes
   // are where their points are (λ = 0); a settled start's where the settle left them, its
   // imposed coordinates: a point on a regularised tie is not its node, and the settled rod
@@ -289,109 +122,11 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
   // keeps its memory (overwritten here, a restart from the middle of a contact began from the
   // points' positions too).
   if (restored_) return;
-  const DaeState& start = integrator_->state();
+  memory_.accepted_position = positions;
+  memory_.accepted_velocity = velocities;
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    const LinearVector& point = system_.interface_points[k].point;
-    accepted_position_.segment<3>(o) = point.Value(start.q);
-    accepted_velocity_.segment<3>(o) = point.Rate(start.qdot);
-    accepted_acceleration_.segment<3>(o) = point.Rate(start.qddot);
-    if (!settings_.settled_start) continue;
-    for (int j = 0; j < 3; ++j) {
-      const ImposedCoordinate& c = data_->imposed[3 * k + static_cast<size_t>(j)];
-      accepted_position_(o + j) = c.value;
-      accepted_velocity_(o + j) = c.rate;
-    }
-  }
-}
-
-void Coordinator::ReceiveKinematics(int iteration) {
-  in_contact_ = false;
-  std::fill(contact_.begin(), contact_.end(), false);
-  time_to_contact_ = std::numeric_limits<double>::infinity();
-  for (Peer& peer : peers_) {
-    const auto& k = peer.channel->Receive(Envelope::kKinematics, step_, iteration).kinematics();
-    const int expected = 3 * static_cast<int>(peer.points.size());
-    if (k.position_size() != expected || k.velocity_size() != expected) {
-      throw InputError("coupling: Kinematics from '" + peer.channel->options().peer + "' has " +
-                       std::to_string(k.position_size()) + " positions and " + std::to_string(k.velocity_size()) +
-                       " velocities; expected " + std::to_string(expected) + " of each");
-    }
-    for (int i = 0; i < expected; ++i) {
-      if (!std::isfinite(k.position(i)) || !std::isfinite(k.velocity(i))) {
-        throw InputError("coupling: Kinematics from '" + peer.channel->options().peer + "' of step " +
-                         std::to_string(step_) + " has a non-finite value at index " + std::to_string(i) +
-                         " (position " + interface::FormatNumber(k.position(i)) + ", velocity " +
-                         interface::FormatNumber(k.velocity(i)) + "); expected finite numbers");
-      }
-    }
-    if (k.in_contact_size() != 0 && k.in_contact_size() != static_cast<int>(peer.points.size())) {
-      throw InputError("coupling: Kinematics.in_contact from '" + peer.channel->options().peer + "' has " +
-                       std::to_string(k.in_contact_size()) + " values; expected one per interface node (" +
-                       std::to_string(peer.points.size()) + ") or none");
-    }
-    for (int i = 0; i < k.in_contact_size(); ++i) {
-      contact_[static_cast<size_t>(peer.points[static_cast<size_t>(i)])] = k.in_contact(i) != 0;
-      in_contact_ = in_contact_ || k.in_contact(i) != 0;
-    }
-    // An older peer that does not say: a contact is always possible.
-    const double ttc = k.has_time_to_contact() ? k.time_to_contact() : 0.0;
-    if (std::isnan(ttc) || ttc < 0.0) {
-      throw InputError("coupling: Kinematics.time_to_contact from '" + peer.channel->options().peer + "' of step " +
-                       std::to_string(step_) + " is " + interface::FormatNumber(ttc) +
-                       "; expected a time >= 0 [s] (or +inf)");
-    }
-    time_to_contact_ = std::min(time_to_contact_, ttc);
-    for (size_t i = 0; i < peer.points.size(); ++i) {
-      for (int j = 0; j < 3; ++j) {
-        const Eigen::Index v = 3 * peer.points[i] + j;
-        position_(v) = k.position(3 * static_cast<int>(i) + j);
-        velocity_(v) = k.velocity(3 * static_cast<int>(i) + j);
-        applied_(v) = x_(v);  // (a peer that does not say held the force it was sent)
-      }
-    }
-    if (!jacobians_) continue;
-    // The force it held and its sensitivities (protocol 3): 3 and 9 per node, finite.
-    auto check = [&](const char* field, int size, int want, bool optional,
-                     const google::protobuf::RepeatedField<double>& values) {
-      if (size == 0 && optional) return false;
-      if (size != want) {
-        throw InputError("coupling: Kinematics." + std::string(field) + " from '" + peer.channel->options().peer +
-                         "' of step " + std::to_string(step_) + " has " + std::to_string(size) + " values; expected " +
-                         std::to_string(want) + (optional ? " or none" : " (its Welcome offered interface Jacobians)"));
-      }
-      for (int i = 0; i < size; ++i) {
-        if (!std::isfinite(values.Get(i))) {
-          throw InputError("coupling: Kinematics." + std::string(field) + "[" + std::to_string(i) + "] from '" +
-                           peer.channel->options().peer + "' of step " + std::to_string(step_) + " is " +
-                           interface::FormatNumber(values.Get(i)) + "; expected a finite number");
-        }
-      }
-      return true;
-    };
-    const int nodes = static_cast<int>(peer.points.size());
-    const bool applied = check("applied_force", k.applied_force_size(), 3 * nodes, true, k.applied_force());
-    check("position_sensitivity", k.position_sensitivity_size(), 9 * nodes, false, k.position_sensitivity());
-    for (int i = 0; i < nodes; ++i) {
-      const int p = peer.points[static_cast<size_t>(i)];
-      if (applied) {
-        for (int j = 0; j < 3; ++j) applied_(3 * p + j) = k.applied_force(3 * i + j);
-      }
-      sensitivity_[static_cast<size_t>(p)] = Block(k.position_sensitivity().data() + 9 * i);
-    }
-  }
-}
-
-void Coordinator::Impose(double h) {
-  for (Eigen::Index v = 0; v < n_; ++v) data_->imposed[static_cast<size_t>(v)].value = position_(v);
-  ImposeRates(h);
-}
-
-void Coordinator::ImposeRates(double h) {
-  for (Eigen::Index v = 0; v < n_; ++v) {
-    ImposedCoordinate& c = data_->imposed[static_cast<size_t>(v)];
-    c.rate = velocity_(v);
-    c.acceleration = (velocity_(v) - start_velocity_(v)) / h;
+    memory_.accepted_acceleration.segment<3>(3 * static_cast<Eigen::Index>(k)) =
+        system_.interface_points[k].point.Rate(start.qddot);
   }
 }
 
@@ -451,26 +186,30 @@ std::string Coordinator::CouplingState() const {
   // sides disagree most: the coupling's side of a failed step.
   // A contact that opened in the step (a lift-off, a rebound) is named too: "none in contact"
   // at the step of a rebound read as if nothing had happened.
+  const std::vector<bool>& contact = it_.answers.contact;
+  const std::vector<bool>& was_contact = memory_.was_contact;
   std::string contacts;
-  for (size_t k = 0; k < contact_.size(); ++k) {
-    if (!contact_[k] && !was_contact_[k]) continue;
-    const char* what = !contact_[k]      ? " (opening in this step)"
-                       : was_contact_[k] ? " (resting)"
-                                         : " (closing in this step)";
+  for (size_t k = 0; k < contact.size(); ++k) {
+    if (!contact[k] && !was_contact[k]) continue;
+    const char* what = !contact[k]      ? " (opening in this step)"
+                       : was_contact[k] ? " (resting)"
+                                        : " (closing in this step)";
     contacts +=
         (contacts.empty() ? "" : ", ") + std::string("'") + system_.interface_points[k].contact_node + "'" + what;
   }
   std::string worst;
   double largest = -1.0;
+  const Eigen::VectorXd& held = method_->HeldForce();
+  const Eigen::VectorXd& position = it_.answers.position;
   for (size_t k = 0; k < system_.interface_points.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    const double d = (x_tilde_.segment<3>(o) - (jacobians_ ? applied_ : x_).segment<3>(o)).lpNorm<Eigen::Infinity>();
+    const double d = (it_.x_tilde.segment<3>(o) - held.segment<3>(o)).lpNorm<Eigen::Infinity>();
     if (d > largest) {
       largest = d;
       worst = "node '" + system_.interface_points[k].contact_node + "' (force " +
-              interface::FormatNumber(x_tilde_.segment<3>(o).norm()) + " N, position " + "[" +
-              interface::FormatNumber(position_(o)) + ", " + interface::FormatNumber(position_(o + 1)) + ", " +
-              interface::FormatNumber(position_(o + 2)) + "] m)";
+              interface::FormatNumber(it_.x_tilde.segment<3>(o).norm()) + " N, position " + "[" +
+              interface::FormatNumber(position(o)) + ", " + interface::FormatNumber(position(o + 1)) + ", " +
+              interface::FormatNumber(position(o + 2)) + "] m)";
     }
   }
   return "interface nodes in contact: " +
@@ -478,150 +217,21 @@ std::string Coordinator::CouplingState() const {
          (worst.empty() ? "" : "; largest force mismatch " + interface::FormatNumber(largest) + " N at " + worst);
 }
 
-void Coordinator::BeginStep(double t, double h, const DaeState& frames, double ahead) {
-  for (size_t q = 0; q < peers_.size(); ++q) {
-    Peer& peer = peers_[q];
-    auto* begin = peer.channel->Outgoing(step_, 0).mutable_step_begin();  // (accepts a pending step)
-    begin->set_time(t);
-    begin->set_step(h);
-    if (!moved_points_.empty()) FillRestartedNodes(peer, begin->mutable_restarted_nodes());
-    FillReactions(q, frames, ahead, begin->mutable_predictor());
-    peer.channel->Send();
-  }
-  moved_points_.clear();  // (told: the peers accepted the step with them)
-  ReceiveKinematics(0);
+ReactionsToSend Coordinator::Sent() const {
+  // (The stiffness and positions are the interface Jacobians' linearisation; with a relaxation
+  // they are not sent.)
+  return {it_.x, jacobians_, jacobian_method_.stiffness(), jacobian_method_.linearised_at()};
 }
 
-void Coordinator::FillReactions(size_t q, const DaeState& frames, double ahead, coupling::Reactions* reactions) {
-  const Peer& peer = peers_[q];
-  sent_frames_[q].clear();
-  for (const MovingObstacle& o : peer.obstacles) {
-    sent_frames_[q].push_back(FillFrame(o.body, frames, ahead, reactions->add_obstacle_frames()));
-  }
-  for (int p : peer.points) {
-    // This side's own numbers: a non-finite one is its numerical failure (exit 3), not a
-    // message for the peer to refuse as bad input.
-    const Eigen::Vector3d force = x_.segment<3>(3 * p);
-    if (!force.allFinite() || (jacobians_ && !(stiffness_[static_cast<size_t>(p)].allFinite() &&
-                                               sent_position_.segment<3>(3 * p).allFinite()))) {
-      throw NumericalError("coupling: the reaction of interface node '" +
-                           system_.interface_points[static_cast<size_t>(p)].contact_node + "' is not finite (force [" +
-                           interface::FormatNumber(force(0)) + ", " + interface::FormatNumber(force(1)) + ", " +
-                           interface::FormatNumber(force(2)) + "] N) in step " + std::to_string(step_) +
-                           ": the smooth step has failed");
-    }
-    for (int j = 0; j < 3; ++j) reactions->add_force(force(j));
-    if (!jacobians_) continue;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) reactions->add_stiffness(stiffness_[static_cast<size_t>(p)](r, c));
-    }
-    for (int j = 0; j < 3; ++j) reactions->add_position(sent_position_(3 * p + j));
-  }
+void Coordinator::BeginStep(double t, double h, const DaeState& frames, double ahead) {
+  link_.BeginStep(step_, t, h, Sent(), frames, ahead, Moved());
+  moved_points_.clear();  // (told: the peers accepted the step with them)
+  link_.Receive(step_, 0, jacobians_, it_.x, &it_.answers);
 }
 
 void Coordinator::Exchange(int iteration, const DaeState& frames) {
-  for (size_t q = 0; q < peers_.size(); ++q) {
-    Peer& peer = peers_[q];
-    FillReactions(q, frames, 0.0, peer.channel->Outgoing(step_, iteration).mutable_reactions());
-    peer.channel->Send();
-  }
-  ReceiveKinematics(iteration);
-}
-
-void Coordinator::ReactionsFromSolve() {
-  const Eigen::VectorXd& lambda = integrator_->state().lambda;
-  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    lambda_end_.segment<3>(3 * static_cast<Eigen::Index>(k)) = system_.InterfaceReaction(static_cast<int>(k), lambda);
-  }
-  // STEP_AVERAGE: the multipliers through CGα's acceleration filter
-  // (1 − α_m) λ̃₁ + α_m λ̃₀ = (1 − α_f) λ₁ + α_f λ₀, weighted as its velocity update,
-  // (1 − γ) λ̃₀ + γ λ̃₁: h times it is the momentum the smooth side exchanged with the node
-  // over the step. END_OF_STEP: λ₁.
-  filtered_end_ = ((1.0 - integrator_->alpha_f()) * lambda_end_ + integrator_->alpha_f() * lambda_start_ -
-                   integrator_->alpha_m() * filtered_start_) /
-                  (1.0 - integrator_->alpha_m());
-  if (settings_.step_average_reaction) {
-    x_tilde_ = (1.0 - integrator_->gamma()) * filtered_start_ + integrator_->gamma() * filtered_end_;
-  } else {
-    x_tilde_ = lambda_end_;
-  }
-}
-
-double Coordinator::ReactionPerMultiplier() const {
-  // ∂x̃/∂λ₁ of the two forms above.
-  if (!settings_.step_average_reaction) return 1.0;
-  return integrator_->gamma() * (1.0 - integrator_->alpha_f()) / (1.0 - integrator_->alpha_m());
-}
-
-Eigen::Vector3d Coordinator::ReactionConstant(int point) const {
-  if (!settings_.step_average_reaction) return Eigen::Vector3d::Zero();
-  const Eigen::Index o = 3 * static_cast<Eigen::Index>(point);
-  const double g = integrator_->gamma(), am = integrator_->alpha_m(), af = integrator_->alpha_f();
-  return (1.0 - g) * filtered_start_.segment<3>(o) +
-         g * (af * lambda_start_.segment<3>(o) - am * filtered_start_.segment<3>(o)) / (1.0 - am);
-}
-
-void Coordinator::ImposeModel(double h) {
-  // k(x) = k̃ + S (x − x̃) with x = κ λ + x_c on the rows p(q) − k − cλ = 0 (Schweizer & Lu's
-  // coupling through the constraint, with the peer's answer linearised: Kübler & Schiehlen).
-  const double kappa = ReactionPerMultiplier();
-  for (size_t k = 0; k < system_.interface_points.size(); ++k) {
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    const Eigen::Matrix3d& S = sensitivity_[k];
-    const Eigen::Vector3d value =
-        position_.segment<3>(o) + S * (ReactionConstant(static_cast<int>(k)) - applied_.segment<3>(o));
-    for (int j = 0; j < 3; ++j) data_->imposed[static_cast<size_t>(o + j)].value = value(j);
-    data_->interface_compliance[k] = kappa * S;
-  }
-  ImposeRates(h);
-}
-
-void Coordinator::UpdateStiffness(double h) {
-  // The smooth side's own response D = ∂λ/∂k (CgAlpha::InterfaceResponse: the peers' compliance
-  // not in it; the other points held where they are), x = κλ + x_c.
-  if (!integrator_->has_factorization()) return;
-  const double kappa = ReactionPerMultiplier();
-  const DaeState& state = integrator_->state();
-  if (integrator_->factorizations() != response_factorizations_ || h != response_h_) {
-    for (size_t k = 0; k < response_.size(); ++k) {
-      response_[k] = kappa * integrator_->InterfaceResponse(static_cast<int>(k), h);
-      if (!response_[k].allFinite()) response_[k].setZero();  // (no linearisation rather than a bad one)
-      response_axes_[k] = BodyAxes(static_cast<int>(k), state);
-    }
-    response_factorizations_ = integrator_->factorizations();
-    response_h_ = h;
-  }
-  // A reused matrix is some steps old: the stiffness turns with the body carrying the point (a
-  // blade on a spinning hub: 0.56 rad over 20 reused steps of the Puma's), E = R E₀ Rᵀ with
-  // R = F F₀ᵀ of its axes.
-  for (size_t k = 0; k < response_.size(); ++k) {
-    const Eigen::Matrix3d R = BodyAxes(static_cast<int>(k), state) * response_axes_[k].transpose();
-    stiffness_[k] = R * response_[k] * R.transpose();
-  }
-}
-
-Eigen::Matrix3d Coordinator::BodyAxes(int point, const DaeState& state) const {
-  const int body = system_.interface_points[static_cast<size_t>(point)].body;
-  return body < 0 ? Eigen::Matrix3d::Identity() : smooth::BodyAxes(state.q, body);
-}
-
-double Coordinator::FrameDrift(const DaeState& state) const {
-  double drift = 0.0;
-  for (size_t q = 0; q < peers_.size(); ++q) {
-    for (size_t i = 0; i < peers_[q].obstacles.size(); ++i) {
-      coupling::Frame frame;
-      const auto [c, R] = FillFrame(peers_[q].obstacles[i].body, state, 0.0, &frame);
-      const auto& [c0, R0] = sent_frames_[q][i];
-      for (int p : peers_[q].points) {
-        if (!contact_[static_cast<size_t>(p)]) continue;  // (a node off its planes does not feel them move)
-        const Eigen::Vector3d k = position_.segment<3>(3 * p);
-        drift = std::max(
-            drift,
-            ((c - c0) + (R * R0.transpose() - Eigen::Matrix3d::Identity()) * (k - c0)).lpNorm<Eigen::Infinity>());
-      }
-    }
-  }
-  return drift;
+  link_.Exchange(step_, iteration, Sent(), frames);
+  link_.Receive(step_, iteration, jacobians_, it_.x, &it_.answers);
 }
 
 StepStatus Coordinator::SolveStep(double t, double h, const DaeState* guess) {
@@ -631,132 +241,8 @@ StepStatus Coordinator::SolveStep(double t, double h, const DaeState* guess) {
   newton_ += status.iterations;
   iterate_ = integrator_->state();  // equal sizes: no allocation once warm
   iterate_solved_ = true;
-  ReactionsFromSolve();
+  reaction_.FromSolve(integrator_->state().lambda, memory_, &it_.x_tilde);
   return status;
-}
-
-void Coordinator::Linearise(double t, double h) {
-  // The nodes' positions predicted from the accepted steps (no acceleration after an impact)
-  // and x_ (the reactions predicted); the smooth step solved with the peers' last affine answers
-  // about them gives a point (x̂, k̂) of the smooth side's own response, and its matrix the
-  // slope E: the peers then solve their contact problems for the linearised coupled pair.
-  velocity_ = accepted_velocity_ + h * accepted_acceleration_;
-  if (offset_known_ && SameStepLength(h, accepted_h_) && SameStepLength(h, previous_accepted_h_)) {
-    // The peers' last law k = a_n + S x carried one step on: a_{n+1} = a_n + (k_n − k_{n−1}) +
-    // h (v_n − v_{n−1}). For a free node under a constant force (Moreau–Jean, θ-method:
-    // k_{n+1} = k_n + h v_n + S (f + x), S = h²θ/m) it is the law the peer will step with, exactly;
-    // the pre-solve is then the coupled step, which the peers' answer confirms (LinearisationAgrees).
-    // A node on its obstacle: second order in the obstacle's motion, as the Taylor predictor below.
-    for (size_t k = 0; k < sensitivity_.size(); ++k) {
-      const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-      position_.segment<3>(o) = accepted_offset_.segment<3>(o) +
-                                (accepted_position_.segment<3>(o) - previous_accepted_position_.segment<3>(o)) +
-                                h * (accepted_velocity_.segment<3>(o) - previous_accepted_velocity_.segment<3>(o)) +
-                                sensitivity_[k] * x_.segment<3>(o);
-    }
-  } else {
-    position_ = accepted_position_ + h * accepted_velocity_ + 0.5 * h * h * accepted_acceleration_;
-  }
-  applied_ = x_;
-  integrator_->Restore(start_);
-  ImposeModel(h);
-  if (!SolveStep(t, h, nullptr).ok()) {
-    // The predicted node positions with the last answers' compliance were more than CGα could
-    // take (observed: the Puma gust at h = 2 ms, 6.638 s, a blade landing on its stop): the
-    // predictions themselves (x_0, k_pred) serve as the linearisation point, with the last E.
-    integrator_->Restore(start_);
-    sent_position_ = position_;
-    ++linearisation_fallbacks_;
-    iterate_solved_ = false;  // (no solve of this step to start Newton from)
-    return;
-  }
-  LineariseAtSolve(h);  // (applied_ = x_: the predictor's force)
-}
-
-void Coordinator::LineariseAtSolve(double h) {
-  // The last smooth solve's force x* and the kinematics it assumed, k̃ + S (x* − x̃).
-  for (size_t k = 0; k < sensitivity_.size(); ++k) {
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    sent_position_.segment<3>(o) =
-        position_.segment<3>(o) + sensitivity_[k] * (x_tilde_.segment<3>(o) - applied_.segment<3>(o));
-  }
-  x_ = x_tilde_;
-  UpdateStiffness(h);
-}
-
-bool Coordinator::LinearisationAgrees(CouplingIterationRecord* record) const {
-  // The pre-solve's force x̂ (x_) and kinematics k̂ (sent_position_) against the peers' answer:
-  // the force they held x̃ (applied_) and their nodes' positions k̃ (position_). Within the
-  // tolerances of JacobianConverged, both sides hold a solution of the coupled step: the smooth
-  // side's with the interface at k̂, the peers' at k̃ under x̃ = x̂ + E (k̃ − k̂).
-  record->reaction_residual = n_ > 0 ? (x_ - applied_).lpNorm<Eigen::Infinity>() : 0.0;
-  double mismatch = FrameDrift(iterate_);
-  for (size_t k = 0; k < sensitivity_.size(); ++k) {
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    mismatch = std::max(mismatch, (position_.segment<3>(o) - sent_position_.segment<3>(o)).lpNorm<Eigen::Infinity>());
-  }
-  record->displacement_change = mismatch;
-  return ForcesAgree(x_) && mismatch <= settings_.displacement_tolerance;
-}
-
-bool Coordinator::ForcesAgree(const Eigen::VectorXd& force) const {
-  // Per node |x − x̃|∞ <= max(reaction_tolerance · max(1 N, |x|∞), ‖E‖ displacement_tolerance),
-  // x̃ the force the peers held (applied_).
-  const double scale = std::max(1.0, n_ > 0 ? force.lpNorm<Eigen::Infinity>() : 0.0);
-  for (size_t k = 0; k < stiffness_.size(); ++k) {
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    const double floor = stiffness_[k].cwiseAbs().rowwise().sum().maxCoeff() * settings_.displacement_tolerance;
-    if ((force.segment<3>(o) - applied_.segment<3>(o)).lpNorm<Eigen::Infinity>() >
-        std::max(settings_.reaction_tolerance * scale, floor)) {
-      return false;
-    }
-  }
-  return true;
-}
-
-bool Coordinator::JacobianConverged(CouplingIterationRecord* record) const {
-  // The smooth step solved with the peers' answers as affine in the force; it agrees with them
-  // once its force x* is the one they held (x̃) — then the kinematics it assumed, k̃ + S (x* − x̃),
-  // are theirs — and the obstacles' frames are those they stepped with. A force mismatch below
-  // what displacement_tolerance makes through the smooth side's own stiffness at the node
-  // (‖E‖ displacement_tolerance: 0.2 N for a 2e8 N/m tie at 1e-9 m) is within the kinematic
-  // tolerance: a node resting on its stop through a stiff tie has its force only to that (5e-15 m
-  // of position round-off is 1e-6 N).
-  record->reaction_residual = n_ > 0 ? (x_tilde_ - applied_).lpNorm<Eigen::Infinity>() : 0.0;
-  double mismatch = FrameDrift(iterate_);
-  for (size_t k = 0; k < sensitivity_.size(); ++k) {
-    const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    mismatch = std::max(
-        mismatch, (sensitivity_[k] * (x_tilde_.segment<3>(o) - applied_.segment<3>(o))).lpNorm<Eigen::Infinity>());
-  }
-  record->displacement_change = mismatch;
-  return ForcesAgree(x_tilde_) && mismatch <= settings_.displacement_tolerance;
-}
-
-bool Coordinator::RelaxationConverged(int iteration, bool free_flight, CouplingIterationRecord* record, bool* skipped) {
-  const double scale = std::max(1.0, n_ > 0 ? x_tilde_.lpNorm<Eigen::Infinity>() : 0.0);
-  record->reaction_residual = n_ > 0 ? (x_tilde_ - x_).lpNorm<Eigen::Infinity>() : 0.0;
-  record->displacement_change = iteration == 0 ? std::numeric_limits<double>::infinity()
-                                               : (position_ - previous_position_).lpNorm<Eigen::Infinity>();
-  // Round-off: once the peers' kinematics no longer change beyond round-off, the smooth
-  // side's answer x̃ cannot settle closer than its own jitter between the last two iterations
-  // (a stiff tie turns 1e-17 m of position round-off into 1e-9 N of reaction): a residual
-  // within that jitter passes, whatever the reaction tolerance asks.
-  const double position_roundoff =
-      64.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, position_.lpNorm<Eigen::Infinity>());
-  const bool at_roundoff = iteration > 0 && n_ > 0 && record->displacement_change <= position_roundoff &&
-                           record->reaction_residual <= (x_tilde_ - previous_x_tilde_).lpNorm<Eigen::Infinity>();
-  const bool within = record->reaction_residual <= settings_.reaction_tolerance * scale;
-  bool converged =
-      (within || at_roundoff) && (iteration > 0 ? record->displacement_change <= settings_.displacement_tolerance
-                                                : record->reaction_residual == 0.0);
-  // coupling.iteration.free_flight_margin: no contact can close within the step: the first
-  // iteration is accepted if its reaction residual meets the tolerance, without the second
-  // iteration that would confirm the kinematics (the displacement test).
-  *skipped = iteration == 0 && !converged && free_flight && within;
-  converged = converged || *skipped;
-  if (converged && at_roundoff && !within) ++at_roundoff_;
-  return converged;
 }
 
 // The step's start saved, and the predictor: the reactions extrapolated linearly from the last
@@ -767,11 +253,25 @@ void Coordinator::BeginTry(double h) {
   iterate_solved_ = false;
   log_.clear();  // this step's records (the capacity stays: no allocation once warm)
   integrator_->SaveTo(&start_);
-  for (Eigen::Index v = 0; v < n_; ++v) start_velocity_(v) = data_->imposed[static_cast<size_t>(v)].rate;
-  relaxation_.BeginStep();
-  const double ratio = accepted_h_ > 0.0 ? h / accepted_h_ : 1.0;
-  x_ = accepted_steps_ >= 2 ? Eigen::VectorXd(accepted_x_ + ratio * (accepted_x_ - previous_accepted_x_)) : accepted_x_;
+  rows_.BeginStep(n_);
+  method_->BeginStep();
+  const double ratio = memory_.accepted_h > 0.0 ? h / memory_.accepted_h : 1.0;
+  it_.x = memory_.accepted_steps >= 2
+              ? Eigen::VectorXd(memory_.accepted_x + ratio * (memory_.accepted_x - memory_.previous_accepted_x))
+              : memory_.accepted_x;
   newton_ = 0;
+}
+
+void Coordinator::PreSolve(double t, double h) {
+  method_->Predict(h);
+  integrator_->Restore(start_);
+  method_->Impose(h);
+  const bool solved = SolveStep(t, h, nullptr).ok();
+  if (!solved) {
+    integrator_->Restore(start_);
+    iterate_solved_ = false;  // (no solve of this step to start Newton from)
+  }
+  method_->Linearised(h, solved);
 }
 
 // This side failed in iteration `at` (every peer waits for its next message): the integrator back
@@ -790,41 +290,16 @@ Coordinator::Attempt Coordinator::Finished(int last, Attempt result) {
   last_iteration_ = last;
   result.iterations = last + 1;
   result.impact = !Impacts().empty();
-  result.contact = in_contact_;
-  result.time_to_contact = time_to_contact_;
+  result.contact = it_.answers.in_contact;
+  result.time_to_contact = it_.answers.time_to_contact;
   return result;
-}
-
-// The relaxation's update (IQN-ILS's above all, extrapolating secants of earlier steps) sent the
-// peers reactions whose kinematics this side cannot solve (observed: the Puma gust's lift-off at
-// 2.975 s: reactions that moved the node 32 m, Newton diverging to |q| ~ 1e158). Back-track from
-// the last iteration that solved: first the plain relaxed update from it with the secants
-// forgotten (the method's first-iteration ω), then halving towards it; ask the peers again.
-// `backtracks`: this step's so far, this one included.
-void Coordinator::Backtrack(int iteration, int backtracks) {
-  ++backtracks_;
-  CouplingIterationRecord record;
-  record.step = step_;
-  record.iteration = iteration;
-  record.reaction_residual = std::numeric_limits<double>::infinity();  // no answer: the solve failed
-  record.displacement_change = (position_ - previous_position_).lpNorm<Eigen::Infinity>();
-  if (backtracks == 1) {
-    relaxation_.Forget();
-    relaxation_.Next(solved_x_, previous_x_tilde_, &x_);  // previous_x_tilde_: the solved iteration's answer
-    record.relaxation_factor = relaxation_.last_factor();
-  } else {
-    x_ = solved_x_ + 0.5 * (x_ - solved_x_);
-    record.relaxation_factor = 0.5;
-  }
-  log_.push_back(record);
-  Exchange(iteration + 1, iterate_);  // (position_ now the answer; previous_position_ stays the solved one's)
 }
 
 Coordinator::Attempt Coordinator::Try(double t, double h) {
   Attempt result;
   result.end_time = t + h;
   BeginTry(h);
-  if (jacobians_) Linearise(t, h);
+  if (method_->PreSolves()) PreSolve(t, h);
   // The moving obstacles' frames: the pre-solve's at the step's end; without one (no interface
   // Jacobians, or a pre-solve CGα could not take: iterate_ then holds an earlier step's solve, or
   // nothing in a run's first step) the start's advanced by h.
@@ -833,106 +308,94 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   } else {
     BeginStep(t, h, integrator_->state(), h);
   }
-  const bool free_flight = !jacobians_ && settings_.free_flight_margin > 0.0 && !in_contact_ &&
-                           time_to_contact_ > settings_.free_flight_margin * h;
-  int iteration = 0, backtracks = 0;
-  if (jacobians_ && iterate_solved_ && settings_.accept_agreeing_linearisation) {
-    CouplingIterationRecord record;
-    record.step = step_;
-    record.iteration = 0;
-    if (LinearisationAgrees(&record)) {
-      // The pre-solve stands (the integrator holds it): only the imposed rates, which the next
-      // step starts from, become the peers' answer.
-      ImposeRates(h);
-      ++linearisation_accepted_;
-      log_.push_back(record);
-      return Finished(0, result);
-    }
+  const bool free_flight = method_->FreeFlight(h);
+  CouplingIterationRecord record{step_, 0};
+  if (method_->PredictionAgrees(iterate_solved_, &record)) {
+    // The pre-solve stands (the integrator holds it): only the imposed rates, which the next
+    // step starts from, become the peers' answer.
+    rows_.SetRates(it_.answers.velocity, h);
+    log_.push_back(record);
+    return Finished(0, result);
   }
+  int iteration = 0, backtracks = 0;
   for (;; ++iteration) {
     integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
-    if (jacobians_) {
-      ImposeModel(h);
-    } else {
-      Impose(h);
-    }
-    const bool warm = jacobians_ || (settings_.warm_start && iteration > 0);
-    result.smooth = SolveStep(t, h, warm ? &iterate_ : nullptr);
+    method_->Impose(h);
+    result.smooth = SolveStep(t, h, method_->WarmStart(iteration) ? &iterate_ : nullptr);
+    record = CouplingIterationRecord{step_, iteration};
     if (!result.smooth.ok()) {
-      // With interface Jacobians the smooth step could not take the contact processes' answers.
+      // With interface Jacobians the smooth step could not take the contact processes' answers;
+      // a relaxation's update may be back-tracked (RelaxationMethod::Backtrack).
       result.with_answers = jacobians_;
-      if (jacobians_) return Failed(iteration, Attempt::Outcome::kSmoothFailed, result);
-      // The relaxation's update could not be solved: back-track (Backtrack), up to
-      // kMaxBacktracks times a step, within max_iterations.
-      if (iteration == 0 || backtracks >= kMaxBacktracks || iteration + 1 >= settings_.max_iterations) {
+      if (!method_->Backtrack(iteration, ++backtracks, &record)) {
         return Failed(iteration, Attempt::Outcome::kSmoothFailed, result);
       }
-      Backtrack(iteration, ++backtracks);
+      ++backtracks_;
+      log_.push_back(record);
+      Exchange(iteration + 1,
+               iterate_);  // (the answers of the iteration that failed; the method keeps the solved one's)
       continue;
     }
-    solved_x_ = x_;
-    if (!x_tilde_.allFinite()) {
+    if (!it_.x_tilde.allFinite()) {
       // (A huge but finite load gives infinite multipliers.) This side's failure, not a message
       // for the peers to refuse.
       return Failed(iteration, Attempt::Outcome::kReactionsNotFinite, result);
     }
-    CouplingIterationRecord record;
-    record.step = step_;
-    record.iteration = iteration;
     bool skipped = false;
-    const bool converged =
-        jacobians_ ? JacobianConverged(&record) : RelaxationConverged(iteration, free_flight, &record, &skipped);
+    const bool converged = method_->Converged(iteration, free_flight, &record, &skipped);
     result.outcome = converged ? Attempt::Outcome::kConverged : Attempt::Outcome::kNotConverged;
     if (skipped) {
       result.free_flight = true;
       ++free_flight_;
     }
-    previous_x_tilde_ = x_tilde_;
     if (converged || iteration + 1 >= settings_.max_iterations) {
       record.relaxation_factor = 0.0;
       log_.push_back(record);
       break;
     }
-    if (jacobians_) {
-      LineariseAtSolve(h);
-      record.relaxation_factor = 1.0;
-    } else {
-      relaxation_.Next(x_, x_tilde_, &x_next_);
-      record.relaxation_factor = relaxation_.last_factor();
-      x_ = x_next_;
-    }
+    method_->Next(h, &record);
     log_.push_back(record);
-    previous_position_ = position_;
     Exchange(iteration + 1, integrator_->state());
   }
   return Finished(iteration, result);
 }
 
 void Coordinator::Accept(double t, double h) {
-  previous_accepted_x_ = accepted_x_;
-  accepted_x_ = jacobians_ ? applied_ : x_;  // the force the peers held
+  CouplingMemory& m = memory_;
+  const PeerAnswers& a = it_.answers;
+  m.previous_accepted_x = m.accepted_x;
+  m.accepted_x = method_->HeldForce();
   // The nodes' motion for the next step's prediction (no acceleration across an impact's jump).
   const std::vector<int> impacts = Impacts();
-  accepted_acceleration_ = (velocity_ - accepted_velocity_) / h;
-  for (int k : impacts) accepted_acceleration_.segment<3>(3 * k).setZero();
+  m.accepted_acceleration = (a.velocity - m.accepted_velocity) / h;
+  for (int k : impacts) m.accepted_acceleration.segment<3>(3 * k).setZero();
   // The peers' law of this step, k = a + S x (a = k̃ − S x̃), and the motion before it.
-  previous_accepted_position_ = accepted_position_;
-  previous_accepted_velocity_ = accepted_velocity_;
-  previous_accepted_h_ = accepted_h_;
-  offset_known_ = jacobians_ && accepted_steps_ >= 1 && impacts.empty();
-  for (size_t k = 0; k < sensitivity_.size(); ++k) {
+  m.previous_accepted_position = m.accepted_position;
+  m.previous_accepted_velocity = m.accepted_velocity;
+  m.previous_accepted_h = m.accepted_h;
+  m.offset_known = jacobians_ && m.accepted_steps >= 1 && impacts.empty();
+  for (size_t k = 0; k < a.sensitivity.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
-    accepted_offset_.segment<3>(o) = position_.segment<3>(o) - sensitivity_[k] * applied_.segment<3>(o);
+    m.accepted_offset.segment<3>(o) = a.position.segment<3>(o) - a.sensitivity[k] * a.applied.segment<3>(o);
   }
-  accepted_position_ = position_;
-  accepted_velocity_ = velocity_;
-  accepted_h_ = h;
-  accepted_sensitivity_ = sensitivity_;
-  accepted_in_contact_ = in_contact_;
-  accepted_time_to_contact_ = time_to_contact_;
-  ++accepted_steps_;
-  lambda_start_ = lambda_end_;
-  filtered_start_ = filtered_end_;
+  m.accepted_position = a.position;
+  m.accepted_velocity = a.velocity;
+  m.accepted_h = h;
+  m.SetSensitivities(a.sensitivity);
+  accepted_in_contact_ = a.in_contact;
+  accepted_time_to_contact_ = a.time_to_contact;
+  ++m.accepted_steps;
+  reaction_.Accept(&m);
+  if (settings_.restart_at_impact && !impacts.empty()) AfterImpacts(impacts, t, h);
+  m.was_contact = a.contact;
+  resting_at_start_ = false;
+  // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
+  // last_accepted_step at the end): no StepEnd round trip.
+  last_accepted_ = step_;
+  ++step_;
+}
+
+void Coordinator::AfterImpacts(const std::vector<int>& impacts, double t, double h) {
   // A new contact (an impact): the points take their nodes' velocities and the history restarts,
   // unless the scenario keeps the smooth model going (restart_at_impact = false: a regularised
   // tie then carries the velocity jump over the next steps; scenario.proto).
@@ -960,51 +423,44 @@ void Coordinator::Accept(double t, double h) {
   for (int k : impacts) {
     if (!system_.interface_points[static_cast<size_t>(k)].elastic) restarted.push_back(k);
   }
-  if (settings_.restart_at_impact && !impacts.empty()) {
-    const DaeState before = integrator_->state();
-    DaeState after = before;
-    // The points move with their nodes across each impact's plane (along its reaction: Newton's
-    // law's velocity); along the plane a node's velocity is its own, which on a stiff tie swings
-    // about its point's (Moreau–Jean's midpoint rule does not damp it): imposed whole, it kicked
-    // the blade in lag at each impact (generated rotor 648: 11 of 143 restarts failed the
-    // projection's 10 % test, the pad's in-plane swing growing to 3 m/s).
-    std::vector<Eigen::Vector3d>& normals = impact_normals_;
-    normals.assign(system_.interface_points.size(), Eigen::Vector3d::Zero());
-    for (int k : restarted) {
-      const Eigen::Vector3d f = system_.InterfaceReaction(k, before.lambda);
-      if (f.norm() > 0.0) normals[static_cast<size_t>(k)] = f.normalized();
-    }
-    if (!restarted.empty()) restarted = ProjectImpactVelocities(system_, *data_, t + h, restarted, normals, &after);
-    if (!restarted.empty()) {
-      // And onto their nodes' reported positions: the tie's stretch c·λ at the impact (0.25 mm
-      // for 648's 139 N s) was a spring the next steps released into the node's swing, and the
-      // step's point sat at the interface model's imposed value, which then differs from the
-      // node's position (648: 0.11 mm along the plane). Not moved, the swing doubled at each
-      // re-contact and rotor 639's pad went 0.107 m through its anti-flap plane (exit 3). (If a
-      // solve of the move fails, the projection alone stands.)
-      for (int k : restarted) {
-        for (int j = 0; j < 3; ++j)
-          data_->imposed[3 * static_cast<size_t>(k) + static_cast<size_t>(j)].value = position_(3 * k + j);
-      }
-      MoveImpactPointsOntoNodes(system_, *data_, t + h, restarted, normals, &after);
-      MoveNodesWithRestart(before, after, restarted);  // (before the restart: it reads them)
-      const Eigen::VectorXd a_before = integrator_->acceleration_variable();
-      RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
-      KeepHistoryTheRestartDidNotChange(before, a_before);
-      for (int k : restarted) accepted_x_.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
-      accepted_steps_ = 0;
-      offset_known_ = false;
-      relaxation_.Forget();  // nor do the secants of the interface map before it
-    }
-    // (after a restart in the same step, whose consistent accelerations hold the impulse too)
-    if (restarted.size() < impacts.size()) HoldImpactingBodiesHistory(impacts, restarted, t + h, h);
+  const DaeState before = integrator_->state();
+  DaeState after = before;
+  // The points move with their nodes across each impact's plane (along its reaction: Newton's
+  // law's velocity); along the plane a node's velocity is its own, which on a stiff tie swings
+  // about its point's (Moreau–Jean's midpoint rule does not damp it): imposed whole, it kicked
+  // the blade in lag at each impact (generated rotor 648: 11 of 143 restarts failed the
+  // projection's 10 % test, the pad's in-plane swing growing to 3 m/s).
+  std::vector<Eigen::Vector3d>& normals = impact_normals_;
+  normals.assign(system_.interface_points.size(), Eigen::Vector3d::Zero());
+  for (int k : restarted) {
+    const Eigen::Vector3d f = system_.InterfaceReaction(k, before.lambda);
+    if (f.norm() > 0.0) normals[static_cast<size_t>(k)] = f.normalized();
   }
-  was_contact_ = contact_;
-  resting_at_start_ = false;
-  // Protocol 3: the next StepBegin accepts the step at the peers (or Shutdown's
-  // last_accepted_step at the end): no StepEnd round trip.
-  last_accepted_ = step_;
-  ++step_;
+  if (!restarted.empty()) restarted = ProjectImpactVelocities(system_, *data_, t + h, restarted, normals, &after);
+  if (!restarted.empty()) {
+    // And onto their nodes' reported positions: the tie's stretch c·λ at the impact (0.25 mm
+    // for 648's 139 N s) was a spring the next steps released into the node's swing, and the
+    // step's point sat at the interface model's imposed value, which then differs from the
+    // node's position (648: 0.11 mm along the plane). Not moved, the swing doubled at each
+    // re-contact and rotor 639's pad went 0.107 m through its anti-flap plane (exit 3). (If a
+    // solve of the move fails, the projection alone stands.)
+    for (int k : restarted) {
+      for (int j = 0; j < 3; ++j)
+        data_->imposed[3 * static_cast<size_t>(k) + static_cast<size_t>(j)].value = it_.answers.position(3 * k + j);
+    }
+    MoveImpactPointsOntoNodes(system_, *data_, t + h, restarted, normals, &after);
+    MoveNodesWithRestart(before, after, restarted);  // (before the restart: it reads them)
+    const Eigen::VectorXd a_before = integrator_->acceleration_variable();
+    RestartWithCouplingRowsFree(std::move(after), t + h, restarted);
+    KeepHistoryTheRestartDidNotChange(before, a_before);
+    for (int k : restarted)
+      memory_.accepted_x.segment<3>(3 * k).setZero();  // the impact's reaction does not carry over
+    memory_.accepted_steps = 0;
+    memory_.offset_known = false;
+    method_->Forget();  // nor do the secants of the interface map before it
+  }
+  // (after a restart in the same step, whose consistent accelerations hold the impulse too)
+  if (restarted.size() < impacts.size()) HoldImpactingBodiesHistory(impacts, restarted, t + h, h);
 }
 
 void Coordinator::MoveNodesWithRestart(const DaeState& before, const DaeState& after,
@@ -1031,16 +487,17 @@ void Coordinator::MoveNodesWithRestart(const DaeState& before, const DaeState& a
     const InterfacePoint& p = system_.interface_points[k];
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
     const bool impacting = std::find(restarted.begin(), restarted.end(), static_cast<int>(k)) != restarted.end();
-    const Eigen::Vector3d jump = impacting ? Eigen::Vector3d(p.point.Rate(after.qdot) - velocity_.segment<3>(o))
-                                           : Eigen::Vector3d(p.point.Rate(after.qdot) - p.point.Rate(before.qdot));
+    const Eigen::Vector3d jump = impacting
+                                     ? Eigen::Vector3d(p.point.Rate(after.qdot) - it_.answers.velocity.segment<3>(o))
+                                     : Eigen::Vector3d(p.point.Rate(after.qdot) - p.point.Rate(before.qdot));
     const Eigen::Vector3d shift =
         impacting ? Eigen::Vector3d::Zero() : Eigen::Vector3d(p.point.Value(after.q) - p.point.Value(before.q));
     if (!impacting && jump.norm() < 1e-12 && shift.norm() < 1e-12) continue;  // (a body nothing moved: round-off)
     moved_points_.push_back(static_cast<int>(k));
-    velocity_.segment<3>(o) += jump;
-    position_.segment<3>(o) += shift;
-    accepted_velocity_.segment<3>(o) = velocity_.segment<3>(o);
-    accepted_position_.segment<3>(o) = position_.segment<3>(o);
+    it_.answers.velocity.segment<3>(o) += jump;
+    it_.answers.position.segment<3>(o) += shift;
+    memory_.accepted_velocity.segment<3>(o) = it_.answers.velocity.segment<3>(o);
+    memory_.accepted_position.segment<3>(o) = it_.answers.position.segment<3>(o);
     for (int j = 0; j < 3; ++j) {  // (rows as consistent as before)
       data_->imposed[3 * k + static_cast<size_t>(j)].rate += jump(j);
       data_->imposed[3 * k + static_cast<size_t>(j)].value += shift(j);
@@ -1079,18 +536,6 @@ void Coordinator::KeepHistoryTheRestartDidNotChange(const DaeState& before, cons
     o += count;
   }
   if (kept) integrator_->ReplaceAccelerationHistory(held_a_, held_qddot_);
-}
-
-void Coordinator::FillRestartedNodes(const Peer& peer, coupling::RestartedNodes* out) const {
-  // (The accepted kinematics: the next step's prediction has overwritten position_ and velocity_
-  // by the time its StepBegin goes.)
-  for (size_t i = 0; i < peer.points.size(); ++i) {
-    const int k = peer.points[i];
-    if (std::find(moved_points_.begin(), moved_points_.end(), k) == moved_points_.end()) continue;
-    out->add_node(static_cast<int>(i));
-    for (int j = 0; j < 3; ++j) out->add_position(accepted_position_(3 * k + j));
-    for (int j = 0; j < 3; ++j) out->add_velocity(accepted_velocity_(3 * k + j));
-  }
 }
 
 void Coordinator::HoldImpactingBodiesHistory(const std::vector<int>& impacts, const std::vector<int>& restarted,
@@ -1198,8 +643,8 @@ std::vector<int> Coordinator::Impacts() const {
   // a settled rotor's blade rose 0.023° off its droop stop (the tie's static stretch moved away).
   if (resting_at_start_) return {};
   std::vector<int> points;
-  for (size_t k = 0; k < contact_.size(); ++k) {
-    if (contact_[k] && !was_contact_[k]) points.push_back(static_cast<int>(k));
+  for (size_t k = 0; k < it_.answers.contact.size(); ++k) {
+    if (it_.answers.contact[k] && !memory_.was_contact[k]) points.push_back(static_cast<int>(k));
   }
   return points;
 }
@@ -1209,38 +654,16 @@ void Coordinator::Reject() {
   // A rejected step leaves no trace: its answers (the sensitivities of a step of another length,
   // h²θ/m for a free node; its contact flags) are not the accepted state's, and the next try
   // starts from the accepted ones, as a run taking that step from the start would.
-  sensitivity_ = accepted_sensitivity_;
-  in_contact_ = accepted_in_contact_;
-  time_to_contact_ = accepted_time_to_contact_;
-  relaxation_.Forget();  // secants of a step of another length
-  EndStep(false, false);
+  memory_.GetSensitivities(&it_.answers.sensitivity);
+  it_.answers.in_contact = accepted_in_contact_;
+  it_.answers.time_to_contact = accepted_time_to_contact_;
+  method_->Forget();  // secants of a step of another length
+  link_.EndStep(step_, last_iteration_, /*accepted=*/false, /*converged=*/false);
   ++rejected_;
 }
 
-void Coordinator::EndStep(bool accepted, bool converged) {
-  for (Peer& peer : peers_) {
-    auto* end = peer.channel->Outgoing(step_, last_iteration_).mutable_step_end();
-    end->set_accepted(accepted);
-    end->set_converged(converged);
-    peer.channel->Send();
-  }
-  for (Peer& peer : peers_) peer.channel->Receive(Envelope::kStepEnd, step_, last_iteration_);
-}
-
 void Coordinator::Shutdown(int exit_code, const std::string& reason, bool wait_for_replies) {
-  for (Peer& peer : peers_) {
-    if (peer.channel->peer_stopped()) continue;  // it said Shutdown itself: it is gone
-    auto* stop = peer.channel->Outgoing(-1, 0).mutable_shutdown();
-    stop->set_exit_code(exit_code);
-    stop->set_reason(reason);
-    stop->set_last_accepted_step(last_accepted_);
-    if (!moved_points_.empty()) FillRestartedNodes(peer, stop->mutable_restarted_nodes());
-    peer.channel->Send();
-  }
-  if (!wait_for_replies) return;
-  for (Peer& peer : peers_) {
-    if (!peer.channel->peer_stopped()) peer.channel->Receive(Envelope::kShutdown, -1, -1);
-  }
+  link_.Shutdown(exit_code, reason, last_accepted_, Moved(), wait_for_replies);
 }
 
 }  // namespace cosim::smooth

@@ -332,8 +332,8 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
       }
       ++backtracks_;
       log_.push_back(record);
-      Exchange(iteration + 1,
-               iterate_);  // (the answers of the iteration that failed; the method keeps the solved one's)
+      // (The frames of the last iteration that solved; the method keeps that iteration's answers.)
+      Exchange(iteration + 1, iterate_);
       continue;
     }
     if (!it_.x_tilde.allFinite()) {

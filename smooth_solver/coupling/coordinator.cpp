@@ -1,21 +1,16 @@
 #include "smooth_solver/coupling/coordinator.h"
 
-#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <string>
 #include <utility>
 
 #include "interface/run/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/integrator/initial_conditions.h"
-#include "smooth_solver/simulation/saved_state.h"
 
 namespace cosim::smooth {
-
-using coupling::Envelope;
 
 Coordinator::Coordinator(const MultibodySystem& system, SystemData* data, CgAlpha* integrator, std::vector<Peer> peers,
                          const CouplingSettings& settings)
@@ -112,8 +107,7 @@ void Coordinator::Handshake(const std::string& scenario_name, double start_time,
     hello.settled = settings_.settled_start;
   }
   const bool offered = link_.Handshake(hello, start);
-  jacobians_ = settings_.interface_jacobians && n_ > 0 && offered;
-  method_ = jacobians_ ? static_cast<CouplingMethod*>(&jacobian_method_) : &relaxation_method_;
+  if (settings_.interface_jacobians && n_ > 0 && offered) method_ = &jacobian_method_;
   // The nodes' motion at the start (the first step's predicted positions). A free start's nodes
   // are where their points are (λ = 0); a settled start's where the settle left them, its
   // imposed coordinates: a point on a regularised tie is not its node, and the settled rod
@@ -165,8 +159,9 @@ std::string Coordinator::Describe(const Attempt& attempt) const {
              std::to_string(step_) + " (t = " + interface::FormatNumber(attempt.end_time) + " s): reaction residual " +
              interface::FormatNumber(log_.back().reaction_residual) + " N, displacement change " +
              interface::FormatNumber(log_.back().displacement_change) + " m; " + CouplingState() +
-             (jacobians_ ? "; raise coupling.iteration.max_iterations"
-                         : "; raise coupling.iteration.max_iterations, choose another relaxation, or shorten the step");
+             (interface_jacobians()
+                  ? "; raise coupling.iteration.max_iterations"
+                  : "; raise coupling.iteration.max_iterations, choose another relaxation, or shorten the step");
     case Attempt::Outcome::kSmoothFailed: {
       const std::string why = attempt.smooth.Describe(integrator_->settings());
       if (!attempt.with_answers) return why;
@@ -220,18 +215,18 @@ std::string Coordinator::CouplingState() const {
 ReactionsToSend Coordinator::Sent() const {
   // (The stiffness and positions are the interface Jacobians' linearisation; with a relaxation
   // they are not sent.)
-  return {it_.x, jacobians_, jacobian_method_.stiffness(), jacobian_method_.linearised_at()};
+  return {it_.x, interface_jacobians(), jacobian_method_.stiffness(), jacobian_method_.linearised_at()};
 }
 
 void Coordinator::BeginStep(double t, double h, const DaeState& frames, double ahead) {
   link_.BeginStep(step_, t, h, Sent(), frames, ahead, Moved());
   moved_points_.clear();  // (told: the peers accepted the step with them)
-  link_.Receive(step_, 0, jacobians_, it_.x, &it_.answers);
+  link_.Receive(step_, 0, interface_jacobians(), it_.x, &it_.answers);
 }
 
 void Coordinator::Exchange(int iteration, const DaeState& frames) {
   link_.Exchange(step_, iteration, Sent(), frames);
-  link_.Receive(step_, iteration, jacobians_, it_.x, &it_.answers);
+  link_.Receive(step_, iteration, interface_jacobians(), it_.x, &it_.answers);
 }
 
 StepStatus Coordinator::SolveStep(double t, double h, const DaeState* guess) {
@@ -326,7 +321,7 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
     if (!result.smooth.ok()) {
       // With interface Jacobians the smooth step could not take the contact processes' answers;
       // a relaxation's update may be back-tracked (RelaxationMethod::Backtrack).
-      result.with_answers = jacobians_;
+      result.with_answers = interface_jacobians();
       if (!method_->Backtrack(iteration, ++backtracks, &record)) {
         return Failed(iteration, Attempt::Outcome::kSmoothFailed, result);
       }
@@ -373,7 +368,7 @@ void Coordinator::Accept(double t, double h) {
   m.previous_accepted_position = m.accepted_position;
   m.previous_accepted_velocity = m.accepted_velocity;
   m.previous_accepted_h = m.accepted_h;
-  m.offset_known = jacobians_ && m.accepted_steps >= 1 && impacts.empty();
+  m.offset_known = interface_jacobians() && m.accepted_steps >= 1 && impacts.empty();
   for (size_t k = 0; k < a.sensitivity.size(); ++k) {
     const Eigen::Index o = 3 * static_cast<Eigen::Index>(k);
     m.accepted_offset.segment<3>(o) = a.position.segment<3>(o) - a.sensitivity[k] * a.applied.segment<3>(o);

@@ -23,7 +23,6 @@
 // x are the forces the smooth model exerts on the interface nodes (the coincidence rows'
 // multipliers), k the nodes' end-of-step positions and velocities. The imposed acceleration
 // is the velocity change over the step divided by h.
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -107,7 +106,7 @@ class Coordinator {
   // Steps accepted on the linearising pre-solve: the peers' answer agreed with it (no second solve).
   long long linearisation_accepted() const { return method_->linearisation_accepted(); }
   // Whether the steps iterate with interface Jacobians (every peer offered them).
-  bool interface_jacobians() const { return jacobians_; }
+  bool interface_jacobians() const { return method_ == &jacobian_method_; }
   // Tells every peer the run is over (exit code 0, or the failure's code and reason) and, with
   // `wait_for_replies`, waits for each one's Shutdown.
   void Shutdown(int exit_code, const std::string& reason, bool wait_for_replies = true);
@@ -177,7 +176,6 @@ class Coordinator {
   InterfaceJacobianMethod jacobian_method_;
   RelaxationMethod relaxation_method_;
   CouplingMethod* method_ = &relaxation_method_;  // the handshake's choice
-  bool jacobians_ = false;                        // it chose interface Jacobians (every peer offered them)
   CgAlpha::Checkpoint start_;
   DaeState iterate_;  // the end state of the step's last solved coupling iteration (Newton's start for the next)
   bool iterate_solved_ = false;                  // iterate_ is a solve of the step under way

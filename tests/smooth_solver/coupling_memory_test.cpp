@@ -8,23 +8,35 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 namespace cosim::smooth {
 namespace {
 
 constexpr int kPoints = 2;
 
+// The repeated doubles of state.proto's CoordinatorMemory, found by reflection (not from the table
+// under test).
+std::vector<const google::protobuf::FieldDescriptor*> SavedVectors() {
+  const google::protobuf::Descriptor* d = state::CoordinatorMemory::descriptor();
+  std::vector<const google::protobuf::FieldDescriptor*> out;
+  for (int f = 0; f < d->field_count(); ++f) {
+    const google::protobuf::FieldDescriptor* field = d->field(f);
+    if (field->is_repeated() && field->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) {
+      out.push_back(field);
+    }
+  }
+  return out;
+}
+
 // A memory whose every value differs from every other (and from a fresh memory's zeros).
 CouplingMemory Distinct() {
   CouplingMemory m(kPoints);
   state::CoordinatorMemory saved;
   m.Save(&saved);
-  const google::protobuf::Descriptor* d = saved.GetDescriptor();
   const google::protobuf::Reflection* r = saved.GetReflection();
   double next = 1.0;
-  for (int f = 0; f < d->field_count(); ++f) {
-    const google::protobuf::FieldDescriptor* field = d->field(f);
-    if (!field->is_repeated() || field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) continue;
+  for (const google::protobuf::FieldDescriptor* field : SavedVectors()) {
     for (int i = 0; i < r->FieldSize(saved, field); ++i) r->SetRepeatedDouble(&saved, field, i, next++);
   }
   saved.set_accepted_steps(7);
@@ -59,12 +71,9 @@ TEST(CouplingMemory, EveryVectorOfTheSavedMessageIsReadAndChecked) {
   const CouplingMemory m = Distinct();
   state::CoordinatorMemory good;
   m.Save(&good);
-  const google::protobuf::Descriptor* d = good.GetDescriptor();
   const google::protobuf::Reflection* r = good.GetReflection();
   int vectors = 0;
-  for (int f = 0; f < d->field_count(); ++f) {
-    const google::protobuf::FieldDescriptor* field = d->field(f);
-    if (!field->is_repeated() || field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) continue;
+  for (const google::protobuf::FieldDescriptor* field : SavedVectors()) {
     ++vectors;
     const int size = r->FieldSize(good, field);
     ASSERT_GT(size, 0) << field->name() << " was not saved";

@@ -118,30 +118,39 @@ std::vector<ProcessPlan> PlanProcesses(const ScenarioFile& file, const CommandLi
   }
   const std::vector<ContactProcessPlan> processes = ReadCouplingPlan(file);
   ReadChannelTiming(file);  // refused here once rather than by every process
-  std::vector<std::string> common = arguments;
-  for (const ContactProcessPlan& process : processes) {
-    if (!process.endpoint.empty()) continue;
+  // The coordinator connects to every contact process; each contact process binds its own
+  // endpoint only (given every endpoint, N processes would each read and list N overrides).
+  std::vector<std::string> smooth_args = arguments;
+  auto endpoint_of = [&](const ContactProcessPlan& process) -> std::vector<std::string> {
+    if (!process.endpoint.empty()) return {};
     const std::string endpoint = "ipc://" + ipc_folder + "/" + std::to_string(process.index) + ".ipc";
-    common.insert(common.end(),
-                  {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" + endpoint + "\""});
+    return {"--set", "coupling.processes[" + std::to_string(process.index) + "].endpoint=\"" + endpoint + "\""};
+  };
+  for (const ContactProcessPlan& process : processes) {
+    const std::vector<std::string> set = endpoint_of(process);
+    smooth_args.insert(smooth_args.end(), set.begin(), set.end());
   }
   const auto [server_public, server_secret] = CurveKeyPair();
   const auto [client_public, client_secret] = CurveKeyPair();
   auto variable = [](const char* name, const std::string& value) { return std::string(name) + "=" + value; };
+  std::vector<std::string> contact_environment{
+      variable(kCurveServerPublic, server_public), variable(kCurveServerSecret, server_secret),
+      variable(kCurveClientPublic, client_public), variable(kSupervisedVariable, "1")};
+  // A contact process's LCPs are a few nodes' each: OpenBLAS's worker threads cannot help them,
+  // and each spins on sched_yield for ~0.1 s of CPU after it starts (0.19 s of CPU for a
+  // contact process's start and 2 s wait, 0.06 s with one thread; one process per blade on two
+  // cores pays it once per blade). The user's own OPENBLAS_NUM_THREADS is kept.
+  if (std::getenv("OPENBLAS_NUM_THREADS") == nullptr) contact_environment.emplace_back("OPENBLAS_NUM_THREADS=1");
   std::vector<ProcessPlan> plan;
   for (const ContactProcessPlan& process : processes) {
-    std::vector<std::string> contact_args = common;
+    std::vector<std::string> contact_args = arguments;
+    const std::vector<std::string> set = endpoint_of(process);
+    contact_args.insert(contact_args.end(), set.begin(), set.end());
     const std::string folder = out + "/" + process.name;
     contact_args.insert(contact_args.end(), {"--process", process.name, "--out", folder});
-    plan.push_back(
-        ProcessPlan{process.program,
-                    contact_args,
-                    folder,
-                    "contact process '" + process.name + "'",
-                    {variable(kCurveServerPublic, server_public), variable(kCurveServerSecret, server_secret),
-                     variable(kCurveClientPublic, client_public), variable(kSupervisedVariable, "1")}});
+    plan.push_back(ProcessPlan{process.program, contact_args, folder, "contact process '" + process.name + "'",
+                               contact_environment});
   }
-  std::vector<std::string> smooth_args = common;
   if (cli.out.empty()) smooth_args.insert(smooth_args.end(), {"--out", out});
   plan.push_back(ProcessPlan{"smooth_solver",
                              smooth_args,

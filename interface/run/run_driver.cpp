@@ -161,7 +161,8 @@ struct RunSetup {
 // code 2; whatever stops the run here (bad input, an endpoint that cannot be bound: exit 4, a
 // model too large for memory) ends it with its exit code and, given --out, a summary saying
 // why. Returns 0 or that code.
-int SetUp(const std::string& program, const CommandLine& cli, const SimulationFactory& factory, RunSetup* run) {
+int SetUp(const std::string& program, const CommandLine& cli, const SimulationFactory& factory,
+          ScenarioView process_view, RunSetup* run) {
   auto fail_before_start = [&](ExitCode code, const std::string& what) {
     run->output.reset();  // (its lock released: the failure summary goes into the same folder)
     std::cerr << program << ": error: " << what << "\n";
@@ -169,7 +170,8 @@ int SetUp(const std::string& program, const CommandLine& cli, const SimulationFa
     return static_cast<int>(code);
   };
   try {
-    run->file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets));
+    const ScenarioView view = cli.process.empty() ? ScenarioView::kWhole : process_view;
+    run->file = std::make_unique<ScenarioFile>(ScenarioFile::Load(cli.scenario, cli.sets, view));
     run->span = ValidateTimeSpan(*run->file);
     run->simulation = factory(*run->file, cli);
     run->output = std::make_unique<RunOutput>(cli.out.empty() ? DefaultOutFolder(*run->file) : cli.out,
@@ -330,7 +332,8 @@ int Finish(const std::string& program, const RunSetup& run, StepsOutcome outcome
 
 }  // namespace
 
-int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory) {
+int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory,
+               ScenarioView process_view) {
   const auto wall_start = std::chrono::steady_clock::now();
   InstallTerminationHandler();
   std::vector<std::string> arguments(argv + 1, argv + argc);
@@ -346,7 +349,7 @@ int RunProgram(const std::string& program, int argc, char** argv, const Simulati
     return static_cast<int>(ExitCode::kBadInput);
   }
   RunSetup run;
-  if (const int code = SetUp(program, cli, factory, &run); code != 0) return code;
+  if (const int code = SetUp(program, cli, factory, process_view, &run); code != 0) return code;
 
   run::RunSummary& summary = run.output->summary();
   summary.set_program(program);

@@ -76,8 +76,10 @@ void WriteFailureSummary(const std::string& program, const CommandLine& cli, Exi
 std::string ScenarioName(const ScenarioFile& file);
 std::string DefaultOutFolder(const ScenarioFile& file);
 
-// main() of a solver executable. Returns the process exit code.
-int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory);
+// main() of a solver executable. Returns the process exit code. With `--process NAME` (a
+// coupled run's contact process) the scene is loaded as `process_view`.
+int RunProgram(const std::string& program, int argc, char** argv, const SimulationFactory& factory,
+               ScenarioView process_view = ScenarioView::kWhole);
 
 // SIGTERM and SIGINT (the launcher stopping a run whose other process failed, or a user's ^C)
 // set a flag that RunProgram's time loop and the coupling channel's waits check: the run then

@@ -312,8 +312,8 @@ ScenarioFile::ScenarioFile(ScenarioFile&&) noexcept = default;
 ScenarioFile& ScenarioFile::operator=(ScenarioFile&&) noexcept = default;
 ScenarioFile::~ScenarioFile() = default;
 
-ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::string>& overrides) {
-  return Parse(ReadScenarioText(path, path), path, overrides);
+ScenarioFile ScenarioFile::Load(const std::string& path, const std::vector<std::string>& overrides, ScenarioView view) {
+  return Parse(ReadScenarioText(path, path), path, overrides, view);
 }
 
 std::string ScenarioFile::Place(int line, int column) const { return PlaceOf(line_origins_, path_, line, column); }
@@ -408,7 +408,7 @@ std::string ScenarioFile::ExpandParameters(const std::string& joined,
 }
 
 ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& display_name,
-                                 const std::vector<std::string>& overrides) {
+                                 const std::vector<std::string>& overrides, ScenarioView view) {
   // Included files first: their lines in place of each `include: "FILE"` line, every line
   // remembering the file and line it came from. Then the parameters' ${…}.
   std::string joined;
@@ -432,6 +432,14 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   // The patterns' numbers finite before they are copied (a template's rotation [nan, 0.1745, 0]
   // was turned into "no rotation" by the copying, and the check after it found nothing); the
   // rest of the scene is checked once, after the expansion.
+  // A contact process's view: the smooth model reduced to names before it is copied
+  // (contact_view.h); what it drops is the coordinator's to apply and check.
+  const bool contact_view = view == ScenarioView::kContactProcess;
+  auto reduce = [&file] {
+    ReduceToContactView(file.proto_.mutable_model());
+    for (scenario::Pattern& p : *file.proto_.mutable_patterns()) ReduceToContactView(p.mutable_each()->mutable_model());
+  };
+  if (contact_view) reduce();
   for (int i = 0; i < file.proto_.patterns_size(); ++i) {
     file.CheckFinite(file.proto_.patterns(i), "patterns[" + std::to_string(i) + "]");
   }
@@ -439,9 +447,17 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
       &file.proto_, [&file](const std::string& path, const std::string& message) { file.Fail(path, message); });
   for (const std::string& argument : overrides) {
     if (of_patterns(argument)) continue;
+    if (contact_view) {
+      const size_t eq = argument.find('=');
+      if (eq != std::string::npos && eq > 0 &&
+          OutsideContactView(ParseFieldPath(argument.substr(0, eq), "--set " + argument))) {
+        continue;
+      }
+    }
     file.ApplyOverride(argument);
     file.NoteCopyOverride(argument);
   }
+  if (contact_view) ReduceToContactView(file.proto_.mutable_model());  // a whole element set by --set
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
   // Tables from their CSV files (after the overrides: one may name another file).

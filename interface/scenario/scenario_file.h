@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "interface/scenario/contact_view.h"
 #include "interface/scenario/pattern.h"
 #include "scenario.pb.h"
 
@@ -23,11 +24,13 @@ class ScenarioFile {
   // override "FIELD.PATH=VALUE" in order. Throws InputError naming file:line:col for syntax
   // errors and unknown fields, and the override for a bad `--set`.
   // Only a regular file of at most kMaxScenarioBytes is read. Every number must be finite.
-  static ScenarioFile Load(const std::string& path, const std::vector<std::string>& overrides);
+  // `view` kContactProcess: the part a coupled run's contact process reads (contact_view.h).
+  static ScenarioFile Load(const std::string& path, const std::vector<std::string>& overrides,
+                           ScenarioView view = ScenarioView::kWhole);
   static constexpr long long kMaxScenarioBytes = 64LL << 20;
   // The same from text in memory (tests); `display_name` stands in for the file name.
   static ScenarioFile Parse(const std::string& text, const std::string& display_name,
-                            const std::vector<std::string>& overrides);
+                            const std::vector<std::string>& overrides, ScenarioView view = ScenarioView::kWhole);
 
   ScenarioFile(ScenarioFile&&) noexcept;
   ScenarioFile& operator=(ScenarioFile&&) noexcept;

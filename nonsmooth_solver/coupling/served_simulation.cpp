@@ -113,7 +113,8 @@ int RunContactProgram(const std::string& program, int argc, char** argv,
             make(file, nullptr);  // every node; obstacles on smooth bodies refused
         stepper->UseSavedState(file, "");
         return stepper;
-      });
+      },
+      interface::ScenarioView::kContactProcess);
 }
 
 }  // namespace cosim::nonsmooth

@@ -42,7 +42,7 @@ class TripletSink : public SparseSink {
 // every elastic-body node.
 std::vector<char> PointTriples(const MultibodySystem& system) {
   const int triples = system.coordinates / 3;
-  const int rigid = system.elastic_offset.empty() ? system.coordinates : system.elastic_offset.front();
+  const int rigid = system.rigid_coordinates();
   std::vector<char> point(static_cast<size_t>(triples), 1);
   for (int k = 0; k < rigid / 3; ++k) point[static_cast<size_t>(k)] = (k % 4 == 0) ? 1 : 0;
   return point;

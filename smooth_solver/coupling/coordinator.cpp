@@ -518,7 +518,7 @@ void Coordinator::KeepHistoryTheRestartDidNotChange(const DaeState& before, cons
   held_a_ = integrator_->acceleration_variable();
   held_qddot_ = now.qddot;
   const Eigen::Index n = system_.coordinates;
-  const Eigen::Index rigid = system_.elastic_offset.empty() ? n : system_.elastic_offset.front();
+  const Eigen::Index rigid = system_.rigid_coordinates();
   bool kept = false;
   for (Eigen::Index o = 0; o < n;) {
     const Eigen::Index count = o < rigid ? kCoordinatesPerBody : 1;

@@ -128,15 +128,15 @@ void ConsistentAccelerations(const MultibodySystem& system, const SystemData& da
       if (mode[static_cast<size_t>(n + i)] == Row::kCompliant) rhs(n + i) = -phi(i);
     }
   }
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu;
-  lu.compute(A);
-  if (lu.info() != Eigen::Success) {
+  KluSolver lu;
+  if (!FactorizeHubLast(&A, system.rigid_coordinates(), &lu)) {
     throw InputError(
         "model: the constrained mass matrix [M, Φ_qᵀ; Φ_q, 0] is singular at the initial state: the joints are "
         "redundant (an overconstrained loop: e.g. a planar four-bar of four revolute joints in 3D; use a spherical "
         "and a universal joint for two of them) or a body's motion is not constrained nor given inertia");
   }
-  const Eigen::VectorXd x = lu.solve(rhs);
+  Eigen::VectorXd x = rhs;
+  lu.SolveInPlace(x);
   state->qddot = x.head(n);
   state->lambda = x.tail(m);
 }
@@ -193,7 +193,7 @@ CgAlpha::CgAlpha(const MultibodySystem& system, SystemData* data, const CgAlphaS
   // (Φ_q q̇)_q has the coordinates of Φ_q in every row: the pattern is the index-3 one.
   S_ = SaddlePattern(system, *data);
   // Once: the pattern never changes. A hub's coordinates (a rotor's) ordered last.
-  const int rigid = system.elastic_offset.empty() ? system.coordinates : system.elastic_offset.front();
+  const int rigid = system.rigid_coordinates();
   lu_.Analyze(S_, HubColumns(S_, RigidBodyGroups(rigid, static_cast<int>(S_.cols()))));
 }
 

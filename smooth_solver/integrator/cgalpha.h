@@ -42,7 +42,6 @@
 // (The CGα paper's Eq. (4) prints αm and αf the other way round; with its own γ = ½ − αm + αf
 // that would give γ < ½ for ρ∞ < 1, an unstable scheme, so the names there are swapped.)
 #include <Eigen/Core>
-#include <Eigen/SparseLU>
 #include <cmath>
 #include <string>
 #include <vector>

@@ -50,7 +50,7 @@ CgAlphaIndex2::CgAlphaIndex2(const MultibodySystem& system, const SystemData& da
   cs.Jacobian(imposed, system.q0, always, &r4_vdot, 0, 1.0);
   S_ = p.Build(2 * n + 2 * m, 2 * n + 2 * m);
   // A hub's coordinates and rates (a rotor's: hub_columns.h) ordered last.
-  const int rigid = system.elastic_offset.empty() ? n : system.elastic_offset.front();
+  const int rigid = system.rigid_coordinates();
   std::vector<int> group = RigidBodyGroups(rigid, static_cast<int>(S_.cols()));
   for (int j = 0; j < rigid; ++j) group[static_cast<size_t>(n + j)] = group[static_cast<size_t>(j)];
   lu_.Analyze(S_, HubColumns(S_, group));

@@ -136,16 +136,19 @@ bool SmallestVelocityChange(const MultibodySystem& system, const SystemData& dat
   system.constraints.TimeDerivative(data.imposed, q, t, rhs.segment(n, mc));
   rhs.segment(n, mc) *= -1.0;
   if (holds != nullptr) holds->JacobianTimes(data.imposed, q, t, qdot_ref, rhs.tail(mh));
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(A);
-  if (lu.info() != Eigen::Success && mh > 0) {
+  const int rigid = system.rigid_coordinates();
+  KluSolver lu;
+  bool factorized = FactorizeHubLast(&A, rigid, &lu);
+  if (!factorized && mh > 0) {
     // A held speed the constraints already fix (a held joint of a structure the closure made
     // rigid, e.g. with an actuator locked at closure) makes its row redundant: met in the
     // least-squares sense instead (consistent, as here, it costs nothing).
     for (int i = 0; i < mh; ++i) A.coeffRef(n + mc + i, n + mc + i) -= 1e-12;
-    lu.compute(A);
+    factorized = FactorizeHubLast(&A, rigid, &lu);
   }
-  if (lu.info() != Eigen::Success) return false;
-  *qdot = lu.solve(rhs).head(n);
+  if (!factorized) return false;
+  lu.SolveInPlace(rhs);
+  *qdot = rhs.head(n);
   return true;
 }
 
@@ -177,7 +180,7 @@ DaeState ConsistentInitialState(const MultibodySystem& system, const SystemData&
   // A hub's coordinates last, as in CGα's matrices (hub_columns.h): the closure's Jacobian has
   // their coupling, and on a 100-blade Puma its factorisation was 9 % of a two-step run.
   std::vector<sunindextype> sets;
-  const int rigid = system.elastic_offset.empty() ? n : system.elastic_offset.front();
+  const int rigid = system.rigid_coordinates();
   OrderColumnsLast(SUNLinSol_KLUGetCommon(LS), N, HubColumns(problem.A, RigidBodyGroups(rigid, N)), &sets);
   void* kin = KINCreate(ctx);
   View(y).setZero();
@@ -375,7 +378,7 @@ bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data,
                           const std::vector<bool>& held, const std::vector<int>& points, DaeState* state,
                           const ImpactNormals* normals) {
   const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
-  const ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points, false, normals);
+  ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points, false, normals);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
   rhs.head(n) = system.mass * state->qdot;
   system.constraints.TimeDerivative(data.imposed, state->q, t, rhs.segment(n, mc));
@@ -391,9 +394,10 @@ bool SmallestImpactChange(const MultibodySystem& system, const SystemData& data,
   for (int i = 0; i < N; ++i) {
     if (m.out[static_cast<size_t>(i)]) rhs(i) = i < n ? state->qdot(i) : 0.0;
   }
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
-  if (lu.info() != Eigen::Success) return false;
-  state->qdot = lu.solve(rhs).head(n);
+  KluSolver lu;
+  if (!FactorizeHubLast(&m.A, system.rigid_coordinates(), &lu)) return false;
+  lu.SolveInPlace(rhs);
+  state->qdot = rhs.head(n);
   return state->qdot.allFinite();
 }
 
@@ -409,16 +413,17 @@ std::vector<int> BodiesAnImpulseMoves(const MultibodySystem& system, const Syste
   // stiffness, which is not impulsive. Every row takes a compliance of 1e-10 (a closed pitch-link
   // loop's redundant rows; a driven hub then takes ~1e-10 of the energy).
   const int n = system.coordinates, N = n + system.constraints.size();
-  const int bodies = (system.elastic_offset.empty() ? n : system.elastic_offset.front()) / kCoordinatesPerBody;
-  const ImpactMatrix m = BuildImpactMatrix(system, data, t, q, Hex27Coordinates(system), {}, /*regularised=*/true);
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
-  if (lu.info() != Eigen::Success) return {};
+  const int bodies = system.rigid_coordinates() / kCoordinatesPerBody;
+  ImpactMatrix m = BuildImpactMatrix(system, data, t, q, Hex27Coordinates(system), {}, /*regularised=*/true);
+  KluSolver lu;
+  if (!FactorizeHubLast(&m.A, system.rigid_coordinates(), &lu)) return {};
   Eigen::VectorXd energy = Eigen::VectorXd::Zero(bodies);
   const InterfacePoint& p = system.interface_points[static_cast<size_t>(point)];
   for (int d = 0; d < 3; ++d) {
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(N);
     for (const LinearVector::Term& term : p.point.terms) rhs(term.offset + d) += term.coefficient;
-    const Eigen::VectorXd dv = lu.solve(rhs).head(n);
+    lu.SolveInPlace(rhs);
+    const Eigen::VectorXd dv = rhs.head(n);
     if (!dv.allFinite()) return {};
     if (mobility != nullptr) mobility->col(d) = p.point.Rate(dv);
     const Eigen::VectorXd m_dv = system.mass * dv;
@@ -474,9 +479,9 @@ bool MoveImpactPointsOntoNodes(const MultibodySystem& system, const SystemData& 
   // Euler parameters; the move is a fraction of a millimetre).
   const int n = system.coordinates, mc = system.constraints.size(), N = n + mc;
   const std::vector<bool> held = ElasticCoordinates(system);
-  const ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points);
-  Eigen::SparseLU<Eigen::SparseMatrix<double>, Eigen::COLAMDOrdering<int>> lu(m.A);
-  if (lu.info() != Eigen::Success) return false;
+  ImpactMatrix m = BuildImpactMatrix(system, data, t, state->q, held, points);
+  KluSolver lu;
+  if (!FactorizeHubLast(&m.A, system.rigid_coordinates(), &lu)) return false;
   DaeState moved = *state;
   Eigen::VectorXd rhs(N), phi(mc);
   for (int iteration = 0; iteration < 3; ++iteration) {
@@ -486,7 +491,8 @@ bool MoveImpactPointsOntoNodes(const MultibodySystem& system, const SystemData& 
     for (int i = 0; i < N; ++i) {
       if (m.out[static_cast<size_t>(i)]) rhs(i) = 0.0;
     }
-    const Eigen::VectorXd dq = lu.solve(rhs).head(n);
+    lu.SolveInPlace(rhs);
+    const Eigen::VectorXd dq = rhs.head(n);
     if (!dq.allFinite()) return false;
     moved.q += dq;
   }

@@ -129,4 +129,10 @@ std::vector<int> RigidBodyGroups(int rigid_coordinates, int columns) {
   return group;
 }
 
+bool FactorizeHubLast(Eigen::SparseMatrix<double>* A, int rigid_coordinates, KluSolver* lu) {
+  A->makeCompressed();
+  lu->Analyze(*A, HubColumns(*A, RigidBodyGroups(rigid_coordinates, static_cast<int>(A->cols()))));
+  return lu->Factorize(*A);
+}
+
 }  // namespace cosim::smooth

@@ -7,6 +7,8 @@
 #include <Eigen/SparseCore>
 #include <vector>
 
+#include "smooth_solver/linear_algebra/klu_solver.h"
+
 namespace cosim::smooth {
 
 // The columns of A's hub: of a group of columns (group[j] >= 0; −1 marks a column that is a
@@ -19,5 +21,12 @@ std::vector<int> HubColumns(const Eigen::SparseMatrix<double>& A, const std::vec
 // `rigid_coordinates` columns, in blocks of kCoordinatesPerBody) a group, every other column
 // (elastic nodes' coordinates, multipliers) its own.
 std::vector<int> RigidBodyGroups(int rigid_coordinates, int columns);
+
+// A one-off factorisation of a multibody matrix (the rigid bodies' coordinates first,
+// `rigid_coordinates` of them) with its hub's columns last, as the Newton matrices are: the
+// consistent accelerations, the impact restarts' projections. Eigen's SparseLU with COLAMD,
+// which these used, filled the factors between blades (~7 s of a 200-blade rotor's start).
+// `A` is made compressed. False if A is singular.
+bool FactorizeHubLast(Eigen::SparseMatrix<double>* A, int rigid_coordinates, KluSolver* lu);
 
 }  // namespace cosim::smooth

@@ -60,6 +60,8 @@ struct MultibodySystem {
   // Elastic bodies: their node positions are coordinates from elastic_offset[e] on.
   std::vector<std::unique_ptr<ElasticBodySpec>> elastic;
   std::vector<int> elastic_offset;
+  // The rigid bodies' coordinates (beam nodes included), which come first: all but the elastic ones.
+  int rigid_coordinates() const { return elastic_offset.empty() ? coordinates : elastic_offset.front(); }
   // Per elastic body: (first constraint row, node) of each clamped node's three point rows.
   std::vector<std::vector<std::pair<int, int>>> elastic_clamp_rows;
   // Resultant force and moment the clamps exert on elastic body e (moment about the clamped

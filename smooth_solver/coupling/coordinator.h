@@ -92,6 +92,9 @@ class Coordinator {
   // Why `attempt` (the last Try's, not converged) did not converge or failed, with the coupling
   // state it left (CouplingState): the message of its NumericalError or rejected step.
   std::string Describe(const Attempt& attempt) const;
+  // The integrator's state at the start of the step under way (or of the last one tried): what a
+  // rejected step returns to.
+  const CgAlpha::Checkpoint& start() const { return start_; }
   // The interface nodes in contact and the largest force mismatch, for a failed step's reason.
   std::string CouplingState() const;
   long long rejected_steps() const { return rejected_; }

@@ -148,6 +148,36 @@ void RequireCompliantTiesOnElasticNodesThatTouch(const interface::Checks& checks
 
 }  // namespace
 
+// The coordinator's coupled step as the adaptive controller's Stepper: a try is Coordinator::Try
+// (which saves the step's start: the one checkpoint), a rejection Coordinator::Reject (which
+// restores it), an acceptance Coordinator::Accept with the step's coupling iterations recorded.
+class CoupledSmoothSimulation::CoupledStepper final : public Stepper {
+ public:
+  explicit CoupledStepper(CoupledSmoothSimulation* run) : run_(run) {}
+  [[nodiscard]] StepAttempt TryStep(double t, double h) override {
+    last_ = run_->coordinator_->Try(t, h);
+    StepAttempt attempt;
+    attempt.iterations = run_->coordinator_->last_newton_iterations();
+    attempt.failed = !last_.converged();  // (an unconverged step is rejected as a failed one)
+    attempt.impact = last_.impact;        // a contact that closed in the step (a resting one is smooth motion)
+    attempt.time_to_contact = last_.time_to_contact;
+    return attempt;
+  }
+  void Accept(double t, double h) override {
+    run_->coordinator_->Accept(t, h);
+    run_->WriteIterations();
+    run_->coupling_.Add(last_.iterations);
+  }
+  void Reject() override { run_->coordinator_->Reject(); }
+  [[nodiscard]] std::string WhyFailed() const override { return run_->coordinator_->Describe(last_); }
+  const CgAlpha& integrator() const override { return *run_->simulation_->cgalpha(); }
+  const CgAlpha::Checkpoint& start() const override { return run_->coordinator_->start(); }
+
+ private:
+  CoupledSmoothSimulation* run_;
+  Coordinator::Attempt last_;
+};
+
 CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& file)
     : simulation_(std::make_unique<MultibodySimulation>(file, /*coupled=*/true)),
       context_(std::make_unique<zmq::context_t>()),
@@ -208,6 +238,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   step_ = file.proto().numerics().step();
   span_ = interface::ValidateTimeSpan(file);
   every_ = file.proto().output().has_every() ? std::max(1, file.proto().output().every()) : 1;
+  stepper_ = std::make_unique<CoupledStepper>(this);
 }
 
 CoupledSmoothSimulation::~CoupledSmoothSimulation() = default;
@@ -244,25 +275,7 @@ void CoupledSmoothSimulation::StepAdaptively(double until) {
   const long long k = std::llround((until - span_.start) / span_.step);
   const long long row = std::min(span_.steps, (k + every_ - 1) / every_ * every_);
   const double target = span_.TimeAt(row);
-  Coordinator::Attempt last;
-  MultibodySimulation::StepHooks hooks;
-  hooks.attempt = [&](double from, double step) {
-    last = coordinator_->Try(from, step);
-    MultibodySimulation::AttemptOutcome outcome;
-    outcome.iterations = coordinator_->last_newton_iterations();
-    outcome.failed = !last.converged();  // (an unconverged step is rejected as a failed one)
-    outcome.impact = last.impact;        // a contact that closed in the step (a resting one is smooth motion)
-    outcome.time_to_contact = last.time_to_contact;
-    return outcome;
-  };
-  hooks.accept = [&](double from, double step) {
-    coordinator_->Accept(from, step);
-    WriteIterations();
-    coupling_.Add(last.iterations);
-  };
-  hooks.reject = [&] { coordinator_->Reject(); };
-  hooks.why = [&] { return coordinator_->Describe(last); };
-  simulation_->Advance(target, hooks);
+  simulation_->Advance(target, *stepper_);
 }
 
 void CoupledSmoothSimulation::FillSummary(run::RunSummary* summary) const {

@@ -50,8 +50,11 @@ class CoupledSmoothSimulation : public interface::Simulation {
   bool handshaken_ = false;
   std::string scenario_name_;
   double start_time_ = 0.0, step_ = 0.0;
-  // numerics.adaptive: error-controlled coupled steps up to the history's next row time.
+  // numerics.adaptive: error-controlled coupled steps up to the history's next row time, each
+  // the coordinator's (a Stepper whose checkpoint is the coordinator's step start).
   void StepAdaptively(double until);
+  class CoupledStepper;
+  std::unique_ptr<CoupledStepper> stepper_;
   interface::TimeSpan span_;
   int every_ = 1;
 };

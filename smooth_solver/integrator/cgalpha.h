@@ -147,7 +147,7 @@ class CgAlpha : public SmoothIntegrator {
   // relations between q, q̇ and q̈ as the predictor does.
   int Step(double t, double h, const DaeState* guess);
   // The same without throwing: the step's status (state advanced only if it converged).
-  StepStatus TryStep(double t, double h, const DaeState* guess = nullptr);
+  [[nodiscard]] StepStatus TryStep(double t, double h, const DaeState* guess = nullptr);
   const CgAlphaSettings& settings() const { return settings_; }
 
   const DaeState& state() const override { return state_; }

@@ -215,23 +215,24 @@ void MultibodySimulation::ReadAdaptive(const Checks& checks, bool coupled) {
                 "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
                 "own); set enabled: false");
   }
-  adaptive_.on = true;
-  adaptive_.land = coupled;
-  adaptive_.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
-  adaptive_.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
-  adaptive_.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
-  adaptive_.max_step = adaptive.has_max_step()
-                           ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
-                           : 100.0 * numerics_.step();
-  adaptive_.contact_step = adaptive.has_contact_step()
-                               ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
-                               : 0.1 * numerics_.step();
+  AdaptiveSettings a;
+  a.on = true;
+  a.land = coupled;
+  a.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
+  a.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
+  a.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
+  a.max_step = adaptive.has_max_step() ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
+                                       : 100.0 * numerics_.step();
+  a.contact_step = adaptive.has_contact_step()
+                       ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
+                       : 0.1 * numerics_.step();
   // (Read by the contact processes of a coupled run; checked here too, so that no scene carries a bad one.)
   checks.NonNegative("numerics.adaptive.resting_speed", adaptive.resting_speed(), "m/s");
-  if (adaptive_.max_step < adaptive_.min_step) {
-    checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(adaptive_.min_step) +
-                                                  " s, got " + interface::FormatNumber(adaptive_.max_step) + " s");
+  if (a.max_step < a.min_step) {
+    checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(a.min_step) +
+                                                  " s, got " + interface::FormatNumber(a.max_step) + " s");
   }
+  adaptive_ = AdaptiveController(a);
 }
 
 void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interface::ScenarioFile& file, bool coupled,
@@ -285,16 +286,19 @@ void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interf
     // multipliers): the run goes on as if it had not stopped; a coupled run's coordinator then
     // restores its own memory saved with it (saved_coordinator).
     CgAlpha::Checkpoint history;
-    if (restart && HistoryFits(*restart, HistoryOf{numerics_.step(), settings.cgalpha, adaptive_.on})) {
+    if (restart && HistoryFits(*restart, HistoryOf{numerics_.step(), settings.cgalpha, adaptive()})) {
       const std::string wrong = RestoreHistory(*restart, initial, system_->constraints.size(), &history);
       if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
       history.data = *data_;
       cg->Restore(history);
       if (restart->has_next_step() && restart->next_step() > 0.0) {
-        h_next_ = std::max(restart->next_step(), adaptive_.min_step);  // (a run may have ended below it)
+        // (a run may have ended below min_step)
+        adaptive_.set_next_step(std::max(restart->next_step(), adaptive_.settings().min_step));
       }
       if (restart->has_coordinator()) saved_coordinator_ = restart->coordinator();
     }
+    cg_ = cg.get();
+    if (adaptive()) stepper_ = std::make_unique<CgAlphaStepper>(cg_);
     integrator_ = std::move(cg);
   }
   WatchdogSettings watchdog = settings.watchdog;
@@ -537,23 +541,11 @@ void MultibodySimulation::Step(double t, double h) {
     StaticStep(t + h);
     return;
   }
-  if (!adaptive_.on) {
-    CgAlpha* cg = cgalpha();
-    Record(t + h, cg != nullptr ? StepOrSplit(*cg, t, h, 0) : integrator_->Step(t, h));
+  if (!adaptive()) {
+    Record(t + h, cg_ != nullptr ? StepOrSplit(*cg_, t, h, 0) : integrator_->Step(t, h));
     return;
   }
-  auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
-  StepStatus last;
-  StepHooks standalone;
-  standalone.attempt = [&cg, &last](double from, double step) {
-    AttemptOutcome outcome;
-    last = cg.TryStep(from, step);
-    outcome.failed = !last.ok();
-    if (!outcome.failed) outcome.iterations = last.iterations;
-    return outcome;
-  };
-  standalone.why = [&cg, &last] { return last.Describe(cg.settings()); };
-  Advance(t + h, standalone);
+  Advance(t + h, *stepper_);
 }
 
 // A fixed CGα step that fails is redone as two halves, a half that fails as two quarters, before
@@ -573,87 +565,17 @@ int MultibodySimulation::StepOrSplit(CgAlpha& cg, double t, double h, int depth)
   return first + StepOrSplit(cg, t + 0.5 * h, 0.5 * h, depth + 1);
 }
 
-void MultibodySimulation::Advance(double target, const StepHooks& hooks) {
-  // numerics.adaptive: steps of their own size until the integrator has reached t + h; standalone
-  // the probes then read the state interpolated at t + h (or the integrator's, if a step ended
-  // there), coupled (adaptive_.land) the steps land on t + h.
-  auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
-  const double end = numerics_.end_time();
+void MultibodySimulation::Advance(double target, Stepper& stepper) {
   const double eps = 1e-12 * std::max(1.0, std::abs(target));
-  if (h_next_ <= 0.0) h_next_ = numerics_.step();
-  while (time_ < target - eps) {
-    double step = std::min(h_next_, adaptive_.max_step);
-    const DaeState& now = cg.state();
-    // Half the time to a contact at the present closing rate (the approach may accelerate): the
-    // steps shorten geometrically towards it, and the last enters it by about contact_step. The
-    // contact processes' contacts (coupled) count as the smooth model's own.
-    const double to_contact = std::min(system_->TimeToContact(now.q, now.qdot), peer_time_to_contact_);
-    step = std::min(step, std::max(0.5 * to_contact + adaptive_.contact_step, adaptive_.min_step));
-    // Coupled: land on the output time in equal steps (no sliver of a step before it; the same h
-    // from row to row while the controller keeps it, so that a reused Newton matrix stays valid).
-    if (adaptive_.land) step = (target - time_) / std::ceil((target - time_) / step - 1e-9);
-    if (time_ + step > end - eps) step = end - time_;  // the run ends on its end time
-    cg.SaveTo(&checkpoint_);
-    const AttemptOutcome outcome = hooks.attempt(time_, step);
-    double norm = std::numeric_limits<double>::infinity();
-    if (!outcome.failed) {
-      // A step in which a contact process's contact closed (an impact: velocities jumped) is not
-      // the smooth motion the estimate measures: the next ones are contact_step long instead. (A
-      // contact that stays closed, a blade resting on its stop, is tested as any motion.)
-      norm = outcome.impact ? 0.0 : ErrorNorm(step);
-    }
-    if (!(norm <= 1.0)) {  // rejected: the same step again, smaller
-      h_next_ = step * (std::isfinite(norm) ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 0.9) : 0.25);
-      std::string why;  // (asked before the rejection, while the attempt's state is there to describe)
-      if (h_next_ < adaptive_.min_step) {
-        why = outcome.failed ? hooks.why() : "the error estimate " + interface::FormatNumber(norm) + " > 1";
-      }
-      cg.Restore(checkpoint_);
-      if (hooks.reject) hooks.reject();
-      ++rejected_;
-      if (h_next_ < adaptive_.min_step) {
-        throw NumericalError(
-            "numerics.adaptive: the step would fall below min_step = " + interface::FormatNumber(adaptive_.min_step) +
-            " s at t = " + interface::FormatNumber(time_) + " s (" + interface::FormatNumber(step) +
-            " s rejected: " + why + ")");
-      }
-      continue;
-    }
-    if (hooks.accept) hooks.accept(time_, step);
-    previous_ = checkpoint_.state;
-    previous_time_ = time_;
-    Record(time_ + step, outcome.iterations);
-    peer_time_to_contact_ = outcome.time_to_contact;
-    ++accepted_steps_;
-    smallest_step_ = std::min(smallest_step_, step);
-    largest_step_ = std::max(largest_step_, step);
-    // Growth below 1.25× is not taken (as RADAU5 does): an unchanged h keeps a reused Newton
-    // matrix valid (jacobian_max_age), which a step that changes by a few percent would drop.
-    double growth = norm > 0.0 ? std::clamp(0.9 * std::cbrt(1.0 / norm), 0.2, 2.0) : 2.0;
-    if (growth >= 1.0 && growth < 1.25) growth = 1.0;
-    if (step < h_next_) growth = std::max(growth, h_next_ / step);  // a step cut to land or before a contact
-    h_next_ = std::min(step * growth, adaptive_.max_step);
-    // After an impact: steps of contact_step, growing again under the controller.
-    if (outcome.impact) h_next_ = std::min(h_next_, std::max(adaptive_.contact_step, adaptive_.min_step));
-  }
+  adaptive_.StartWith(numerics_.step());
+  adaptive_.Advance(time_, target, numerics_.end_time(), stepper, *system_, [&](double t, double h, int iterations) {
+    previous_ = stepper.start().state;
+    previous_time_ = t;
+    Record(t + h, iterations);
+  });
   probe_time_ = target;
   interpolated_ = false;  // a step that ended on the target, now or in an earlier call
   if (std::abs(time_ - target) > eps) Interpolate(target);
-}
-
-double MultibodySimulation::ErrorNorm(double h) {
-  // e = |β − 1/6| h² (a_{n+1} − a_n): the local error of the Newmark position update (Zienkiewicz &
-  // Xie 1991), here on the generalised-α acceleration variable.
-  auto& cg = dynamic_cast<CgAlpha&>(*integrator_);
-  const double c = std::abs(cg.beta() - 1.0 / 6.0) * h * h;
-  const Eigen::VectorXd& q = cg.state().q;
-  error_ = c * (cg.acceleration_variable() - checkpoint_.a);
-  double sum = 0.0;
-  for (Eigen::Index i = 0; i < q.size(); ++i) {
-    const double w = adaptive_.absolute + adaptive_.relative * std::abs(q(i));
-    sum += (error_(i) / w) * (error_(i) / w);
-  }
-  return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(q.size(), 1)));
 }
 
 void MultibodySimulation::Interpolate(double t) {
@@ -671,7 +593,7 @@ void MultibodySimulation::Interpolate(double t) {
   interpolated_ = true;
 }
 
-CgAlpha* MultibodySimulation::cgalpha() { return dynamic_cast<CgAlpha*>(integrator_.get()); }
+CgAlpha* MultibodySimulation::cgalpha() { return cg_; }
 
 void MultibodySimulation::Settle(const Checks& checks, bool coupled, MultibodySystem* system, DaeState* initial) {
   const std::string place = "numerics.smooth.settle";
@@ -965,11 +887,11 @@ void MultibodySimulation::WriteFinalState(const std::function<void(state::Smooth
   saved.mutable_reference_q()->Add(reference_q_.data(), reference_q_.data() + reference_q_.size());
   saved.set_reference_time(reference_time_);
   SaveData(*data_, &saved);
-  if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get()); cg != nullptr && !static_) {
+  if (cg_ != nullptr && !static_) {
     CgAlpha::Checkpoint history;
-    cg->SaveTo(&history);
-    SaveHistory(history, HistoryOf{last_step_, cg->settings(), adaptive_.on}, &saved);
-    if (adaptive_.on) saved.set_next_step(h_next_);
+    cg_->SaveTo(&history);
+    SaveHistory(history, HistoryOf{last_step_, cg_->settings(), adaptive()}, &saved);
+    if (adaptive()) saved.set_next_step(adaptive_.next_step());
   }
   if (extend) extend(&saved);
   interface::WriteFinalState(output_folder_, saved);
@@ -987,15 +909,15 @@ void MultibodySimulation::FillSummary(run::RunSummary* summary) const {
   if (numerics_.smooth().settle()) counters["settle_newton_iterations"] = static_cast<double>(settle_iterations_);
   counters["initial_position_change"] = initial_report_.position_change;
   counters["initial_velocity_change"] = initial_report_.velocity_change;
-  if (!adaptive_.on && cgalpha_const() != nullptr) counters["steps_retried"] = static_cast<double>(retried_steps_);
+  if (!adaptive() && cg_ != nullptr) counters["steps_retried"] = static_cast<double>(retried_steps_);
   if (ida_) counters["ida_internal_steps"] = static_cast<double>(ida_steps_);
-  if (adaptive_.on) {
-    counters["adaptive_accepted_steps"] = static_cast<double>(accepted_steps_);
-    counters["adaptive_rejected_steps"] = static_cast<double>(rejected_);
-    counters["adaptive_smallest_step"] = accepted_steps_ > 0 ? smallest_step_ : 0.0;
-    counters["adaptive_largest_step"] = largest_step_;
+  if (adaptive()) {
+    counters["adaptive_accepted_steps"] = static_cast<double>(adaptive_.accepted());
+    counters["adaptive_rejected_steps"] = static_cast<double>(adaptive_.rejected());
+    counters["adaptive_smallest_step"] = adaptive_.smallest_step();
+    counters["adaptive_largest_step"] = adaptive_.largest_step();
   }
-  if (const auto* cg = dynamic_cast<const CgAlpha*>(integrator_.get())) {
+  if (const CgAlpha* cg = cg_) {
     counters["position_projection_solves"] = static_cast<double>(cg->projection_solves());
     counters["newton_factorizations"] = static_cast<double>(cg->factorizations());
     counters["newton_factor_entries"] = static_cast<double>(cg->factor_entries());  // L + U

@@ -13,6 +13,8 @@
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/ida_reference.h"
 #include "smooth_solver/integrator/initial_conditions.h"
+#include "smooth_solver/integrator/stepper.h"
+#include "smooth_solver/simulation/adaptive_step.h"
 #include "smooth_solver/simulation/node_rest.h"
 #include "smooth_solver/simulation/smooth_probes.h"
 #include "smooth_solver/simulation/visual_scene.h"
@@ -55,24 +57,11 @@ class MultibodySimulation : public interface::Simulation {
   CgAlpha* cgalpha();
   void Record(double t1, int iterations);
 
-  // numerics.adaptive: one try of a step, what the controller needs to judge it.
-  struct AttemptOutcome {
-    int iterations = 0;   // Newton iterations (for the statistics)
-    bool failed = false;  // the step failed (Newton, coupling): rejected (`StepHooks::why` says why)
-    bool impact = false;  // a contact process's contact closed in the step: no error test
-    double time_to_contact = std::numeric_limits<double>::infinity();  // the peers', from its end [s]
-  };
-  struct StepHooks {
-    std::function<AttemptOutcome(double t, double h)> attempt;  // the step from t to t + h on cgalpha()
-    std::function<void(double t, double h)> accept;             // the attempt passed (before Record)
-    std::function<void()> reject;                               // it did not (cgalpha() restored)
-    std::function<std::string()> why;  // why the last attempt failed (asked only when the run ends on it)
-  };
-  // Error-controlled steps from the integrator's time to `target` (or past it, standalone: the
-  // probes then read the state interpolated there; coupled runs land on it), each tried by
-  // `hooks.attempt` and accepted or rejected by the controller (numerics.adaptive).
-  void Advance(double target, const StepHooks& hooks);
-  bool adaptive() const { return adaptive_.on; }
+  // Error-controlled steps of `stepper` (CGα's, or the coordinator's) from the integrator's time to
+  // `target` (numerics.adaptive, adaptive_step.h): standalone the probes then read the state
+  // interpolated at `target` if a step passed it, coupled runs land on it.
+  void Advance(double target, Stepper& stepper);
+  bool adaptive() const { return adaptive_.settings().on; }
   long ida_internal_steps() const { return ida_steps_; }
   double max_constraint_violation() const { return max_violation_; }  // over the accepted steps
 
@@ -118,7 +107,7 @@ class MultibodySimulation : public interface::Simulation {
   int settle_iterations_ = 0;
   long long retried_steps_ = 0;  // fixed CGα steps redone as halves (or quarters): StepOrSplit
   int StepOrSplit(CgAlpha& cg, double t, double h, int depth);
-  const CgAlpha* cgalpha_const() const { return dynamic_cast<const CgAlpha*>(integrator_.get()); }
+  const CgAlpha* cgalpha_const() const { return cg_; }
   void UnwrapAngles(const Eigen::VectorXd& q);
   bool static_ = false;
   // A body's vector quantity (kind), in the probe's frame.
@@ -134,6 +123,8 @@ class MultibodySimulation : public interface::Simulation {
   // (On the heap: the integrator and the coordinator hold its address.)
   std::unique_ptr<SystemData> data_;
   std::unique_ptr<SmoothIntegrator> integrator_;
+  CgAlpha* cg_ = nullptr;                    // integrator_, if it is CGα
+  std::unique_ptr<CgAlphaStepper> stepper_;  // its adaptive steps, standalone
   bool ida_ = false;
   long ida_steps_ = 0;
   std::vector<ProbeSpec> probes_;
@@ -145,25 +136,14 @@ class MultibodySimulation : public interface::Simulation {
   double time_ = 0.0;
   double last_step_ = 0.0;  // the last accepted step's length (saved with CGα's history)
   double max_violation_ = 0.0;
-  // numerics.adaptive (standalone CGα): the controller's settings and state. time_ is the
-  // integrator's time, which may run ahead of the output grid; the probes then read shown_, the
-  // state interpolated at probe_time_ between previous_ (at previous_time_) and the integrator's.
-  struct AdaptiveSettings {
-    bool on = false;
-    bool land = false;  // coupled: steps end on the output times (no interpolation of the peers' states)
-    double relative = 0.0, absolute = 0.0, min_step = 0.0, max_step = 0.0, contact_step = 0.0;
-  };
-  double ErrorNorm(double h);
-  Eigen::VectorXd error_;  // ErrorNorm's estimate
+  // numerics.adaptive (CGα): the controller. time_ is the integrator's time, which may run ahead
+  // of the output grid; the probes then read shown_, the state interpolated at probe_time_
+  // between previous_ (at previous_time_, the last accepted step's start) and the integrator's.
+  AdaptiveController adaptive_;
   void Interpolate(double t);
   double Violation(const Eigen::VectorXd& q) const;  // |Φ|∞ of the state the probes read
-  AdaptiveSettings adaptive_;
-  double h_next_ = 0.0, previous_time_ = 0.0, probe_time_ = 0.0;
+  double previous_time_ = 0.0, probe_time_ = 0.0;
   std::optional<state::CoordinatorMemory> saved_coordinator_;
-  double peer_time_to_contact_ = std::numeric_limits<double>::infinity();
-  double smallest_step_ = std::numeric_limits<double>::infinity(), largest_step_ = 0.0;
-  long accepted_steps_ = 0, rejected_ = 0;
-  CgAlpha::Checkpoint checkpoint_;
   DaeState previous_, shown_;
   bool interpolated_ = false;
   // Revolute angles unwrapped across ±π: turns added to atan2 per joint.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "interface/run/errors.h"
+#include "smooth_solver/integrator/stepper.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 
 namespace cosim::smooth {
@@ -116,6 +117,68 @@ TEST(AdaptiveStep, APendulumAgainstAStopMatchesFineFixedStepsWithATwentiethOfThe
       a.accepted, a.rejected, difference);
   EXPECT_LT(a.accepted, 60000.0 / 20.0);
   EXPECT_LT(difference, 1.5e-3);  // the two runs' own errors, 3.3e-4 and 5.3e-4, with margin
+}
+
+// CGα's steps, counted: every try ends in one acceptance or one rejection, and only the stepper
+// touches the integrator's state.
+class CountingStepper final : public Stepper {
+ public:
+  explicit CountingStepper(CgAlpha* cg) : inner_(cg) {}
+  [[nodiscard]] StepAttempt TryStep(double t, double h) override {
+    EXPECT_FALSE(open_) << "a try before the last one was accepted or rejected";
+    open_ = true;
+    ++tries;
+    return inner_.TryStep(t, h);
+  }
+  void Accept(double t, double h) override {
+    EXPECT_TRUE(open_);
+    open_ = false;
+    ++accepts;
+    inner_.Accept(t, h);
+  }
+  void Reject() override {
+    EXPECT_TRUE(open_);
+    open_ = false;
+    ++rejects;
+    inner_.Reject();
+  }
+  [[nodiscard]] std::string WhyFailed() const override { return inner_.WhyFailed(); }
+  const CgAlpha& integrator() const override { return inner_.integrator(); }
+  const CgAlpha::Checkpoint& start() const override { return inner_.start(); }
+  int tries = 0, accepts = 0, rejects = 0;
+
+ private:
+  CgAlphaStepper inner_;
+  bool open_ = false;
+};
+
+TEST(AdaptiveStep, TheControllerDrivesAStepperThatOwnsTheStepsCheckpoint) {
+  // Issue 52, item 2: the controller tried CGα's step through four hooks and saved and restored
+  // the integrator itself, beside the coordinator's own checkpoint (two saves and two restores
+  // per rejected coupled step). Now it drives a Stepper, which saves the step's start once and
+  // undoes a rejected step: every try ends in exactly one Accept or Reject, the run's counts are
+  // the stepper's, and the run through the counting stepper is the run through its own.
+  const std::string path = std::string(COSIM_SOURCE_DIR) + "/scenarios/pendulum_stop_continuous.pbtxt";
+  const std::vector<std::string> sets{"numerics.step=5e-3", "numerics.adaptive.enabled=true",
+                                      "numerics.adaptive.relative=1e-5"};
+  MultibodySimulation counted(interface::ScenarioFile::Load(path, sets));
+  MultibodySimulation own(interface::ScenarioFile::Load(path, sets));
+  CountingStepper stepper(counted.cgalpha());
+  std::vector<double> a(counted.ProbeNames().size()), b(a.size());
+  for (int k = 0; k < 300; ++k) {
+    const double t = 5e-3 * k;
+    counted.Advance(t + 5e-3, stepper);
+    own.Step(t, 5e-3);
+    counted.Probe(&a);
+    own.Probe(&b);
+    ASSERT_EQ(a, b) << "at t = " << t + 5e-3;
+  }
+  run::RunSummary summary;
+  counted.FillSummary(&summary);
+  EXPECT_GT(stepper.rejects, 0);  // the impact's steps are rejected and tried again smaller
+  EXPECT_EQ(stepper.tries, stepper.accepts + stepper.rejects);
+  EXPECT_EQ(summary.counters().at("adaptive_accepted_steps"), stepper.accepts);
+  EXPECT_EQ(summary.counters().at("adaptive_rejected_steps"), stepper.rejects);
 }
 
 TEST(AdaptiveStep, AStepBelowTheMinimumEndsTheRunAsANumericalFailure) {

@@ -8,7 +8,7 @@ scene.pvd (a coupled run, every process) or visual.pvd (a single process). Write
   paraview/snapshot.png   the scene at time T (default: the last frame), in its own axis box;
   paraview/scene.pvsm     the same pipeline as a ParaView state: `paraview --state
                           OUT/paraview/scene.pvsm` opens it with the time slider over the run.
-The pipeline splits the cells by their `kind` (docs: README "Seeing the run"): bodies, beams and
+The pipeline splits the cells by their `kind` (docs/user-guide.md, "Seeing the run"): bodies, beams and
 solids coloured by kind, hex27 solids by `von_mises` where present, contact nodes as points, stop
 planes translucent and red while `in_contact`, coupling ties as lines.
 """

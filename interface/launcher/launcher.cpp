@@ -539,7 +539,7 @@ std::string JoinRunHistories(const std::vector<ProcessPlan>& plan) {
 }
 
 // An output of a coupled run the launcher writes (the joined history, scene.pvd) that could not
-// be: said, and a run that had ended ok ends 2 (the README lists them among its outputs), its
+// be: said, and a run that had ended ok ends 2 (the user guide lists them among its outputs), its
 // summary saying why if it can be written.
 int ReportLauncherOutput(const std::string& why, const ProcessPlan& coordinator, int code) {
   std::cerr << "cosim: " << why << "\n";

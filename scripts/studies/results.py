@@ -1,6 +1,7 @@
 """Every study of docs/results.md, regenerated into docs/."""
 import csv
 import os
+import re
 import shutil
 import sys
 from studies.common import ROOT, StudyError
@@ -39,6 +40,29 @@ def headline_rows(path):
         if not (row.startswith("| ") and row.endswith(" |") and row.count(" | ") == 3):
             raise StudyError(f"{path}:{i + 1}: expected a table row '| figure | paper | here | where |', got: {row}")
     return rows
+
+
+def entry_heading(text, name, entry_sets):
+    """A report's first line "# Kind: scenario" as "# Kind: NAME" (entries of one scene differ by
+    name), and the settings that make the entry differ from the scene's own on a line below."""
+    first, _, rest = text.partition("\n")
+    kind = first.split(":", 1)[0]
+    settings = ", ".join(f"`{s}`" for s in entry_sets)
+    return f"{kind}: {name}\n\nSettings beside the scene's own: {settings}.\n{rest}"
+
+
+def anchor(title):
+    """The link target GitHub gives a heading."""
+    return re.sub(r"[^\w\- ]", "", title.strip().lower()).replace(" ", "-")
+
+
+def contents(sections):
+    """A contents block: one link per section ("## " heading) of the generated page."""
+    lines = ["Contents:", ""]
+    for section in sections:
+        title = section.split("\n", 1)[0][3:]
+        lines.append(f"- [{title}](#{anchor(title)})")
+    return "\n".join(lines) + "\n"
 
 
 def results(runner, out_root, sets, reuse=False):
@@ -134,9 +158,8 @@ def results(runner, out_root, sets, reuse=False):
             target = f"{kind}-{name}-{png}"
             shutil.copy(os.path.join(out, png), os.path.join(figures, target))
             text = text.replace(f"]({png})", f"](results/{target})")
-        if entry_sets:  # the settings that make this entry differ from the scene's own, in its heading
-            first, _, rest = text.partition("\n")
-            text = f"{first} ({', '.join(entry_sets)})\n{rest}"
+        if entry_sets:  # this entry named in its heading, its settings on the line below
+            text = entry_heading(text, name, entry_sets)
         if (kind, name) == ("stability", "scenarios"):
             text = text.replace("# Stability: the hard cases", "# The shipped scenarios, as they run", 1)
         reading = os.path.join(docs, "readings", f"{kind}-{name}.md")
@@ -164,5 +187,5 @@ def results(runner, out_root, sets, reuse=False):
         "",
     ]
     with open(os.path.join(docs, "results.md"), "w") as f:
-        f.write("\n".join(header) + "\n" + "".join(sections))
+        f.write("\n".join(header) + "\n" + contents(sections) + "\n" + "".join(sections))
     print("cosim study: docs/results.md written", file=sys.stderr)

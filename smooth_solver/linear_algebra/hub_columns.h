@@ -2,7 +2,7 @@
 // The hub of a Newton matrix: the body that all the others hang from, in three or more parts.
 // A rotor's blades are joined to one another only through the hub; ordered last, its columns
 // leave each blade's block to be factorised on its own, and the factors grow with the number of
-// blades (docs/design.md, "Large legal rotors"). A fill-reducing ordering that does not know
+// blades (docs/performance.md, "Large legal rotors"). A fill-reducing ordering that does not know
 // this eliminates the hub's columns among the blades' and fills the factors between blades.
 #include <Eigen/SparseCore>
 #include <vector>

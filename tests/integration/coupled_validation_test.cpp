@@ -838,9 +838,9 @@ TEST(SwappedContactProcess, WithoutTheStepAverageTheExchangeLagsAndGainsEnergy) 
 }
 
 TEST(SwappedContactProcess, TheProgramAndItsStiffnessAreTheWholeSwap) {
-  // The README's swap, two fields and nothing of the coupling's: the reaction follows the program
+  // The user guide's swap, two fields and nothing of the coupling's: the reaction follows the program
   // (STEP_AVERAGE for penalty_solver), and the pair rebounds as the law allows (0.3098 m, the
-  // monolithic run's; END_OF_STEP, which the README's example once had to override by hand,
+  // monolithic run's; END_OF_STEP, which the user guide's example once had to override by hand,
   // rebounds to 0.370 m, above).
   const fs::path out = TempDir("penalty_two_fields");
   const Result r = Launch(kScenarios + "/tied_drop.pbtxt --out " + out.string() +

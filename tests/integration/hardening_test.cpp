@@ -220,7 +220,7 @@ TEST(Hardening, TheLaunchersJoinReadsOnlyTheRegularFilesTheRunWrote) {
 TEST(Hardening, ACoupledRunWhoseJoinedHistoryOrSceneCannotBeWrittenIsNotOk) {
   // A coupled run ended 0 "ok" without its joined history or scene.pvd when the launcher could
   // not write them (the name taken, the disk full at that moment), leaving .part files. The
-  // README lists both among a coupled run's outputs: exit 2 naming the file, no .part left.
+  // The user guide lists both among a coupled run's outputs: exit 2 naming the file, no .part left.
   // The launcher writes each through NAME.part and a rename; /dev/full linked there fails every
   // write with ENOSPC, as a full disk does.
   for (const std::string name : {"history_joined.csv", "scene.pvd"}) {

@@ -181,7 +181,7 @@ TEST(ReferenceFrames, TheExampleRotorExpandsToTheHandWrittenOne) {
 }
 
 TEST(ReferenceFrames, TheExampleRotorTiltedTurnsItsBladesAboutTheTiltedShaft) {
-  // The README's example: `--set model.references[hub].rotation=[0, 0.05, 0]` tilts the whole
+  // The user guide's example: `--set model.references[hub].rotation=[0, 0.05, 0]` tilts the whole
   // rotor. Each blade k is hub ∘ R_z(ψ_k) ∘ hinge offset, composed here with Eigen: blade 1 (ψ = 0,
   // along +x) goes down by (e + x_g) sin 0.05 and blade 3 up by as much; a turn about the global z
   // after the tilt (the old expansion) put all four down alike, a cone. The flap axes, the

@@ -30,7 +30,7 @@ from studies.common import (  # noqa: E402
 from studies.compare import compare_measure  # noqa: E402
 from studies.coupling import relaxation_sets  # noqa: E402
 from studies.envelope import axis_sets, unsafe_points  # noqa: E402
-from studies.results import envelope_headline, headline_rows  # noqa: E402
+from studies.results import contents, entry_heading, envelope_headline, headline_rows  # noqa: E402
 
 
 class Common(unittest.TestCase):
@@ -205,6 +205,33 @@ class Studies(unittest.TestCase):
         near = {"probe": "p", "kind": "LAST_NEAR_START", "tolerance": 0.1}
         self.assertEqual(compare_measure(history, near), 2.0)
         self.assertTrue(math.isnan(compare_measure(history, {"probe": "q", "kind": "MAX"})))
+
+
+class ResultsPage(unittest.TestCase):
+    def test_an_entry_with_settings_is_named_in_its_heading_and_its_settings_follow(self):
+        # Three convergence entries of one scene had the same name and their override lists in
+        # their headings (issue 52, item 3): each is now named, its settings on a line of their own.
+        text = entry_heading("# Convergence: sharcs_hub\n\nbody\n", "sharcs_hub_damped", ["a=1", "b.c=2"])
+        first, rest = text.split("\n", 1)
+        self.assertEqual(first, "# Convergence: sharcs_hub_damped")
+        self.assertIn("Settings beside the scene's own: `a=1`, `b.c=2`.", rest)
+        self.assertTrue(rest.rstrip().endswith("body"))
+
+    def test_the_contents_link_each_section_as_github_anchors_it(self):
+        block = contents(["## Work against precision: four_bar\n", "## The shipped scenarios, as they run\n"])
+        self.assertIn("- [Work against precision: four_bar](#work-against-precision-four_bar)", block)
+        self.assertIn("- [The shipped scenarios, as they run](#the-shipped-scenarios-as-they-run)", block)
+
+    def test_the_page_has_its_contents_and_no_settings_in_a_heading(self):
+        with open(os.path.join(ROOT, "docs", "results.md")) as f:
+            page = f.read()
+        headings = [line[3:] for line in page.splitlines() if line.startswith("## ")]
+        for title in headings:
+            self.assertNotIn("=", title, title)  # no override list in a heading
+        self.assertEqual(len(headings), len(set(headings)), "two sections with one heading")
+        block = page.split("Contents:", 1)[1].split("\n## ", 1)[0]
+        for title in headings:
+            self.assertIn(f"[{title}](#", block, title)
 
 
 class ContactUnits(unittest.TestCase):

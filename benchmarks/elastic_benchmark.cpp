@@ -63,7 +63,10 @@ int main() {
     Hex27 e;
     Hex27::NodeMatrix X;
     for (int a = 0; a < 27; ++a) X.col(a) = one.mesh().nodes.col(one.mesh().elements[0][static_cast<size_t>(a)]);
-    e.Initialize(X);
+    if (!e.Initialize(X)) {
+      std::fprintf(stderr, "elastic_benchmark: the reference element is degenerate\n");
+      return 1;
+    }
     Hex27::ElementVector f;
     auto K = std::make_unique<Hex27::ElementMatrix>();
     const double force = Seconds(2000, [&] { e.InternalForce(material, x, &f, nullptr); });

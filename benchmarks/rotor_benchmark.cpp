@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "run_summary.pb.h"
 

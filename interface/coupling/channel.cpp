@@ -8,7 +8,7 @@
 #include <cstring>
 #include <zmq.hpp>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/run/run_driver.h"
 #include "interface/scenario/checks.h"
 

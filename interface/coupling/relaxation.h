@@ -53,7 +53,7 @@ class Relaxation {
   // one is left (the restart's relaxation starts afresh: `*restored` false). A memory of this
   // kind that cannot be one (more columns than kept, sizes that do not match, non-finite
   // values) is refused: the reason, and nothing changed; empty if none.
-  std::string Restore(const state::RelaxationMemory& in, bool* restored);
+  [[nodiscard]] std::string Restore(const state::RelaxationMemory& in, bool* restored);
 
  private:
   Method method_;

@@ -20,9 +20,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "interface/base/errors.h"
+#include "interface/base/input_file.h"
 #include "interface/coupling/channel.h"
-#include "interface/run/errors.h"
-#include "interface/run/input_file.h"
 #include "interface/run/run_output.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/coupling_plan.h"

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/run/run_output.h"
 #include "interface/scenario/scenario_file.h"
 #include "interface/visual/visual_frame.h"

@@ -1,9 +1,6 @@
 #include "interface/run/run_output.h"
 
-#include <fcntl.h>
 #include <google/protobuf/util/json_util.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -15,7 +12,7 @@
 #include <memory>
 #include <sstream>
 
-#include "interface/run/input_file.h"
+#include "interface/base/input_file.h"
 
 namespace cosim::interface {
 
@@ -59,60 +56,6 @@ bool OutputFile::Flush() {
   if (std::fflush(file_) != 0 && error_.empty()) error_ = "writing " + path_ + " failed: " + std::strerror(errno);
   Check();
   return error_.empty();
-}
-
-FolderLock::FolderLock(const std::string& folder, bool follow_links) {
-  fd_ = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC | (follow_links ? 0 : O_NOFOLLOW));
-  if (fd_ < 0) {
-    why_ = std::strerror(errno);
-    return;
-  }
-  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) {
-    outcome_ = Outcome::kTaken;
-    return;
-  }
-  const int error = errno;
-  outcome_ = error == EWOULDBLOCK ? Outcome::kHeldByAnotherRun : Outcome::kCannotLock;
-  if (error != EWOULDBLOCK) why_ = std::strerror(error);
-  ::close(fd_);
-  fd_ = -1;
-}
-
-FolderLock::~FolderLock() {
-  if (fd_ >= 0) ::close(fd_);  // (releases the lock)
-}
-
-bool HeldByAnotherRun(const std::string& folder) {
-  return FolderLock(folder, /*follow_links=*/false).outcome() == FolderLock::Outcome::kHeldByAnotherRun;
-}
-
-WrittenFile WriteWholeFile(const std::string& path, const std::function<void(std::ostream&)>& write) {
-  const std::string temporary = path + ".part";
-  WrittenFile result;
-  {
-    errno = 0;
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      result.why = "cannot write " + path + ": " + std::strerror(errno != 0 ? errno : EIO);
-    } else {
-      errno = 0;
-      write(out);
-      int error = out ? 0 : errno;  // (a write that failed as it went)
-      out.close();                  // (flushes: a full disk shows here at the latest)
-      if (!out) {
-        if (error == 0) error = errno;
-        result.why = "cannot write " + path + ": " +
-                     (error != 0 ? std::string(std::strerror(error)) : "writing failed (is the disk full?)");
-      }
-    }
-  }
-  std::error_code ec;
-  if (result.ok()) {
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) result.why = "cannot write " + path + ": " + ec.message();
-  }
-  if (!result.ok()) std::filesystem::remove(temporary, ec);
-  return result;
 }
 
 void RemoveEarlierVisualOutput(const std::string& folder) {

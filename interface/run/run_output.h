@@ -15,7 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
+#include "interface/base/folder_lock.h"
+#include "interface/base/whole_file.h"
 #include "run_summary.pb.h"
 
 namespace cosim::interface {
@@ -35,43 +37,6 @@ class IterationCounter {
   long long total_ = 0;
   long long steps_ = 0;
   long long max_ = 0;
-};
-
-// The outcome of WriteWholeFile: ok(), or `why` naming the file and the system's reason.
-struct WrittenFile {
-  std::string why;
-  bool ok() const { return why.empty(); }
-};
-
-// Writes a file whole or not at all: `write` fills a temporary beside `path` (`path`.part), which
-// is renamed over `path` once it is complete. If anything fails (the temporary cannot be made, a
-// write fails on a full disk, the rename is refused) the temporary is removed, `path` is left as it
-// was, and the outcome says why. A process stopped while it writes leaves at most the temporary,
-// never half a file taken for the whole one; a link at `path` is replaced, not written through.
-// `write` may set the stream's failbit to say its own content could not be made.
-[[nodiscard]] WrittenFile WriteWholeFile(const std::string& path, const std::function<void(std::ostream&)>& write);
-
-// One run per output folder: an advisory lock (flock) on the folder itself, taken without
-// waiting and released when the lock is destroyed or the process ends, however it ends (no lock
-// file is left behind).
-class FolderLock {
- public:
-  enum class Outcome { kTaken, kHeldByAnotherRun, kCannotOpen, kCannotLock };
-  // Tries to take the lock on `folder`; `follow_links` false refuses a link at `folder` (kCannotOpen).
-  explicit FolderLock(const std::string& folder, bool follow_links = true);
-  ~FolderLock();
-  FolderLock(const FolderLock&) = delete;
-  FolderLock& operator=(const FolderLock&) = delete;
-
-  Outcome outcome() const { return outcome_; }
-  bool taken() const { return outcome_ == Outcome::kTaken; }
-  // The system's reason the folder could not be opened or locked (empty if taken or held).
-  const std::string& why() const { return why_; }
-
- private:
-  int fd_ = -1;
-  Outcome outcome_ = Outcome::kCannotOpen;
-  std::string why_;
 };
 
 // `message` in binary protobuf as `folder`/final_state.pb, a run's saved state
@@ -142,10 +107,7 @@ class RunOutput {
 // file cannot be written.
 bool WriteSummaryJson(const run::RunSummary& summary, const std::string& path);
 // Reads one back; false if there is none or it does not parse.
-bool ReadSummaryJson(const std::string& path, run::RunSummary* summary);
-
-// True if `folder` (not a link) is the output folder of a running run (RunOutput's lock on it is held).
-bool HeldByAnotherRun(const std::string& folder);
+[[nodiscard]] bool ReadSummaryJson(const std::string& path, run::RunSummary* summary);
 
 // Removes what an earlier run of `folder` wrote as visual output (visual.pvd, scene.pvd, the
 // frames and legend in visual/), and nothing else: never a folder that is another run's.

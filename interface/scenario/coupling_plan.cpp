@@ -4,7 +4,7 @@
 #include <map>
 #include <set>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::interface {

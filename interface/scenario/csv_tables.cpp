@@ -8,7 +8,7 @@
 #include <sstream>
 #include <vector>
 
-#include "interface/run/input_file.h"
+#include "interface/base/input_file.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/message_tree.h"
 

@@ -8,7 +8,7 @@
 #include <numbers>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::interface {

@@ -15,8 +15,8 @@
 #include <optional>
 #include <sstream>
 
-#include "interface/run/errors.h"
-#include "interface/run/input_file.h"
+#include "interface/base/errors.h"
+#include "interface/base/input_file.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/csv_tables.h"
 #include "interface/scenario/expression.h"

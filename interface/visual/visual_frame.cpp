@@ -16,9 +16,10 @@
 #include <utility>
 #include <vector>
 
-#include "interface/run/errors.h"
-#include "interface/run/input_file.h"
-#include "interface/run/run_output.h"
+#include "interface/base/errors.h"
+#include "interface/base/folder_lock.h"
+#include "interface/base/input_file.h"
+#include "interface/base/whole_file.h"
 
 namespace cosim::interface {
 

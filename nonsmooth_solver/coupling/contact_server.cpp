@@ -9,7 +9,7 @@
 #include <map>
 #include <set>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {

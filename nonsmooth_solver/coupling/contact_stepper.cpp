@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <limits>
 
-#include "interface/run/errors.h"
-#include "interface/run/input_file.h"
+#include "interface/base/errors.h"
+#include "interface/base/input_file.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {

@@ -4,7 +4,7 @@
 #include <set>
 #include <zmq.hpp>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/coupling_plan.h"
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "nonsmooth_solver/lcp/friction_contact_solver.h"
 
 namespace cosim::nonsmooth {

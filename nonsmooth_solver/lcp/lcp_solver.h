@@ -83,6 +83,6 @@ class LcpSolver {
 
 // Reads an LCP in Siconos Numerics' test-data format (numerics/src/LCP/test/data/*.dat)
 // with Siconos' own reader; any storage is converted to dense. Returns false if unreadable.
-bool ReadSiconosLcpFile(const std::string& path, Eigen::MatrixXd* M, Eigen::VectorXd* q);
+[[nodiscard]] bool ReadSiconosLcpFile(const std::string& path, Eigen::MatrixXd* M, Eigen::VectorXd* q);
 
 }  // namespace cosim::nonsmooth

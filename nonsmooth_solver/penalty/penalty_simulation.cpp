@@ -7,7 +7,7 @@
 #include <map>
 #include <tuple>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::nonsmooth {

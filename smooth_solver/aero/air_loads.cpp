@@ -5,7 +5,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 #include "smooth_solver/elastic/hex27.h"
 

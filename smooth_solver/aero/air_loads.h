@@ -77,7 +77,7 @@ struct MeshPoint {
   std::array<double, 27> N{};
   std::array<Eigen::Vector3d, 27> grad{};  // ∇_X N_a
 };
-bool LocateInMesh(const ElasticMesh& mesh, const Eigen::Vector3d& X, MeshPoint* at);
+[[nodiscard]] bool LocateInMesh(const ElasticMesh& mesh, const Eigen::Vector3d& X, MeshPoint* at);
 
 // A surface as validated from the scenario; sections are built from it (AirLoads::Section).
 struct AeroSurfaceSpec {

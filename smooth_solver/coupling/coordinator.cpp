@@ -6,7 +6,7 @@
 #include <string>
 #include <utility>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/integrator/initial_conditions.h"
 

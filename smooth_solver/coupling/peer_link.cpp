@@ -7,7 +7,7 @@
 #include <string>
 #include <utility>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 

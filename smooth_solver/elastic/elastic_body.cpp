@@ -5,7 +5,7 @@
 #include <cmath>
 #include <set>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::smooth {

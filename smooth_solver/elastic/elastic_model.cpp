@@ -3,7 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 
 namespace cosim::smooth {
 

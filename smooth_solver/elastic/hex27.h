@@ -54,7 +54,7 @@ class Hex27 {
   // Precomputes the reference gradients and volume weights from the reference node
   // positions. Returns false if the element is inverted or degenerate (det J <= 0 at a
   // Gauss point).
-  bool Initialize(const NodeMatrix& reference);
+  [[nodiscard]] bool Initialize(const NodeMatrix& reference);
 
   // Internal force (and optionally the tangent) at current node positions x.
   void InternalForce(const ElasticMaterial& m, const NodeMatrix& x, ElementVector* f, ElementMatrix* K) const {

@@ -232,7 +232,7 @@ class CgAlpha : public SmoothIntegrator {
   // axes onto the nearest orthonormal ones (OrthonormaliseBeamNodes), the other rows with the last
   // factorisation (a chord iteration); false (and *status says how far it got) if it does not
   // converge.
-  bool ProjectPositions(double t1, StepStatus* status);
+  [[nodiscard]] bool ProjectPositions(double t1, StepStatus* status);
   // next_.q's beam-node axes A ← U Vᵀ (A = U Σ Vᵀ): the closest orthonormal axes, which close the
   // node's six rigidity rows exactly.
   void OrthonormaliseBeamNodes();

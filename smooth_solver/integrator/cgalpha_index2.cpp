@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/linear_algebra/hub_columns.h"
 

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <limits>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"

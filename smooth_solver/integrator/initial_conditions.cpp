@@ -10,7 +10,7 @@
 #include <limits>
 #include <optional>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/linear_algebra/hub_columns.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 
 namespace cosim::smooth {

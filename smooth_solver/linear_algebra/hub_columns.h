@@ -27,6 +27,6 @@ std::vector<int> RigidBodyGroups(int rigid_coordinates, int columns);
 // consistent accelerations, the impact restarts' projections. Eigen's SparseLU with COLAMD,
 // which these used, filled the factors between blades (~7 s of a 200-blade rotor's start).
 // `A` is made compressed. False if A is singular.
-bool FactorizeHubLast(Eigen::SparseMatrix<double>* A, int rigid_coordinates, KluSolver* lu);
+[[nodiscard]] bool FactorizeHubLast(Eigen::SparseMatrix<double>* A, int rigid_coordinates, KluSolver* lu);
 
 }  // namespace cosim::smooth

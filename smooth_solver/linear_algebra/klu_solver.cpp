@@ -5,7 +5,7 @@
 #include <utility>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/linear_algebra/klu_ordering.h"
 
 namespace cosim::smooth {

@@ -22,7 +22,7 @@ class KluSolver {
   // both analysed and the first factorisation keeps the one with the smaller factors.
   void Analyze(const Eigen::SparseMatrix<double>& A, const std::vector<int>& last = {});
   // Numeric factorisation; false if A is singular.
-  bool Factorize(const Eigen::SparseMatrix<double>& A);
+  [[nodiscard]] bool Factorize(const Eigen::SparseMatrix<double>& A);
   // Solves A x = b in place.
   void SolveInPlace(Eigen::Ref<Eigen::VectorXd> b);
   // Solves A X = B for the columns of B in place, in one pass over the factors (KLU takes the

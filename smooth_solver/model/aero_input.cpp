@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <numbers>
 
-#include "interface/run/input_file.h"
+#include "interface/base/input_file.h"
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/model/multibody_model.h"
 

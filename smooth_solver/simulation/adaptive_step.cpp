@@ -4,7 +4,7 @@
 #include <cmath>
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 
 namespace cosim::smooth {

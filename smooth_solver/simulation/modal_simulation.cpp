@@ -5,7 +5,7 @@
 #include <cmath>
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/constraints/bilinear_constraints.h"
 

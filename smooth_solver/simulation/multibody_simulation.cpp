@@ -8,7 +8,7 @@
 #include <optional>
 #include <set>
 
-#include "interface/run/input_file.h"
+#include "interface/base/input_file.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"

@@ -19,7 +19,7 @@ namespace cosim::smooth {
 // values (false if not); and the first field of `fields` (name, values) with a non-finite value,
 // as "its PREFIXNAME[i] is not finite" (empty if none).
 void AddValues(const Eigen::VectorXd& v, google::protobuf::RepeatedField<double>* out);
-bool ReadValues(const google::protobuf::RepeatedField<double>& in, int size, Eigen::VectorXd* v);
+[[nodiscard]] bool ReadValues(const google::protobuf::RepeatedField<double>& in, int size, Eigen::VectorXd* v);
 std::string NonFinite(
     std::initializer_list<std::pair<const char*, const google::protobuf::RepeatedField<double>*>> fields,
     const std::string& prefix = "");
@@ -29,7 +29,7 @@ void SaveData(const SystemData& data, state::SmoothState* saved);
 bool HasSavedData(const state::SmoothState& saved);
 // The saved SystemData into `data` (made by MakeData for this scene). Returns an empty string,
 // or what does not match (the sizes of another scene's data): the caller's refusal.
-std::string RestoreData(const state::SmoothState& saved, SystemData* data);
+[[nodiscard]] std::string RestoreData(const state::SmoothState& saved, SystemData* data);
 
 // What a CGα history belongs to: the run's last accepted step, its settings, whether it is adaptive.
 struct HistoryOf {
@@ -46,7 +46,7 @@ bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now);
 // The saved history as a checkpoint at the state `at` (the saved q and q̇, read and checked by the
 // caller) of an integrator of `constraints` rows (its data left alone). Returns an empty string,
 // or what is wrong with it (sizes, non-finite values).
-std::string RestoreHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
-                           CgAlpha::Checkpoint* history);
+[[nodiscard]] std::string RestoreHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
+                                         CgAlpha::Checkpoint* history);
 
 }  // namespace cosim::smooth

@@ -14,7 +14,7 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 
 namespace cosim::interface {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "nonsmooth_solver/model/contact_model.h"
 

@@ -3,7 +3,7 @@
 #include <functional>
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 
 namespace cosim::interface {
 

@@ -11,7 +11,7 @@
 #include <numbers>
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "tests/interface/message_of.h"
 

@@ -16,7 +16,7 @@
 #include <system_error>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "tests/interface/message_of.h"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 
 namespace cosim::interface {
 namespace {

@@ -12,7 +12,7 @@
 #include <thread>
 #include <zmq.hpp>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "nonsmooth_solver/simulation/contact_simulation.h"
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <functional>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "nonsmooth_solver/penalty/penalty_simulation.h"
 

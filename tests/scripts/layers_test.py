@@ -3,7 +3,7 @@
 
 `interface` is the layer both solvers stand on and includes neither; neither solver includes the
 other, so either side can be replaced by another program that reads the same scenario and speaks
-the same protocol (docs/design.md, "Libraries"). Inside each solver the folders are layered, each
+the same protocol (docs/design.md, "Libraries"). Inside each library the folders are layered, each
 including only its own files and those of the layers listed before it: the physics of each
 concept (forces, beams, elastic bodies, air loads) below the model that the scenario readers
 build from them, the model below the integrators, the integrators below the simulation and the
@@ -32,6 +32,10 @@ LAYERS = {
         ["coupling"],
     ],
     "nonsmooth_solver": [["lcp"], ["model"], ["integrator", "coupling"], ["penalty", "simulation"]],
+    # The base (errors, number and echo formatting, bounded reads, whole writes, the folder lock)
+    # under the scenario files, the contact law and the visual output; the run contract on them;
+    # the coupling channel; the launcher on top.
+    "interface": [["base"], ["scenario", "contact", "visual"], ["run"], ["coupling"], ["launcher"]],
 }
 # The libraries each library may include besides its own folders.
 LIBRARIES = {

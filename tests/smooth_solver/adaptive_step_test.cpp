@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/integrator/stepper.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 

@@ -13,7 +13,7 @@
 #include <numbers>
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/aero/air_loads.h"
 #include "smooth_solver/aero/airfoil.h"
 #include "smooth_solver/elastic/elastic_model.h"

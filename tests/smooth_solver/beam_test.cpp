@@ -16,7 +16,7 @@
 #include <string_view>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/model/multibody_model.h"
 #include "smooth_solver/model/multibody_system.h"

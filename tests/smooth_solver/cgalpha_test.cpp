@@ -9,7 +9,7 @@
 #include <numbers>
 #include <tuple>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/linear_algebra/fixed_pattern_matrix.h"
 #include "smooth_solver/linear_algebra/hub_columns.h"

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 

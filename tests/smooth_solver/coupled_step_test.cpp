@@ -11,7 +11,7 @@
 #include <utility>
 #include <zmq.hpp>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "nonsmooth_solver/coupling/contact_server.h"
 #include "nonsmooth_solver/simulation/contact_simulation.h"

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/elastic/elastic_body.h"
 #include "smooth_solver/elastic/elastic_model.h"
 #include "smooth_solver/integrator/cgalpha.h"

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/scenario_file.h"
 #include "smooth_solver/integrator/cgalpha.h"
 #include "smooth_solver/integrator/initial_conditions.h"

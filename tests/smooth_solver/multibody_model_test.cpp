@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 
 namespace cosim::smooth {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "interface/scenario/scenario_file.h"
 

@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 #include "state.pb.h"
 #include "tests/interface/message_of.h"

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 #include "interface/scenario/checks.h"
 #include "smooth_solver/simulation/multibody_simulation.h"
 #include "smooth_solver/simulation/watchdog.h"

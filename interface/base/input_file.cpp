@@ -1,4 +1,4 @@
-#include "interface/run/input_file.h"
+#include "interface/base/input_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -34,7 +34,7 @@ struct InputFile {
   bool ok() const { return problem == Problem::kNone; }
 };
 
-InputFile ReadInputFile(const std::filesystem::path& path, std::int64_t max_bytes);
+[[nodiscard]] InputFile ReadInputFile(const std::filesystem::path& path, std::int64_t max_bytes);
 
 // What a non-regular file is, in words ("a folder", "a FIFO", "a character device", …).
 std::string FileKind(unsigned mode);

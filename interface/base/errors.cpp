@@ -1,4 +1,4 @@
-#include "interface/run/errors.h"
+#include "interface/base/errors.h"
 
 #include <cstdio>
 #include <cstdlib>

@@ -8,61 +8,67 @@ namespace cosim::interface {
 
 namespace {
 
-namespace sc = cosim::scenario;
+namespace pb = google::protobuf;
 
-// Each element of `list` replaced by its name alone.
-template <typename Element>
-void KeepNames(google::protobuf::RepeatedPtrField<Element>* list) {
-  for (Element& e : *list) {
-    if (!e.has_name()) {
-      e.Clear();
-      continue;
-    }
-    std::string name = e.name();
-    e.Clear();
-    e.set_name(std::move(name));
+// What the view keeps of the smooth model: per list (of model, or of model.air), the fields kept
+// on each of its elements. The rest of these elements, and of model.air, is dropped. Read by
+// ReduceToContactView and OutsideContactView alike.
+struct KeptList {
+  std::vector<std::string> path;  // {"bodies"}, or {"air", "surfaces"}
+  std::set<std::string> fields;
+};
+const std::vector<KeptList>& Kept() {
+  static const std::vector<KeptList> kept{
+      {{"bodies"}, {"name"}},
+      {{"joints"}, {"name"}},
+      {{"elastic_bodies"}, {"name"}},
+      {{"forces"}, {"name"}},
+      {{"beams"}, {"name", "elements", "nodes_per_element"}},  // the names of a beam's node bodies
+      {{"air", "surfaces"}, {"name"}},
+      {{"air", "rotors"}, {"name"}},
+  };
+  return kept;
+}
+
+// Clears every field of `m` whose name is not in `kept`.
+void KeepOnly(pb::Message* m, const std::set<std::string>& kept) {
+  std::vector<const pb::FieldDescriptor*> fields;
+  m->GetReflection()->ListFields(*m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (kept.count(f->name()) == 0) m->GetReflection()->ClearField(m, f);
   }
 }
 
 }  // namespace
 
-void ReduceToContactView(sc::Model* model) {
-  KeepNames(model->mutable_bodies());
-  KeepNames(model->mutable_joints());
-  KeepNames(model->mutable_elastic_bodies());
-  KeepNames(model->mutable_forces());
-  for (sc::Beam& beam : *model->mutable_beams()) {
-    sc::Beam kept;
-    if (beam.has_name()) kept.set_name(beam.name());
-    if (beam.has_elements()) kept.set_elements(beam.elements());
-    if (beam.has_nodes_per_element()) kept.set_nodes_per_element(beam.nodes_per_element());
-    beam = std::move(kept);
-  }
-  if (model->has_air()) {
-    sc::Air kept;
-    *kept.mutable_surfaces() = model->air().surfaces();
-    *kept.mutable_rotors() = model->air().rotors();
-    KeepNames(kept.mutable_surfaces());
-    KeepNames(kept.mutable_rotors());
-    *model->mutable_air() = std::move(kept);
+void ReduceToContactView(scenario::Model* model) {
+  if (model->has_air()) KeepOnly(model->mutable_air(), {"surfaces", "rotors"});
+  for (const KeptList& list : Kept()) {
+    pb::Message* owner = model;
+    if (list.path.size() == 2) {
+      if (!model->has_air()) continue;
+      owner = model->mutable_air();
+    }
+    const pb::FieldDescriptor* f = owner->GetDescriptor()->FindFieldByName(list.path.back());
+    const pb::Reflection* r = owner->GetReflection();
+    for (int i = 0; i < r->FieldSize(*owner, f); ++i) KeepOnly(r->MutableRepeatedMessage(owner, f, i), list.fields);
   }
 }
 
 bool OutsideContactView(const std::vector<PathSegment>& segments) {
   // A whole element or list given as a message is applied, then reduced with the rest.
   if (segments.size() < 3 || segments[0].field != "model") return false;
-  const std::string& list = segments[1].field;
-  if (list == "air") {
-    // model.air.surfaces[k].name and model.air.rotors[k].name are kept, nothing else.
-    return !(segments.size() == 4 && (segments[2].field == "surfaces" || segments[2].field == "rotors") &&
-             segments[3].field == "name");
+  for (const KeptList& list : Kept()) {
+    bool in_list = true;
+    for (size_t k = 0; k < list.path.size() && in_list; ++k) {
+      in_list = k + 1 < segments.size() && segments[k + 1].field == list.path[k];
+    }
+    if (!in_list) continue;
+    const size_t field = 1 + list.path.size();  // the element's field, after the list's path
+    if (segments.size() <= field) return false;
+    return !(segments.size() == field + 1 && list.fields.count(segments[field].field) != 0);
   }
-  static const std::set<std::string> reduced{"bodies", "joints", "elastic_bodies", "forces", "beams"};
-  if (reduced.count(list) == 0) return false;
-  const std::string& field = segments[2].field;
-  if (field == "name" && segments.size() == 3) return false;
-  if (list == "beams" && segments.size() == 3 && (field == "elements" || field == "nodes_per_element")) return false;
-  return true;
+  return segments[1].field == "air";  // the air's other fields (density, wind, airwake, …)
 }
 
 }  // namespace cosim::interface

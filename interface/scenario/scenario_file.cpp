@@ -435,11 +435,12 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
   // A contact process's view: the smooth model reduced to names before it is copied
   // (contact_view.h); what it drops is the coordinator's to apply and check.
   const bool contact_view = view == ScenarioView::kContactProcess;
-  auto reduce = [&file] {
-    ReduceToContactView(file.proto_.mutable_model());
-    for (scenario::Pattern& p : *file.proto_.mutable_patterns()) ReduceToContactView(p.mutable_each()->mutable_model());
-  };
-  if (contact_view) reduce();
+  if (contact_view) {
+    if (file.proto_.has_model()) ReduceToContactView(file.proto_.mutable_model());
+    for (scenario::Pattern& p : *file.proto_.mutable_patterns()) {
+      if (p.has_each() && p.each().has_model()) ReduceToContactView(p.mutable_each()->mutable_model());
+    }
+  }
   for (int i = 0; i < file.proto_.patterns_size(); ++i) {
     file.CheckFinite(file.proto_.patterns(i), "patterns[" + std::to_string(i) + "]");
   }
@@ -457,7 +458,8 @@ ScenarioFile ScenarioFile::Parse(const std::string& text, const std::string& dis
     file.ApplyOverride(argument);
     file.NoteCopyOverride(argument);
   }
-  if (contact_view) ReduceToContactView(file.proto_.mutable_model());  // a whole element set by --set
+  if (contact_view && file.proto_.has_model())
+    ReduceToContactView(file.proto_.mutable_model());  // an element set whole
   file.overrides_ = overrides;
   file.CheckFinite(file.proto_, "");
   // Tables from their CSV files (after the overrides: one may name another file).

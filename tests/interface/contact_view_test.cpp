@@ -86,14 +86,15 @@ TEST(ContactView, BuildsTheContactProcessOfTheWholeScene) {
 TEST(ContactView, LeavesTheSmoothModelsOverridesToSmoothSolver) {
   // An override of a beam's station or a body's mass is smooth_solver's: the view, which has no
   // stations, neither applies it nor refuses it. Names and a beam's node count are kept.
-  const std::vector<std::string> sets{"patterns[0].count=2", "model.beams[0].stations[3].mass=20",
+  const std::vector<std::string> sets{"patterns[0].count=2",        "model.beams[0].stations[3].mass=20",
                                       "model.bodies[hub].mass=900", "model.air.density=1.0",
-                                      "model.beams[1].elements=6"};
+                                      "model.beams[1].elements=6",  "model.air.surfaces[0].name=\"renamed\""};
   const ScenarioFile whole = ScenarioFile::Load(kGust, sets);
   const ScenarioFile view = ScenarioFile::Load(kGust, sets, ScenarioView::kContactProcess);
   EXPECT_EQ(whole.proto().model().beams(0).stations(3).mass(), 20.0);
   EXPECT_EQ(view.proto().model().beams(1).elements(), 6);
   EXPECT_FALSE(view.proto().model().air().has_density());
+  EXPECT_EQ(view.proto().model().air().surfaces(0).name(), "renamed");  // a kept field of a kept list
   // A bad path is refused by both (the launcher loads the whole scene first).
   EXPECT_THROW(ScenarioFile::Load(kGust, {"model.nothing=1"}, ScenarioView::kContactProcess), cosim::InputError);
 }

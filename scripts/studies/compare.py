@@ -4,8 +4,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     compare_run_scenario,
@@ -23,6 +21,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def study_compare(runner, scenario_path, out, sets):
@@ -176,7 +177,8 @@ def study_compare(runner, scenario_path, out, sets):
     lines += measures_table(runs, study.get("measures", []), measure_rows)
     lines += [
         "",
-        f"Differences from '{runs[0].id}' on its output times (RMS, largest and when; the reference's largest |value| for scale):",
+        f"Differences from '{runs[0].id}' on its output times "
+        "(RMS, largest and when; the reference's largest |value| for scale):",
         "",
         "| run | probe | RMS | peak | at [s] | reference peak |",
         "|---|---|---|---|---|---|",

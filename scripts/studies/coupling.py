@@ -5,8 +5,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     EXIT_MEANING,
@@ -19,6 +17,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def relaxation_sets(spec):
@@ -146,7 +147,8 @@ def study_coupling(runner, scenario_path, out, sets):
     ]
     for r in runs:
         lines.append(
-            f"| {r.labels['relaxation']} | {r.labels['tol']:g} | {r.labels['h']:g} | {r.code} ({EXIT_MEANING.get(r.code, '?')}) | "
+            f"| {r.labels['relaxation']} | {r.labels['tol']:g} | {r.labels['h']:g} "
+            f"| {r.code} ({EXIT_MEANING.get(r.code, '?')}) | "
             f"{fmt(r.measured['mean'])} | {fmt(r.measured['max'])} | {r.wall:.3g} |"
         )
     lines += ["", failures_section(runs)]

@@ -96,7 +96,8 @@ def study_stability(runner, target, out, sets):
         "Each scene is run once as shipped. Energy change: the largest |E(t) − E(0)| [J] of its TOTAL_ENERGY probe:",
         "a drift where the scene conserves energy, the dissipation where it should dissipate (impacts with e < 1).",
         "",
-        "| scene | what it tests | completes | largest constraint violation | energy change [J] | iterations per step | wall [s] |",
+        "| scene | what it tests | completes | largest constraint violation | energy change [J] "
+        "| iterations per step | wall [s] |",
         "|---|---|---|---|---|---|---|",
     ]
     for x in rows:

@@ -6,8 +6,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     Reference,
@@ -29,6 +27,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def stop_contacts(history, contact_probes, gap):

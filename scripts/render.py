@@ -20,13 +20,16 @@ import sys
 import xml.etree.ElementTree as ET
 
 import matplotlib
+import meshio
+import numpy as np
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import meshio  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib import animation  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
+from matplotlib import animation  # noqa: E402 - after matplotlib.use("Agg") (no display)
+from mpl_toolkits.mplot3d.art3d import (  # noqa: E402 - after matplotlib.use("Agg") (no display)
+    Line3DCollection,
+    Poly3DCollection,
+)
 
 KIND = {
     "body_axis": 0,

@@ -25,7 +25,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rotors import check, scene, spec  # noqa: E402
+from rotors import check, scene, spec  # noqa: E402 - after sys.path.insert (scripts/)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -117,7 +117,8 @@ def sample(argv):
             left = (time.time() - t0) / n * (len(folders) - n)
             status = "ok" if res["ok"] else "FAILED: " + res["why"]
             print(
-                f"[{n}/{len(folders)}, ~{left / 60:.0f} min left] {res['name']} {res['topology']} {res['blade_model']} {res['excitation']}: {status}",
+                f"[{n}/{len(folders)}, ~{left / 60:.0f} min left] "
+                f"{res['name']} {res['topology']} {res['blade_model']} {res['excitation']}: {status}",
                 flush=True,
             )
     results.sort(key=lambda r: r["seed"])

@@ -4,7 +4,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from studies.cli import main  # noqa: E402
+from studies.cli import main  # noqa: E402 - after sys.path.insert (scripts/)
 
 if __name__ == "__main__":
     main()

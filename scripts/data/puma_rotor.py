@@ -90,10 +90,16 @@ for k in range(BLADES):
     er = (math.cos(psi), math.sin(psi), 0.0)
     et = (-math.sin(psi), math.cos(psi), 0.0)
     b = f"blade{k + 1}"
-    p = lambda r: tuple(r * c for c in er)
+
+    def p(r):
+        return tuple(r * c for c in er)
+
     lag_inertia = "[0.001, 0.001, 0.001]"
+
     # Rigid rotation about the shaft: velocity ω × r of a point at radius r along e_r.
-    vel = lambda r: v((OMEGA * r * er[1], -OMEGA * r * er[0], 0.0))
+    def vel(r):
+        return v((OMEGA * r * er[1], -OMEGA * r * er[0], 0.0))
+
     # Cuff: a 0.143 m rod along e_r: I = m L²/12 = 0.0142 about the two transverse axes, 0.01 in torsion.
     out.append(
         f"""  # {b} at azimuth {round(math.degrees(psi))} deg

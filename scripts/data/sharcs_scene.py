@@ -101,8 +101,8 @@ def v(x):
     return "[" + ", ".join(f"{c:.12g}" for c in x) + "]"
 
 
-def inertia6(I):
-    return v([I[0][0], I[1][1], I[2][2], I[0][1], I[0][2], I[1][2]])
+def inertia6(tensor):
+    return v([tensor[0][0], tensor[1][1], tensor[2][2], tensor[0][1], tensor[0][2], tensor[1][2]])
 
 
 R_FLAP = rot_y(-BETA0)  # flap up: about −y, the blade's x towards +z

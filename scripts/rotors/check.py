@@ -58,7 +58,7 @@ def read_history(path):
 
 
 def episodes(times, values, floor):
-    out, start = [], None
+    out, start, prev = [], None, None
     for t, v in zip(times, values):
         on = abs(v) > floor
         if on and start is None:
@@ -176,7 +176,6 @@ def compare_contacts(rotor, ha, ea, hb, eb, tol):
                 j += 1
             drift[i] = j
         reach_at = [int(round((tol + drift[i] * rotor["contact_duration"]) / step)) for i in range(n)]
-        reach = max(reach_at) if reach_at else 0
         col, where = stops[key]
         span = max(where) - min(where) if len(where) > 1 else 2 * abs(where[0])
         base = hb[col][0] if rotor["topology"] == "hingeless" else 0.0

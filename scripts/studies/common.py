@@ -14,9 +14,9 @@ import numpy as np
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
-import distributed_runs  # noqa: E402
+import distributed_runs  # noqa: E402 - a sibling of scripts/studies, on sys.path like studies itself
 
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

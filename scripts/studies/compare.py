@@ -4,8 +4,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     compare_run_scenario,
@@ -24,12 +22,49 @@ from studies.common import (
     write_report,
 )
 
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
+
 
 def study_compare(runner, scenario_path, out, sets):
     """Runs of one scene drawn on the same axes (study.compare: e.g. co-simulated and continuous
     contact), their differences (RMS and peak, against the first run on its output times) and each
     stop contact (study.compare[].contact_probes): start, end, the peaks of study.probes in it."""
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    specs, probes = validate_compare(scenario_path, study)
+    runs, recorded = plan_compare(scenario_path, specs, sets, out)
+    to_run = [r for r in runs if not r.labels.get("recorded")]
+    settle_statically(runner, [r for r in to_run if r.labels["settle"]], out)
+    runner.run_all([r for r in to_run if r.code is None])
+    histories = [recorded[i] if i in recorded else read_histories(r.out) for i, r in enumerate(runs)]
+    check_probes(runs, histories, probes)
+    diff_rows = differences(runs, histories, probes)
+    units = [{} if r.labels.get("recorded") else probe_units(runner, r) for r in runs]
+    contact_rows = contact_rows_of(runs, histories, probes, units)
+    measure_rows = [
+        [m.get("name", m.get("probe", "?"))] + [compare_measure(h, m) for h in histories]
+        for m in study.get("measures", [])
+    ]
+    write_compare_csvs(out, runs, probes, diff_rows, contact_rows, measure_rows)
+    plot_compare(os.path.join(out, "compare.png"), scenario, runs, histories, probes)
+    lines = [
+        *report_head("Compared", scenario),
+        "![compare](compare.png)",
+        "",
+        *runs_table(runs),
+        *measures_table(runs, study.get("measures", []), measure_rows),
+        *differences_table(runs, diff_rows),
+        *contacts_table(runs, probes, contact_rows),
+        "",
+        failures_section(runs),
+    ]
+    write_report(out, lines)
+    return {"runs": runs, "differences": diff_rows, "contacts": contact_rows}
+
+
+def validate_compare(scenario_path, study):
+    """study.compare (two runs or more), study.probes and study.measures checked, refused (exit 2)
+    naming the field; returns (the compare specs, the probes drawn)."""
     specs = study.get("compare", [])
     if len(specs) < 2:
         fail(f"{scenario_path}: study compare needs two or more `study {{ compare {{ ... }} }}` runs, got {len(specs)}")
@@ -44,6 +79,12 @@ def study_compare(runner, scenario_path, out, sets):
             fail(f"{where}.kind: missing; give MEAN, MAX, MIN, LAST_NEAR_START or FIRST_NEAR_START")
         if m["kind"].endswith("NEAR_START") and not float(m.get("tolerance", 0.0)) > 0.0:
             fail(f"{where}.tolerance: {m.get('tolerance', 'missing')}; {m['kind']} needs a positive tolerance")
+    return specs, probes
+
+
+def plan_compare(scenario_path, specs, sets, out):
+    """One Run per study.compare entry; a recorded history (history_file) is read, not run:
+    returns (the runs, {index: recorded history})."""
     runs, recorded = [], {}
     for i, spec in enumerate(specs):
         run = Run(
@@ -60,17 +101,22 @@ def study_compare(runner, scenario_path, out, sets):
             run.scenario = compare_run_scenario(scenario_path, spec, i)
             run.labels["settle"] = bool(spec.get("settle_statically"))
         runs.append(run)
-    to_run = [r for r in runs if not r.labels.get("recorded")]
-    settle_statically(runner, [r for r in to_run if r.labels["settle"]], out)
-    runner.run_all([r for r in to_run if r.code is None])
-    histories = [recorded[i] if i in recorded else read_histories(r.out) for i, r in enumerate(runs)]
+    return runs, recorded
+
+
+def check_probes(runs, histories, probes):
+    """A run that completed has every probe drawn and its contact probes, else the study stops (exit 2)."""
     for r, h in zip(runs, histories):
         missing = [p for p in probes + r.contact_probes if p not in h]
         if missing and r.code == 0:
             fail(
                 f"run '{r.id}' has no probe(s) {', '.join(missing)} (its history has {', '.join(sorted(h)) or 'none'})"
             )
-    # Differences against the first run, on its output times within the common span.
+
+
+def differences(runs, histories, probes):
+    """Differences against the first run, on its output times within the common span: rows of
+    differences.csv (run, probe, RMS, signed peak, its time, the reference's signed peak)."""
     ref_hist = histories[0]
     diff_rows = []
     for r, h in zip(runs[1:], histories[1:]):
@@ -94,18 +140,22 @@ def study_compare(runner, scenario_path, out, sets):
                     signed_peak(v0[inside]),
                 ]
             )
-    # Contacts.
-    # Each contact probe's unit, from its quantity (a pad's IMPULSE per step, a twin's CONTACT_FORCE,
-    # a joint stop's REACTION_MOMENT: one column held all three, without a word).
+    return diff_rows
+
+
+def contact_rows_of(runs, histories, probes, units):
+    """Each contact episode of each run's contact probes: rows of contacts.csv (run, probe, number,
+    start, end, signed peak, unit, then each probe's signed peak within). `units`: each run's
+    {probe: unit} (a pad's IMPULSE per step, a twin's CONTACT_FORCE, a joint stop's
+    REACTION_MOMENT: one column held all three, without a word)."""
     contact_rows = []
-    for r, h in zip(runs, histories):
-        units = {} if r.labels.get("recorded") else probe_units(runner, r)
+    for r, h, run_units in zip(runs, histories, units):
         for cp in r.contact_probes:
             if cp not in h:
                 continue
             t, v = h[cp]
             for n, (a, b, i0, i1) in enumerate(contact_episodes(t, v)):
-                row = [r.id, cp, n + 1, float(a), float(b), signed_peak(v[i0 : i1 + 1]), units.get(cp, "")]
+                row = [r.id, cp, n + 1, float(a), float(b), signed_peak(v[i0 : i1 + 1]), run_units.get(cp, "")]
                 for p in probes:
                     if p in h:
                         tp, vp = h[p]
@@ -114,10 +164,11 @@ def study_compare(runner, scenario_path, out, sets):
                     else:
                         row.append(float("nan"))
                 contact_rows.append(row)
-    measure_rows = [
-        [m.get("name", m.get("probe", "?"))] + [compare_measure(h, m) for h in histories]
-        for m in study.get("measures", [])
-    ]
+    return contact_rows
+
+
+def write_compare_csvs(out, runs, probes, diff_rows, contact_rows, measure_rows):
+    """differences.csv, measures.csv (if any measure), contacts.csv and runs.csv."""
     write_csv(
         os.path.join(out, "differences.csv"), ["run", "probe", "rms", "peak", "peak_time", "reference_peak"], diff_rows
     )
@@ -144,7 +195,10 @@ def study_compare(runner, scenario_path, out, sets):
             for r in runs
         ],
     )
-    # The figure: one axis per probe, every run on it.
+
+
+def plot_compare(path, scenario, runs, histories, probes):
+    """The figure: one axis per probe, every run on it."""
     fig, axes = plt.subplots(len(probes), 1, figsize=(7.5, 2.1 * len(probes)), sharex=True)
     axes = np.atleast_1d(axes)
     styles = ["-", "--", ":", "-."]
@@ -156,11 +210,12 @@ def study_compare(runner, scenario_path, out, sets):
     axes[-1].set_xlabel("time [s]")
     title = " against ".join(r.id for r in runs) if len(runs) <= 3 else f"{len(runs)} runs against '{runs[0].id}'"
     axes[0].set_title(f"{scenario['name']}: {title}", fontsize=10)
-    save_plot(fig, list(axes), os.path.join(out, "compare.png"))
+    save_plot(fig, list(axes), path)
+
+
+def runs_table(runs):
+    """The report's table of the runs: exit, wall times, steps, coupling iterations."""
     lines = [
-        *report_head("Compared", scenario),
-        "![compare](compare.png)",
-        "",
         "| run | exit | wall time of the steps [s] | process [s] | steps | coupling iterations per step |",
         "|---|---|---|---|---|---|",
     ]
@@ -173,16 +228,28 @@ def study_compare(runner, scenario_path, out, sets):
             f"| {r.id} | {r.code} | {r.wall:.1f} | {r.seconds:.1f} | {s_.get('steps', '—')} | "
             f"{fmt((s_.get('coupling_iterations') or {}).get('mean_per_step', float('nan')))} |"
         )
-    lines += measures_table(runs, study.get("measures", []), measure_rows)
-    lines += [
+    return lines
+
+
+def differences_table(runs, diff_rows):
+    """The report's table of differences.csv."""
+    lines = [
         "",
-        f"Differences from '{runs[0].id}' on its output times (RMS, largest and when; the reference's largest |value| for scale):",
+        f"Differences from '{runs[0].id}' on its output times "
+        "(RMS, largest and when; the reference's largest |value| for scale):",
         "",
         "| run | probe | RMS | peak | at [s] | reference peak |",
         "|---|---|---|---|---|---|",
     ]
     for row in diff_rows:
         lines.append(f"| {row[0]} | {row[1]} | {fmt(row[2])} | {fmt(row[3])} | {row[4]:.3f} | {fmt(row[5])} |")
+    return lines
+
+
+def contacts_table(runs, probes, contact_rows):
+    """The report's table of contacts.csv: at most 12 episodes of each run's contact probe, then
+    how many more the CSV holds."""
+    lines = []
     if any(r.contact_probes for r in runs):  # scenes without stops have no contact table
         lines += [
             "",
@@ -210,9 +277,7 @@ def study_compare(runner, scenario_path, out, sets):
     for key, n in shown.items():
         if n > 12:
             lines.append(f"| {key[0]} | {key[1]} | … {n - 12} more in contacts.csv | | | | " + " | " * len(probes))
-    lines += ["", failures_section(runs)]
-    write_report(out, lines)
-    return {"runs": runs, "differences": diff_rows, "contacts": contact_rows}
+    return lines
 
 
 def recorded_history(scenario_path, spec, i):

@@ -5,8 +5,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     every_for,
@@ -23,6 +21,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def study_convergence(runner, scenario_path, out, sets):
@@ -67,9 +68,16 @@ def study_convergence(runner, scenario_path, out, sets):
     ax.set_ylabel(f"error ({'max over time' if study.get('error', 'MAX') == 'MAX' else 'at the end'}) [probe units]")
     ax.set_title(f"{scenario['name']}: convergence")
     save_plot(fig, [ax], os.path.join(out, "convergence.png"))
+    reference_kind = (
+        "analytic (study.references)"
+        if study.get("references")
+        else "a finer run"
+        if not study.get("reference_run")
+        else "study.reference_run"
+    )
     lines = [
         *report_head("Convergence", scenario),
-        f"Reference: {'analytic (study.references)' if study.get('references') else 'a finer run' if not study.get('reference_run') else 'study.reference_run'}; "
+        f"Reference: {reference_kind}; "
         f"error: {study.get('error', 'MAX')} over the output times from t = {study.get('error_from', 0)} s.",
         "",
         *([restart_note, ""] if restart_note else []),

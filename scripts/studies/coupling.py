@@ -5,8 +5,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     EXIT_MEANING,
@@ -19,6 +17,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def relaxation_sets(spec):
@@ -43,24 +44,7 @@ def study_coupling(runner, scenario_path, out, sets):
     relaxations = study.get("relaxations") or ["CONSTANT", "AITKEN", "IQN_ILS"]
     tolerances = study.get("tolerances") or [1e-4, 1e-6, 1e-8]
     steps = study.get("steps") or [h0, h0 / 2]
-    runs = []
-    for relax in relaxations:
-        for tol in tolerances:
-            for h in steps:
-                runs.append(
-                    Run(
-                        id=f"{relax} tol={tol:g} h={h:g}",
-                        labels={"relaxation": relax, "tol": tol, "h": h},
-                        scenario=scenario_path,
-                        sets=list(sets)
-                        + relaxation_sets(relax)
-                        + [f"coupling.iteration.reaction_tolerance={tol!r}", f"numerics.step={h!r}"],
-                        out=os.path.join(
-                            out, "runs", f"{relax}_{tol:g}_{h:g}".replace(".", "p").replace("(", "_").replace(")", "")
-                        ),
-                    )
-                )
-    runs = runner.run_all(runs)
+    runs = runner.run_all(plan_coupling(scenario_path, relaxations, tolerances, steps, sets, out))
     for r in runs:
         it = (r.summary or {}).get("coupling_iterations", {})
         r.measured["mean"], r.measured["max"] = it.get("mean_per_step", float("nan")), it.get(
@@ -83,6 +67,36 @@ def study_coupling(runner, scenario_path, out, sets):
             for r in runs
         ],
     )
+    plot_iterations(os.path.join(out, "iterations.png"), scenario, runs, relaxations, steps)
+    plot_residuals(os.path.join(out, "residuals.png"), scenario, runs, relaxations, tolerances, steps)
+    write_report(out, coupling_report(scenario, runs))
+    return {"runs": runs}
+
+
+def plan_coupling(scenario_path, relaxations, tolerances, steps, sets, out):
+    """One Run per relaxation, reaction tolerance and step."""
+    runs = []
+    for relax in relaxations:
+        for tol in tolerances:
+            for h in steps:
+                runs.append(
+                    Run(
+                        id=f"{relax} tol={tol:g} h={h:g}",
+                        labels={"relaxation": relax, "tol": tol, "h": h},
+                        scenario=scenario_path,
+                        sets=list(sets)
+                        + relaxation_sets(relax)
+                        + [f"coupling.iteration.reaction_tolerance={tol!r}", f"numerics.step={h!r}"],
+                        out=os.path.join(
+                            out, "runs", f"{relax}_{tol:g}_{h:g}".replace(".", "p").replace("(", "_").replace(")", "")
+                        ),
+                    )
+                )
+    return runs
+
+
+def plot_iterations(path, scenario, runs, relaxations, steps):
+    """Iterations per step and wall time against the reaction tolerance, a line per relaxation and step."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for c, relax in enumerate(relaxations):
@@ -107,8 +121,11 @@ def study_coupling(runner, scenario_path, out, sets):
     axes[1].set_xlabel("reaction tolerance (relative)")
     axes[1].set_ylabel("wall time [s]")
     fig.suptitle(f"{scenario['name']}: coupling iterations (failed runs left out, see the table)")
-    save_plot(fig, axes, os.path.join(out, "iterations.png"), legend_size=7)
-    # Residual histories: the step with the most iterations, tightest tolerance, coarsest step.
+    save_plot(fig, axes, path, legend_size=7)
+
+
+def plot_residuals(path, scenario, runs, relaxations, tolerances, steps):
+    """Residual histories: the step with the most iterations, tightest tolerance, coarsest step."""
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     for relax in relaxations:
         match = [
@@ -116,10 +133,10 @@ def study_coupling(runner, scenario_path, out, sets):
             for r in runs
             if r.labels["relaxation"] == relax and r.labels["tol"] == min(tolerances) and r.labels["h"] == steps[0]
         ]
-        path = os.path.join(match[0].out, "coupling.csv") if match else ""
-        if not os.path.isfile(path):
+        log_path = os.path.join(match[0].out, "coupling.csv") if match else ""
+        if not os.path.isfile(log_path):
             continue
-        log = np.genfromtxt(path, delimiter=",", names=True, ndmin=1)
+        log = np.genfromtxt(log_path, delimiter=",", names=True, ndmin=1)
         if log.size == 0:
             continue
         counts = np.bincount(log["step"].astype(int))
@@ -134,7 +151,11 @@ def study_coupling(runner, scenario_path, out, sets):
     ax.set_xlabel("coupling iteration")
     ax.set_ylabel("reaction residual |x̃ − x|∞ [N]")
     ax.set_title(f"{scenario['name']}: the hardest step, tolerance {min(tolerances):g}")
-    save_plot(fig, [ax], os.path.join(out, "residuals.png"))
+    save_plot(fig, [ax], path)
+
+
+def coupling_report(scenario, runs):
+    """report.md's lines: the figures and a row per run."""
     lines = [
         *report_head("Coupling", scenario),
         "![iterations](iterations.png)",
@@ -146,9 +167,9 @@ def study_coupling(runner, scenario_path, out, sets):
     ]
     for r in runs:
         lines.append(
-            f"| {r.labels['relaxation']} | {r.labels['tol']:g} | {r.labels['h']:g} | {r.code} ({EXIT_MEANING.get(r.code, '?')}) | "
+            f"| {r.labels['relaxation']} | {r.labels['tol']:g} | {r.labels['h']:g} "
+            f"| {r.code} ({EXIT_MEANING.get(r.code, '?')}) | "
             f"{fmt(r.measured['mean'])} | {fmt(r.measured['max'])} | {r.wall:.3g} |"
         )
     lines += ["", failures_section(runs)]
-    write_report(out, lines)
-    return {"runs": runs}
+    return lines

@@ -7,8 +7,6 @@ import time
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     SAFE_MATH,
@@ -23,6 +21,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def axis_sets(axis, value, where):
@@ -119,6 +120,62 @@ def study_envelope(runner, scenario_path, out, sets):
     impacts. Failed runs are points too (their measures up to where they stopped, marked)."""
     started = time.time()
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
+    spec, axes = validate_envelope(scenario_path, study)
+    # study.restart_time: every point starts from one run's state there (co-simulated scenes
+    # too: each contact process's state travels with the smooth solver's); the axes' overrides
+    # must not act before that time (a gust that has not reached the rotor). The settling run
+    # takes the study's overrides, not the envelope's own `set`, which are its points' only (the
+    # schema's word): with `numerics.smooth.settle=false` there it switched off the settle of the
+    # run every point started from, and each point continued an unsettled, ringing start.
+    restart_sets, restart_note = settled_start(
+        runner, scenario_path, scenario, study, sets, out, "the measures are the window's, without the start-up"
+    )
+    names, runs = plan_envelope(scenario_path, spec, axes, list(sets) + restart_sets, out)
+    # Every override checked before any run: a bad field path is the study's input error.
+    runner.scenario_json(scenario_path, runs[0].sets)
+    runs = runner.run_all(runs)
+    rows = measure_envelope(runs, spec, scenario)
+    write_csv(
+        os.path.join(out, "runs.csv"), names + ["exit", "wall_time", "simulated_time", "host"] + ENVELOPE_COLUMNS, rows
+    )
+    measures = [(k, label) for k, label in ENVELOPE_MEASURES if any(np.isfinite(r.measured[k]) for r in runs)]
+    plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])
+    limits_note = plot_operating_limits(
+        runs, axes, names, spec, os.path.join(out, "operating_limits.png"), scenario["name"]
+    )
+    elapsed = time.time() - started
+    cpu = sum(r.seconds for r in runs if r.seconds == r.seconds)
+    took = (
+        f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
+        f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
+        f"one after the other (processes' wall time)."
+        if any(r.host != "kept" for r in runs)
+        else f"; every run kept from an earlier study (--reuse): the runs took {cpu:.0f} s one after the other."
+    )
+    lines = (
+        envelope_report_head(scenario, spec, runs, axes, names, took, restart_note, limits_note)
+        + envelope_rows(runs)
+        + worst_points(runs)
+        + ["", failures_section(runs)]
+    )
+    write_report(out, lines)
+    if not any(r.code == 0 for r in runs):
+        # Failed points are data (a rotor that finds no rest in a strong wind), but an envelope of
+        # which no point completed measured nothing: its report and runs.csv are written, and the
+        # study ends as its runs did (2 when each was refused as bad input, else 3).
+        codes = sorted({r.code for r in runs})
+        first = runs[0]
+        fail(
+            f"{scenario_path}: no point of the envelope completed (exits {', '.join(str(c) for c in codes)}); "
+            f"the first, {first.id}: {first.message}",
+            2 if codes == [2] else 3,
+        )
+    return {"runs": runs}
+
+
+def validate_envelope(scenario_path, study):
+    """study.envelope checked (one or two axes, each with values and overrides, something to
+    measure), refused (exit 2) naming the field; returns (study.envelope, its axes)."""
     spec = study.get("envelope")
     where = f"{scenario_path}: study.envelope"
     if not spec:
@@ -131,16 +188,14 @@ def study_envelope(runner, scenario_path, out, sets):
             fail(f"{where}.axes[{a}] ('{axis.get('name', '')}'): needs values and set")
     if not spec.get("tip_probes") and not spec.get("impulse_probes") and not spec.get("force_probes"):
         fail(f"{where}: nothing to measure: give tip_probes, impulse_probes or force_probes")
-    # study.restart_time: every point starts from one run's state there (co-simulated scenes
-    # too: each contact process's state travels with the smooth solver's); the axes' overrides
-    # must not act before that time (a gust that has not reached the rotor). The settling run
-    # takes the study's overrides, not the envelope's own `set`, which are its points' only (the
-    # schema's word): with `numerics.smooth.settle=false` there it switched off the settle of the
-    # run every point started from, and each point continued an unsettled, ringing start.
-    restart_sets, restart_note = settled_start(
-        runner, scenario_path, scenario, study, sets, out, "the measures are the window's, without the start-up"
-    )
-    sets = list(sets) + restart_sets + list(spec.get("set", []))
+    return spec, axes
+
+
+def plan_envelope(scenario_path, spec, axes, sets, out):
+    """One Run per point of the grid (the first axis's values, times the second's), with the
+    study's overrides `sets`, the envelope's own and the point's; returns (the axes' names, the runs)."""
+    where = f"{scenario_path}: study.envelope"
+    sets = list(sets) + list(spec.get("set", []))
     if spec.get("impulse_probes"):
         sets.append("output.every=1")  # every step's impulse: none missed between rows
     names = [a.get("name") or f"axis{i}" for i, a in enumerate(axes)]
@@ -160,9 +215,11 @@ def study_envelope(runner, scenario_path, out, sets):
                 out=os.path.join(out, "runs", f"p{i}"),
             )
         )
-    # Every override checked before any run: a bad field path is the study's input error.
-    runner.scenario_json(scenario_path, runs[0].sets)
-    runs = runner.run_all(runs)
+    return names, runs
+
+
+def measure_envelope(runs, spec, scenario):
+    """Each run's envelope_point (into its `measured`), and runs.csv's rows."""
     rows = []
     for r in runs:
         summary = r.summary or {}
@@ -174,28 +231,18 @@ def study_envelope(runner, scenario_path, out, sets):
             + [r.code, r.wall, summary.get("simulated_time", float("nan")), r.host]
             + [m[k] for k in ENVELOPE_COLUMNS]
         )
-    write_csv(
-        os.path.join(out, "runs.csv"), names + ["exit", "wall_time", "simulated_time", "host"] + ENVELOPE_COLUMNS, rows
-    )
-    measures = [(k, label) for k, label in ENVELOPE_MEASURES if any(np.isfinite(r.measured[k]) for r in runs)]
-    plot_envelope(runs, axes, names, measures, os.path.join(out, "envelope.png"), scenario["name"])
-    limits_note = plot_operating_limits(
-        runs, axes, names, spec, os.path.join(out, "operating_limits.png"), scenario["name"]
-    )
-    elapsed = time.time() - started
-    cpu = sum(r.seconds for r in runs if r.seconds == r.seconds)
-    lines = (
+    return rows
+
+
+def envelope_report_head(scenario, spec, runs, axes, names, took, restart_note, limits_note):
+    """The report down to its table's header: the grid, what the study took (`took`), the
+    figures, what each measure is."""
+    return (
         [
             *report_head("Envelope", scenario),
             f"{len(runs)} runs over "
             + " × ".join(f"{n} ({len(a['values'])} values)" for n, a in zip(names, axes))
-            + (
-                f"; the study took {elapsed:.0f} s on {runner.cluster().workers()} Dask workers "
-                f"({'scheduler ' + runner.scheduler if runner.scheduler else 'local cluster'}), the runs {cpu:.0f} s "
-                f"one after the other (processes' wall time)."
-                if any(r.host != "kept" for r in runs)
-                else f"; every run kept from an earlier study (--reuse): the runs took {cpu:.0f} s one after the other."
-            ),
+            + took,
             "",
             "![envelope](envelope.png)",
             "",
@@ -221,6 +268,11 @@ def study_envelope(runner, scenario_path, out, sets):
             "|" + "---|" * (len(names) + 8),
         ]
     )
+
+
+def envelope_rows(runs):
+    """The report's table: one row per point, a failed one's exit in bold with where it stopped."""
+    lines = []
     for r in runs:
         m = r.measured
         exit_text = (
@@ -232,33 +284,26 @@ def study_envelope(runner, scenario_path, out, sets):
             f"{fmt(m['tip_down'])} / {fmt(m['tip_up'])} | {fmt(m['clearance'])} | {fmt(m['peak_stop_force'])} | "
             f"{fmt(m['impacts'])} | {r.wall:.1f} |"
         )
+    return lines
+
+
+def worst_points(runs):
+    """The report's worst completed points for each measure (none if no run completed)."""
     ok = [r for r in runs if r.code == 0]
-    if ok:
-        lines += ["", "Worst points (completed runs):", ""]
-        for key, label, worst in (
-            ("tip_lowest", "lowest tip", min),
-            ("clearance", "smallest clearance", min),
-            ("peak_stop_force", "largest stop force", max),
-            ("impacts", "most impacts", max),
-        ):
-            finite = [r for r in ok if np.isfinite(r.measured[key])]
-            if finite:
-                r = worst(finite, key=lambda x: x.measured[key])
-                lines.append(f"- {label}: {fmt(r.measured[key])} at {r.id}")
-    lines += ["", failures_section(runs)]
-    write_report(out, lines)
     if not ok:
-        # Failed points are data (a rotor that finds no rest in a strong wind), but an envelope of
-        # which no point completed measured nothing: its report and runs.csv are written, and the
-        # study ends as its runs did (2 when each was refused as bad input, else 3).
-        codes = sorted({r.code for r in runs})
-        first = runs[0]
-        fail(
-            f"{scenario_path}: no point of the envelope completed (exits {', '.join(str(c) for c in codes)}); "
-            f"the first, {first.id}: {first.message}",
-            2 if codes == [2] else 3,
-        )
-    return {"runs": runs}
+        return []
+    lines = ["", "Worst points (completed runs):", ""]
+    for key, label, worst in (
+        ("tip_lowest", "lowest tip", min),
+        ("clearance", "smallest clearance", min),
+        ("peak_stop_force", "largest stop force", max),
+        ("impacts", "most impacts", max),
+    ):
+        finite = [r for r in ok if np.isfinite(r.measured[key])]
+        if finite:
+            r = worst(finite, key=lambda x: x.measured[key])
+            lines.append(f"- {label}: {fmt(r.measured[key])} at {r.id}")
+    return lines
 
 
 def plot_envelope(runs, axes, names, measures, path, title):

@@ -4,9 +4,10 @@ import os
 import sys
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import Run, fail
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def study_modes(runner, scenario_path, out, sets):

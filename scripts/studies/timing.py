@@ -20,6 +20,22 @@ def study_timing(runner, scenario_path, out, sets):
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
     specs = study.get("compare") or [{"name": scenario["name"]}]
     peer = study_peer(scenario_path, study)
+    runs = plan_timing(scenario_path, specs, sets, out)
+    jobs, runner.jobs = runner.jobs, 1  # timings: alone on the machine (as far as this study goes)
+    try:
+        for r in runs:
+            r.measured["load_before"] = os.getloadavg()[0]
+            runner.run_all([r])
+    finally:
+        runner.jobs = jobs
+    rows = [timing_row(r, peer) for r in runs]
+    write_csv(os.path.join(out, "timing.csv"), TIMING_COLUMNS, rows)
+    write_report(out, timing_report(scenario, peer, runs, rows))
+    return {"runs": runs, "rows": rows}
+
+
+def plan_timing(scenario_path, specs, sets, out):
+    """Two runs of each spec: its output as written, and none (a row at the first and last step)."""
     runs = []
     for i, spec in enumerate(specs):
         path = compare_run_scenario(scenario_path, spec, i)
@@ -34,50 +50,50 @@ def study_timing(runner, scenario_path, out, sets):
                     out=os.path.join(out, "runs", f"r{i}_{'out' if output == 'as written' else 'none'}"),
                 )
             )
-    jobs, runner.jobs = runner.jobs, 1  # timings: alone on the machine (as far as this study goes)
-    try:
-        for r in runs:
-            r.measured["load_before"] = os.getloadavg()[0]
-            runner.run_all([r])
-    finally:
-        runner.jobs = jobs
-    rows = []
-    for r in runs:
-        s_ = r.summary or {}
-        simulated = s_.get("simulated_time", float("nan"))
-        per_second = r.wall / simulated if simulated and simulated == simulated else float("nan")
-        ratio = (peer["wall_time"] / peer["simulated_time"]) / per_second if peer and per_second > 0 else float("nan")
-        rows.append(
-            [
-                r.id,
-                r.code,
-                s_.get("steps", ""),
-                simulated,
-                r.wall,
-                r.seconds,
-                per_second,
-                ratio,
-                (s_.get("coupling_iterations") or {}).get("mean_per_step", float("nan")),
-                (s_.get("newton_iterations") or {}).get("mean_per_step", float("nan")),
-                (s_.get("counters") or {}).get("newton_factorizations", ""),
-                r.measured["load_before"],
-            ]
-        )
-    header = [
-        "run",
-        "exit",
-        "steps",
-        "simulated_time",
-        "step_wall_time",
-        "process_seconds",
-        "wall_per_simulated_second",
-        "speed_ratio_to_peer",
-        "coupling_iterations_per_step",
-        "newton_iterations_per_step",
-        "newton_factorizations",
-        "load_average_before",
+    return runs
+
+
+# timing.csv's columns, timing_row's order.
+TIMING_COLUMNS = [
+    "run",
+    "exit",
+    "steps",
+    "simulated_time",
+    "step_wall_time",
+    "process_seconds",
+    "wall_per_simulated_second",
+    "speed_ratio_to_peer",
+    "coupling_iterations_per_step",
+    "newton_iterations_per_step",
+    "newton_factorizations",
+    "load_average_before",
+]
+
+
+def timing_row(r, peer):
+    """A run's row of timing.csv: its wall time per simulated second, and the peer's over it."""
+    s_ = r.summary or {}
+    simulated = s_.get("simulated_time", float("nan"))
+    per_second = r.wall / simulated if simulated and simulated == simulated else float("nan")
+    ratio = (peer["wall_time"] / peer["simulated_time"]) / per_second if peer and per_second > 0 else float("nan")
+    return [
+        r.id,
+        r.code,
+        s_.get("steps", ""),
+        simulated,
+        r.wall,
+        r.seconds,
+        per_second,
+        ratio,
+        (s_.get("coupling_iterations") or {}).get("mean_per_step", float("nan")),
+        (s_.get("newton_iterations") or {}).get("mean_per_step", float("nan")),
+        (s_.get("counters") or {}).get("newton_factorizations", ""),
+        r.measured["load_before"],
     ]
-    write_csv(os.path.join(out, "timing.csv"), header, rows)
+
+
+def timing_report(scenario, peer, runs, rows):
+    """report.md's lines: how the runs were timed, the peer, the table of timing.csv."""
     lines = [
         *report_head("Timing", scenario),
         "Each run alone (one at a time), with its output as written and without (`output.every` = 1e9: "
@@ -99,26 +115,8 @@ def study_timing(runner, scenario_path, out, sets):
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
-        lines.append(
-            "| "
-            + " | ".join(
-                [
-                    row[0],
-                    str(row[1]),
-                    str(row[2]),
-                    fmt(row[3]),
-                    fmt(row[4]),
-                    fmt(row[5]),
-                    fmt(row[6]),
-                    fmt(row[7]),
-                    fmt(row[8]),
-                    fmt(row[9]),
-                    str(row[10]),
-                    f"{row[11]:.2f}",
-                ]
-            )
-            + " |"
-        )
+        cells = [str(row[1]), str(row[2])] + [fmt(x) for x in row[3:10]] + [str(row[10]), f"{row[11]:.2f}"]
+        lines.append("| " + " | ".join([row[0]] + cells) + " |")
     lines += [
         "",
         "Real time means a wall time per simulated second of 1 or less. The load average as a run began "
@@ -127,5 +125,4 @@ def study_timing(runner, scenario_path, out, sets):
         "",
         failures_section(runs),
     ]
-    write_report(out, lines)
-    return {"runs": runs, "rows": rows}
+    return lines

@@ -6,8 +6,6 @@ import os
 import numpy as np
 import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from studies.common import (
     report_head,
     Reference,
@@ -29,6 +27,9 @@ from studies.common import (
     write_csv,
     write_report,
 )
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - after matplotlib.use("Agg") (no display)
 
 
 def stop_contacts(history, contact_probes, gap):
@@ -87,56 +88,18 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     """work-precision with study.events: each method against its own reference, each measure apart."""
     events = study["events"]
     peer = study_peer(scenario_path, study)
-    references, keys, reference_of = [], {}, {}  # reference_of: method name → index in references
-    for m, method in enumerate(methods):
-        spec = method.get("reference") or study.get("reference_run")
-        if not spec:
-            fail(
-                f"{scenario_path}: study.methods[{m}] ('{method['name']}'): study.events needs a reference run "
-                "(study.methods[].reference or study.reference_run)"
-            )
-        key = json.dumps(spec, sort_keys=True)
-        if key not in keys:
-            keys[key] = len(references)
-            references.append(
-                Run(
-                    id=f"reference {spec.get('name', len(references))}",
-                    reference=True,
-                    scenario=run_scenario(scenario_path, spec),
-                    sets=list(sets) + list(spec.get("set", [])),
-                    contact_probes=list(spec.get("contact_probes", [])),
-                    out=os.path.join(out, "runs", f"reference{len(references)}"),
-                )
-            )
-        reference_of[method["name"]] = keys[key]
+    references, reference_of = plan_references(scenario_path, study, methods, sets, out)
     done = runner.run_all(references + runs)  # (the references first: a study cut short can be resumed with --reuse)
     references, runs = done[: len(references)], done[len(references) :]
     for r in references:
         if r.code != 0:
             fail(f"the work-precision reference run '{r.id}' failed (exit {r.code}): {r.message}", 3)
-    ref_histories = [read_histories(r.out) for r in references]
-    ref_values = [Reference(study, h) for h in ref_histories]
-    by_name = {method["name"]: method for method in methods}
     measures = (
         [f"history {p}" for p in events.get("history_probes", [])]
         + ["contact times"]
         + [f"peak {p}" for p in events.get("peak_probes", [])]
     )
-    for r in runs:
-        k = reference_of[r.labels["method"]]
-        reference, ref_run = ref_histories[k], references[k]
-        r.measured["errors"], r.measured["unpaired"] = {m: float("nan") for m in measures}, float("nan")
-        if r.code != 0:
-            continue
-        history = read_histories(r.out)
-        for p in events.get("history_probes", []):
-            r.measured["errors"][f"history {p}"] = (
-                probe_error(history, ref_values[k], p, study) if p in reference else float("nan")
-            )
-        found, r.measured["unpaired"] = event_errors(
-            history, by_name[r.labels["method"]].get("contact_probes", []), reference, ref_run.contact_probes, events
-        )
-        r.measured["errors"].update(found)
+    measure_events(runs, references, reference_of, study, methods, measures)
     write_csv(
         os.path.join(out, "runs.csv"),
         ["run", "method", "swept_value", "exit", "wall_time", "unpaired_contacts"] + [f"error {m}" for m in measures],
@@ -146,35 +109,9 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
             for r in runs
         ],
     )
-    # One panel per measure: error against the wall time of the steps, a line per method; a
-    # peer's wall time for the same simulated span (study.peer) marked for scale.
     simulated = float(scenario["numerics"]["end_time"]) - float(scenario["numerics"].get("start_time", 0.0))
     peer_wall = peer["wall_time"] * simulated / peer["simulated_time"] if peer else None
-    columns = 2
-    rows = (len(measures) + columns - 1) // columns
-    fig, axes = plt.subplots(rows, columns, figsize=(11, 3.6 * rows), squeeze=False)
-    units = {"contact times": "[s]"}
-    for ax, measure in zip(axes.flat, measures):
-        for method in methods:
-            pts = sorted(
-                (r.wall, r.measured["errors"][measure])
-                for r in runs
-                if r.labels["method"] == method["name"]
-                and r.measured["errors"][measure] == r.measured["errors"][measure]
-                and r.measured["errors"][measure] > 0
-            )
-            if pts:
-                ax.loglog(*zip(*pts), "o-", label=method["name"])
-        if peer_wall:
-            ax.axvline(peer_wall, color="k", ls=":", lw=1.0, label=f"{peer.get('name', 'peer')}: wall time")
-        ax.axvline(simulated, color="0.6", ls="--", lw=0.8, label="real time")
-        ax.set_title(f"{measure} {units.get(measure, '')}", fontsize=9)
-        ax.set_xlabel("wall time of the time steps [s]", fontsize=8)
-        ax.set_ylabel("error against the reference", fontsize=8)
-    for ax in list(axes.flat)[len(measures) :]:
-        ax.axis("off")
-    fig.suptitle(f"{scenario['name']}: work against precision", fontsize=10)
-    save_plot(fig, [ax for ax in axes.flat if ax.has_data()], os.path.join(out, "work_precision.png"), legend_size=7)
+    plot_events(os.path.join(out, "work_precision.png"), scenario, runs, methods, measures, peer, peer_wall, simulated)
     lines = [
         *report_head("Work against precision", scenario),
         "Each method against its own reference run ("
@@ -207,37 +144,94 @@ def study_work_precision_events(runner, scenario_path, scenario, study, sets, ru
     return {"runs": runs, "measures": measures}
 
 
+def plan_references(scenario_path, study, methods, sets, out):
+    """Each method's reference run (its own `reference`, else study.reference_run; one run for
+    equal specs), refused (exit 2) if a method has none: returns (the reference runs,
+    {method name: index in them})."""
+    references, keys, reference_of = [], {}, {}
+    for m, method in enumerate(methods):
+        spec = method.get("reference") or study.get("reference_run")
+        if not spec:
+            fail(
+                f"{scenario_path}: study.methods[{m}] ('{method['name']}'): study.events needs a reference run "
+                "(study.methods[].reference or study.reference_run)"
+            )
+        key = json.dumps(spec, sort_keys=True)
+        if key not in keys:
+            keys[key] = len(references)
+            references.append(
+                Run(
+                    id=f"reference {spec.get('name', len(references))}",
+                    reference=True,
+                    scenario=run_scenario(scenario_path, spec),
+                    sets=list(sets) + list(spec.get("set", [])),
+                    contact_probes=list(spec.get("contact_probes", [])),
+                    out=os.path.join(out, "runs", f"reference{len(references)}"),
+                )
+            )
+        reference_of[method["name"]] = keys[key]
+    return references, reference_of
+
+
+def measure_events(runs, references, reference_of, study, methods, measures):
+    """Each run's errors against its method's reference (`measured["errors"]` by measure, nan for a
+    failed run) and its contacts left unpaired (`measured["unpaired"]`)."""
+    events = study["events"]
+    ref_histories = [read_histories(r.out) for r in references]
+    ref_values = [Reference(study, h) for h in ref_histories]
+    by_name = {method["name"]: method for method in methods}
+    for r in runs:
+        k = reference_of[r.labels["method"]]
+        reference, ref_run = ref_histories[k], references[k]
+        r.measured["errors"], r.measured["unpaired"] = {m: float("nan") for m in measures}, float("nan")
+        if r.code != 0:
+            continue
+        history = read_histories(r.out)
+        for p in events.get("history_probes", []):
+            r.measured["errors"][f"history {p}"] = (
+                probe_error(history, ref_values[k], p, study) if p in reference else float("nan")
+            )
+        found, r.measured["unpaired"] = event_errors(
+            history, by_name[r.labels["method"]].get("contact_probes", []), reference, ref_run.contact_probes, events
+        )
+        r.measured["errors"].update(found)
+
+
+def plot_events(path, scenario, runs, methods, measures, peer, peer_wall, simulated):
+    """One panel per measure: error against the wall time of the steps, a line per method; a
+    peer's wall time for the same simulated span (study.peer) marked for scale."""
+    columns = 2
+    rows = (len(measures) + columns - 1) // columns
+    fig, axes = plt.subplots(rows, columns, figsize=(11, 3.6 * rows), squeeze=False)
+    units = {"contact times": "[s]"}
+    for ax, measure in zip(axes.flat, measures):
+        for method in methods:
+            pts = sorted(
+                (r.wall, r.measured["errors"][measure])
+                for r in runs
+                if r.labels["method"] == method["name"]
+                and r.measured["errors"][measure] == r.measured["errors"][measure]
+                and r.measured["errors"][measure] > 0
+            )
+            if pts:
+                ax.loglog(*zip(*pts), "o-", label=method["name"])
+        if peer_wall:
+            ax.axvline(peer_wall, color="k", ls=":", lw=1.0, label=f"{peer.get('name', 'peer')}: wall time")
+        ax.axvline(simulated, color="0.6", ls="--", lw=0.8, label="real time")
+        ax.set_title(f"{measure} {units.get(measure, '')}", fontsize=9)
+        ax.set_xlabel("wall time of the time steps [s]", fontsize=8)
+        ax.set_ylabel("error against the reference", fontsize=8)
+    for ax in list(axes.flat)[len(measures) :]:
+        ax.axis("off")
+    fig.suptitle(f"{scenario['name']}: work against precision", fontsize=10)
+    save_plot(fig, [ax for ax in axes.flat if ax.has_data()], path, legend_size=7)
+
+
 def study_work_precision(runner, scenario_path, out, sets):
     scenario, study, sets = with_study_sets(runner, scenario_path, sets)
     steps = halving_steps(scenario, study)
     methods = study.get("methods") or default_methods(scenario)
-    runs = []
-    for m, method in enumerate(methods):
-        path = run_scenario(scenario_path, method)
-        field = method.get("sweep_field", "numerics.step")
-        values = method.get("sweep_values") or steps
-        for i, v in enumerate(values):
-            extra = [f"{field}={v!r}"]
-            if field == "numerics.smooth.ida_relative_tolerance":
-                extra.append(f"numerics.smooth.ida_absolute_tolerance={v!r}")
-            if field == "numerics.adaptive.relative":  # adaptive CGα: output on the coarsest grid, every step
-                extra += [f"numerics.adaptive.absolute={v!r}", "numerics.adaptive.enabled=true"]
-                # (unless the method asks for sparser rows: a coupled adaptive run's steps land on them)
-                if not any(x.startswith("output.every=") for x in method.get("set", [])):
-                    extra.append("output.every=1")
-            if field == "numerics.step":
-                extra.append(f"output.every={every_for(scenario, v, steps[0])}")
-            else:  # output on the coarsest grid
-                extra += [f"numerics.step={steps[0]!r}"]
-            runs.append(
-                Run(
-                    id=f"{method['name']} {field.split('.')[-1]}={v:.3g}",
-                    labels={"method": method["name"], "value": v},
-                    scenario=path,
-                    sets=list(sets) + list(method.get("set", [])) + extra,
-                    out=os.path.join(out, "runs", f"m{m}_{i}"),
-                )
-            )
+    runs = plan_work_precision(scenario_path, scenario, methods, steps, sets, out)
     if study.get("events"):
         return study_work_precision_events(runner, scenario_path, scenario, study, sets, runs, methods, out)
     runs, reference, extra_runs, histories, probes = run_and_measure(
@@ -282,3 +276,36 @@ def study_work_precision(runner, scenario_path, out, sets):
     lines += ["", failures_section(runs + extra_runs)]
     write_report(out, lines)
     return {"runs": runs, "probes": probes}
+
+
+def plan_work_precision(scenario_path, scenario, methods, steps, sets, out):
+    """One Run per method and swept value (study.methods[].sweep_field, the step by default): a
+    tolerance swept runs on the coarsest step, a step swept writes the coarsest run's times."""
+    runs = []
+    for m, method in enumerate(methods):
+        path = run_scenario(scenario_path, method)
+        field = method.get("sweep_field", "numerics.step")
+        values = method.get("sweep_values") or steps
+        for i, v in enumerate(values):
+            extra = [f"{field}={v!r}"]
+            if field == "numerics.smooth.ida_relative_tolerance":
+                extra.append(f"numerics.smooth.ida_absolute_tolerance={v!r}")
+            if field == "numerics.adaptive.relative":  # adaptive CGα: output on the coarsest grid, every step
+                extra += [f"numerics.adaptive.absolute={v!r}", "numerics.adaptive.enabled=true"]
+                # (unless the method asks for sparser rows: a coupled adaptive run's steps land on them)
+                if not any(x.startswith("output.every=") for x in method.get("set", [])):
+                    extra.append("output.every=1")
+            if field == "numerics.step":
+                extra.append(f"output.every={every_for(scenario, v, steps[0])}")
+            else:  # output on the coarsest grid
+                extra += [f"numerics.step={steps[0]!r}"]
+            runs.append(
+                Run(
+                    id=f"{method['name']} {field.split('.')[-1]}={v:.3g}",
+                    labels={"method": method["name"], "value": v},
+                    scenario=path,
+                    sets=list(sets) + list(method.get("set", [])) + extra,
+                    out=os.path.join(out, "runs", f"m{m}_{i}"),
+                )
+            )
+    return runs

@@ -23,7 +23,7 @@ import unittest
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
-from rotors import check, scene, spec  # noqa: E402
+from rotors import check, scene, spec  # noqa: E402 - after sys.path.insert (scripts/)
 
 BIN, WORK = sys.argv[1], sys.argv[2]
 ROTOR = [sys.executable, os.path.join(ROOT, "scripts", "rotor.py")]

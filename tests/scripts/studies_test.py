@@ -11,7 +11,7 @@ import unittest
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
-from studies.common import (  # noqa: E402
+from studies.common import (  # noqa: E402 - after sys.path.insert (scripts/)
     ROOT,
     Reference,
     Run,
@@ -27,10 +27,15 @@ from studies.common import (  # noqa: E402
     record,
     same_overrides,
 )
-from studies.compare import compare_measure  # noqa: E402
-from studies.coupling import relaxation_sets  # noqa: E402
-from studies.envelope import axis_sets, unsafe_points  # noqa: E402
-from studies.results import contents, entry_heading, envelope_headline, headline_rows  # noqa: E402
+from studies.compare import compare_measure  # noqa: E402 - after sys.path.insert (scripts/)
+from studies.coupling import relaxation_sets  # noqa: E402 - after sys.path.insert (scripts/)
+from studies.envelope import axis_sets, unsafe_points  # noqa: E402 - after sys.path.insert (scripts/)
+from studies.results import (  # noqa: E402 - after sys.path.insert (scripts/)
+    contents,
+    entry_heading,
+    envelope_headline,
+    headline_rows,
+)
 
 
 class Common(unittest.TestCase):

@@ -327,7 +327,7 @@ def default_text(field):
     value = field.default_value
     if field.type == FDP.TYPE_STRING:
         value = '"' + value + '"'
-    return "`" + value + "`"
+    return "`" + value.replace("|", "\\|") + "`"
 
 
 def type_cell(schema, field, anchors):

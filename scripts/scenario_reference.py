@@ -304,21 +304,23 @@ def anchor(heading):
     return re.sub(r"[^\w\- ]", "", heading.lower()).replace(" ", "-")
 
 
-def inline(text):
-    """A comment folded onto one line for a table cell or a paragraph: lines joined, '|' escaped,
-    and outside `code` '<' and '*' escaped (so that <beam> and t**2 show as written)."""
+def inline(text, cell=True):
+    """A comment folded onto one line for a table cell (cell) or a paragraph: lines joined, '|'
+    escaped in a cell, and outside `code` '<' and '*' escaped (so that <beam> and t**2 show as
+    written)."""
     folded = " ".join(line.strip() for line in text.split("\n") if line.strip())
     pieces = folded.split("`")
     for k in range(0, len(pieces), 2):  # the even pieces are outside code spans
         pieces[k] = pieces[k].replace("<", "&lt;").replace("*", "\\*")
     if len(pieces) % 2 == 0:  # an unmatched backtick: escape it
         pieces[-2] += "\\`" + pieces.pop()
-    return "`".join(pieces).replace("|", "\\|")
+    joined = "`".join(pieces)
+    return joined.replace("|", "\\|") if cell else joined
 
 
 def paragraphs(text):
     """A comment as Markdown paragraphs (its blank lines kept)."""
-    return "\n\n".join(inline(block) for block in re.split(r"\n\s*\n", text) if block.strip())
+    return "\n\n".join(inline(block, cell=False) for block in re.split(r"\n\s*\n", text) if block.strip())
 
 
 def default_text(field):

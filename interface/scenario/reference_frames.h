@@ -40,7 +40,7 @@ struct CopyTurn {
 // The pose of a rotation vector v (axis times angle) about the point `origin`.
 Pose RotationAbout(const Eigen::Vector3d& v, const Eigen::Vector3d& origin);
 
-// Maps every geometry-annotated 3-vector list of `message` and its sub-messages (scenario.proto's
+// Maps every geometry-annotated 3-vector list of `message` and its sub-messages (the schema's
 // `geometry` option) by `pose`: points x ↦ R x + t, directions d ↦ R d, rotation vectors v ↦ the
 // rotation vector of R·R(v). With `skip_referenced`, a sub-message that sets `reference` (it is
 // written in a frame, which moves instead) is left as it is. Lists of a length other than a

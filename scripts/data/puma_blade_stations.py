@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Writes the research Puma's blade section tables (docs/reference/puma.md, from Bousman et
 al., NASA TM 110421, as in MBDyn's Puma example) as `stations { ... }` blocks of a scenario's
-beam (proto/scenario.proto, BeamStation), so that the tables are typed once, here.
+beam (proto/scenario/structure.proto, BeamStation), so that the tables are typed once, here.
 
 Every property is piecewise linear in r with its own breakpoints; the stations are the union of
 all breakpoints, with two stations at an r where any property jumps (left and right values).

@@ -374,7 +374,7 @@ def signed_peak(values):
     return float(values[int(np.argmax(np.abs(values)))]) if values.size else float("nan")
 
 
-# Units of the probe quantities a stop's contact is measured by (scenario.proto, Probe).
+# Units of the probe quantities a stop's contact is measured by (proto/scenario/output.proto, Probe).
 QUANTITY_UNITS = {
     "IMPULSE": "N s (per step)",
     "CONTACT_FORCE": "N",  # a point contact's; a joint stop's is N m (probe_units)
@@ -394,7 +394,7 @@ def probe_units(runner, run):
         scenario = runner.scenario_json(run.scenario, run.sets)
     except StudyError:
         return {}
-    # A joint stop's CONTACT_FORCE is its law's moment (scenario.proto): the Puma twin's stops.
+    # A joint stop's CONTACT_FORCE is its law's moment (proto/scenario/output.proto): the Puma twin's stops.
     joint_stops = {f.get("name") for f in scenario.get("model", {}).get("forces", []) if "joint_stop" in f}
     units = {}
     for p in scenario.get("output", {}).get("probes", []):

@@ -393,7 +393,7 @@ void Coordinator::Accept(double t, double h) {
 void Coordinator::AfterImpacts(const std::vector<int>& impacts, double t, double h) {
   // A new contact (an impact): the points take their nodes' velocities and the history restarts,
   // unless the scenario keeps the smooth model going (restart_at_impact = false: a regularised
-  // tie then carries the velocity jump over the next steps; scenario.proto).
+  // tie then carries the velocity jump over the next steps; proto/scenario/coupling.proto).
   // The jump is taken by the rigid bodies alone (ProjectImpactVelocities: the beams' and hex27
   // bodies' velocities held), and only where they can take it: a point on a body clamped to a
   // beam (a pad on a beam blade's pitch fitting) is left to its tie, whose compliance passes the

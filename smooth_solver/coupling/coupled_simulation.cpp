@@ -83,7 +83,7 @@ CouplingSettings ReadCouplingSettings(const interface::Checks& checks, const int
   }
   settings.step_average_reaction = it.reaction() == sc::Coupling::CouplingIteration::STEP_AVERAGE;
   // Unset, the reaction is the contact program's: STEP_AVERAGE when every process is a compliant
-  // penalty_solver (END_OF_STEP lags its contact force and gains energy: scenario.proto), so
+  // penalty_solver (END_OF_STEP lags its contact force and gains energy: proto/scenario/coupling.proto), so
   // that swapping the contact solver is the program's field and its contact stiffness.
   const auto& processes = file.proto().coupling().processes();
   if (!it.has_reaction() && !processes.empty() &&

@@ -27,21 +27,21 @@ struct CouplingSettings {
   interface::Relaxation::Method relaxation = interface::Relaxation::Method::kAitken;
   double relaxation_factor = 0.5;
   int reuse_steps = 0;                 // IQN-ILS: columns of that many earlier steps kept
-  bool step_average_reaction = false;  // false: λ at the step's end (see scenario.proto)
+  bool step_average_reaction = false;  // false: λ at the step's end (see proto/scenario/coupling.proto)
   bool stop_at_max_iterations = true;  // false: accept and mark the step
-  bool restart_at_impact = true;       // see scenario.proto, CouplingIteration
-  bool warm_start = true;              // Newton from the last coupling iteration's end (scenario.proto)
+  bool restart_at_impact = true;       // see proto/scenario/coupling.proto, CouplingIteration
+  bool warm_start = true;              // Newton from the last coupling iteration's end (proto/scenario/coupling.proto)
   // Interface Jacobians (docs/protocol.md) with every peer that offers them: the peers take the
   // smooth side's linearisation as an implicit force law and answer with their sensitivities,
   // which the smooth step takes as a compliance on the interface rows (a Newton iteration on
   // the interface). false: the relaxation above with every peer.
   bool interface_jacobians = true;
   // Interface Jacobians: a step whose peers' first answer agrees with the linearising pre-solve
-  // is accepted on it, without a second smooth solve (scenario.proto,
+  // is accepted on it, without a second smooth solve (proto/scenario/coupling.proto,
   // CouplingIteration.accept_agreeing_linearisation).
   bool accept_agreeing_linearisation = true;
   // > 0: a step whose peers report no contact within this many steps of its end is accepted
-  // after its first iteration if the reaction residual meets the tolerance (scenario.proto,
+  // after its first iteration if the reaction residual meets the tolerance (proto/scenario/coupling.proto,
   // CouplingIteration.free_flight_margin); 0: always confirm with a second iteration.
   double free_flight_margin = 0.0;
 };
@@ -85,7 +85,7 @@ class InterfaceRows {
 
 // What the smooth side's answer x̃ is made of: the interface rows' multipliers λ at the step's
 // end (END_OF_STEP), or their CGα-filtered values averaged over the step (STEP_AVERAGE;
-// scenario.proto, CouplingIteration.step_average_reaction).
+// proto/scenario/coupling.proto, CouplingIteration.step_average_reaction).
 class StepReaction {
  public:
   StepReaction(const MultibodySystem& system, const CgAlpha& integrator, bool step_average);

@@ -75,7 +75,7 @@ Eigen::Matrix3d Inertia(const Checks& checks, const std::string& path,
 
 // model.moving_bases: each a chain ground → surge → sway → heave (prismatic x, y, z) → yaw →
 // pitch → roll (revolute z, y', x'') → the base body, every joint driven by its function (zero if
-// absent), all at the base's point with the global axes at zero motion (scenario.proto,
+// absent), all at the base's point with the global axes at zero motion (proto/scenario/model.proto,
 // MovingBase). The bodies first (the user's joints name the base), the joints after theirs.
 struct BaseLink {
   const char* suffix;  // the link's body and joint: NAME.suffix; the last link's body is NAME

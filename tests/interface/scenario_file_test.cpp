@@ -439,7 +439,7 @@ TEST(ScenarioFile, ChecksNameFieldValueAndExpectation) {
 }
 
 TEST(ScenarioFile, MaterializeDefaultsShowsEverySettingUsed) {
-  // Defaults declared in proto/scenario.proto become explicit values, so summary.json lists them.
+  // Defaults declared in the schema (proto/scenario/) become explicit values, so summary.json lists them.
   scenario::Numerics n;
   MaterializeDefaults(&n);
   EXPECT_TRUE(n.nonsmooth().has_theta());

@@ -21,9 +21,17 @@ namespace {
 
 using cosim::nonsmooth::ContactModel;
 using cosim::nonsmooth::MoreauJean;
+using cosim::nonsmooth::MoreauJeanSettings;
 
-ContactModel Build(const std::string& text, const std::vector<std::string>& sets = {}) {
-  return cosim::nonsmooth::BuildContactModel(cosim::interface::ScenarioFile::Parse(text, "benchmark", sets));
+// A scene's contact model and its Moreau–Jean settings (numerics.nonsmooth), as a contact process reads them.
+struct Scene {
+  ContactModel model;
+  MoreauJeanSettings settings;
+};
+
+Scene Build(const std::string& text, const std::vector<std::string>& sets = {}) {
+  const auto file = cosim::interface::ScenarioFile::Parse(text, "benchmark", sets);
+  return {cosim::nonsmooth::BuildContactModel(file), cosim::nonsmooth::ReadMoreauJeanSettings(file)};
 }
 
 std::string BallScenario() {
@@ -54,10 +62,10 @@ std::string WedgeScenario(int nodes) {
 }
 
 // Median over `repeats` runs of the wall time per step [µs] of `steps` steps of size h.
-double MicrosecondsPerStep(const ContactModel& model, double h, long steps, int repeats, double* final_z) {
+double MicrosecondsPerStep(const Scene& scene, double h, long steps, int repeats, double* final_z) {
   std::vector<double> samples;
   for (int r = 0; r < repeats; ++r) {
-    MoreauJean mj(model, 0.0);
+    MoreauJean mj(scene.model, scene.settings, 0.0);
     const auto t0 = std::chrono::steady_clock::now();
     for (long k = 0; k < steps; ++k) mj.Step(static_cast<double>(k) * h, h);
     const auto t1 = std::chrono::steady_clock::now();

@@ -159,6 +159,10 @@ void ContactStepper::StepTentatively(double t, double h) {
   }
 }
 
+ContactStepper::ContactStepper(const interface::ScenarioFile& file)
+    : penetration_limit_(interface::Checks(file).Positive(
+          "numerics.nonsmooth.max_penetration", true, file.proto().numerics().nonsmooth().max_penetration(), "m")) {}
+
 double ContactStepper::TimeToContact(double resting_speed) const {
   double earliest = std::numeric_limits<double>::infinity();
   for (size_t c = 0; c < model().contacts.size(); ++c) {
@@ -179,12 +183,12 @@ void ContactStepper::CheckAccepted(double t) const {
   const ContactModel& model = this->model();
   for (size_t c = 0; c < model.contacts.size(); ++c) {
     const double gap = Gap(static_cast<int>(c));
-    if (gap < -model.max_penetration) {
+    if (gap < -penetration_limit_) {
       const Contact& contact = model.contacts[c];
       throw NumericalError("contact '" + model.nodes[static_cast<size_t>(contact.node)].name + "/" +
                            model.obstacles[static_cast<size_t>(contact.obstacle)].name + "' is " + FormatNumber(-gap) +
                            " m through its obstacle after the step to t = " + FormatNumber(t) +
-                           " s, more than numerics.nonsmooth.max_penetration = " + FormatNumber(model.max_penetration) +
+                           " s, more than numerics.nonsmooth.max_penetration = " + FormatNumber(penetration_limit_) +
                            " m: the step is too long for the motion (or the contact too soft)");
     }
   }

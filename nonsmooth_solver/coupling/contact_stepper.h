@@ -99,6 +99,10 @@ class ContactStepper : public interface::Simulation {
   void Visual(interface::VisualFrame* frame) const override;
 
  protected:
+  // Reads numerics.nonsmooth.max_penetration [m] of `file`, the depth through an obstacle after
+  // an accepted step beyond which the step failed (CheckAccepted; every contact method).
+  explicit ContactStepper(const interface::ScenarioFile& file);
+
   // The method's part of a saved state: time, nodes' q and v, impulses and its own memory (the
   // sizes are checked before SetState).
   virtual void GetState(state::ContactState* s) const = 0;
@@ -106,7 +110,8 @@ class ContactStepper : public interface::Simulation {
 
  private:
   std::string scenario_name_, process_, output_folder_;
-  bool stepping_ = false;  // a standalone step under way: its start is the state to save
+  double penetration_limit_ = 0.1;  // [m], numerics.nonsmooth.max_penetration
+  bool stepping_ = false;           // a standalone step under way: its start is the state to save
 };
 
 }  // namespace cosim::nonsmooth

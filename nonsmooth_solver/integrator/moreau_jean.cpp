@@ -15,8 +15,8 @@ size_t Idx(int i) { return static_cast<size_t>(i); }
 
 }  // namespace
 
-MoreauJean::MoreauJean(const ContactModel& model, double start_time)
-    : model_(model), lcp_(model.lcp), time_(start_time) {
+MoreauJean::MoreauJean(const ContactModel& model, const MoreauJeanSettings& settings, double start_time)
+    : model_(model), settings_(settings), lcp_(settings.lcp), time_(start_time) {
   data_.frames.resize(static_cast<size_t>(model.driven_frames));
   const Eigen::Index n = static_cast<Eigen::Index>(model.nodes.size());
   const Eigen::Index nc = static_cast<Eigen::Index>(model.contacts.size());
@@ -33,7 +33,7 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
   velocity_sensitivity_ = Eigen::VectorXd::Zero(9 * n);
 
   // Per group: masses, stiffness and damping matrices, constant spring forces.
-  const bool fc3d = model.friction_model == FrictionModel::kSiconosFc3d;
+  const bool fc3d = settings.friction_model == FrictionModel::kSiconosFc3d;
   int total_columns = 0, total_lambdas = 0;
   work_.resize(model.groups.size());
   for (size_t g = 0; g < model.groups.size(); ++g) {
@@ -73,7 +73,7 @@ MoreauJean::MoreauJean(const ContactModel& model, double start_time)
     int columns = 0;
     for (int c : group.contacts) {
       const bool friction = model.contacts[Idx(c)].friction > 0.0;
-      columns += fc3d ? 3 : 1 + (friction ? model.friction_facets : 0);
+      columns += fc3d ? 3 : 1 + (friction ? settings.friction_facets : 0);
       total_lambdas += (!fc3d && friction) ? 1 : 0;
     }
     total_columns += columns;
@@ -111,12 +111,12 @@ double MoreauJean::PotentialEnergy(int node) const { return nonsmooth::Potential
 
 Eigen::Vector3d MoreauJean::FacetDirection(const Obstacle& ob, double t, int j) const {
   const Eigen::Vector3d n = ob.NormalAt(t, data_), t1 = ob.TangentAt(t, data_);
-  const double angle = 2.0 * std::numbers::pi * j / model_.friction_facets;
+  const double angle = 2.0 * std::numbers::pi * j / settings_.friction_facets;
   return std::cos(angle) * t1 + std::sin(angle) * n.cross(t1);
 }
 
 void MoreauJean::FreeVelocity(int group_index, double t, double h) {
-  const double theta = model_.theta;
+  const double theta = settings_.theta;
   GroupWork& w = work_[Idx(group_index)];
   const NodeGroup& group = model_.groups[Idx(group_index)];
   for (size_t s = 0; s < group.nodes.size(); ++s) {
@@ -353,7 +353,7 @@ void MoreauJean::ContactSensitivity(const std::vector<int>& groups, int size, do
     }
   }
   // Constraint rows C (C dv = 0 on the piece) and impulse directions D (dv = V0 + Y_u D dz).
-  const Eigen::MatrixXd dv = model_.friction_model == FrictionModel::kSiconosFc3d
+  const Eigen::MatrixXd dv = settings_.friction_model == FrictionModel::kSiconosFc3d
                                  ? Fc3dPieceSensitivity(groups, b, size, t1, h)
                                  : LcpPieceSensitivity(b, size);
   int d = 0;
@@ -370,7 +370,7 @@ void MoreauJean::ContactSensitivity(const std::vector<int>& groups, int size, do
 
 void MoreauJean::BuildColumns(int group, double t1) {
   GroupWork& w = work_[Idx(group)];
-  const bool fc3d = model_.friction_model == FrictionModel::kSiconosFc3d;
+  const bool fc3d = settings_.friction_model == FrictionModel::kSiconosFc3d;
   int column = 0;
   // One column of G: the direction on the node's three rows, zero elsewhere.
   auto set = [&w](int col, Eigen::Index row, const Eigen::Vector3d& direction) {
@@ -389,8 +389,8 @@ void MoreauJean::BuildColumns(int group, double t1) {
       set(column++, o, ob.TangentAt(t1, data_));
       set(column++, o, ob.NormalAt(t1, data_).cross(ob.TangentAt(t1, data_)));
     } else if (ct.friction > 0.0) {
-      a.tangent_columns = model_.friction_facets;
-      for (int j = 0; j < model_.friction_facets; ++j) set(column++, o, FacetDirection(ob, t1, j));
+      a.tangent_columns = settings_.friction_facets;
+      for (int j = 0; j < settings_.friction_facets; ++j) set(column++, o, FacetDirection(ob, t1, j));
     } else {
       a.tangent_columns = 0;
     }
@@ -402,7 +402,7 @@ void MoreauJean::BuildColumns(int group, double t1) {
 }
 
 void MoreauJean::SolveContacts(const std::vector<int>& groups, double t1, double h) {
-  const bool fc3d = model_.friction_model == FrictionModel::kSiconosFc3d;
+  const bool fc3d = settings_.friction_model == FrictionModel::kSiconosFc3d;
   // Layout: every group's impulse columns first, then the sliding multipliers λ.
   int columns = 0;
   int contacts = 0;
@@ -464,7 +464,7 @@ void MoreauJean::SolveContacts(const std::vector<int>& groups, double t1, double
   int iterations = 0;
   if (fc3d) {
     const FrictionContactResult r =
-        SolveFrictionContact(A, b, mu_.head(contacts), model_.lcp.tolerance, model_.lcp.max_iterations, z);
+        SolveFrictionContact(A, b, mu_.head(contacts), settings_.lcp.tolerance, settings_.lcp.max_iterations, z);
     iterations = r.iterations;
     if (!r.solved) {
       throw NumericalError("friction-contact problem of " + std::to_string(contacts) + " contact(s) [" +
@@ -502,7 +502,7 @@ void MoreauJean::SolveContacts(const std::vector<int>& groups, double t1, double
 }
 
 void MoreauJean::Step(double t, double h) {
-  const double theta = model_.theta;
+  const double theta = settings_.theta;
   const double t1 = t + h;
   for (size_t g = 0; g < work_.size(); ++g) FreeVelocity(static_cast<int>(g), t, h);
 
@@ -528,10 +528,10 @@ void MoreauJean::Step(double t, double h) {
       const double bias = ob.GapRateBias(t, x, data_);
       const double u0 = n.dot(v_.segment<3>(3 * ct.node)) + bias;
       const double gap = ob.Gap(t, x, data_);
-      bool active = gap + 0.5 * h * u0 <= model_.activation_gap;
+      bool active = gap + 0.5 * h * u0 <= settings_.activation_gap;
       if (!active && impulse_(c) > 0.0) {
         const double u_free = n.dot(work_[g].v_free.segment<3>(3 * model_.node_slot[Idx(ct.node)])) + bias;
-        active = gap + h * u_free <= model_.activation_gap;
+        active = gap + h * u_free <= settings_.activation_gap;
       }
       if (active) active_.push_back(ActiveContact{c, static_cast<int>(g), 0, 0, -1, u0});
     }
@@ -547,13 +547,13 @@ void MoreauJean::Step(double t, double h) {
     for (size_t g = 0; g < model_.groups.size(); ++g) {
       // Groups without an active contact (the others are made with their contact problem; in
       // one problem for all groups, every group is).
-      if (work_[g].columns == 0 && (model_.split_independent_lcps || active_.empty())) {
+      if (work_[g].columns == 0 && (settings_.split_independent_lcps || active_.empty())) {
         FreeSensitivity(static_cast<int>(g), h);
       }
     }
   }
   if (!active_.empty()) {
-    if (model_.split_independent_lcps) {
+    if (settings_.split_independent_lcps) {
       for (size_t g = 0; g < model_.groups.size(); ++g) {
         if (work_[g].columns == 0) continue;
         one_group_[0] = static_cast<int>(g);

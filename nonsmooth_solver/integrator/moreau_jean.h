@@ -15,7 +15,7 @@
 // frictional contact adds tangent impulses β_j >= 0 along d_j and a sliding-speed multiplier
 // λ:  0 <= d_jᵀ v_{k+1} + λ ⟂ β_j >= 0,  0 <= μ r − Σ β_j ⟂ λ >= 0. With Siconos' fc3d the
 // exact cone is used instead.
-// A contact is active when its predicted gap g_k + (h/2) u_k is at most the model's
+// A contact is active when its predicted gap g_k + (h/2) u_k is at most the settings'
 // activation_gap (the index set of the NSCD method, as in Siconos' MoreauJeanOSI with γ = 1/2;
 // the small positive threshold keeps resting contacts active through round-off).
 //
@@ -44,6 +44,7 @@
 #include <Eigen/LU>
 #include <vector>
 
+#include "nonsmooth_solver/integrator/moreau_jean_settings.h"
 #include "nonsmooth_solver/model/contact_model.h"
 
 namespace cosim::nonsmooth {
@@ -60,10 +61,11 @@ struct MoreauJeanStats {
 
 class MoreauJean {
  public:
-  // Starts from the model's initial positions and velocities at time `start_time`.
-  // The model must outlive the integrator (it is referenced, not copied).
-  MoreauJean(const ContactModel& model, double start_time);
-  MoreauJean(ContactModel&&, double) = delete;
+  // Starts from the model's initial positions and velocities at time `start_time`, integrating
+  // with `settings`. The model must outlive the integrator (it is referenced, not copied).
+  MoreauJean(const ContactModel& model, const MoreauJeanSettings& settings, double start_time);
+  MoreauJean(ContactModel&&, const MoreauJeanSettings&, double) = delete;
+  const MoreauJeanSettings& settings() const { return settings_; }
 
   // Advances q, v from t to t + h. Throws NumericalError (state unchanged) if a contact
   // problem fails its check and no fallback rescues it.
@@ -189,6 +191,7 @@ class MoreauJean {
   Eigen::Vector3d FacetDirection(const Obstacle& ob, double t, int j) const;
 
   const ContactModel& model_;
+  MoreauJeanSettings settings_;
   ContactData data_;
   LcpSolver lcp_;
   double time_ = 0.0;

@@ -97,22 +97,6 @@ double PotentialEnergy(const ContactModel& model, const Eigen::VectorXd& q, int 
 
 namespace {
 
-LcpAlgorithm ToAlgorithm(const Checks& checks, const std::string& path, sc::LcpSettings::Solver solver) {
-  switch (solver) {
-    case sc::LcpSettings::LEMKE:
-      return LcpAlgorithm::kLemke;
-    case sc::LcpSettings::PGS:
-      return LcpAlgorithm::kPgs;
-    case sc::LcpSettings::ENUMERATIVE:
-      return LcpAlgorithm::kEnumerative;
-    case sc::LcpSettings::NEWTON_FB:
-      return LcpAlgorithm::kNewtonFischerBurmeister;
-    default:
-      checks.Fail(path, "expected one of LEMKE, PGS, ENUMERATIVE, NEWTON_FB" +
-                            std::string(path.find("fallback") != std::string::npos ? " (or NONE alone)" : ""));
-  }
-}
-
 void BuildObstacles(const Checks& checks, const sc::Model& model, bool served, ContactModel* out, NameTable* names) {
   for (int i = 0; i < model.obstacles_size(); ++i) {
     const sc::Obstacle& o = model.obstacles(i);
@@ -333,43 +317,6 @@ ContactModel BuildContactModel(const interface::ScenarioFile& file, const std::s
   const sc::Scenario& s = file.proto();
   ContactModel model;
   model.gravity = checks.Vector3("model.gravity", s.model().gravity(), Eigen::Vector3d::Zero());
-
-  const sc::NonsmoothSettings& ns = s.numerics().nonsmooth();
-  model.theta = checks.InRange("numerics.nonsmooth.theta", true, ns.theta(), 0.0, 1.0, /*lo_open=*/true);
-  model.activation_gap = checks.NonNegative("numerics.nonsmooth.activation_gap", ns.activation_gap(), "m");
-  model.max_penetration = checks.Positive("numerics.nonsmooth.max_penetration", true, ns.max_penetration(), "m");
-  model.split_independent_lcps = ns.split_independent_lcps();
-  switch (ns.friction_model()) {
-    case sc::NonsmoothSettings::POLYHEDRAL_LCP:
-      model.friction_model = FrictionModel::kPolyhedralLcp;
-      break;
-    case sc::NonsmoothSettings::SICONOS_FC3D:
-      model.friction_model = FrictionModel::kSiconosFc3d;
-      break;
-    default:
-      checks.Fail("numerics.nonsmooth.friction_model", "expected POLYHEDRAL_LCP or SICONOS_FC3D");
-  }
-  if (ns.friction_facets() < 3 || ns.friction_facets() > 64) {
-    checks.Fail(
-        "numerics.nonsmooth.friction_facets",
-        "must be in [3, 64] (directions of the polyhedral friction cone), got " + std::to_string(ns.friction_facets()));
-  }
-  model.friction_facets = ns.friction_facets();
-  const sc::LcpSettings& lcp = ns.lcp();
-  model.lcp.algorithm = ToAlgorithm(checks, "numerics.nonsmooth.lcp.solver", lcp.solver());
-  model.lcp.tolerance = checks.Positive("numerics.nonsmooth.lcp.tolerance", true, lcp.tolerance(), "dimensionless");
-  if (lcp.max_iterations() < 1) {
-    checks.Fail("numerics.nonsmooth.lcp.max_iterations", "must be >= 1, got " + std::to_string(lcp.max_iterations()));
-  }
-  model.lcp.max_iterations = lcp.max_iterations();
-  if (lcp.fallback_size() == 0) {
-    model.lcp.fallbacks = {LcpAlgorithm::kEnumerative, LcpAlgorithm::kNewtonFischerBurmeister};
-  } else if (!(lcp.fallback_size() == 1 && lcp.fallback(0) == sc::LcpSettings::NONE)) {
-    for (int i = 0; i < lcp.fallback_size(); ++i) {
-      model.lcp.fallbacks.push_back(
-          ToAlgorithm(checks, ElementPath("numerics.nonsmooth.lcp.fallback", i), lcp.fallback(i)));
-    }
-  }
 
   NameTable obstacle_names(checks, "obstacle");
   NameTable node_names(checks, "contact node");

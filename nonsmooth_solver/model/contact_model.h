@@ -1,6 +1,7 @@
 #pragma once
 // The contact process's model: point masses ("contact nodes") and the planes they may touch,
-// built and validated from a scenario. Immutable once built; the integrator's changing state
+// built and validated from a scenario (how they are integrated, numerics.nonsmooth, is the
+// integrator's: integrator/moreau_jean_settings.h). Immutable once built; the integrator's changing state
 // lives in its workspace (see integrator/moreau_jean.h), the frames of obstacles driven by the
 // coordinator of a coupled run in ContactData, which the integrator's checkpoints hold.
 #include <Eigen/Core>
@@ -12,7 +13,6 @@
 
 #include "interface/scenario/scenario_file.h"
 #include "interface/scenario/time_function.h"
-#include "nonsmooth_solver/lcp/lcp_solver.h"
 
 namespace cosim::nonsmooth {
 
@@ -107,8 +107,6 @@ struct NodeGroup {
   std::vector<int> contacts;  // model contact indices of these nodes
 };
 
-enum class FrictionModel { kPolyhedralLcp, kSiconosFc3d };
-
 struct Contact {
   std::string name;  // "node/obstacle"
   int node = 0;
@@ -136,18 +134,7 @@ struct ContactModel {
   std::vector<int> node_slot;   // position of each node within its group
   std::vector<Probe> probes;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
-  // θ of the Moreau–Jean scheme, Eq. (3a)-(3b) of the rotor-sailing paper; (0, 1].
-  double theta = 0.5;
-  // Predicted gap [m] at or below which a contact enters the LCP.
-  double activation_gap = 1e-10;
-  // Depth [m] through an obstacle after a step beyond which the step failed (exit 3).
-  double max_penetration = 0.1;
-  // Solve the contacts of each NodeGroup in an LCP of its own (the same solution as one LCP).
-  bool split_independent_lcps = true;
-  FrictionModel friction_model = FrictionModel::kPolyhedralLcp;
-  int driven_frames = 0;    // obstacles attached to smooth bodies (ContactData::frames' size)
-  int friction_facets = 8;  // tangent directions of the polyhedral cone, >= 3
-  LcpOptions lcp;
+  int driven_frames = 0;  // obstacles attached to smooth bodies (ContactData::frames' size)
 };
 
 // Builds and validates the contact model of a scenario. Throws InputError naming the field.

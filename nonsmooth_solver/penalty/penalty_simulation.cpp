@@ -15,7 +15,7 @@ namespace cosim::nonsmooth {
 namespace sc = scenario;
 
 PenaltySimulation::PenaltySimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes)
-    : model_(std::make_unique<const ContactModel>(BuildContactModel(file, only_nodes))) {
+    : ContactStepper(file), model_(std::make_unique<const ContactModel>(BuildContactModel(file, only_nodes))) {
   const interface::Checks checks(file);
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);

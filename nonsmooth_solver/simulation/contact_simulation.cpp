@@ -5,19 +5,21 @@
 namespace cosim::nonsmooth {
 
 ContactSimulation::ContactSimulation(const interface::ScenarioFile& file, const std::set<std::string>* only_nodes)
-    : model_(std::make_unique<const ContactModel>(BuildContactModel(file, only_nodes))) {
+    : ContactStepper(file),
+      model_(std::make_unique<const ContactModel>(BuildContactModel(file, only_nodes))),
+      settings_(ReadMoreauJeanSettings(file)) {
   numerics_.CopyFrom(file.proto().numerics());
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_smooth();  // settings of the other solver are not used here
   // The fallback list actually used (the schema's default is an empty list).
   auto* lcp = numerics_.mutable_nonsmooth()->mutable_lcp();
   if (lcp->fallback_size() == 0) {
-    for (LcpAlgorithm a : model_->lcp.fallbacks) {
+    for (LcpAlgorithm a : settings_.lcp.fallbacks) {
       lcp->add_fallback(a == LcpAlgorithm::kEnumerative ? scenario::LcpSettings::ENUMERATIVE
                                                         : scenario::LcpSettings::NEWTON_FB);
     }
   }
-  integrator_ = std::make_unique<MoreauJean>(*model_, numerics_.start_time());
+  integrator_ = std::make_unique<MoreauJean>(*model_, settings_, numerics_.start_time());
 }
 
 bool ContactSimulation::Impact(int node) const {
@@ -63,7 +65,7 @@ void ContactSimulation::SetInterfaceStiffness(const Eigen::VectorXd& stiffness, 
 
 bool ContactSimulation::Sensitivities(double h, Eigen::VectorXd* position, Eigen::VectorXd* velocity) const {
   *velocity = integrator_->velocity_sensitivity();
-  *position = (h * model_->theta) * *velocity;
+  *position = (h * settings_.theta) * *velocity;
   return true;
 }
 

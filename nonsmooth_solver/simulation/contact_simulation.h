@@ -55,6 +55,7 @@ class ContactSimulation : public ContactStepper {
 
  private:
   std::unique_ptr<const ContactModel> model_;  // stable address for the integrator
+  MoreauJeanSettings settings_;                // numerics.nonsmooth
   std::unique_ptr<MoreauJean> integrator_;
   scenario::Numerics numerics_;  // as used, defaults filled in
   double max_penetration_ = 0.0;

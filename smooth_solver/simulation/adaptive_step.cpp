@@ -9,6 +9,34 @@
 
 namespace cosim::smooth {
 
+AdaptiveSettings ReadAdaptiveSettings(const interface::Checks& checks, const scenario::Numerics& numerics,
+                                      bool coupled) {
+  const scenario::AdaptiveStep& adaptive = numerics.adaptive();
+  if (numerics.smooth().integrator() != scenario::SmoothSettings::CGALPHA) {
+    checks.Fail("numerics.adaptive",
+                "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
+                "own); set enabled: false");
+  }
+  AdaptiveSettings a;
+  a.on = true;
+  a.land = coupled;
+  a.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
+  a.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
+  a.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
+  a.max_step = adaptive.has_max_step() ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
+                                       : 100.0 * numerics.step();
+  a.contact_step = adaptive.has_contact_step()
+                       ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
+                       : 0.1 * numerics.step();
+  // (Read by the contact processes of a coupled run; checked here too, so that no scene carries a bad one.)
+  checks.NonNegative("numerics.adaptive.resting_speed", adaptive.resting_speed(), "m/s");
+  if (a.max_step < a.min_step) {
+    checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(a.min_step) +
+                                                  " s, got " + interface::FormatNumber(a.max_step) + " s");
+  }
+  return a;
+}
+
 double AdaptiveController::Advance(double t, double target, double end, Stepper& stepper, const MultibodySystem& system,
                                    const std::function<void(double t, double h, int iterations)>& accepted) {
   const AdaptiveSettings& s = settings_;

@@ -6,6 +6,8 @@
 #include <functional>
 #include <limits>
 
+#include "interface/scenario/checks.h"
+#include "scenario.pb.h"
 #include "smooth_solver/integrator/stepper.h"
 #include "smooth_solver/model/multibody_system.h"
 
@@ -16,6 +18,12 @@ struct AdaptiveSettings {
   bool land = false;  // coupled: steps end on the output times (no interpolation of the peers' states)
   double relative = 0.0, absolute = 0.0, min_step = 0.0, max_step = 0.0, contact_step = 0.0;
 };
+
+// numerics.adaptive (proto/scenario/numerics.proto AdaptiveStep) of a run whose integrator is
+// numerics.smooth.integrator, its steps landing on the output times if `coupled`. Throws
+// InputError naming the field (an adaptive step other than CGα's among them).
+AdaptiveSettings ReadAdaptiveSettings(const interface::Checks& checks, const scenario::Numerics& numerics,
+                                      bool coupled);
 
 class AdaptiveController {
  public:

@@ -12,6 +12,7 @@
 #include "interface/scenario/checks.h"
 #include "smooth_solver/analysis/rotating_frame.h"
 #include "smooth_solver/integrator/cgalpha_index2.h"
+#include "smooth_solver/integrator/integrator_settings.h"
 #include "smooth_solver/simulation/node_rest.h"
 #include "smooth_solver/simulation/saved_state.h"
 #include "smooth_solver/simulation/visual_scene.h"
@@ -129,39 +130,9 @@ MultibodySimulation::StepSettings MultibodySimulation::ReadStepSettings(const Ch
   interface::MaterializeDefaults(&numerics_);
   numerics_.clear_nonsmooth();
   const sc::SmoothSettings& s = numerics_.smooth();
-  if (s.integrator() != sc::SmoothSettings::CGALPHA && s.integrator() != sc::SmoothSettings::IDA &&
-      s.integrator() != sc::SmoothSettings::CGALPHA_INDEX2) {
-    checks.Fail("numerics.smooth.integrator", "expected CGALPHA, CGALPHA_INDEX2 or IDA");
-  }
-  ida_ = s.integrator() == sc::SmoothSettings::IDA;
-  out.ida.relative_tolerance =
-      checks.Positive("numerics.smooth.ida_relative_tolerance", true, s.ida_relative_tolerance(), "dimensionless");
-  out.ida.absolute_tolerance =
-      checks.Positive("numerics.smooth.ida_absolute_tolerance", true, s.ida_absolute_tolerance(), "m or m/s");
-  out.cgalpha.rho_inf = checks.InRange("numerics.smooth.rho_inf", true, s.rho_inf(), 0.0, 1.0);
-  out.cgalpha.tolerance =
-      checks.Positive("numerics.smooth.newton_tolerance", true, s.newton_tolerance(), "dimensionless");
-  if (s.newton_max_iterations() < 1) {
-    checks.Fail("numerics.smooth.newton_max_iterations",
-                "must be >= 1, got " + std::to_string(s.newton_max_iterations()));
-  }
-  out.cgalpha.max_iterations = s.newton_max_iterations();
-  if (s.jacobian_max_age() < 0) {
-    checks.Fail(
-        "numerics.smooth.jacobian_max_age",
-        "must be >= 0 steps (0 = a fresh Newton matrix every iteration), got " + std::to_string(s.jacobian_max_age()));
-  }
-  out.cgalpha.jacobian_max_age = s.jacobian_max_age();
-  if (s.elastic_force() != sc::SmoothSettings::GEMM && s.elastic_force() != sc::SmoothSettings::END_POINT) {
-    checks.Fail("numerics.smooth.elastic_force", "expected GEMM or END_POINT");
-  }
-  out.cgalpha.gemm = s.elastic_force() == sc::SmoothSettings::GEMM;
-  if (s.constraint_form() != sc::SmoothSettings::INDEX3 &&
-      s.constraint_form() != sc::SmoothSettings::INDEX2_PROJECTED) {
-    checks.Fail("numerics.smooth.constraint_form", "expected INDEX3 or INDEX2_PROJECTED");
-  }
-  out.cgalpha.form =
-      s.constraint_form() == sc::SmoothSettings::INDEX3 ? ConstraintForm::kIndex3 : ConstraintForm::kIndex2Projected;
+  ida_ = ReadIntegrator(checks, s) == sc::SmoothSettings::IDA;
+  out.ida = ReadIdaSettings(checks, s);
+  out.cgalpha = ReadCgAlphaSettings(checks, s, model_.bodies);
   if (s.analysis() == sc::SmoothSettings::STATIC) {
     // A STATIC analysis of a scene with beams or rigid bodies: the equilibrium at each output
     // time (StaticStep). Hex27 bodies alone take ElasticStaticSimulation.
@@ -177,62 +148,9 @@ MultibodySimulation::StepSettings MultibodySimulation::ReadStepSettings(const Ch
     }
     static_ = true;
   }
-  if (numerics_.adaptive().enabled()) ReadAdaptive(checks, coupled);
-  const sc::Watchdog& w = s.watchdog();
-  out.watchdog.rigidity_rate =
-      checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
-  out.watchdog.energy_growth =
-      checks.NonNegative("numerics.smooth.watchdog.energy_growth", w.energy_growth(), "dimensionless; 0 = off");
-  if (w.energy_window() < 1) {
-    checks.Fail("numerics.smooth.watchdog.energy_window",
-                "must be >= 1 step, got " + std::to_string(w.energy_window()));
-  }
-  out.watchdog.energy_window = w.energy_window();
-  if (w.energy_check() != sc::Watchdog::AUTO && w.energy_check() != sc::Watchdog::ON &&
-      w.energy_check() != sc::Watchdog::OFF) {
-    checks.Fail("numerics.smooth.watchdog.energy_check", "expected AUTO, ON or OFF");
-  }
-  out.energy_check = w.energy_check();
-  if (s.has_jacobian_frame() && !s.jacobian_frame().empty()) {  // ("": none, e.g. a --set that turns it off)
-    const auto it = std::find_if(model_.bodies.begin(), model_.bodies.end(),
-                                 [&](const RigidBody& b) { return b.name == s.jacobian_frame(); });
-    if (it == model_.bodies.end()) {
-      checks.Fail("numerics.smooth.jacobian_frame", "no rigid body named '" + s.jacobian_frame() + "'");
-    } else if (s.jacobian_max_age() == 0) {
-      checks.Fail("numerics.smooth.jacobian_frame",
-                  "set, but numerics.smooth.jacobian_max_age is 0 (no matrix is reused)");
-    } else {
-      out.cgalpha.frame_body = static_cast<int>(it - model_.bodies.begin());
-    }
-  }
+  if (numerics_.adaptive().enabled()) adaptive_ = AdaptiveController(ReadAdaptiveSettings(checks, numerics_, coupled));
+  out.watchdog = ReadWatchdogSettings(checks, s.watchdog(), &out.energy_check);
   return out;
-}
-
-void MultibodySimulation::ReadAdaptive(const Checks& checks, bool coupled) {
-  const sc::AdaptiveStep& adaptive = numerics_.adaptive();
-  if (numerics_.smooth().integrator() != sc::SmoothSettings::CGALPHA) {
-    checks.Fail("numerics.adaptive",
-                "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
-                "own); set enabled: false");
-  }
-  AdaptiveSettings a;
-  a.on = true;
-  a.land = coupled;
-  a.relative = checks.Positive("numerics.adaptive.relative", true, adaptive.relative(), "dimensionless");
-  a.absolute = checks.Positive("numerics.adaptive.absolute", true, adaptive.absolute(), "m");
-  a.min_step = checks.Positive("numerics.adaptive.min_step", true, adaptive.min_step(), "s");
-  a.max_step = adaptive.has_max_step() ? checks.Positive("numerics.adaptive.max_step", true, adaptive.max_step(), "s")
-                                       : 100.0 * numerics_.step();
-  a.contact_step = adaptive.has_contact_step()
-                       ? checks.Positive("numerics.adaptive.contact_step", true, adaptive.contact_step(), "s")
-                       : 0.1 * numerics_.step();
-  // (Read by the contact processes of a coupled run; checked here too, so that no scene carries a bad one.)
-  checks.NonNegative("numerics.adaptive.resting_speed", adaptive.resting_speed(), "m/s");
-  if (a.max_step < a.min_step) {
-    checks.Fail("numerics.adaptive.max_step", "must be >= min_step = " + interface::FormatNumber(a.min_step) +
-                                                  " s, got " + interface::FormatNumber(a.max_step) + " s");
-  }
-  adaptive_ = AdaptiveController(a);
 }
 
 void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interface::ScenarioFile& file, bool coupled,

@@ -81,7 +81,6 @@ class MultibodySimulation : public interface::Simulation {
   // watchdog. Each throws InputError naming the field it refuses.
   std::vector<ElasticBodySpec> ElasticBodies(const interface::Checks& checks, const interface::ScenarioFile& file);
   StepSettings ReadStepSettings(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled);
-  void ReadAdaptive(const interface::Checks& checks, bool coupled);
   void BuildSystemAndState(const interface::Checks& checks, const interface::ScenarioFile& file, bool coupled,
                            const StepSettings& settings, std::vector<ElasticBodySpec>* elastic);
   void SetProbeReferences(const Eigen::VectorXd& q);

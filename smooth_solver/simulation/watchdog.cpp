@@ -29,6 +29,26 @@ double Watchdog::RigidityRate(const Eigen::VectorXd& q, const Eigen::VectorXd& q
   return S.cwiseAbs().maxCoeff() / (*omega + 1.0);
 }
 
+WatchdogSettings ReadWatchdogSettings(const interface::Checks& checks, const scenario::Watchdog& w,
+                                      scenario::Watchdog::EnergyCheck* energy_check) {
+  WatchdogSettings out;
+  out.rigidity_rate =
+      checks.NonNegative("numerics.smooth.watchdog.rigidity_rate", w.rigidity_rate(), "dimensionless; 0 = off");
+  out.energy_growth =
+      checks.NonNegative("numerics.smooth.watchdog.energy_growth", w.energy_growth(), "dimensionless; 0 = off");
+  if (w.energy_window() < 1) {
+    checks.Fail("numerics.smooth.watchdog.energy_window",
+                "must be >= 1 step, got " + std::to_string(w.energy_window()));
+  }
+  out.energy_window = w.energy_window();
+  if (w.energy_check() != scenario::Watchdog::AUTO && w.energy_check() != scenario::Watchdog::ON &&
+      w.energy_check() != scenario::Watchdog::OFF) {
+    checks.Fail("numerics.smooth.watchdog.energy_check", "expected AUTO, ON or OFF");
+  }
+  *energy_check = w.energy_check();
+  return out;
+}
+
 Watchdog::Watchdog(const MultibodySystem& system, const WatchdogSettings& settings, std::vector<std::string> body_names,
                    const DaeState& initial)
     : system_(system), settings_(settings), bodies_(std::move(body_names)) {

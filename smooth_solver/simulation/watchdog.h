@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "interface/scenario/checks.h"
+#include "scenario.pb.h"
 #include "smooth_solver/integrator/smooth_integrator.h"
 
 namespace cosim::smooth {
@@ -28,6 +30,12 @@ struct WatchdogSettings {
   int energy_window = 10;       // steps the growth must last
   bool energy = true;           // the energy check applies to this scene
 };
+
+// numerics.smooth.watchdog (proto/scenario/numerics.proto Watchdog): its rates and window, and
+// in `energy_check` whether the energy check is asked for (AUTO decides on the system, which the
+// caller has; `energy` is left as it is). Throws InputError naming the field.
+WatchdogSettings ReadWatchdogSettings(const interface::Checks& checks, const scenario::Watchdog& w,
+                                      scenario::Watchdog::EnergyCheck* energy_check);
 
 class Watchdog {
  public:

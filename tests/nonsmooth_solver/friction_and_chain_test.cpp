@@ -6,14 +6,15 @@
 
 #include "interface/scenario/checks.h"
 #include "nonsmooth_solver/integrator/moreau_jean.h"
+#include "tests/nonsmooth_solver/contact_scene.h"
 
 namespace cosim::nonsmooth {
 namespace {
 
 constexpr double kG = 9.81;
 
-ContactModel Parse(const std::string& text, const std::vector<std::string>& sets = {}) {
-  return BuildContactModel(interface::ScenarioFile::Parse(text, "test", sets));
+ContactScene Parse(const std::string& text, const std::vector<std::string>& sets = {}) {
+  return LoadContactScene(text, "test", sets);
 }
 
 // A node sliding on the floor at 2 m/s in direction (cos a, sin a, 0), μ = 0.3.
@@ -34,11 +35,11 @@ std::string SlidingNode(double direction) {
     numerics { end_time: 1 step: 0.001 })";
 }
 
-void ExpectDecelerationMuG(const ContactModel& model, double direction, double tolerance) {
+void ExpectDecelerationMuG(const ContactScene& model, double direction, double tolerance) {
   // Sliding, the friction impulse is μ r_n = μ m g h per step against the motion: the speed
   // drops by μ g h each step, v(t) = v0 − μ g t, until it reaches zero at t = v0/(μ g) =
   // 0.680 s; then the block sticks (zero speed, zero friction once gravity is balanced).
-  MoreauJean mj(model, 0.0);
+  MoreauJean mj(model, model.settings, 0.0);
   const double h = 0.001, v0 = 2.0, mu = 0.3;
   const Eigen::Vector3d along(std::cos(direction), std::sin(direction), 0.0);
   for (int k = 0; k < 1000; ++k) {
@@ -81,8 +82,8 @@ TEST(Friction, BlockOnASteepSlopeSlidesAndOnAGentleSlopeSticks) {
         contact_nodes { name: "block" mass: 1 position: [0, 0, 0] contacts { obstacle: "slope" restitution: 0 friction: 0.3 } }
       }
       numerics { end_time: 1 step: 0.001 })";
-    const ContactModel model = Parse(text);
-    MoreauJean mj(model, 0.0);
+    const ContactScene model = Parse(text);
+    MoreauJean mj(model, model.settings, 0.0);
     for (int k = 0; k < 500; ++k) mj.Step(static_cast<double>(k) * 0.001, 0.001);
     const double speed = mj.velocities().head<3>().norm();
     const double expected = std::max(0.0, kG * (std::sin(a) - 0.3 * std::cos(a))) * 0.5;
@@ -115,9 +116,9 @@ std::string Chain(double restitution) {
 TEST(Chain, MomentumChangesExactlyByTheContactImpulses) {
   // Springs are internal forces and there is no gravity, so in every step the chain's total
   // momentum changes by exactly the sum of the contact impulses (to round-off).
-  const ContactModel model = Parse(Chain(0.5));
+  const ContactScene model = Parse(Chain(0.5));
   ASSERT_EQ(model.groups.size(), 1u);  // the springs make the three nodes one group
-  MoreauJean mj(model, 0.0);
+  MoreauJean mj(model, model.settings, 0.0);
   const double h = 1e-4;
   double momentum = mj.velocities().sum();
   double impulses = 0.0;
@@ -136,8 +137,8 @@ TEST(Chain, ElasticImpactConservesTheEnergyExactly) {
   // With e = 1 every active contact has either r_i = 0 or u_i,k+1 = −u_i,k: the discrete
   // energy is conserved to round-off through the impacts, at any step size.
   for (double h : {1e-4, 2.5e-5}) {
-    const ContactModel model = Parse(Chain(1.0));
-    MoreauJean mj(model, 0.0);
+    const ContactScene model = Parse(Chain(1.0));
+    MoreauJean mj(model, model.settings, 0.0);
     const double e0 = mj.KineticEnergy(-1) + mj.PotentialEnergy(-1);
     const long steps = std::lround(0.6 / h);
     for (long k = 0; k < steps; ++k) mj.Step(static_cast<double>(k) * h, h);
@@ -166,9 +167,9 @@ TEST(SplitLcps, GiveTheSameTrajectoryAsOneLcp) {
             "\" restitution: 0.5 friction: 0.2 } contacts { obstacle: \"r" + id + "\" restitution: 0.5 } }\n";
   }
   text += "}\nnumerics { end_time: 1 step: 0.001 }\n";
-  const ContactModel split = Parse(text);
-  const ContactModel single = Parse(text, {"numerics.nonsmooth.split_independent_lcps=false"});
-  MoreauJean a(split, 0.0), b(single, 0.0);
+  const ContactScene split = Parse(text);
+  const ContactScene single = Parse(text, {"numerics.nonsmooth.split_independent_lcps=false"});
+  MoreauJean a(split, split.settings, 0.0), b(single, single.settings, 0.0);
   for (int k = 0; k < 1000; ++k) {
     a.Step(static_cast<double>(k) * 0.001, 0.001);
     b.Step(static_cast<double>(k) * 0.001, 0.001);
@@ -198,11 +199,11 @@ TEST(MovingPlanes, StickingNodeRidesATiltingFloor) {
       contact_nodes { name: "n" mass: 1 position: [0.5, 0, 0] contacts { obstacle: "floor" restitution: 0 friction: 1 } }
     }
     numerics { end_time: 1 step: 0.001 })";
-  const ContactModel model = Parse(text);
+  const ContactScene model = Parse(text);
   const Eigen::Vector3d expected(0.5 * std::cos(0.3), 0.0, -0.5 * std::sin(0.3));
   double previous = 1.0;
   for (double h : {1e-3, 5e-4, 2.5e-4}) {
-    MoreauJean mj(model, 0.0);
+    MoreauJean mj(model, model.settings, 0.0);
     const long steps = std::lround(1.0 / h);
     for (long k = 0; k < steps; ++k) mj.Step(static_cast<double>(k) * h, h);
     const double error = (mj.positions().head<3>() - expected).norm();
@@ -228,8 +229,8 @@ TEST(TimeForces, LinearForceRampIsIntegratedExactly) {
       }
     }
     numerics { end_time: 1 step: 0.001 })";
-  const ContactModel model = Parse(text);
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = Parse(text);
+  MoreauJean mj(model, model.settings, 0.0);
   for (int k = 0; k < 1000; ++k) mj.Step(static_cast<double>(k) * 1e-3, 1e-3);
   EXPECT_NEAR(mj.velocities()(0), 2.0 / 2.0, 1e-12);
   EXPECT_NEAR(mj.positions()(0), 2.0 / (3.0 * 2.0), 1e-6);

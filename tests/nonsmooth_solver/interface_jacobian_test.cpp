@@ -10,12 +10,13 @@
 
 #include "interface/scenario/scenario_file.h"
 #include "nonsmooth_solver/integrator/moreau_jean.h"
+#include "tests/nonsmooth_solver/contact_scene.h"
 
 namespace cosim::nonsmooth {
 namespace {
 
 // A 0.2 kg node, `contacts` its contact clauses, pushed by `push` (N) besides gravity.
-ContactModel NodeModel(const std::string& contacts, const std::vector<std::string>& sets = {}) {
+ContactScene NodeModel(const std::string& contacts, const std::vector<std::string>& sets = {}) {
   const std::string text = R"(
     model {
       gravity: [0, 0, -9.81]
@@ -26,19 +27,19 @@ ContactModel NodeModel(const std::string& contacts, const std::vector<std::strin
     }
     numerics { end_time: 1 step: 0.001 }
   )";
-  return BuildContactModel(interface::ScenarioFile::Parse(text, "jacobian", sets));
+  return LoadContactScene(text, "jacobian", sets);
 }
 
 // The end velocity of one step from the model's start with the constant force f.
-Eigen::Vector3d EndVelocity(const ContactModel& model, const Eigen::Vector3d& f, double h) {
-  MoreauJean mj(model, 0.0);
+Eigen::Vector3d EndVelocity(const ContactScene& model, const Eigen::Vector3d& f, double h) {
+  MoreauJean mj(model, model.settings, 0.0);
   mj.SetExternalForces(f);
   mj.Step(0.0, h);
   return mj.velocities().head<3>();
 }
 
 // ∂v/∂f by central differences (the map is affine on a piece: exact up to round-off).
-Eigen::Matrix3d FiniteDifference(const ContactModel& model, const Eigen::Vector3d& f, double h, double df) {
+Eigen::Matrix3d FiniteDifference(const ContactScene& model, const Eigen::Vector3d& f, double h, double df) {
   Eigen::Matrix3d d;
   for (int j = 0; j < 3; ++j) {
     const Eigen::Vector3d e = df * Eigen::Vector3d::Unit(j);
@@ -47,8 +48,8 @@ Eigen::Matrix3d FiniteDifference(const ContactModel& model, const Eigen::Vector3
   return d;
 }
 
-Eigen::Matrix3d Sensitivity(const ContactModel& model, const Eigen::Vector3d& f, double h) {
-  MoreauJean mj(model, 0.0);
+Eigen::Matrix3d Sensitivity(const ContactScene& model, const Eigen::Vector3d& f, double h) {
+  MoreauJean mj(model, model.settings, 0.0);
   mj.set_compute_sensitivities(true);
   mj.SetExternalForces(f);
   mj.Step(0.0, h);
@@ -91,7 +92,7 @@ TEST(InterfaceJacobian, NodeSensitivityIsTheStepsOwnDerivativeOnEachPieceOfTheCo
   };
   for (const Piece& p : pieces) {
     SCOPED_TRACE(p.what);
-    const ContactModel model = NodeModel(p.contacts, p.sets);
+    const ContactScene model = NodeModel(p.contacts, p.sets);
     const Eigen::Matrix3d analytic = Sensitivity(model, p.force, h);
     const Eigen::Matrix3d numeric = FiniteDifference(model, p.force, h, 1e-4);
     EXPECT_LE((analytic - numeric).norm(), 1e-7 * std::max(analytic.norm(), h / 0.2))
@@ -118,10 +119,10 @@ TEST(InterfaceJacobian, TheStiffnessLawLeavesTheNodeWhereItsReportedForceDoes) {
   E << -2e5, 1e4, 0, -3e3, -1e5, 2e3, 0, 5e3, -4e5;
   for (double vz : {-1.5, 0.5}) {
     SCOPED_TRACE(vz);
-    const ContactModel model = NodeModel(R"(contacts { obstacle: "floor" restitution: 0.6 })",
+    const ContactScene model = NodeModel(R"(contacts { obstacle: "floor" restitution: 0.6 })",
                                          {"model.contact_nodes[0].position=[0.1, 0.05, 0.0004]",
                                           "model.contact_nodes[0].velocity=[0.3, -0.2, " + std::to_string(vz) + "]"});
-    MoreauJean tied(model, 0.0);
+    MoreauJean tied(model, model.settings, 0.0);
     const Eigen::Vector3d reference(0.1003, 0.0498, -0.0002);
     tied.SetExternalForces(Eigen::Vector3d(1, -2, -20));
     tied.SetInterfaceStiffness(Eigen::Map<const Eigen::Matrix<double, 9, 1>>(Eigen::Matrix3d(E.transpose()).data()),
@@ -131,7 +132,7 @@ TEST(InterfaceJacobian, TheStiffnessLawLeavesTheNodeWhereItsReportedForceDoes) {
     // The held force is the law at the end position.
     EXPECT_LE((applied - (Eigen::Vector3d(1, -2, -20) + E * (tied.positions().head<3>() - reference))).norm(),
               1e-9 * applied.norm());
-    MoreauJean plain(model, 0.0);
+    MoreauJean plain(model, model.settings, 0.0);
     plain.SetExternalForces(applied);
     plain.Step(0.0, h);
     EXPECT_LE((plain.positions() - tied.positions()).lpNorm<Eigen::Infinity>(), 1e-14);

@@ -8,12 +8,14 @@
 #include <fstream>
 #include <sstream>
 
+#include "tests/nonsmooth_solver/contact_scene.h"
+
 namespace cosim::nonsmooth {
 namespace {
 
 constexpr double kG = 9.81;
 
-ContactModel BallModel(double height, double e, const std::vector<std::string>& sets = {}) {
+ContactScene BallModel(double height, double e, const std::vector<std::string>& sets = {}) {
   const std::string text = R"(
     model {
       gravity: [0, 0, -9.81]
@@ -27,12 +29,12 @@ ContactModel BallModel(double height, double e, const std::vector<std::string>& 
     }
     numerics { end_time: 1 step: 0.005 }
   )";
-  return BuildContactModel(interface::ScenarioFile::Parse(text, "ball", sets));
+  return LoadContactScene(text, "ball", sets);
 }
 
 // Times (end of step) of the steps whose contact impulse exceeds `threshold`.
-std::vector<double> ImpactTimes(const ContactModel& model, double h, double end, double threshold) {
-  MoreauJean mj(model, 0.0);
+std::vector<double> ImpactTimes(const ContactScene& model, double h, double end, double threshold) {
+  MoreauJean mj(model, model.settings, 0.0);
   std::vector<double> times;
   const long steps = std::lround(end / h);
   for (long k = 0; k < steps; ++k) {
@@ -58,7 +60,7 @@ TEST(MoreauJean, BallImpactTimesMatchTheAnalyticOnesToOrderH) {
   // h = 0.005: 0.7, 1.1, 1.9, 3.2, 4.7 h; at h = 0.00125: 0.8, 1.6, 2.4, 2.7, 2.8 h.
   // Quartering h must cut the fifth impact's error at least in half (first order: 4×).
   const double e = 0.9;
-  const ContactModel model = BallModel(1.0, e);
+  const ContactScene model = BallModel(1.0, e);
   const std::vector<double> exact = ExactImpactTimes(e, 5);
   double fifth_error[2] = {0.0, 0.0};
   int run = 0;
@@ -77,8 +79,8 @@ TEST(MoreauJean, ReboundSpeedRatioIsTheRestitutionCoefficient) {
   // Newton's law is imposed on the step's end velocity: u_{k+1} = −e u_k exactly when the
   // contact is active (the LCP's w = u_{k+1} + e u_k is zero with a positive impulse).
   const double e = 0.9, h = 0.005;
-  const ContactModel model = BallModel(1.0, e);
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = BallModel(1.0, e);
+  MoreauJean mj(model, model.settings, 0.0);
   for (int k = 0; k < 200; ++k) {
     const double before = mj.velocities()(2);
     mj.Step(k * h, h);
@@ -109,12 +111,12 @@ TEST(MoreauJean, BallComesToRestAtTheAccumulationTimeAsHShrinks) {
   // many bounces, so the rest time approaches t∞ as h shrinks (observed: 9.365, 9.110, 8.830 s
   // for h = 0.005, 0.0025, 0.00125). After that the impulse balances gravity, r = m g h.
   const double e = 0.9;
-  const ContactModel model = BallModel(1.0, e);
+  const ContactScene model = BallModel(1.0, e);
   const double t_inf = std::sqrt(2.0 / kG) * (1.0 + e) / (1.0 - e);
   // The error is about 160-210 h over this range; quartering h must cut it at least in half.
   double previous_error = 1e9, first_error = 0.0;
   for (double h : {0.005, 0.0025, 0.00125}) {
-    MoreauJean mj(model, 0.0);
+    MoreauJean mj(model, model.settings, 0.0);
     const double rest = RestTime(h, 11.0, &mj);
     ASSERT_GT(rest, 0.0) << "h = " << h << ": the ball never came to rest";
     const double error = std::abs(rest - t_inf);
@@ -132,8 +134,8 @@ TEST(MoreauJean, NodeOnAPlaneStaysAtRestWithImpulseMgh) {
   // At rest on the plane the LCP gives r = m g h each step (the impulse that cancels gravity
   // over the step), and the node neither moves nor sinks: all exact up to round-off.
   const double h = 0.01;
-  const ContactModel model = BallModel(0.0, 0.5);
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = BallModel(0.0, 0.5);
+  MoreauJean mj(model, model.settings, 0.0);
   for (int k = 0; k < 100; ++k) {
     mj.Step(k * h, h);
     ASSERT_NEAR(mj.impulses()(0), kG * h, 1e-13);
@@ -161,8 +163,8 @@ TEST(MoreauJean, NodeInAWedgeIsHeldByTwoContacts) {
     }
     numerics { end_time: 1 step: 0.01 }
   )";
-  const ContactModel model = BuildContactModel(interface::ScenarioFile::Parse(text, "wedge", {}));
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = LoadContactScene(text, "wedge", {});
+  MoreauJean mj(model, model.settings, 0.0);
   for (int k = 0; k < 50; ++k) mj.Step(k * h, h);
   const double expected = 2.0 * kG * h / (2.0 * c);
   EXPECT_NEAR(mj.impulses()(0), expected, 1e-6 * expected);  // normals given with 6 digits
@@ -175,7 +177,7 @@ TEST(MoreauJean, FirstImpactTimeConvergesToFirstOrder) {
   // Over two decades of h the least-squares slope of log error against log h is about 1;
   // the per-step phase of t1 within the grid scatters single points, hence many step sizes
   // and a band of ±0.3 around the slope.
-  const ContactModel model = BallModel(1.0, 0.9);
+  const ContactScene model = BallModel(1.0, 0.9);
   const double t1 = std::sqrt(2.0 / kG);
   std::vector<double> lh, le;
   for (int j = 0; j < 13; ++j) {
@@ -200,7 +202,7 @@ TEST(MoreauJean, FirstImpactTimeConvergesToFirstOrder) {
 
 // A linear oscillator (m = 1, k = 100, anchored at z = 0, no gravity) released from z = A
 // hits a stop plane at z = −d.
-ContactModel OscillatorModel(double amplitude, double stop, double e) {
+ContactScene OscillatorModel(double amplitude, double stop, double e) {
   const std::string text = R"(
     model {
       obstacles { name: "stop" point: [0, 0, )" +
@@ -215,7 +217,7 @@ ContactModel OscillatorModel(double amplitude, double stop, double e) {
     }
     numerics { end_time: 1 step: 0.001 }
   )";
-  return BuildContactModel(interface::ScenarioFile::Parse(text, "oscillator", {}));
+  return LoadContactScene(text, "oscillator", {});
 }
 
 TEST(MoreauJean, OscillatorAgainstAStopReboundsToTheAnalyticAmplitude) {
@@ -226,8 +228,8 @@ TEST(MoreauJean, OscillatorAgainstAStopReboundsToTheAnalyticAmplitude) {
   // oscillator exactly, so the only errors are the O(h) impact location (A' to ~1e-3 at
   // h = 1e-4) and the O(h²) phase.
   const double A = 0.1, d = 0.05, e = 0.8, omega = 10.0, h = 1e-4;
-  const ContactModel model = OscillatorModel(A, d, e);
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = OscillatorModel(A, d, e);
+  MoreauJean mj(model, model.settings, 0.0);
   const double tc = std::acos(-d / A) / omega;
   const double vc = A * omega * std::sin(omega * tc);
   const double amplitude_after = std::sqrt(d * d + std::pow(e * vc / omega, 2));
@@ -254,8 +256,8 @@ TEST(MoreauJean, ElasticOscillatorKeepsItsEnergyAndThePeriodOfTheStoppedMotion) 
   // each impact step. Over ten periods at h = 1e-4 the energy stays within 1 % and the tenth
   // return to the top is within 10 steps of 20 t_c.
   const double A = 0.1, d = 0.05, omega = 10.0, h = 1e-4;
-  const ContactModel model = OscillatorModel(A, d, 1.0);
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = OscillatorModel(A, d, 1.0);
+  MoreauJean mj(model, model.settings, 0.0);
   const double tc = std::acos(-d / A) / omega;
   const double energy0 = mj.KineticEnergy(-1) + mj.PotentialEnergy(-1);
   int tops = 0;
@@ -293,8 +295,8 @@ TEST(MoreauJean, BallTrajectoryMatchesSiconosKernel) {
     reference.push_back(row);
   }
   ASSERT_EQ(reference.size(), 201u);
-  const ContactModel model = BallModel(1.0, 0.9);
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = BallModel(1.0, 0.9);
+  MoreauJean mj(model, model.settings, 0.0);
   const double h = 0.005;
   double worst = 0.0;
   for (size_t r = 1; r < reference.size(); ++r) {
@@ -320,8 +322,8 @@ TEST(MoreauJean, IndependentNodesOnlyTheTouchingOneFeelsAnImpulse) {
     }
     numerics { end_time: 1 step: 0.001 }
   )";
-  const ContactModel model = BuildContactModel(interface::ScenarioFile::Parse(text, "two", {}));
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = LoadContactScene(text, "two", {});
+  MoreauJean mj(model, model.settings, 0.0);
   const double h = 0.001;
   for (int k = 0; k < 800; ++k) {
     mj.Step(static_cast<double>(k) * h, h);
@@ -349,8 +351,8 @@ TEST(MoreauJean, NodeIsCarriedByARisingPlane) {
     }
     numerics { end_time: 1 step: 0.01 }
   )";
-  const ContactModel model = BuildContactModel(interface::ScenarioFile::Parse(text, "lift", {}));
-  MoreauJean mj(model, 0.0);
+  const ContactScene model = LoadContactScene(text, "lift", {});
+  MoreauJean mj(model, model.settings, 0.0);
   const double h = 0.01, V = 0.5, m = 2.0;
   mj.Step(0.0, h);
   EXPECT_NEAR(mj.velocities()(2), V, 1e-14);
@@ -374,10 +376,9 @@ TEST(MoreauJean, PeerForceActsLikeAConstantForce) {
       contact_nodes { name: "n" mass: 1 position: [0, 0, 1] contacts { obstacle: "ground" restitution: 0.5 } }
     }
     numerics { end_time: 1 step: 0.001 })";
-  const ContactModel scenario_force =
-      BuildContactModel(interface::ScenarioFile::Parse(base, "a", {"model.contact_nodes[0].force=[0, 0, 3]"}));
-  const ContactModel plain = BuildContactModel(interface::ScenarioFile::Parse(base, "b", {}));
-  MoreauJean a(scenario_force, 0.0), b(plain, 0.0);
+  const ContactScene scenario_force = LoadContactScene(base, "a", {"model.contact_nodes[0].force=[0, 0, 3]"});
+  const ContactScene plain = LoadContactScene(base, "b", {});
+  MoreauJean a(scenario_force, scenario_force.settings, 0.0), b(plain, plain.settings, 0.0);
   b.SetExternalForces(Eigen::Vector3d(0.0, 0.0, 3.0));
   for (int k = 0; k < 1500; ++k) {
     a.Step(static_cast<double>(k) * 1e-3, 1e-3);

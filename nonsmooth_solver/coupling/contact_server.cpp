@@ -94,13 +94,9 @@ void ContactServer::Answer(const Envelope& e) {
     const Obstacle& found = *it->second;
     needed.erase(it);
     DrivenFrame& d = simulation_->mutable_data()->frames[static_cast<size_t>(found.driven)];
-    d.start = d.end = ReadFrame(hello.obstacle_frames(i), "Hello.obstacle_frames[" + std::to_string(i) + "]");
-    if (!keep_attached_geometry_) {
-      d.point_body = d.start.rotation.transpose() * (found.point - d.start.origin);
-      d.normal_body = d.start.rotation.transpose() * found.normal;
-      d.tangent_body = d.start.rotation.transpose() * found.tangent;
-    }
-    d.t0 = d.t1 = hello.start_time();
+    d.StartAt(ReadFrame(hello.obstacle_frames(i), "Hello.obstacle_frames[" + std::to_string(i) + "]"),
+              hello.start_time());
+    if (!keep_attached_geometry_) d.FixPlane(found.point, found.normal, found.tangent);
     moving_.push_back(found.driven);
   }
   if (!needed.empty()) {
@@ -132,9 +128,7 @@ void ContactServer::Answer(const Envelope& e) {
     }
   }
   accepted_time_ = hello.start_time();
-  frame_ends_.resize(moving_.size());
-  for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
-  simulation_->SaveStart();  // (the frames are data: the start checkpoint holds them)
+  simulation_->SaveStart();
   coupling::Welcome* welcome = channel_->Outgoing(-1, 0).mutable_welcome();
   welcome->set_process_name(channel_->options().self);
   welcome->set_solver(simulation_->SolverName());
@@ -146,9 +140,7 @@ void ContactServer::Answer(const Envelope& e) {
 }
 
 void ContactServer::TentativeStep(int64_t step, int iteration) {
-  simulation_->RestoreStart();
-  // This iteration's end frames (as the smooth side imposes its coordinates after restoring).
-  for (size_t i = 0; i < moving_.size(); ++i) Frame(i).end = frame_ends_[i];
+  simulation_->RestoreStart();  // (the nodes' state: the frames SetReactions gave stay this try's)
   simulation_->SetExternalForces(external_);
   if (jacobians_) simulation_->SetInterfaceStiffness(stiffness_, reference_);
   try {
@@ -230,8 +222,8 @@ void ContactServer::SetReactions(const coupling::Reactions& reactions, const cha
                      std::to_string(moving_.size()) + ", one per moving obstacle");
   }
   for (size_t i = 0; i < moving_.size(); ++i) {
-    frame_ends_[i] = ReadFrame(reactions.obstacle_frames(static_cast<int>(i)),
-                               std::string(where) + ".obstacle_frames[" + std::to_string(i) + "]");
+    Frame(i).SetEnd(ReadFrame(reactions.obstacle_frames(static_cast<int>(i)),
+                              std::string(where) + ".obstacle_frames[" + std::to_string(i) + "]"));
   }
   const auto& force = reactions.force();
   if (force.size() != 3 * static_cast<int>(nodes_.size())) {
@@ -479,13 +471,9 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
       step_ = e.step();
       t_ = e.step_begin().time();
       h_ = e.step_begin().step();
-      for (size_t i = 0; i < moving_.size(); ++i) {  // the last accepted end is this step's start
-        DrivenFrame& d = Frame(i);
-        d.start = d.end;
-        d.t0 = t_;
-        d.t1 = t_ + h_;
-      }
-      simulation_->SaveStart();  // the nodes and these frames: a rejected step comes back here
+      // The last accepted end is this step's start.
+      for (size_t i = 0; i < moving_.size(); ++i) Frame(i).BeginStep(t_, h_);
+      simulation_->SaveStart();  // the nodes' state: a rejected step comes back here
       if (e.step_begin().has_predictor()) SetReactions(e.step_begin().predictor(), "StepBegin.predictor");
       TentativeStep(step_, 0);  // the predictor, or the last accepted reactions
       return Outcome::kContinue;
@@ -513,9 +501,9 @@ ContactServer::Outcome ContactServer::Handle(const Envelope& e) {
           throw;
         }
       } else {
-        simulation_->RestoreStart();  // the nodes' state and the frames at the step's start
+        simulation_->RestoreStart();  // the nodes' state at the step's start
+        for (size_t i = 0; i < moving_.size(); ++i) Frame(i).RejectStep();
         ++rejected_;
-        for (size_t i = 0; i < moving_.size(); ++i) frame_ends_[i] = Frame(i).end;
         step_ = -1;
       }
       channel_->Outgoing(e.step(), e.iteration()).mutable_step_end()->set_accepted(accepted);

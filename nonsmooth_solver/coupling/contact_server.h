@@ -7,9 +7,10 @@
 //   Hello      → Welcome      the interface nodes are looked up (unknown: InputError, exit 2)
 //   StepBegin  → Kinematics 0 a checkpoint of the step's start, and a tentative step with the
 //                             coordinator's predicted reactions (or the last accepted ones)
-//   Reactions i → Kinematics i back to the checkpoint, reactions set, one step
+//   Reactions i → Kinematics i reactions and frames set (the step's inputs), back to the
+//                             checkpoint (the state), one step
 //   StepEnd    → StepEnd      accepted: keep the last tentative step; rejected: back to the
-//                             checkpoint
+//                             checkpoint, the frames' ends to their starts
 //   StepBegin of the next step, while a step waits for its StepEnd: accepts it (protocol 3:
 //                             the coordinator folds the StepEnd of an accepted step into the
 //                             next StepBegin); the StepBegin is then served by the next
@@ -80,8 +81,7 @@ class ContactServer {
   // Checked, into external_ and the moving obstacles' end frames.
   void SetReactions(const coupling::Reactions& reactions, const char* where);
   BodyFrame ReadFrame(const coupling::Frame& frame, const std::string& where) const;  // checked
-  std::vector<int> moving_;            // ContactData::frames index of each Hello.moving_obstacles entry
-  std::vector<BodyFrame> frame_ends_;  // the frames at the step's end the last Reactions (or predictor) gave
+  std::vector<int> moving_;  // ContactData::frames index of each Hello.moving_obstacles entry
   DrivenFrame& Frame(size_t i) { return simulation_->mutable_data()->frames[static_cast<size_t>(moving_[i])]; }
   int coordinator_exit_code_ = 0;
   std::string coordinator_reason_;

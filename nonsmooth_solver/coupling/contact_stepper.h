@@ -25,7 +25,8 @@ class ContactStepper : public interface::Simulation {
   void CheckAccepted(double t) const;
   virtual const ContactModel& model() const = 0;
   // Checkpoint of the step's start, and back to it (every coupling iteration restarts there;
-  // a rejected step too): the nodes' state and the ContactData.
+  // a rejected step too): the nodes' state. Not the ContactData: the frames are the step's
+  // input, as the external forces are, set by the coupling server for each try.
   virtual void SaveStart() = 0;
   virtual void RestoreStart() = 0;
   // The driven obstacles' frames, which the coupling server sets (model().driven_frames of them).

@@ -104,7 +104,8 @@ class MoreauJean {
   double KineticEnergy(int node) const;    // node < 0: all nodes
   double PotentialEnergy(int node) const;  // gravity and springs; node < 0: all (node springs included)
   const MoreauJeanStats& stats() const { return stats_; }
-  // The driven obstacles' frames (the coupling server writes them; checkpoints hold them).
+  // The driven obstacles' frames: the step's input, which the coupling server writes (the
+  // checkpoints below do not hold them).
   const ContactData& data() const { return data_; }
   ContactData* mutable_data() { return &data_; }
 
@@ -115,7 +116,6 @@ class MoreauJean {
     Eigen::VectorXd q, v, impulse;
     Eigen::MatrixXd friction_impulse;
     MoreauJeanStats stats;
-    ContactData data;
   };
   void SaveTo(Checkpoint* c) const {
     c->time = time_;
@@ -124,7 +124,6 @@ class MoreauJean {
     c->impulse = impulse_;
     c->friction_impulse = friction_impulse_;
     c->stats = stats_;
-    c->data.frames.assign(data_.frames.begin(), data_.frames.end());  // (no allocation once sized)
   }
   void Restore(const Checkpoint& c) {
     time_ = c.time;
@@ -133,7 +132,6 @@ class MoreauJean {
     impulse_ = c.impulse;
     friction_impulse_ = c.friction_impulse;
     stats_ = c.stats;
-    data_.frames.assign(c.data.frames.begin(), c.data.frames.end());
   }
 
  private:

@@ -42,6 +42,9 @@ struct BodyFrame {
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // body → global
 };
+// The step's life of the frame: StartAt (the Hello), then per step BeginStep (the last accepted
+// end becomes the start), SetEnd for each try (a coupling iteration's input), and RejectStep if
+// the coordinator rejects it; an accepted step's end is where the next begins.
 struct DrivenFrame {
   double t0 = 0.0, t1 = 0.0;
   BodyFrame start, end;  // at t0 (last accepted) and t1 (the step's end, this iteration)
@@ -49,12 +52,32 @@ struct DrivenFrame {
   Eigen::Vector3d point_body = Eigen::Vector3d::Zero(), normal_body = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d tangent_body = Eigen::Vector3d::UnitX();
   BodyFrame At(double t) const;
+
+  // The body's frame at time t as both ends (a run's start).
+  void StartAt(const BodyFrame& frame, double t) {
+    start = end = frame;
+    t0 = t1 = t;
+  }
+  // Fixes the plane (point p, normal n, tangent, global) in the start frame: p = o + R p_body.
+  void FixPlane(const Eigen::Vector3d& point, const Eigen::Vector3d& normal, const Eigen::Vector3d& tangent) {
+    point_body = start.rotation.transpose() * (point - start.origin);
+    normal_body = start.rotation.transpose() * normal;
+    tangent_body = start.rotation.transpose() * tangent;
+  }
+  void BeginStep(double t, double h) {
+    start = end;
+    t0 = t;
+    t1 = t + h;
+  }
+  void SetEnd(const BodyFrame& frame) { end = frame; }
+  void RejectStep() { end = start; }
 };
 
 // What changes in a contact model during a run besides the nodes' state: the frames of the
 // obstacles attached to smooth bodies (Obstacle::driven indexes them), set by the coupling
-// server at the Hello, each StepBegin and each Reactions. Saved and restored with the
-// integrator's checkpoint, so that a rejected step leaves no trace (like Pinocchio's Data).
+// server at the Hello, each StepBegin and each Reactions. They are the step's input, as the
+// external forces are, not its state: the integrators' checkpoints do not hold them, so that
+// restoring a step's start leaves the frames of the try under way as they were given.
 struct ContactData {
   std::vector<DrivenFrame> frames;
 };

@@ -65,7 +65,7 @@ PenaltySimulation::PenaltySimulation(const interface::ScenarioFile& file, const 
   }
   state_.impact_speed = Eigen::VectorXd::Constant(m, law.speed_threshold);
   state_.impulse = Eigen::VectorXd::Zero(m);
-  state_.data.frames.resize(static_cast<size_t>(model_->driven_frames));
+  data_.frames.resize(static_cast<size_t>(model_->driven_frames));
   saved_ = state_;
   external_ = Eigen::VectorXd::Zero(n);
   mass_.resize(n);
@@ -119,10 +119,9 @@ void PenaltySimulation::Forces(double t, const Eigen::VectorXd& q, const Eigen::
     const Contact& ct = model.contacts[c];
     const Obstacle& ob = model.obstacles[static_cast<size_t>(ct.obstacle)];
     const auto o = 3 * static_cast<Eigen::Index>(ct.node);
-    const Eigen::Vector3d x = q.segment<3>(o), n = ob.NormalAt(t, state_.data);
+    const Eigen::Vector3d x = q.segment<3>(o), n = ob.NormalAt(t, data_);
     // δ = −n·(x − p), δ̇ = −(n·ẋ + bias): the force f n pushes the node out along n.
-    const double delta = -ob.Gap(t, x, state_.data),
-                 rate = -(n.dot(v.segment<3>(o)) + ob.GapRateBias(t, x, state_.data));
+    const double delta = -ob.Gap(t, x, data_), rate = -(n.dot(v.segment<3>(o)) + ob.GapRateBias(t, x, data_));
     const interface::HuntCrossleyForce law =
         interface::EvaluateHuntCrossley(laws_[c], state_.impact_speed(static_cast<Eigen::Index>(c)), delta, rate);
     f->segment<3>(o) += law.f * n;
@@ -144,8 +143,8 @@ void PenaltySimulation::Substep(double t, double h) {
     const Obstacle& ob = model.obstacles[static_cast<size_t>(ct.obstacle)];
     const auto o = 3 * static_cast<Eigen::Index>(ct.node);
     const Eigen::Vector3d x = q0.segment<3>(o);
-    if (ob.Gap(t, x, state_.data) >= 0.0) {
-      const double rate = -(ob.NormalAt(t, state_.data).dot(v0.segment<3>(o)) + ob.GapRateBias(t, x, state_.data));
+    if (ob.Gap(t, x, data_) >= 0.0) {
+      const double rate = -(ob.NormalAt(t, data_).dot(v0.segment<3>(o)) + ob.GapRateBias(t, x, data_));
       state_.impact_speed(static_cast<Eigen::Index>(c)) = std::max(rate, laws_[c].speed_threshold);
     }
   }
@@ -198,16 +197,14 @@ void PenaltySimulation::Advance(double t, double h) {
 
 double PenaltySimulation::Gap(int contact) const {
   const Contact& c = model_->contacts[static_cast<size_t>(contact)];
-  return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node),
-                                                                state_.data);
+  return model_->obstacles[static_cast<size_t>(c.obstacle)].Gap(state_.time, state_.q.segment<3>(3 * c.node), data_);
 }
 
 double PenaltySimulation::GapRate(int contact) const {
   const Contact& c = model_->contacts[static_cast<size_t>(contact)];
   const Obstacle& ob = model_->obstacles[static_cast<size_t>(c.obstacle)];
   const Eigen::Vector3d x = state_.q.segment<3>(3 * c.node);
-  return ob.NormalAt(state_.time, state_.data).dot(state_.v.segment<3>(3 * c.node)) +
-         ob.GapRateBias(state_.time, x, state_.data);
+  return ob.NormalAt(state_.time, data_).dot(state_.v.segment<3>(3 * c.node)) + ob.GapRateBias(state_.time, x, data_);
 }
 
 bool PenaltySimulation::Impact(int) const { return false; }  // finite forces: velocities never jump

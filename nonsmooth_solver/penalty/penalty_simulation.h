@@ -46,8 +46,8 @@ class PenaltySimulation : public ContactStepper {
   void SaveStart() override { saved_ = state_; }
   void RestoreStart() override { state_ = saved_; }
   void SetExternalForces(const Eigen::VectorXd& forces) override { external_ = forces; }
-  ContactData* mutable_data() override { return &state_.data; }
-  const ContactData& data() const override { return state_.data; }
+  ContactData* mutable_data() override { return &data_; }
+  const ContactData& data() const override { return data_; }
   double time() const override { return state_.time; }
   void StartNodeAt(int node, const Eigen::Vector3d& x, const Eigen::Vector3d& v) override {
     state_.q.segment<3>(3 * static_cast<Eigen::Index>(node)) = x;
@@ -74,7 +74,6 @@ class PenaltySimulation : public ContactStepper {
     Eigen::VectorXd q, v;
     Eigen::VectorXd impact_speed;  // δ̇⁻ per contact (while in contact)
     Eigen::VectorXd impulse;       // ∫ f dt per contact over the last step
-    ContactData data;              // the driven obstacles' frames (the coupling server's)
   };
   // f(t, q, v) into `f` (3 per node, F_ext included) and the contact forces' magnitudes into
   // `contact`; with `K`, `C`: −∂f/∂q and −∂f/∂v (the bias of a moving plane's velocity field
@@ -89,6 +88,7 @@ class PenaltySimulation : public ContactStepper {
   int substeps_ = 1;
   scenario::Numerics numerics_;
   State state_, saved_;
+  ContactData data_;  // the driven obstacles' frames: the step's input (the coupling server's), not saved
   Eigen::VectorXd external_;
   Eigen::VectorXd mass_;  // 3 per node
   // Workspace of one substep.

@@ -12,6 +12,10 @@
 //     difference from full Newton at the tip and root; then the whole spin-up (0.5 s at
 //     h = 1 ms, where the blades flap 8 mm and the centrifugal stiffening grows), full Newton
 //     against co-rotated reuse: the first 0.1 s alone flatter the reuse.
+//  5. The Puma rotor with four beam blades (scenarios/puma/rotor_no_air.pbtxt) at 5, 10 and 20
+//     linear or quadratic elements per blade: cost per CGα step and per element, against the hub.
+//  6. The same rotor with and without air (rotor_air.pbtxt against rotor_no_air.pbtxt), and the
+//     cost of one call of the air loads' force, tangent and inflow update.
 #include <omp.h>
 
 #include <algorithm>

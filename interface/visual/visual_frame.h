@@ -49,7 +49,7 @@ class VisualFrame {
   int cells() const { return static_cast<int>(type_.size()); }
   const std::vector<std::string>& legend() const { return legend_; }
 
-  // Writes the frame as a .vtu file; throws OutputError naming the file if it cannot.
+  // Writes the frame as a .vtu file; throws InputError naming the file if it cannot.
   void WriteVtu(const std::string& path, double time) const;
 
  private:
@@ -63,7 +63,7 @@ class VisualFrame {
 class VisualSeries {
  public:
   explicit VisualSeries(std::string folder);
-  // Writes frame `frame` at `time` and rewrites the index. Throws OutputError.
+  // Writes frame `frame` at `time` and rewrites the index. Throws InputError.
   void Write(const VisualFrame& frame, double time);
   int frames() const { return static_cast<int>(times_.size()); }
 

@@ -505,7 +505,7 @@ patterns {{
 }}
 {COUPLING_ITERATION if COSIM else ""}
 {STUDY}
-{SHIP_NUMERICS}# Numerics (choices, measured in docs/results.md, "The Puma scenes"): h = 1 ms{' (2 ms here, below)' if not COSIM and not GUST else ''}, ten times the
+{SHIP_NUMERICS}# Numerics (choices, measured in docs/design.md, "The Puma rotor-sailing scenes"): h = 1 ms{' (2 ms here, below)' if not COSIM and not GUST else ''}, ten times the
 # paper's 1e-4 s — the co-simulated impacts need no small step (Moreau–Jean), and the continuous
 # law's contact at K = 1e9 lasts ~20 ms on the droop stop; the Newton matrix is reused over up
 # to 20 steps (and every coupling iteration) while it contracts the corrections 4× or better.

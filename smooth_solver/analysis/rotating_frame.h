@@ -39,7 +39,7 @@ struct SlidingNode {
   Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();  // ∂load/∂x [N/m] (anchor spring, spin)
   // Planes it must not pass (point, unit normal into the allowed side): a Newton step that would
   // take it through one is cut short where it meets the first, and the solve stops there
-  // (EquilibriumResult::blocked), for the caller to let that plane carry it.
+  // (EquilibriumResult::blocked_node, blocked_guard), for the caller to let that plane carry it.
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> guards;
 };
 

@@ -1,7 +1,7 @@
 #pragma once
 // A sparse matrix whose sparsity pattern is fixed once (every entry any assembly may touch),
 // then re-filled in place for each Newton iteration: no insertion, no reallocation, and the
-// sparse LU's symbolic analysis (analyzePattern) is done once and reused.
+// sparse LU's symbolic analysis (KLU's klu_analyze, KluSolver::Analyze) is done once and reused.
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <array>

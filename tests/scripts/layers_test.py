@@ -3,12 +3,12 @@
 
 `interface` is the layer both solvers stand on and includes neither; neither solver includes the
 other, so either side can be replaced by another program that reads the same scenario and speaks
-the same protocol (docs/design.md, "Libraries"). Inside each library the folders are layered, each
-including only its own files and those of the layers listed before it: the physics of each
-concept (forces, beams, elastic bodies, air loads) below the model that the scenario readers
-build from them, the model below the integrators, the integrators below the simulation and the
-coupling. An include that runs back up a layer fails here, naming the file, its line and the
-layers it may include.
+the same protocol (docs/design.md, "Architecture: processes and libraries"). Inside each library
+the folders are layered, each including only its own files and those of the layers listed before
+it: the physics of each concept (forces, beams, elastic bodies, air loads) below the model that
+the scenario readers build from them, the model below the integrators, the integrators below the
+simulation and the coupling. An include that runs back up a layer fails here, naming the file,
+its line and the layers it may include.
 
 Usage: layers_test.py SOURCE_DIR
 """

@@ -231,7 +231,7 @@ void Coordinator::Exchange(int iteration, const DaeState& frames) {
 
 StepStatus Coordinator::SolveStep(double t, double h, const DaeState* guess) {
   if (guess != nullptr && !iterate_solved_) guess = nullptr;  // (the step's predictor instead)
-  const StepStatus status = integrator_->TryStep(t, h, guess);
+  const StepStatus status = integrator_->TryStep(t, h, guess, &rows_.motion());
   if (!status.ok()) return status;
   newton_ += status.iterations;
   iterate_ = integrator_->state();  // equal sizes: no allocation once warm
@@ -258,8 +258,7 @@ void Coordinator::BeginTry(double h) {
 }
 
 void Coordinator::PreSolve(double t, double h) {
-  method_->Predict(h);
-  integrator_->Restore(start_);
+  method_->Predict(h);  // (the integrator is at the step's start: BeginTry saved it there)
   method_->Impose(h);
   const bool solved = SolveStep(t, h, nullptr).ok();
   if (!solved) {
@@ -308,13 +307,13 @@ Coordinator::Attempt Coordinator::Try(double t, double h) {
   if (method_->PredictionAgrees(iterate_solved_, &record)) {
     // The pre-solve stands (the integrator holds it): only the imposed rates, which the next
     // step starts from, become the peers' answer.
-    rows_.SetRates(it_.answers.velocity, h);
+    rows_.SetSolvedRates(it_.answers.velocity, h);
     log_.push_back(record);
     return Finished(0, result);
   }
   int iteration = 0, backtracks = 0;
   for (;; ++iteration) {
-    integrator_->Restore(start_);  // (the imposed coordinates too: they are in the checkpoint's SystemData)
+    integrator_->Restore(start_);  // (the state: this try's motion is the solve's input)
     method_->Impose(h);
     result.smooth = SolveStep(t, h, method_->WarmStart(iteration) ? &iterate_ : nullptr);
     record = CouplingIterationRecord{step_, iteration};

@@ -14,12 +14,25 @@ void InterfaceRows::BeginStep(int values) {
   for (Eigen::Index v = 0; v < values; ++v) start_velocity_(v) = data_->imposed[static_cast<size_t>(v)].rate;
 }
 
-void InterfaceRows::SetRates(const Eigen::VectorXd& velocity, double h) {
+namespace {
+
+void SetRatesOf(const Eigen::VectorXd& velocity, const Eigen::VectorXd& start_velocity, double h,
+                std::vector<ImposedCoordinate>* imposed) {
   for (Eigen::Index v = 0; v < velocity.size(); ++v) {
-    ImposedCoordinate& c = data_->imposed[static_cast<size_t>(v)];
+    ImposedCoordinate& c = (*imposed)[static_cast<size_t>(v)];
     c.rate = velocity(v);
-    c.acceleration = (velocity(v) - start_velocity_(v)) / h;
+    c.acceleration = (velocity(v) - start_velocity(v)) / h;
   }
+}
+
+}  // namespace
+
+void InterfaceRows::SetRates(const Eigen::VectorXd& velocity, double h) {
+  SetRatesOf(velocity, start_velocity_, h, &motion_.imposed);
+}
+
+void InterfaceRows::SetSolvedRates(const Eigen::VectorXd& velocity, double h) {
+  SetRatesOf(velocity, start_velocity_, h, &data_->imposed);
 }
 
 StepReaction::StepReaction(const MultibodySystem& system, const CgAlpha& integrator, bool step_average)

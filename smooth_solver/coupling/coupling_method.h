@@ -69,17 +69,23 @@ struct CouplingIterate {
 // for a solve of the step.
 class InterfaceRows {
  public:
-  explicit InterfaceRows(SystemData* data) : data_(data) {}
-  // The step's start: the rates its imposed accelerations are measured from.
+  explicit InterfaceRows(SystemData* data) : data_(data), motion_{data->imposed, data->interface_compliance} {}
+  // The step's start (the data as a checkpoint holds it): the rates its imposed accelerations
+  // are measured from.
   void BeginStep(int values);
-  // Position k of value v, and the compliance C of point k.
-  void SetPosition(Eigen::Index v, double position) { data_->imposed[static_cast<size_t>(v)].value = position; }
-  void SetCompliance(size_t k, const Eigen::Matrix3d& compliance) { data_->interface_compliance[k] = compliance; }
-  // The rates `velocity` and their accelerations over the step of length h from its start.
+  // Into this try's motion, the solve's input: position value v, the compliance C of point k,
+  // and the rates `velocity` with their accelerations over the step of length h from its start.
+  void SetPosition(Eigen::Index v, double position) { motion_.imposed[static_cast<size_t>(v)].value = position; }
+  void SetCompliance(size_t k, const Eigen::Matrix3d& compliance) { motion_.compliance[k] = compliance; }
   void SetRates(const Eigen::VectorXd& velocity, double h);
+  const InterfaceMotion& motion() const { return motion_; }
+  // A pre-solve that stands as the step's solve: `velocity` (the peers' answer) and its
+  // accelerations into the solved step's data, as its rates.
+  void SetSolvedRates(const Eigen::VectorXd& velocity, double h);
 
  private:
   SystemData* data_;
+  InterfaceMotion motion_;
   Eigen::VectorXd start_velocity_;
 };
 

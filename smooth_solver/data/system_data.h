@@ -5,10 +5,11 @@
 // is immutable once built; MakeData(system) (multibody_system.h) makes this data from it, and its
 // force elements and constraint rows are given it at every evaluation (AddForce(…, data, …),
 // ConstraintSet::Evaluate(imposed, …)) and keep only their slots in it, never a pointer to it.
-// Its owner (the simulation) writes it (the coordinator between coupling iterations, AcceptStep
-// after an accepted step) and CGα's checkpoints save and restore it with the integrator's state,
-// so that a rejected step (an adaptive step's error test, a coupling iteration that fails) leaves
-// no trace (like Pinocchio's Data or MuJoCo's mjData).
+// Its owner (the simulation) writes it (AcceptStep after an accepted step; the coordinator's
+// impact restarts); a coupled try's imposed coordinates come in as the step's input
+// (InterfaceMotion, taken by CGα's TryStep). CGα's checkpoints save and restore it with the
+// integrator's state, so that a rejected step (an adaptive step's error test, a coupling
+// iteration that fails) leaves no trace (like Pinocchio's Data or MuJoCo's mjData).
 #include <Eigen/Core>
 #include <algorithm>
 #include <stdexcept>
@@ -31,6 +32,16 @@ struct RotorInflowState {
   bool started = false;
 };
 
+// One try's interface motion, a coupled step's input: the coordinates the peers impose at the
+// step's end and the compliance that linearises them (as SystemData::imposed and
+// interface_compliance, entry for entry). The coordinator fills it for each coupling iteration
+// and CGα's TryStep takes it into the data it solves with; a checkpoint holds the step's start
+// (SystemData), so restoring it leaves the try's input as it was given.
+struct InterfaceMotion {
+  std::vector<ImposedCoordinate> imposed;
+  std::vector<Eigen::Matrix3d> compliance;
+};
+
 struct SystemData {
   // 3 per interface point (x, y, z): the end-of-step values the peer imposes; the coupling rows'
   // drives name them by index, and every evaluation of the constraints is given them.
@@ -48,6 +59,14 @@ struct SystemData {
   bool SameShape(const SystemData& other) const {
     return other.imposed.size() == imposed.size() && other.impact_speed.size() == impact_speed.size() &&
            other.interface_compliance.size() == interface_compliance.size() && other.rotors.size() == rotors.size();
+  }
+  // A try's interface motion into this data (same sizes: no reallocation).
+  void TakeMotion(const InterfaceMotion& motion) {
+    if (motion.imposed.size() != imposed.size() || motion.compliance.size() != interface_compliance.size()) {
+      throw std::logic_error("SystemData::TakeMotion: the motion belongs to another system");
+    }
+    std::copy(motion.imposed.begin(), motion.imposed.end(), imposed.begin());
+    std::copy(motion.compliance.begin(), motion.compliance.end(), interface_compliance.begin());
   }
   // Copies `other` into this object's storage (same sizes: no reallocation, as the checkpoints
   // of a warm run must not allocate).

@@ -417,7 +417,8 @@ int CgAlpha::Step(double t, double h, const DaeState* guess) {
   return status.iterations;
 }
 
-StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess) {
+StepStatus CgAlpha::TryStep(double t, double h, const DaeState* guess, const InterfaceMotion* motion) {
+  if (motion != nullptr) data_->TakeMotion(*motion);
   const int m = system_.constraints.size();
   const double t1 = t + h;
   StepStatus status;

@@ -146,8 +146,12 @@ class CgAlpha : public SmoothIntegrator {
   // whose imposed coordinates have changed a little since), which satisfies the step's Newmark
   // relations between q, q̇ and q̈ as the predictor does.
   int Step(double t, double h, const DaeState* guess);
-  // The same without throwing: the step's status (state advanced only if it converged).
-  [[nodiscard]] StepStatus TryStep(double t, double h, const DaeState* guess = nullptr);
+  // The same without throwing: the step's status (state advanced only if it converged). A
+  // coupled step's `motion` (the peers' imposed coordinates at its end, this try's) is taken
+  // into the data first; null: the data's as they are (a standalone run's, or a try of the
+  // same input).
+  [[nodiscard]] StepStatus TryStep(double t, double h, const DaeState* guess = nullptr,
+                                   const InterfaceMotion* motion = nullptr);
   const CgAlphaSettings& settings() const { return settings_; }
 
   const DaeState& state() const override { return state_; }

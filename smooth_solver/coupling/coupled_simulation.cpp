@@ -183,7 +183,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
       context_(std::make_unique<zmq::context_t>()),
       scenario_name_(file.proto().name()) {
   const interface::Checks checks(file);
-  if (simulation_->cgalpha() == nullptr) {
+  if (!simulation_->integrator().capabilities().checkpoints) {
     checks.Fail("numerics.smooth.integrator",
                 "a coupled run needs CGALPHA (its steps are repeated per coupling "
                 "iteration from a checkpoint)");

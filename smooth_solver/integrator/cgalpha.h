@@ -141,6 +141,7 @@ class CgAlpha : public SmoothIntegrator {
   // Advances from t to t + h. Returns the Newton iterations used; throws NumericalError if
   // Newton does not converge (state unchanged).
   int Step(double t, double h) override { return Step(t, h, nullptr); }
+  IntegratorCapabilities capabilities() const override { return {.checkpoints = true, .error_estimate = true}; }
   // The same, with Newton started from `guess` instead of the predictor: the end state of an
   // earlier solve of this very step (same start state and h, e.g. the last coupling iteration,
   // whose imposed coordinates have changed a little since), which satisfies the step's Newmark

@@ -24,6 +24,7 @@ class CgAlphaIndex2 : public SmoothIntegrator {
                 const DaeState& initial);
 
   int Step(double t, double h) override;
+  IntegratorCapabilities capabilities() const override { return {}; }  // (none: see smooth_integrator.h)
   const DaeState& state() const override { return state_; }
   double ConstraintViolation(double t) const override;
 

@@ -31,6 +31,7 @@ class IdaReference : public SmoothIntegrator {
   // Integrates to t + h (IDA takes its own internal steps; the result is its interpolant at
   // t + h). Returns IDA's internal steps taken.
   int Step(double t, double h) override;
+  IntegratorCapabilities capabilities() const override { return {}; }  // (none: see smooth_integrator.h)
   const DaeState& state() const override { return state_; }
   double ConstraintViolation(double t) const override;
   long internal_steps() const;

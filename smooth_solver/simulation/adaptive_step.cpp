@@ -12,11 +12,6 @@ namespace cosim::smooth {
 AdaptiveSettings ReadAdaptiveSettings(const interface::Checks& checks, const scenario::Numerics& numerics,
                                       bool coupled) {
   const scenario::AdaptiveStep& adaptive = numerics.adaptive();
-  if (numerics.smooth().integrator() != scenario::SmoothSettings::CGALPHA) {
-    checks.Fail("numerics.adaptive",
-                "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
-                "own); set enabled: false");
-  }
   AdaptiveSettings a;
   a.on = true;
   a.land = coupled;

@@ -19,9 +19,9 @@ struct AdaptiveSettings {
   double relative = 0.0, absolute = 0.0, min_step = 0.0, max_step = 0.0, contact_step = 0.0;
 };
 
-// numerics.adaptive (proto/scenario/numerics.proto AdaptiveStep) of a run whose integrator is
-// numerics.smooth.integrator, its steps landing on the output times if `coupled`. Throws
-// InputError naming the field (an adaptive step other than CGα's among them).
+// numerics.adaptive (proto/scenario/numerics.proto AdaptiveStep), its steps landing on the output
+// times if `coupled`. Throws InputError naming the field. (Whether the integrator can take them,
+// the run asks it: IntegratorCapabilities::error_estimate.)
 AdaptiveSettings ReadAdaptiveSettings(const interface::Checks& checks, const scenario::Numerics& numerics,
                                       bool coupled);
 

@@ -219,6 +219,11 @@ void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interf
     if (adaptive()) stepper_ = std::make_unique<CgAlphaStepper>(cg_);
     integrator_ = std::move(cg);
   }
+  if (adaptive() && !integrator_->capabilities().error_estimate) {
+    checks.Fail("numerics.adaptive",
+                "only numerics.smooth.integrator CGALPHA takes adaptive steps (IDA chooses its "
+                "own); set enabled: false");
+  }
   WatchdogSettings watchdog = settings.watchdog;
   watchdog.energy = settings.energy_check == sc::Watchdog::ON ||
                     (settings.energy_check == sc::Watchdog::AUTO && PassiveSystem(*system_));

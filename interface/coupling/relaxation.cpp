@@ -30,7 +30,7 @@ void Relaxation::BeginStep() {
   while (columns_ > 0 && stamp_[static_cast<size_t>(columns_ - 1)] < step_ - reuse_steps_) --columns_;
 }
 
-void Relaxation::Save(state::RelaxationMemory* out) const {
+void Relaxation::Write(state::RelaxationMemory* out) const {
   out->set_method(static_cast<int>(method_));
   out->set_reuse_steps(reuse_steps_);
   out->set_size(static_cast<int>(V_.rows()));
@@ -41,7 +41,7 @@ void Relaxation::Save(state::RelaxationMemory* out) const {
   out->mutable_w()->Add(W_.data(), W_.data() + values);
 }
 
-std::string Relaxation::Restore(const state::RelaxationMemory& in, bool* restored) {
+std::string Relaxation::Read(const state::RelaxationMemory& in, bool* restored) {
   *restored = false;
   if (in.method() != static_cast<int>(method_) || in.reuse_steps() != reuse_steps_) return {};
   const int columns = in.stamp_size();

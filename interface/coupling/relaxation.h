@@ -48,12 +48,12 @@ class Relaxation {
   int columns() const { return columns_; }       // IQN-ILS columns in use
 
   // What a later step starts from (IQN-ILS's columns kept by reuse_steps), for a restart.
-  void Save(state::RelaxationMemory* out) const;
-  // Restores a Save of a relaxation of this method, reuse_steps and size (`*restored`); another
+  void Write(state::RelaxationMemory* out) const;
+  // Reads a Write of a relaxation of this method, reuse_steps and size (`*restored`); another
   // one is left (the restart's relaxation starts afresh: `*restored` false). A memory of this
   // kind that cannot be one (more columns than kept, sizes that do not match, non-finite
   // values) is refused: the reason, and nothing changed; empty if none.
-  [[nodiscard]] std::string Restore(const state::RelaxationMemory& in, bool* restored);
+  [[nodiscard]] std::string Read(const state::RelaxationMemory& in, bool* restored);
 
  private:
   Method method_;

@@ -103,7 +103,7 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
     d.end = d.start;
     d.t0 = d.t1 = s.time();
   }
-  SetState(s);
+  ReadState(s);
   return true;
 }
 
@@ -137,7 +137,7 @@ void ContactStepper::EndOutput() {
     AddVector(f.velocity, a->mutable_velocity());
     AddVector(f.angular_velocity, a->mutable_angular_velocity());
   }
-  GetState(&s);
+  WriteState(&s);
   interface::WriteFinalState(output_folder_, s);
 }
 

@@ -105,9 +105,9 @@ class ContactStepper : public interface::Simulation {
   explicit ContactStepper(const interface::ScenarioFile& file);
 
   // The method's part of a saved state: time, nodes' q and v, impulses and its own memory (the
-  // sizes are checked before SetState).
-  virtual void GetState(state::ContactState* s) const = 0;
-  virtual void SetState(const state::ContactState& s) = 0;
+  // sizes are checked before ReadState).
+  virtual void WriteState(state::ContactState* s) const = 0;
+  virtual void ReadState(const state::ContactState& s) = 0;
 
  private:
   std::string scenario_name_, process_, output_folder_;

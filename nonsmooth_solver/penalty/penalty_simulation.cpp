@@ -222,12 +222,12 @@ void PenaltySimulation::FillSummary(run::RunSummary* summary) const {
   }
 }
 
-void PenaltySimulation::GetState(state::ContactState* s) const {
+void PenaltySimulation::WriteState(state::ContactState* s) const {
   s->mutable_impulse()->Add(state_.impulse.data(), state_.impulse.data() + state_.impulse.size());
   s->mutable_impact_speed()->Add(state_.impact_speed.data(), state_.impact_speed.data() + state_.impact_speed.size());
 }
 
-void PenaltySimulation::SetState(const state::ContactState& s) {
+void PenaltySimulation::ReadState(const state::ContactState& s) {
   state_.time = s.time();
   state_.q = Eigen::Map<const Eigen::VectorXd>(s.q().data(), s.q_size());
   state_.v = Eigen::Map<const Eigen::VectorXd>(s.v().data(), s.v_size());

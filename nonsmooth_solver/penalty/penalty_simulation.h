@@ -65,8 +65,8 @@ class PenaltySimulation : public ContactStepper {
 
  protected:
   // The last step's impulses and each contact's onset speed, with the nodes' state.
-  void GetState(state::ContactState* s) const override;
-  void SetState(const state::ContactState& s) override;
+  void WriteState(state::ContactState* s) const override;
+  void ReadState(const state::ContactState& s) override;
 
  private:
   struct State {

@@ -69,14 +69,14 @@ bool ContactSimulation::Sensitivities(double h, Eigen::VectorXd* position, Eigen
   return true;
 }
 
-void ContactSimulation::GetState(state::ContactState* s) const {
+void ContactSimulation::WriteState(state::ContactState* s) const {
   const Eigen::VectorXd& impulse = integrator_->impulses();
   s->mutable_impulse()->Add(impulse.data(), impulse.data() + impulse.size());
   const Eigen::MatrixXd& friction = integrator_->friction_impulses();  // 3 × contacts, column-major
   s->mutable_friction_impulse()->Add(friction.data(), friction.data() + friction.size());
 }
 
-void ContactSimulation::SetState(const state::ContactState& s) {
+void ContactSimulation::ReadState(const state::ContactState& s) {
   MoreauJean::Checkpoint c;
   integrator_->SaveTo(&c);  // the sizes, and the driven frames as UseSavedState left them
   c.time = s.time();

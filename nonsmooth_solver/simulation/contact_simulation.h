@@ -50,8 +50,8 @@ class ContactSimulation : public ContactStepper {
 
  protected:
   // The last step's impulses, normal and tangential (3 per contact), with the nodes' state.
-  void GetState(state::ContactState* s) const override;
-  void SetState(const state::ContactState& s) override;
+  void WriteState(state::ContactState* s) const override;
+  void ReadState(const state::ContactState& s) override;
 
  private:
   std::unique_ptr<const ContactModel> model_;  // stable address for the integrator

@@ -42,15 +42,15 @@ void Coordinator::RestartWithCouplingRowsFree(DaeState state, double t, const st
   reaction_.StartFrom(state, &memory_);
 }
 
-void Coordinator::SaveMemory(state::CoordinatorMemory* out) const {
-  memory_.Save(out);
-  method_->SaveMemory(out);
+void Coordinator::WriteMemory(state::CoordinatorMemory* out) const {
+  memory_.Write(out);
+  method_->WriteMemory(out);
 }
 
-std::string Coordinator::RestoreMemory(const state::CoordinatorMemory& in) {
-  if (std::string wrong = memory_.Restore(in); !wrong.empty()) return wrong;
+std::string Coordinator::ReadMemory(const state::CoordinatorMemory& in) {
+  if (std::string wrong = memory_.Read(in); !wrong.empty()) return wrong;
   // (Before the handshake the method is not chosen: a saved relaxation is the relaxation's.)
-  if (std::string wrong = relaxation_method_.RestoreMemory(in); !wrong.empty()) return wrong;
+  if (std::string wrong = relaxation_method_.ReadMemory(in); !wrong.empty()) return wrong;
   memory_.GetSensitivities(&it_.answers.sensitivity);
   restored_ = true;
   return {};

@@ -46,15 +46,15 @@ class Coordinator {
               const CouplingSettings& settings);
 
   // Hello → Welcome with every peer. A fresh start (or a restart whose CGα history starts
-  // afresh) starts the coupling with the interface rows free; after RestoreMemory the run goes on
+  // afresh) starts the coupling with the interface rows free; after ReadMemory the run goes on
   // with them held, from the restored multipliers and memory.
   void Handshake(const std::string& scenario_name, double start_time, double step);
   // What the next step starts from (state.proto's CoordinatorMemory), for a restart.
-  void SaveMemory(state::CoordinatorMemory* out) const;
-  // Restores a SaveMemory of this scene's coupling (before the handshake; the integrator and
+  void WriteMemory(state::CoordinatorMemory* out) const;
+  // Reads a WriteMemory of this scene's coupling (before the handshake; the integrator and
   // the data restored with it). The reason a memory is refused (another number of points, sizes
   // that do not match, non-finite values: the run ends with it); empty if none.
-  [[nodiscard]] std::string RestoreMemory(const state::CoordinatorMemory& in);
+  [[nodiscard]] std::string ReadMemory(const state::CoordinatorMemory& in);
   // One coupled step from t to t + h (fixed steps): Try, then Accept. A failed Newton solve or
   // (with stop_at_max_iterations) no convergence rejects the step and retries it as two halves,
   // then quarters (StepOrSplit); if a quarter fails too, NumericalError. Returns the coupling
@@ -185,7 +185,7 @@ class Coordinator {
   Eigen::VectorXd held_a_, held_qddot_;          // HoldImpactingBodiesHistory's buffers
   std::vector<int> moved_points_;                // MoveNodesWithRestart's, until the peers are told
   std::vector<Eigen::Vector3d> impact_normals_;  // Accept's impact reactions' directions, one per point
-  bool restored_ = false;                        // RestoreMemory: the handshake goes on with the rows held
+  bool restored_ = false;                        // ReadMemory: the handshake goes on with the rows held
   bool resting_at_start_ = false;                // a settled start's first step: its contacts rest (Impacts)
   long long step_ = 0;
   long long last_accepted_ = -1;

@@ -231,7 +231,7 @@ CoupledSmoothSimulation::CoupledSmoothSimulation(const interface::ScenarioFile& 
   coordinator_ = std::make_unique<Coordinator>(sys, simulation_->mutable_data(), simulation_->cgalpha(),
                                                std::move(peers), settings);
   if (const state::CoordinatorMemory* saved = simulation_->saved_coordinator()) {
-    const std::string wrong = coordinator_->RestoreMemory(*saved);
+    const std::string wrong = coordinator_->ReadMemory(*saved);
     if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
   }
   start_time_ = file.proto().numerics().start_time();
@@ -328,7 +328,7 @@ void CoupledSmoothSimulation::WriteIterations() {
 void CoupledSmoothSimulation::EndOutput() {
   if (iterations_ != nullptr && !iterations_->Flush()) throw InputError(iterations_->error() + " (is the disk full?)");
   simulation_->WriteFinalState(
-      [this](state::SmoothState* saved) { coordinator_->SaveMemory(saved->mutable_coordinator()); });
+      [this](state::SmoothState* saved) { coordinator_->WriteMemory(saved->mutable_coordinator()); });
 }
 
 }  // namespace cosim::smooth

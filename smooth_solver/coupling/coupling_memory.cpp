@@ -61,7 +61,7 @@ void CouplingMemory::GetSensitivities(std::vector<Eigen::Matrix3d>* blocks) cons
   for (size_t k = 0; k < blocks->size(); ++k) (*blocks)[k] = Sensitivity(static_cast<int>(k));
 }
 
-void CouplingMemory::Save(state::CoordinatorMemory* out) const {
+void CouplingMemory::Write(state::CoordinatorMemory* out) const {
   out->set_points(points_);
   for (const VectorField& f : kVectorFields) AddValues(this->*f.value, (out->*f.mutable_saved)());
   out->set_accepted_steps(accepted_steps);
@@ -71,7 +71,7 @@ void CouplingMemory::Save(state::CoordinatorMemory* out) const {
   for (const bool c : was_contact) out->add_was_contact(c);
 }
 
-std::string CouplingMemory::Restore(const state::CoordinatorMemory& in) {
+std::string CouplingMemory::Read(const state::CoordinatorMemory& in) {
   if (in.points() != points_) {
     return "its coordinator's memory is of " + std::to_string(in.points()) + " interface points, not " +
            std::to_string(points_);

@@ -38,10 +38,10 @@ struct CouplingMemory {
   void GetSensitivities(std::vector<Eigen::Matrix3d>* blocks) const;
 
   // Into a saved state (its relaxation memory is the relaxation's own).
-  void Save(state::CoordinatorMemory* out) const;
+  void Write(state::CoordinatorMemory* out) const;
   // From a saved state: the reason it is refused (another number of points, sizes that do not
   // match, non-finite values or step lengths), nothing changed; empty if none.
-  [[nodiscard]] std::string Restore(const state::CoordinatorMemory& in);
+  [[nodiscard]] std::string Read(const state::CoordinatorMemory& in);
 
  private:
   int points_ = 0;

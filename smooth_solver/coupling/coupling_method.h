@@ -150,8 +150,8 @@ class CouplingMethod {
   // restart).
   virtual void Forget() = 0;
   // Its own part of a saved state, and its restore (the reason it is refused; empty if none).
-  virtual void SaveMemory(state::CoordinatorMemory* out) const = 0;
-  [[nodiscard]] virtual std::string RestoreMemory(const state::CoordinatorMemory& in) = 0;
+  virtual void WriteMemory(state::CoordinatorMemory* out) const = 0;
+  [[nodiscard]] virtual std::string ReadMemory(const state::CoordinatorMemory& in) = 0;
 
   // Steps accepted with the reaction residual at round-off but above the tolerance; steps whose
   // pre-solve failed (its predictions then the point); steps accepted on their pre-solve.

@@ -36,8 +36,8 @@ class InterfaceJacobianMethod final : public CouplingMethod {
   bool Backtrack(int /*iteration*/, int /*backtrack*/, CouplingIterationRecord* /*record*/) override { return false; }
   const Eigen::VectorXd& HeldForce() const override { return it_->answers.applied; }
   void Forget() override {}
-  void SaveMemory(state::CoordinatorMemory* /*out*/) const override {}
-  std::string RestoreMemory(const state::CoordinatorMemory& /*in*/) override { return {}; }
+  void WriteMemory(state::CoordinatorMemory* /*out*/) const override {}
+  std::string ReadMemory(const state::CoordinatorMemory& /*in*/) override { return {}; }
 
   // What goes with x to the peers: the smooth side's stiffness E per point and the positions k̂
   // it was linearised at.

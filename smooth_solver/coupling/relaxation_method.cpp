@@ -62,10 +62,10 @@ bool RelaxationMethod::Backtrack(int iteration, int backtrack, CouplingIteration
   return true;  // (previous_position_ stays the solved iteration's)
 }
 
-std::string RelaxationMethod::RestoreMemory(const state::CoordinatorMemory& in) {
+std::string RelaxationMethod::ReadMemory(const state::CoordinatorMemory& in) {
   if (!in.has_relaxation()) return {};
   bool restored = false;  // (not restored if saved with other settings: it starts afresh, as they say)
-  if (std::string wrong = relaxation_.Restore(in.relaxation(), &restored); !wrong.empty()) {
+  if (std::string wrong = relaxation_.Read(in.relaxation(), &restored); !wrong.empty()) {
     return "its coordinator's " + wrong;
   }
   return {};

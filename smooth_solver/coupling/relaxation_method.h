@@ -33,8 +33,8 @@ class RelaxationMethod final : public CouplingMethod {
   bool Backtrack(int iteration, int backtrack, CouplingIterationRecord* record) override;
   const Eigen::VectorXd& HeldForce() const override { return it_->x; }
   void Forget() override { relaxation_.Forget(); }
-  void SaveMemory(state::CoordinatorMemory* out) const override { relaxation_.Save(out->mutable_relaxation()); }
-  std::string RestoreMemory(const state::CoordinatorMemory& in) override;
+  void WriteMemory(state::CoordinatorMemory* out) const override { relaxation_.Write(out->mutable_relaxation()); }
+  std::string ReadMemory(const state::CoordinatorMemory& in) override;
 
  private:
   static constexpr int kMaxBacktracks = 4;  // per step

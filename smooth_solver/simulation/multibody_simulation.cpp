@@ -186,7 +186,7 @@ void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interf
     initial.q = Eigen::Map<const Eigen::VectorXd>(restart->q().data(), restart->q_size());
     initial.qdot = Eigen::Map<const Eigen::VectorXd>(restart->qdot().data(), restart->qdot_size());
     if (HasSavedData(*restart)) {  // the memories and inflow as the first run left them
-      const std::string mismatch = RestoreData(*restart, data_.get());
+      const std::string mismatch = ReadData(*restart, data_.get());
       if (!mismatch.empty()) checks.Fail("numerics.initial_state", mismatch + ": expected a state of this scene");
     } else {  // (a state saved before the data was): from the saved state
       system_->AcceptStep(initial.q, initial.qdot, time_, data_.get());
@@ -205,7 +205,7 @@ void MultibodySimulation::BuildSystemAndState(const Checks& checks, const interf
     // restores its own memory saved with it (saved_coordinator).
     CgAlpha::Checkpoint history;
     if (restart && HistoryFits(*restart, HistoryOf{numerics_.step(), settings.cgalpha, adaptive()})) {
-      const std::string wrong = RestoreHistory(*restart, initial, system_->constraints.size(), &history);
+      const std::string wrong = ReadCgAlphaHistory(*restart, initial, system_->constraints.size(), &history);
       if (!wrong.empty()) checks.Fail("numerics.initial_state", wrong + ": expected a state of this scene");
       history.data = *data_;
       cg->Restore(history);
@@ -809,11 +809,11 @@ void MultibodySimulation::WriteFinalState(const std::function<void(state::Smooth
   saved.mutable_angle_offsets()->Add(angle_offset_.begin(), angle_offset_.end());
   saved.mutable_reference_q()->Add(reference_q_.data(), reference_q_.data() + reference_q_.size());
   saved.set_reference_time(reference_time_);
-  SaveData(*data_, &saved);
+  WriteData(*data_, &saved);
   if (cg_ != nullptr && !static_) {
     CgAlpha::Checkpoint history;
     cg_->SaveTo(&history);
-    SaveHistory(history, HistoryOf{last_step_, cg_->settings(), adaptive()}, &saved);
+    WriteCgAlphaHistory(history, HistoryOf{last_step_, cg_->settings(), adaptive()}, &saved);
     if (adaptive()) saved.set_next_step(adaptive_.next_step());
   }
   if (extend) extend(&saved);

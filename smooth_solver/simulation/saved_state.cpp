@@ -43,7 +43,7 @@ std::string NonFinite(std::initializer_list<std::pair<const char*, const Doubles
   return {};
 }
 
-void SaveData(const SystemData& data, state::SmoothState* saved) {
+void WriteData(const SystemData& data, state::SmoothState* saved) {
   saved->mutable_impact_speed()->Add(data.impact_speed.begin(), data.impact_speed.end());
   for (const RotorInflowState& r : data.rotors) {
     state::SmoothState::Rotor* out = saved->add_rotors();
@@ -74,7 +74,7 @@ bool HasSavedData(const state::SmoothState& saved) {
   return saved.impact_speed_size() > 0 || saved.rotors_size() > 0 || saved.imposed_size() > 0;
 }
 
-std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
+std::string ReadData(const state::SmoothState& saved, SystemData* data) {
   if (saved.impact_speed_size() != static_cast<int>(data->impact_speed.size()) ||
       saved.rotors_size() != static_cast<int>(data->rotors.size()) ||
       saved.imposed_size() != static_cast<int>(data->imposed.size())) {
@@ -134,7 +134,7 @@ std::string RestoreData(const state::SmoothState& saved, SystemData* data) {
   return {};
 }
 
-void SaveHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state::SmoothState* saved) {
+void WriteCgAlphaHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state::SmoothState* saved) {
   Add(history.state.qddot, saved->mutable_qddot());
   Add(history.state.lambda, saved->mutable_lambda());
   Add(history.a, saved->mutable_acceleration_variable());
@@ -157,8 +157,8 @@ bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now) {
          of.form() == static_cast<int>(now.settings.form) && of.gemm() == now.settings.gemm;
 }
 
-std::string RestoreHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
-                           CgAlpha::Checkpoint* history) {
+std::string ReadCgAlphaHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
+                               CgAlpha::Checkpoint* history) {
   const int coordinates = static_cast<int>(at.q.size());
   history->state = at;  // (q and q̇ as the caller read and checked them)
   history->started = true;

@@ -24,12 +24,12 @@ std::string NonFinite(
     std::initializer_list<std::pair<const char*, const google::protobuf::RepeatedField<double>*>> fields,
     const std::string& prefix = "");
 
-void SaveData(const SystemData& data, state::SmoothState* saved);
+void WriteData(const SystemData& data, state::SmoothState* saved);
 // Whether `saved` holds a SystemData (written by a run since the data was saved).
 bool HasSavedData(const state::SmoothState& saved);
 // The saved SystemData into `data` (made by MakeData for this scene). Returns an empty string,
 // or what does not match (the sizes of another scene's data): the caller's refusal.
-[[nodiscard]] std::string RestoreData(const state::SmoothState& saved, SystemData* data);
+[[nodiscard]] std::string ReadData(const state::SmoothState& saved, SystemData* data);
 
 // What a CGα history belongs to: the run's last accepted step, its settings, whether it is adaptive.
 struct HistoryOf {
@@ -39,14 +39,14 @@ struct HistoryOf {
 };
 // CGα's history: the checkpoint's state (accelerations, multipliers), a_n, f̃_n and what they
 // belong to.
-void SaveHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state::SmoothState* saved);
+void WriteCgAlphaHistory(const CgAlpha::Checkpoint& history, const HistoryOf& of, state::SmoothState* saved);
 // Whether `saved` holds a CGα history that a run of `now` continues: started, of the same ρ∞,
 // constraint form and GEMM choice, and of the same step unless both are adaptive.
 bool HistoryFits(const state::SmoothState& saved, const HistoryOf& now);
 // The saved history as a checkpoint at the state `at` (the saved q and q̇, read and checked by the
 // caller) of an integrator of `constraints` rows (its data left alone). Returns an empty string,
 // or what is wrong with it (sizes, non-finite values).
-[[nodiscard]] std::string RestoreHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
-                                         CgAlpha::Checkpoint* history);
+[[nodiscard]] std::string ReadCgAlphaHistory(const state::SmoothState& saved, const DaeState& at, int constraints,
+                                             CgAlpha::Checkpoint* history);
 
 }  // namespace cosim::smooth

@@ -116,10 +116,10 @@ TEST(Relaxation, AReusedIqnIlsMemorySavedAndRestoredGoesOnAsTheOriginal) {
   for (int step = 0; step < 3; ++step) sweep(&original, b_of(step), Vector6d::Zero(), 2);
   ASSERT_EQ(original.columns(), 3);
   state::RelaxationMemory memory;
-  original.Save(&memory);
+  original.Write(&memory);
   Relaxation restored(Relaxation::Method::kIqnIls, 6, 0.5, -1, 3), fresh(Relaxation::Method::kIqnIls, 6, 0.5, -1, 3);
   bool done = false;
-  EXPECT_EQ(restored.Restore(memory, &done), "");
+  EXPECT_EQ(restored.Read(memory, &done), "");
   EXPECT_TRUE(done);
   EXPECT_EQ(restored.columns(), original.columns());
   for (int step = 3; step < 5; ++step) {
@@ -128,15 +128,15 @@ TEST(Relaxation, AReusedIqnIlsMemorySavedAndRestoredGoesOnAsTheOriginal) {
     EXPECT_GT((sweep(&fresh, b_of(step), Vector6d::Ones(), 2) - x).norm(), 1e-6) << "step " << step;
   }
   Relaxation other(Relaxation::Method::kIqnIls, 6, 0.5, -1, 1);  // another reuse_steps
-  EXPECT_EQ(other.Restore(memory, &done), "");
+  EXPECT_EQ(other.Read(memory, &done), "");
   EXPECT_FALSE(done);
   EXPECT_EQ(other.columns(), 0);
   state::RelaxationMemory truncated = memory;
   truncated.mutable_v()->RemoveLast();
-  EXPECT_NE(restored.Restore(truncated, &done).find("relaxation memory holds"), std::string::npos);
+  EXPECT_NE(restored.Read(truncated, &done).find("relaxation memory holds"), std::string::npos);
   state::RelaxationMemory not_finite = memory;
   not_finite.set_w(0, std::nan(""));
-  EXPECT_NE(restored.Restore(not_finite, &done).find("not finite"), std::string::npos);
+  EXPECT_NE(restored.Read(not_finite, &done).find("not finite"), std::string::npos);
   EXPECT_FALSE(done);
 }
 

@@ -33,7 +33,7 @@ std::vector<const google::protobuf::FieldDescriptor*> SavedVectors() {
 CouplingMemory Distinct() {
   CouplingMemory m(kPoints);
   state::CoordinatorMemory saved;
-  m.Save(&saved);
+  m.Write(&saved);
   const google::protobuf::Reflection* r = saved.GetReflection();
   double next = 1.0;
   for (const google::protobuf::FieldDescriptor* field : SavedVectors()) {
@@ -44,17 +44,17 @@ CouplingMemory Distinct() {
   saved.set_previous_accepted_h(2e-3);
   saved.set_offset_known(true);
   saved.set_was_contact(1, true);
-  EXPECT_EQ(m.Restore(saved), "");
+  EXPECT_EQ(m.Read(saved), "");
   return m;
 }
 
 TEST(CouplingMemory, WhatIsSavedIsWhatIsRestored) {
   const CouplingMemory m = Distinct();
   state::CoordinatorMemory first, second;
-  m.Save(&first);
+  m.Write(&first);
   CouplingMemory copy(kPoints);
-  ASSERT_EQ(copy.Restore(first), "");
-  copy.Save(&second);
+  ASSERT_EQ(copy.Read(first), "");
+  copy.Write(&second);
   EXPECT_EQ(first.SerializeAsString(), second.SerializeAsString());
   EXPECT_EQ(copy.accepted_steps, 7);
   EXPECT_TRUE(copy.offset_known);
@@ -70,7 +70,7 @@ TEST(CouplingMemory, EveryVectorOfTheSavedMessageIsReadAndChecked) {
   // is left as it was. A field added to the message but not to the table fails here.
   const CouplingMemory m = Distinct();
   state::CoordinatorMemory good;
-  m.Save(&good);
+  m.Write(&good);
   const google::protobuf::Reflection* r = good.GetReflection();
   int vectors = 0;
   for (const google::protobuf::FieldDescriptor* field : SavedVectors()) {
@@ -80,19 +80,19 @@ TEST(CouplingMemory, EveryVectorOfTheSavedMessageIsReadAndChecked) {
     state::CoordinatorMemory shorter = good;
     r->RemoveLast(&shorter, field);
     CouplingMemory target(kPoints);
-    EXPECT_EQ(target.Restore(shorter), "its coordinator's " + field->name() + " has " + std::to_string(size - 1) +
-                                           " values, not " + std::to_string(size));
+    EXPECT_EQ(target.Read(shorter), "its coordinator's " + field->name() + " has " + std::to_string(size - 1) +
+                                        " values, not " + std::to_string(size));
     state::CoordinatorMemory nan = good;
     r->SetRepeatedDouble(&nan, field, size - 1, std::numeric_limits<double>::quiet_NaN());
-    const std::string refused = target.Restore(nan);
+    const std::string refused = target.Read(nan);
     EXPECT_NE(refused.find("coordinator's " + field->name() + "[" + std::to_string(size - 1) + "]"), std::string::npos)
         << refused;
     state::CoordinatorMemory untouched;
-    target.Save(&untouched);
+    target.Write(&untouched);
     EXPECT_EQ(untouched.SerializeAsString(),
               [] {
                 state::CoordinatorMemory fresh;
-                CouplingMemory(kPoints).Save(&fresh);
+                CouplingMemory(kPoints).Write(&fresh);
                 return fresh.SerializeAsString();
               }())
         << "a refused memory changed " << field->name();
@@ -103,16 +103,16 @@ TEST(CouplingMemory, EveryVectorOfTheSavedMessageIsReadAndChecked) {
 TEST(CouplingMemory, AnotherScenesMemoryOrANegativeStepIsRefused) {
   const CouplingMemory m = Distinct();
   state::CoordinatorMemory saved;
-  m.Save(&saved);
+  m.Write(&saved);
   CouplingMemory three(3);
-  EXPECT_EQ(three.Restore(saved), "its coordinator's memory is of 2 interface points, not 3");
+  EXPECT_EQ(three.Read(saved), "its coordinator's memory is of 2 interface points, not 3");
   state::CoordinatorMemory negative = saved;
   negative.set_accepted_h(-1e-3);
   CouplingMemory target(kPoints);
-  EXPECT_NE(target.Restore(negative).find("accepted_h"), std::string::npos);
+  EXPECT_NE(target.Read(negative).find("accepted_h"), std::string::npos);
   state::CoordinatorMemory contacts = saved;
   contacts.mutable_was_contact()->RemoveLast();
-  EXPECT_EQ(target.Restore(contacts), "its coordinator's was_contact has 1 values, not 2");
+  EXPECT_EQ(target.Read(contacts), "its coordinator's was_contact has 1 values, not 2");
 }
 
 }  // namespace

@@ -413,19 +413,43 @@ def enum_section(schema, t, anchors, uses):
     return lines + [""]
 
 
-def generate(file_set, top_file=TOP_FILE):
-    """The page's Markdown text for the schema in file_set."""
-    schema = Schema(file_set, top_file)
-    reached, unreached, first_path = schema.order()
-    uses = schema.used_by()
+def section_anchors(types):
+    """The anchor of each type's section, by its full name; two alike are an error."""
     fixed_headings = ["Scenario reference", "How to read it", "Schema files", "Contents", "Not reached from Scenario"]
     anchors, taken = {}, {anchor(h) for h in fixed_headings}
-    for t in reached + unreached:
+    for t in types:
         a = anchor(heading(t))
         if a in taken:
             raise SchemaError(f"two sections would have the anchor #{a} ({t.qualified})")
         taken.add(a)
         anchors[t.full] = a
+    return anchors
+
+
+def schema_files(schema, top_file):
+    """The list of the schema's files with their first sentences, then the top file's header."""
+    out = []
+    for f in schema.files:
+        out.append(
+            f"- `proto/{f.name}`"
+            + (f": {inline(first_sentence(schema.file_comments[f.name]))}" if schema.file_comments[f.name] else "")
+        )
+    out.append("")
+    header = schema.file_comments.get(top_file, "")
+    if header:
+        out += [f"From the header of `proto/{top_file}`:", ""]
+        for k, block in enumerate(paragraphs(header).split("\n\n")):
+            out += ([">"] if k else []) + ["> " + block]
+        out.append("")
+    return out
+
+
+def generate(file_set, top_file=TOP_FILE):
+    """The page's Markdown text for the schema in file_set."""
+    schema = Schema(file_set, top_file)
+    reached, unreached, first_path = schema.order()
+    uses = schema.used_by()
+    anchors = section_anchors(reached + unreached)
 
     messages = [t for t in reached + unreached if t.kind == "message"]
     field_count = sum(len(t.proto.field) for t in messages)
@@ -475,18 +499,7 @@ def generate(file_set, top_file=TOP_FILE):
         "## Schema files",
         "",
     ]
-    for f in schema.files:
-        out.append(
-            f"- `proto/{f.name}`"
-            + (f": {inline(first_sentence(schema.file_comments[f.name]))}" if schema.file_comments[f.name] else "")
-        )
-    out.append("")
-    header = schema.file_comments.get(top_file, "")
-    if header:
-        out += [f"From the header of `proto/{top_file}`:", ""]
-        for k, block in enumerate(paragraphs(header).split("\n\n")):
-            out += ([">"] if k else []) + ["> " + block]
-        out.append("")
+    out += schema_files(schema, top_file)
     out += ["## Contents", ""]
     for t in reached:
         depth = t.qualified.count(".")

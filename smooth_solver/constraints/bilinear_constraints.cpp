@@ -109,28 +109,29 @@ void ForEachJacobianEntry(const ScalarConstraint::Term& term, double w, const Ei
 
 }  // namespace
 
-void ConstraintSet::Jacobian(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
-                             SparseSink* sink, int row_offset, double scale) const {
+template <typename Fn>
+void ConstraintSet::ForEachActiveEntry(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                       double t, double scale, Fn fn) const {
   for (size_t i = 0; i < constraints.size(); ++i) {
     if (!Active(i, t)) continue;
-    const int row = row_offset + static_cast<int>(i);
+    const int constraint = static_cast<int>(i);
     for (const auto& term : constraints[i].terms) {
       ForEachJacobianEntry(term, scale * Weight(imposed, term.weight, t, 0), q,
-                           [&](int column, double value) { sink->Add(row, column, value); });
+                           [&](int column, double value) { fn(constraint, column, value); });
     }
   }
 }
 
+void ConstraintSet::Jacobian(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                             SparseSink* sink, int row_offset, double scale) const {
+  ForEachActiveEntry(imposed, q, t, scale,
+                     [&](int i, int column, double value) { sink->Add(row_offset + i, column, value); });
+}
+
 void ConstraintSet::JacobianTranspose(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,
                                       double t, SparseSink* sink, int column_offset, double scale) const {
-  for (size_t i = 0; i < constraints.size(); ++i) {
-    if (!Active(i, t)) continue;
-    const int column = column_offset + static_cast<int>(i);
-    for (const auto& term : constraints[i].terms) {
-      ForEachJacobianEntry(term, scale * Weight(imposed, term.weight, t, 0), q,
-                           [&](int row, double value) { sink->Add(row, column, value); });
-    }
-  }
+  ForEachActiveEntry(imposed, q, t, scale,
+                     [&](int i, int row, double value) { sink->Add(row, column_offset + i, value); });
 }
 
 void ConstraintSet::AddJacobianTransposeTimes(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q,

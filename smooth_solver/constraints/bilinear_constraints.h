@@ -205,6 +205,11 @@ class ConstraintSet {
 
  private:
   double Weight(const ImposedValues& imposed, const DriveWeight& w, double t, int derivative) const;
+  // fn(i, column, value) for each entry of each active constraint i's row of scale · Φ_q(q)
+  // (Jacobian and JacobianTranspose, which differ only in where they put it).
+  template <typename Fn>
+  void ForEachActiveEntry(const ImposedValues& imposed, const Eigen::Ref<const Eigen::VectorXd>& q, double t,
+                          double scale, Fn fn) const;
 };
 
 }  // namespace cosim::smooth

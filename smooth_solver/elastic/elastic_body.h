@@ -35,6 +35,10 @@ class ElasticBody {
 
   const ElasticMesh& mesh() const { return mesh_; }
   int node_count() const { return static_cast<int>(mesh_.nodes.cols()); }
+  // The body's node triples in a system vector (positions q, or rates) whose slice starts at `offset`.
+  Eigen::Map<const Eigen::Matrix3Xd> NodesIn(const Eigen::VectorXd& q, int offset) const {
+    return Eigen::Map<const Eigen::Matrix3Xd>(q.data() + offset, 3, node_count());
+  }
   // Internal force (3 per node) and, if K is given, the tangent, at current positions x.
   void Assemble(const Eigen::Matrix3Xd& x, Eigen::VectorXd* f, Eigen::SparseMatrix<double>* K) const;
   // The GEMM midpoint force over the step x_prev → x (Hex27::MidpointForce), assembled without

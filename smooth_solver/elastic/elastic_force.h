@@ -34,9 +34,7 @@ class ElasticForce : public ForceElement {
                    Eigen::Ref<Eigen::VectorXd> f_m, SparseSink* sink, double k_scale) const;
 
  private:
-  Eigen::Map<const Eigen::Matrix3Xd> Positions(const Eigen::VectorXd& q) const {
-    return Eigen::Map<const Eigen::Matrix3Xd>(q.data() + offset_, 3, body_->node_count());
-  }
+  Eigen::Map<const Eigen::Matrix3Xd> Positions(const Eigen::VectorXd& q) const { return body_->NodesIn(q, offset_); }
   const ElasticBody* body_;
   int offset_;
   double strain_damping_;
@@ -55,9 +53,7 @@ class ElasticDamping : public ForceElement {
   void Pattern(SparseSink* sink) const override;
 
  private:
-  Eigen::Map<const Eigen::Matrix3Xd> Nodes(const Eigen::VectorXd& q) const {
-    return Eigen::Map<const Eigen::Matrix3Xd>(q.data() + offset_, 3, body_->node_count());
-  }
+  Eigen::Map<const Eigen::Matrix3Xd> Nodes(const Eigen::VectorXd& q) const { return body_->NodesIn(q, offset_); }
   const ElasticBody* body_;
   int offset_;
   double retardation_;

@@ -358,13 +358,7 @@ def message_section(schema, t, anchors, first_path, uses):
         facts.append(f"path `{first_path[t.full]}`")
     elif t.qualified == ROOT_MESSAGE:
         facts.append("the scenario file's top level")
-    users = uses.get(t.full, [])
-    if users:
-        links = sorted({f"[{m.qualified}](#{anchors[m.full]}).`{f.name}`" for m, f in users})
-        facts.append("used by " + ", ".join(links))
-    lines += ["*" + "; ".join(facts) + "*", ""]
-    if not t.comments.empty():
-        lines += [paragraphs(t.comments.text()), ""]
+    lines += section_preamble(t, facts, anchors, uses)
     fields = t.proto.field
     if not fields:
         return lines + ["No fields.", ""]
@@ -397,16 +391,22 @@ def message_section(schema, t, anchors, first_path, uses):
     return lines
 
 
-def enum_section(schema, t, anchors, uses):
-    lines = [f"### {heading(t)}", ""]
-    facts = [f"enum in `proto/{t.file}`"]
+def section_preamble(t, facts, anchors, uses):
+    """A section's italic line of facts (with the fields that use the type) and its comment."""
     users = uses.get(t.full, [])
     if users:
         links = sorted({f"[{m.qualified}](#{anchors[m.full]}).`{f.name}`" for m, f in users})
-        facts.append("used by " + ", ".join(links))
-    lines += ["*" + "; ".join(facts) + "*", ""]
+        facts = facts + ["used by " + ", ".join(links)]
+    lines = ["*" + "; ".join(facts) + "*", ""]
     if not t.comments.empty():
         lines += [paragraphs(t.comments.text()), ""]
+    return lines
+
+
+def enum_section(schema, t, anchors, uses):
+    lines = [f"### {heading(t)}", ""]
+    facts = [f"enum in `proto/{t.file}`"]
+    lines += section_preamble(t, facts, anchors, uses)
     lines += ["| Value | Number | Description |", "|---|---|---|"]
     for value, comments in zip(t.proto.value, t.value_comments):
         lines.append(f"| `{value.name}` | {value.number} | {inline(comments.text())} |")

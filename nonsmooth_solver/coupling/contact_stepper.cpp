@@ -96,12 +96,12 @@ bool ContactStepper::UseSavedState(const interface::ScenarioFile& file, const st
     d.point_body = Vector(a.point());
     d.normal_body = Vector(a.normal());
     d.tangent_body = Vector(a.tangent());
-    d.start.origin = Vector(a.origin());
-    d.start.rotation = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.rotation().data());
-    d.start.velocity = Vector(a.velocity());
-    d.start.angular_velocity = Vector(a.angular_velocity());
-    d.end = d.start;
-    d.t0 = d.t1 = s.time();
+    BodyFrame saved;
+    saved.origin = Vector(a.origin());
+    saved.rotation = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(a.rotation().data());
+    saved.velocity = Vector(a.velocity());
+    saved.angular_velocity = Vector(a.angular_velocity());
+    d.StartAt(saved, s.time());
   }
   ReadState(s);
   return true;

@@ -1,9 +1,10 @@
 #pragma once
 // The contact process's model: point masses ("contact nodes") and the planes they may touch,
 // built and validated from a scenario (how they are integrated, numerics.nonsmooth, is the
-// integrator's: integrator/moreau_jean_settings.h). Immutable once built; the integrator's changing state
-// lives in its workspace (see integrator/moreau_jean.h), the frames of obstacles driven by the
-// coordinator of a coupled run in ContactData, which the integrator's checkpoints hold.
+// integrator's: integrator/moreau_jean_settings.h). Immutable once built; the integrator's
+// changing state lives in its workspace (see integrator/moreau_jean.h), the frames of obstacles
+// driven by the coordinator of a coupled run in ContactData, the step's input (the integrator's
+// checkpoints do not hold it).
 #include <Eigen/Core>
 #include <array>
 #include <memory>
